@@ -1,0 +1,1 @@
+//! stripmask: adaptive streaming and CPU rendering of large terrains with strip masks.

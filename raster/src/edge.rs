@@ -1,0 +1,279 @@
+//! Exact coverage: which pixel centres a triangle owns, row by row.
+//!
+//! A triangle in positive orientation is the set of points where all three edge functions
+//! `E(p) = dx * (py - ay) - dy * (px - ax)` are positive, or zero on a top or left edge (the
+//! top-left fill rule). For one row, an edge with `dy < 0` (a left edge) bounds the span from below
+//! and owns its boundary; an edge with `dy > 0` (a right edge) bounds it from above and does not; a
+//! horizontal edge is a top edge (owns its row) or a bottom edge (does not). Each bound is
+//! `ceil(R / K)` of integers that change by a constant per row, so an integer DDA with a remainder
+//! steps it exactly: the spans are those of per-pixel edge functions, bit for bit, with no
+//! per-pixel test. Two triangles sharing an edge see it with opposite `dy`, so each centre on it
+//! belongs to exactly one of them.
+
+use crate::fixed_point::{SUBPIXEL_HALF, SUBPIXEL_ONE, ceil_div, floor_div};
+
+/// A triangle's owned pixels: a row range and up to two bounding edges on each side.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Coverage {
+    /// First row.
+    pub row_start: i64,
+    /// One past the last row.
+    pub row_end: i64,
+    lefts: [Edge; 2],
+    rights: [Edge; 2],
+    n_left: u8,
+    n_right: u8,
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+struct Edge {
+    ax: i64,
+    ay: i64,
+    dx: i64,
+    dy: i64,
+}
+
+impl Edge {
+    /// `K` of the bound `ceil(R / K)`.
+    #[inline]
+    fn k(&self) -> i64 {
+        self.dy.abs() * SUBPIXEL_ONE
+    }
+
+    /// `R` at row `py`.
+    #[inline]
+    fn r_at(&self, py: i64) -> i64 {
+        let yc = py * SUBPIXEL_ONE + SUBPIXEL_HALF;
+        self.dy.abs() * (self.ax - SUBPIXEL_HALF) + self.dy.signum() * self.dx * (yc - self.ay)
+    }
+
+    fn stepper(&self, py: i64) -> Stepper {
+        let k = self.k();
+        let r = self.r_at(py);
+        let q = ceil_div(r, k);
+        let step = self.dy.signum() * self.dx * SUBPIXEL_ONE;
+        Stepper {
+            q,
+            rem: q * k - r,
+            k,
+            step_q: step.div_euclid(k),
+            step_rem: step.rem_euclid(k),
+        }
+    }
+}
+
+/// Integer DDA for `q = ceil(R / K)`, with `rem = q * K - R` in `0..K`.
+#[derive(Clone, Copy, Debug, Default)]
+struct Stepper {
+    q: i64,
+    rem: i64,
+    k: i64,
+    step_q: i64,
+    step_rem: i64,
+}
+
+impl Stepper {
+    #[inline]
+    fn next_row(&mut self) {
+        // R' = R + step_q * K + step_rem; the ceiling moves up one more when step_rem > rem.
+        if self.step_rem > self.rem {
+            self.q += self.step_q + 1;
+            self.rem += self.k - self.step_rem;
+        } else {
+            self.q += self.step_q;
+            self.rem -= self.step_rem;
+        }
+    }
+}
+
+impl Coverage {
+    /// Coverage of the triangle `v` (sub-pixel x, y) with positive signed area
+    /// `(v1 - v0) x (v2 - v0) > 0`, limited to rows `rows.0 .. rows.1`. `None` when it owns no row.
+    pub fn new(v: [[i64; 2]; 3], rows: (i64, i64)) -> Option<Self> {
+        let mut c = Coverage {
+            row_start: 0,
+            row_end: 0,
+            lefts: [Edge::default(); 2],
+            rights: [Edge::default(); 2],
+            n_left: 0,
+            n_right: 0,
+        };
+        let ymin = v.iter().map(|p| p[1]).min().expect("3 vertices");
+        let ymax = v.iter().map(|p| p[1]).max().expect("3 vertices");
+        let mut bottom_edge = false;
+        for i in 0..3 {
+            let (a, b) = (v[i], v[(i + 1) % 3]);
+            let e = Edge {
+                ax: a[0],
+                ay: a[1],
+                dx: b[0] - a[0],
+                dy: b[1] - a[1],
+            };
+            match e.dy.signum() {
+                -1 => {
+                    c.lefts[c.n_left as usize] = e;
+                    c.n_left += 1;
+                }
+                1 => {
+                    c.rights[c.n_right as usize] = e;
+                    c.n_right += 1;
+                }
+                // dx < 0: the triangle lies above this edge, which therefore does not own its row.
+                _ => bottom_edge |= e.dx < 0,
+            }
+        }
+        debug_assert!(
+            c.n_left >= 1 && c.n_right >= 1,
+            "positive area has both sides"
+        );
+        // Rows whose centre yc satisfies ymin <= yc <= ymax (yc < ymax under a bottom edge).
+        let first = ceil_div(ymin - SUBPIXEL_HALF, SUBPIXEL_ONE);
+        let end = if bottom_edge {
+            ceil_div(ymax - SUBPIXEL_HALF, SUBPIXEL_ONE)
+        } else {
+            floor_div(ymax - SUBPIXEL_HALF, SUBPIXEL_ONE) + 1
+        };
+        c.row_start = first.max(rows.0);
+        c.row_end = end.min(rows.1);
+        (c.row_start < c.row_end).then_some(c)
+    }
+
+    /// Calls `span(y, x_start, x_end)` for every row from `from` (clamped into the row range) to
+    /// `to`, with `x_start..x_end` clamped to `cols`; empty spans are skipped.
+    #[inline]
+    pub fn for_each_span(
+        &self,
+        from: i64,
+        to: i64,
+        cols: (i64, i64),
+        mut span: impl FnMut(i64, i64, i64),
+    ) {
+        let (start, end) = (self.row_start.max(from), self.row_end.min(to));
+        if start >= end {
+            return;
+        }
+        let mut l = [Stepper::default(); 2];
+        let mut r = [Stepper::default(); 2];
+        let (nl, nr) = (self.n_left as usize, self.n_right as usize);
+        for i in 0..nl {
+            l[i] = self.lefts[i].stepper(start);
+        }
+        for i in 0..nr {
+            r[i] = self.rights[i].stepper(start);
+        }
+        for y in start..end {
+            let mut x0 = cols.0;
+            for s in &mut l[..nl] {
+                x0 = x0.max(s.q);
+                s.next_row();
+            }
+            let mut x1 = cols.1;
+            for s in &mut r[..nr] {
+                x1 = x1.min(s.q);
+                s.next_row();
+            }
+            if x0 < x1 {
+                span(y, x0, x1);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const S: i64 = SUBPIXEL_ONE;
+
+    /// Reference: the per-pixel edge-function test with the top-left rule.
+    fn owns(v: [[i64; 2]; 3], px: i64, py: i64) -> bool {
+        let (x, y) = (px * S + S / 2, py * S + S / 2);
+        (0..3).all(|i| {
+            let (a, b) = (v[i], v[(i + 1) % 3]);
+            let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+            let e = dx * (y - a[1]) - dy * (x - a[0]);
+            e > 0 || (e == 0 && (dy < 0 || (dy == 0 && dx > 0)))
+        })
+    }
+
+    fn oriented(mut v: [[i64; 2]; 3]) -> [[i64; 2]; 3] {
+        let area =
+            (v[1][0] - v[0][0]) * (v[2][1] - v[0][1]) - (v[2][0] - v[0][0]) * (v[1][1] - v[0][1]);
+        if area < 0 {
+            v.swap(1, 2);
+        }
+        v
+    }
+
+    fn spans(v: [[i64; 2]; 3]) -> Vec<(i64, i64)> {
+        let v = oriented(v);
+        let mut out = vec![];
+        if let Some(c) = Coverage::new(v, (-100, 100)) {
+            c.for_each_span(-100, 100, (-100, 100), |y, a, b| {
+                out.extend((a..b).map(|x| (x, y)))
+            });
+        }
+        out
+    }
+
+    fn brute(v: [[i64; 2]; 3]) -> Vec<(i64, i64)> {
+        let mut out = vec![];
+        for y in -100..100 {
+            for x in -100..100 {
+                if owns(v, x, y) {
+                    out.push((x, y));
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn spans_equal_the_per_pixel_edge_test_on_awkward_triangles() {
+        let cases = [
+            // Square split along its diagonal, edges on pixel centres.
+            [[0, 0], [4 * S, 4 * S], [4 * S, 0]],
+            [[0, 0], [0, 4 * S], [4 * S, 4 * S]],
+            // Edges passing exactly through pixel centres.
+            [[S / 2, S / 2], [5 * S / 2, 9 * S / 2], [9 * S / 2, S / 2]],
+            // Sliver and sub-pixel.
+            [[3, 7], [40 * S + 1, 3 * S + 5], [40 * S, 3 * S + 9]],
+            [[10, 10], [100, 200], [200, 30]],
+            // Negative coordinates.
+            [[-7 * S, -3 * S], [-S + 3, 5 * S], [6 * S, -6 * S - 11]],
+        ];
+        for v in cases {
+            assert_eq!(spans(v), brute(oriented(v)), "{v:?}");
+        }
+    }
+
+    #[test]
+    fn top_left_rule_on_a_unit_square_of_two_triangles() {
+        // Pixel centre (0.5, 0.5) lies on the shared diagonal and on no outer edge's wrong side.
+        let a = [[0, 0], [S, S], [S, 0]];
+        let b = [[0, 0], [0, S], [S, S]];
+        let n = spans(a).len() + spans(b).len();
+        assert_eq!(n, 1, "the centre is owned exactly once");
+        // A pixel-sized square with corners on pixel centres owns exactly one of its four corners.
+        let c = [[S / 2, S / 2], [3 * S / 2, 3 * S / 2], [3 * S / 2, S / 2]];
+        let d = [[S / 2, S / 2], [S / 2, 3 * S / 2], [3 * S / 2, 3 * S / 2]];
+        let mut all = spans(c);
+        all.extend(spans(d));
+        assert_eq!(all, vec![(0, 0)], "top-left corner only");
+    }
+
+    #[test]
+    fn row_window_matches_the_full_walk() {
+        let v = [[3, 7], [40 * S + 1, 30 * S + 5], [-20 * S, 13 * S + 9]];
+        let c = Coverage::new(v, (-100, 100)).unwrap();
+        let mut full = vec![];
+        c.for_each_span(-100, 100, (-100, 100), |y, a, b| full.push((y, a, b)));
+        let mut banded = vec![];
+        for band in (-100..100).step_by(7) {
+            c.for_each_span(band, band + 7, (-100, 100), |y, a, b| {
+                banded.push((y, a, b))
+            });
+        }
+        assert_eq!(full, banded);
+    }
+}

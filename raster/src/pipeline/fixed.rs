@@ -1,0 +1,446 @@
+//! The integer pipeline: what a device without an FPU runs, and the fast path everywhere.
+//!
+//! Vertex stage: exact i64 transform (see `matrix`), outcodes, projection with one 64-bit division
+//! per vertex (a normalised reciprocal of `w`). Triangle setup: attribute planes from one reciprocal
+//! of the area. Pixels: monomorphised row loops that step i64 accumulators.
+
+use crate::clip::{ClipVertex, Plane};
+use crate::edge::Coverage;
+use crate::fixed_point::{
+    ATTR_FRAC_BITS, DEPTH_ONE, GUARD_BAND_PX, Q_BITS, SUBPIXEL_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE,
+    TEXCOORD_LIMIT, normalise_positive, saturate_i64, shift_round,
+};
+use crate::matrix::FixedMat4;
+use crate::pipeline::{Attributes, RowTarget, Setup, TexMode, Viewport};
+use crate::pixel::{DepthFormat, PixelFormat, fog_blend, modulate};
+use crate::sampler::{Filtering, LevelView};
+use crate::state::Compare;
+use crate::vertex::Vertex;
+
+/// Fractional bits of the clip-interpolation parameter.
+const T_BITS: u32 = 30;
+
+/// Guard band and viewport in the integer clip test `|x| * W <= 2 * GUARD_BAND_PX * w`.
+pub(crate) struct FixedSpace {
+    width: i128,
+    height: i128,
+}
+
+impl FixedSpace {
+    pub fn new(vp: &Viewport) -> Self {
+        Self {
+            width: vp.width as i128,
+            height: vp.height as i128,
+        }
+    }
+}
+
+/// A vertex in clip space, exact integer clip coordinates plus attributes.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct FixedClip {
+    clip: [i64; 4],
+    uv: [i64; 2],
+    color: [i64; 3],
+}
+
+impl FixedClip {
+    pub fn from_vertex(v: &Vertex, m: &FixedMat4) -> Self {
+        Self {
+            clip: m.transform(v.position),
+            uv: v
+                .uv
+                .map(|c| (c.to_bits() as i64).clamp(-TEXCOORD_LIMIT, TEXCOORD_LIMIT)),
+            color: v.color.map(i64::from),
+        }
+    }
+
+    fn distance(&self, plane: Plane, s: &FixedSpace) -> i128 {
+        let [x, y, z, w] = self.clip.map(i128::from);
+        let g = 2 * GUARD_BAND_PX as i128 * w;
+        match plane {
+            Plane::WMin => w - 1,
+            Plane::Near => z,
+            Plane::Far => w - z,
+            Plane::Left => g + s.width * x,
+            Plane::Right => g - s.width * x,
+            Plane::Bottom => g + s.height * y,
+            Plane::Top => g - s.height * y,
+        }
+    }
+}
+
+impl ClipVertex for FixedClip {
+    type Space = FixedSpace;
+
+    #[inline]
+    fn inside(&self, plane: Plane, s: &FixedSpace) -> bool {
+        self.distance(plane, s) >= 0
+    }
+
+    fn intersect(a: &Self, b: &Self, plane: Plane, s: &FixedSpace) -> Self {
+        let (da, db) = (a.distance(plane, s), b.distance(plane, s));
+        let t = (da << T_BITS) / (da - db); // 0..=2^30: da >= 0 > db
+        let lerp = |p: i64, q: i64| (p as i128 + (((q as i128 - p as i128) * t) >> T_BITS)) as i64;
+        let mut v = Self {
+            clip: [0, 1, 2, 3].map(|k| lerp(a.clip[k], b.clip[k])),
+            uv: [0, 1].map(|k| lerp(a.uv[k], b.uv[k])),
+            color: [0, 1, 2].map(|k| lerp(a.color[k], b.color[k])),
+        };
+        // Land exactly on the planes whose violation would break the divide or the depth range.
+        match plane {
+            Plane::WMin => v.clip[3] = v.clip[3].max(1),
+            Plane::Near => v.clip[2] = 0,
+            Plane::Far => v.clip[2] = v.clip[3],
+            _ => {}
+        }
+        v
+    }
+}
+
+/// A projected vertex: snapped position and everything triangle setup needs.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct FixedScreen {
+    /// Sub-pixel position.
+    pub xy: [i64; 2],
+    /// Depth, 0.32.
+    depth: i64,
+    /// `1/w ≈ inv_w * 2^-(62 + w_shift)`.
+    inv_w: i64,
+    w_shift: i32,
+    uv: [i64; 2],
+    color: [i64; 3],
+    /// Share of the surface colour against fog, 0..=256.
+    fog: i64,
+}
+
+/// Fog distances on the clip `w` scale.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct FixedFog {
+    pub start: i64,
+    pub end: i64,
+}
+
+impl FixedScreen {
+    pub fn project(v: &FixedClip, vp: &Viewport, fog: Option<FixedFog>) -> Self {
+        let [x, y, z, w] = v.clip.map(i128::from);
+        let w = w.max(1);
+        let (wn, shift) = normalise_positive(w);
+        let scale = |c: i128| if shift > 0 { c >> shift } else { c << -shift };
+        let inv_w = ((1i128 << 62) / wn as i128) as i64; // (2^31, 2^32]
+        let half_w = vp.width as i128 * SUBPIXEL_HALF as i128;
+        let half_h = vp.height as i128 * SUBPIXEL_HALF as i128;
+        // Inside the guard band |x'| < 2^48, so the products stay below 2^100.
+        let sx = half_w + shift_round(scale(x) * inv_w as i128 * half_w, 62);
+        let sy = half_h - shift_round(scale(y) * inv_w as i128 * half_h, 62);
+        let depth =
+            shift_round(scale(z) * inv_w as i128, 30).clamp(0, DEPTH_ONE as i128 - 1) as i64;
+        let fog = match fog {
+            Some(f) if f.end > f.start => (((f.end as i128 - w) * 256)
+                / (f.end as i128 - f.start as i128))
+                .clamp(0, 256) as i64,
+            Some(f) => {
+                if w < f.end as i128 {
+                    256
+                } else {
+                    0
+                }
+            }
+            None => 256,
+        };
+        Self {
+            xy: [saturate_i64(sx), saturate_i64(sy)],
+            depth,
+            inv_w,
+            w_shift: shift,
+            uv: v.uv,
+            color: v.color,
+            fog,
+        }
+    }
+}
+
+/// An attribute as a plane over the triangle: value at the origin vertex and per-pixel gradients,
+/// all with `ATTR_FRAC_BITS` extra fraction. Gradients are i128: a sliver's can exceed i64, though
+/// its covered pixels never step by them (see `step`).
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct AttrPlane {
+    base: i64,
+    dx: i128,
+    dy: i128,
+}
+
+impl AttrPlane {
+    /// Value at the sub-pixel offset `(ox, oy)` from the origin vertex.
+    #[inline]
+    fn at(&self, ox: i64, oy: i64) -> i64 {
+        let d = self.dx * ox as i128 + self.dy * oy as i128;
+        saturate_i64(self.base as i128 + shift_round(d, SUBPIXEL_BITS as i32))
+    }
+
+    /// Per-pixel step along a row. When the exact gradient does not fit, no two neighbouring pixels
+    /// of the triangle can exist (their values differ by at most the attribute range), so the
+    /// saturated step is never taken between covered pixels.
+    #[inline]
+    fn step(&self) -> i64 {
+        saturate_i64(self.dx)
+    }
+}
+
+/// Per-triangle reciprocal of the doubled area, and the edge vectors from vertex 0.
+struct Geometry {
+    d1: [i128; 2],
+    d2: [i128; 2],
+    inv_area: i128,
+    shift: i32,
+}
+
+impl Geometry {
+    fn new(v: &[FixedScreen; 3], area2: i64) -> Self {
+        let (an, ash) = normalise_positive(area2 as i128);
+        let d = |i: usize| {
+            [
+                (v[i].xy[0] - v[0].xy[0]) as i128,
+                (v[i].xy[1] - v[0].xy[1]) as i128,
+            ]
+        };
+        // gradient per pixel, with ATTR_FRAC_BITS = num * 2^(SUBPIXEL_BITS + ATTR_FRAC_BITS) / area2
+        let shift = 62 - (SUBPIXEL_BITS + ATTR_FRAC_BITS) as i32 + ash;
+        Self {
+            d1: d(1),
+            d2: d(2),
+            inv_area: (1i128 << 62) / an as i128,
+            shift,
+        }
+    }
+
+    fn plane(&self, a: [i64; 3]) -> AttrPlane {
+        let (a1, a2) = ((a[1] - a[0]) as i128, (a[2] - a[0]) as i128);
+        let nx = a1 * self.d2[1] - a2 * self.d1[1];
+        let ny = a2 * self.d1[0] - a1 * self.d2[0];
+        AttrPlane {
+            base: a[0] << ATTR_FRAC_BITS,
+            dx: shift_round(nx * self.inv_area, self.shift),
+            dy: shift_round(ny * self.inv_area, self.shift),
+        }
+    }
+}
+
+/// A triangle ready for its rows.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct FixedTriangle {
+    pub coverage: Coverage,
+    origin: [i64; 2],
+    depth: AttrPlane,
+    color: [AttrPlane; 3],
+    fog: AttrPlane,
+    /// `s, t, q` (perspective) or `u, v, -` (affine).
+    tex: [AttrPlane; 3],
+    level: u8,
+}
+
+impl FixedTriangle {
+    /// Sets up `v` (positive orientation, `area2 > 0`).
+    pub fn new(v: [FixedScreen; 3], area2: i64, coverage: Coverage, a: &Attributes) -> Self {
+        let g = Geometry::new(&v, area2);
+        let empty = AttrPlane::default();
+        let pick = |f: fn(&FixedScreen) -> i64| g.plane([f(&v[0]), f(&v[1]), f(&v[2])]);
+        let depth = if a.depth { pick(|s| s.depth) } else { empty };
+        let color = if a.shade {
+            [
+                pick(|s| s.color[0]),
+                pick(|s| s.color[1]),
+                pick(|s| s.color[2]),
+            ]
+        } else {
+            [empty; 3]
+        };
+        let fog = if a.fog { pick(|s| s.fog) } else { empty };
+        let (tex, level) = match a.tex {
+            TexMode::Off => ([empty; 3], 0),
+            TexMode::Affine => (
+                [pick(|s| s.uv[0]), pick(|s| s.uv[1]), empty],
+                a.level(texel_area(&v), area2),
+            ),
+            TexMode::Perspective(_) => {
+                // 1/w of the three vertices on one scale, below 2^Q_BITS.
+                let smin = v.iter().map(|s| s.w_shift).min().expect("3 vertices");
+                let q = v.map(|s| {
+                    let d = (s.w_shift - smin) as u32 + (32 - Q_BITS);
+                    (s.inv_w.checked_shr(d).unwrap_or(0)).max(1)
+                });
+                let st =
+                    |k: usize| g.plane([v[0].uv[k] * q[0], v[1].uv[k] * q[1], v[2].uv[k] * q[2]]);
+                ([st(0), st(1), g.plane(q)], a.level(texel_area(&v), area2))
+            }
+        };
+        Self {
+            coverage,
+            origin: v[0].xy,
+            depth,
+            color,
+            fog,
+            tex,
+            level,
+        }
+    }
+}
+
+/// Doubled texture-space area in 16.16 repeats squared.
+fn texel_area(v: &[FixedScreen; 3]) -> i128 {
+    let d = |i: usize, k: usize| (v[i].uv[k] - v[0].uv[k]) as i128;
+    (d(1, 0) * d(2, 1) - d(2, 0) * d(1, 1)).abs()
+}
+
+impl Setup for FixedTriangle {
+    fn coverage(&self) -> &Coverage {
+        &self.coverage
+    }
+    fn level(&self) -> usize {
+        self.level as usize
+    }
+}
+
+/// `(u, v)` in 16.16 at a point from the perspective accumulators: one division per call.
+#[inline]
+fn divide(s: i64, t: i64, q: i64) -> (i64, i64) {
+    let r = ((1u64 << 63) / q.max(1) as u64) as i128;
+    (
+        saturate_i64((s as i128 * r) >> 47),
+        saturate_i64((t as i128 * r) >> 47),
+    )
+}
+
+/// Shades the pixels `x0..x1` of row `y`. Returns the fragments that passed the depth test.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub(crate) fn shade_row<
+    P: PixelFormat,
+    D: DepthFormat,
+    T: Filtering,
+    const SHADE: bool,
+    const FOG: bool,
+>(
+    tri: &FixedTriangle,
+    row: &mut RowTarget<'_, P, D>,
+    view: Option<&LevelView<'_, T::Texel>>,
+    a: &Attributes,
+    y: i64,
+    x0: i64,
+    x1: i64,
+) -> u64 {
+    let ox = x0 * SUBPIXEL_ONE + SUBPIXEL_HALF - tri.origin[0];
+    let oy = y * SUBPIXEL_ONE + SUBPIXEL_HALF - tri.origin[1];
+    let (mut z, dz) = if D::ENABLED {
+        (tri.depth.at(ox, oy), tri.depth.step())
+    } else {
+        (0, 0)
+    };
+    let mut c = [0i64; 3];
+    let mut dc = [0i64; 3];
+    if SHADE {
+        for k in 0..3 {
+            c[k] = tri.color[k].at(ox, oy);
+            dc[k] = tri.color[k].step();
+        }
+    }
+    let (mut f, df) = if FOG {
+        (tri.fog.at(ox, oy), tri.fog.step())
+    } else {
+        (0, 0)
+    };
+    // Texture state: accumulators for s, t, q (or u, v) and the chunk length.
+    let mut acc = [0i64; 3];
+    let mut dacc = [0i64; 3];
+    let chunk = match a.tex {
+        TexMode::Perspective(n) => n as i64,
+        _ => i64::MAX,
+    };
+    if T::ENABLED {
+        for k in 0..3 {
+            acc[k] = tri.tex[k].at(ox, oy);
+            dacc[k] = tri.tex[k].step();
+        }
+    }
+    // (u, v) in 16.32 at the current pixel and its per-pixel step within the chunk.
+    let (mut u, mut v) = (0i64, 0i64);
+    if T::ENABLED {
+        (u, v) = match a.tex {
+            TexMode::Perspective(_) => divide(acc[0], acc[1], acc[2]),
+            _ => (acc[0], acc[1]),
+        };
+    }
+    let mut passed = 0;
+    let mut x = x0;
+    while x < x1 {
+        let n = chunk.min(x1 - x);
+        let (mut du, mut dv) = (0i64, 0i64);
+        let mut chunk_end = (0i64, 0i64);
+        if T::ENABLED {
+            match a.tex {
+                TexMode::Perspective(_) => {
+                    for k in 0..3 {
+                        acc[k] = acc[k].saturating_add(dacc[k].saturating_mul(n));
+                    }
+                    chunk_end = divide(acc[0], acc[1], acc[2]);
+                    du = (chunk_end.0 - u) / n;
+                    dv = (chunk_end.1 - v) / n;
+                }
+                _ => (du, dv) = (dacc[0], dacc[1]),
+            }
+        }
+        let (mut cu, mut cv) = (u, v);
+        for px in x..x + n {
+            let i = px as usize;
+            let visible = if D::ENABLED {
+                let d = D::quantise((z >> ATTR_FRAC_BITS).clamp(0, u32::MAX as i64) as u32);
+                let stored = row.depth[i];
+                let pass = match a.compare {
+                    Compare::Always => true,
+                    Compare::Less => d < stored,
+                    Compare::LessEqual => d <= stored,
+                };
+                if pass && a.depth_write {
+                    row.depth[i] = d;
+                }
+                pass
+            } else {
+                true
+            };
+            if visible {
+                let mut rgb = if SHADE {
+                    c.map(|ch| (ch >> ATTR_FRAC_BITS).clamp(0, 255) as u8)
+                } else {
+                    a.flat
+                };
+                if T::ENABLED {
+                    let view = view.expect("texture view bound with texturing on");
+                    rgb = modulate(T::sample(view, cu >> 16, cv >> 16), rgb);
+                }
+                if FOG {
+                    rgb = fog_blend(rgb, a.fog_color, (f >> ATTR_FRAC_BITS).clamp(0, 256) as u32);
+                }
+                row.color[i] = P::pack(rgb);
+                passed += 1;
+            }
+            if D::ENABLED {
+                z = z.wrapping_add(dz);
+            }
+            if SHADE {
+                for k in 0..3 {
+                    c[k] = c[k].wrapping_add(dc[k]);
+                }
+            }
+            if FOG {
+                f = f.wrapping_add(df);
+            }
+            cu = cu.wrapping_add(du);
+            cv = cv.wrapping_add(dv);
+        }
+        (u, v) = match a.tex {
+            TexMode::Perspective(_) => chunk_end,
+            _ => (cu, cv),
+        };
+        x += n;
+    }
+    passed
+}

@@ -1,0 +1,103 @@
+//! The two pipelines behind one interface: `fixed` (integer, fast) and `float` (f32 reference).
+//! Both snap to the same sub-pixel grid and share the coverage walker, so their pictures differ
+//! only where arithmetic precision makes them differ.
+
+pub(crate) mod fixed;
+pub(crate) mod float;
+
+use crate::edge::Coverage;
+use crate::fixed_point::SUBPIXEL_BITS;
+use crate::pixel::{DepthFormat, PixelFormat};
+use crate::state::{Compare, DepthMode, Perspective, RenderState, Shading};
+use crate::texture::{MipFilter, Texture};
+
+/// The full-framebuffer viewport.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Viewport {
+    pub width: u32,
+    pub height: u32,
+}
+
+/// How texture coordinates are interpolated in this draw.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum TexMode {
+    /// No texture.
+    Off,
+    /// Linear in screen space.
+    Affine,
+    /// Perspective-correct, exact every `n` pixels (1 = every pixel).
+    Perspective(u8),
+}
+
+/// What the rows of one draw interpolate and how they combine it: the run-time half of the render
+/// state (the compile-time half is the type parameters of the row functions).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Attributes<'t> {
+    pub depth: bool,
+    pub shade: bool,
+    pub fog: bool,
+    pub tex: TexMode,
+    pub flat: [u8; 3],
+    pub fog_color: [u8; 3],
+    pub compare: Compare,
+    pub depth_write: bool,
+    texture: Option<(&'t Texture, bool)>,
+}
+
+impl<'t> Attributes<'t> {
+    pub fn new(state: &RenderState<'t>, has_depth_buffer: bool) -> Self {
+        let depth = has_depth_buffer && state.depth != DepthMode::NONE;
+        let tex = match (state.texture, state.perspective) {
+            (None, _) => TexMode::Off,
+            (Some(_), Perspective::Affine) => TexMode::Affine,
+            (Some(_), Perspective::Exact) => TexMode::Perspective(1),
+            (Some(_), Perspective::Spans(n)) => TexMode::Perspective(n.clamp(2, 64)),
+        };
+        Self {
+            depth,
+            shade: state.shading == Shading::Gouraud,
+            fog: state.fog.is_some(),
+            tex,
+            flat: match state.shading {
+                Shading::Flat(c) => c,
+                Shading::Gouraud => [255; 3],
+            },
+            fog_color: state.fog.map_or([0; 3], |f| f.color),
+            compare: state.depth.compare,
+            depth_write: state.depth.write,
+            texture: state
+                .texture
+                .map(|b| (b.texture, b.sampler.mip == MipFilter::Nearest)),
+        }
+    }
+
+    /// Mip level of a triangle from its doubled texture-space area (16.16 repeats squared) and
+    /// doubled screen area (sub-pixels squared).
+    pub fn level(&self, texel_area2: i128, area2: i64) -> u8 {
+        let Some((texture, true)) = self.texture else {
+            return 0;
+        };
+        if texel_area2 <= 0 || area2 <= 0 {
+            return 0;
+        }
+        let base = &texture.levels()[0];
+        let texels = (base.width() * base.height()).trailing_zeros() as i32;
+        let bits = |v: i128| 128 - v.leading_zeros() as i32;
+        let ratio_log2 =
+            bits(texel_area2) - 32 + texels + 2 * SUBPIXEL_BITS as i32 - bits(area2 as i128);
+        texture.level_for_area_ratio(ratio_log2) as u8
+    }
+}
+
+/// One row of the target: full-width colour and depth slices (depth empty without a depth test).
+pub(crate) struct RowTarget<'a, P: PixelFormat, D: DepthFormat> {
+    pub color: &'a mut [P::Pixel],
+    pub depth: &'a mut [D::Value],
+}
+
+/// A set-up triangle of either pipeline.
+pub(crate) trait Setup: Send + Sync {
+    fn coverage(&self) -> &Coverage;
+    /// Mip level the triangle samples.
+    fn level(&self) -> usize;
+}

@@ -1,0 +1,147 @@
+//! Pixel and depth formats as types, so the inner loop is compiled once per format.
+
+/// Packs 8-bit RGB into 5-6-5 (rounding to nearest).
+#[inline]
+pub fn rgb_to_rgb565(c: [u8; 3]) -> u16 {
+    let r = (c[0] as u16 * 31 + 127) / 255;
+    let g = (c[1] as u16 * 63 + 127) / 255;
+    let b = (c[2] as u16 * 31 + 127) / 255;
+    (r << 11) | (g << 5) | b
+}
+
+/// Expands 5-6-5 to 8-bit RGB by bit replication (exact at 0 and 255).
+#[inline]
+pub fn rgb565_to_rgb(p: u16) -> [u8; 3] {
+    let r = ((p >> 11) & 31) as u8;
+    let g = ((p >> 5) & 63) as u8;
+    let b = (p & 31) as u8;
+    [
+        (r << 3) | (r >> 2),
+        (g << 2) | (g >> 4),
+        (b << 3) | (b >> 2),
+    ]
+}
+
+/// A colour-buffer format.
+pub trait PixelFormat: Send + Sync + 'static {
+    /// Stored pixel.
+    type Pixel: Copy + Send + Sync + 'static;
+    /// Colour to stored pixel.
+    fn pack(c: [u8; 3]) -> Self::Pixel;
+    /// Stored pixel to colour.
+    fn unpack(p: Self::Pixel) -> [u8; 3];
+}
+
+/// 16-bit 5-6-5, the handheld's format.
+pub struct Rgb565;
+/// 32-bit, bytes R, G, B, A (alpha written as 255).
+pub struct Rgba8888;
+
+impl PixelFormat for Rgb565 {
+    type Pixel = u16;
+    #[inline]
+    fn pack(c: [u8; 3]) -> u16 {
+        // Truncation, not rounding, in the hot loop: one shift per channel.
+        ((c[0] as u16 >> 3) << 11) | ((c[1] as u16 >> 2) << 5) | (c[2] as u16 >> 3)
+    }
+    #[inline]
+    fn unpack(p: u16) -> [u8; 3] {
+        rgb565_to_rgb(p)
+    }
+}
+
+impl PixelFormat for Rgba8888 {
+    type Pixel = [u8; 4];
+    #[inline]
+    fn pack(c: [u8; 3]) -> [u8; 4] {
+        [c[0], c[1], c[2], 255]
+    }
+    #[inline]
+    fn unpack(p: [u8; 4]) -> [u8; 3] {
+        [p[0], p[1], p[2]]
+    }
+}
+
+/// A depth-buffer format (or none). Depth arrives as unsigned 0.32.
+pub trait DepthFormat: Send + Sync + 'static {
+    /// Stored value.
+    type Value: Copy + Ord + Send + Sync + 'static;
+    /// False for the no-depth format: the test and the write compile away.
+    const ENABLED: bool;
+    /// Depth 0.32 to stored value (keeps the top bits).
+    fn quantise(d: u32) -> Self::Value;
+}
+
+/// No depth buffer, or depth off.
+pub struct NoDepth;
+/// 16-bit depth.
+pub struct Depth16;
+/// 32-bit depth.
+pub struct Depth32;
+
+impl DepthFormat for NoDepth {
+    type Value = u8;
+    const ENABLED: bool = false;
+    #[inline]
+    fn quantise(_: u32) -> u8 {
+        0
+    }
+}
+
+impl DepthFormat for Depth16 {
+    type Value = u16;
+    const ENABLED: bool = true;
+    #[inline]
+    fn quantise(d: u32) -> u16 {
+        (d >> 16) as u16
+    }
+}
+
+impl DepthFormat for Depth32 {
+    type Value = u32;
+    const ENABLED: bool = true;
+    #[inline]
+    fn quantise(d: u32) -> u32 {
+        d
+    }
+}
+
+/// Texture colour modulated by the shading colour: `t * (c + 1) / 256`, exact at 0 and 255.
+#[inline]
+pub fn modulate(t: [u8; 3], c: [u8; 3]) -> [u8; 3] {
+    [0, 1, 2].map(|k| ((t[k] as u32 * (c[k] as u32 + 1)) >> 8) as u8)
+}
+
+/// Blend towards the fog colour: `f` is the share of the surface colour, 0..=256.
+#[inline]
+pub fn fog_blend(c: [u8; 3], fog: [u8; 3], f: u32) -> [u8; 3] {
+    [0, 1, 2].map(|k| ((c[k] as u32 * f + fog[k] as u32 * (256 - f)) >> 8) as u8)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rgb565_round_trips_its_own_values_and_keeps_black_and_white() {
+        for p in [0u16, 0xFFFF, 0xF800, 0x07E0, 0x001F, 0x1234] {
+            assert_eq!(rgb_to_rgb565(rgb565_to_rgb(p)), p);
+            assert_eq!(Rgb565::pack(rgb565_to_rgb(p)), p);
+        }
+        assert_eq!(rgb565_to_rgb(0xFFFF), [255; 3]);
+    }
+
+    #[test]
+    fn modulate_and_fog_are_exact_at_the_ends() {
+        assert_eq!(modulate([255, 10, 0], [255, 255, 255]), [255, 10, 0]);
+        assert_eq!(modulate([255, 10, 0], [0, 0, 0]), [0, 0, 0]);
+        assert_eq!(fog_blend([10, 20, 30], [200, 200, 200], 256), [10, 20, 30]);
+        assert_eq!(fog_blend([10, 20, 30], [200, 200, 200], 0), [200, 200, 200]);
+    }
+
+    #[test]
+    fn depth_formats_keep_the_top_bits() {
+        assert_eq!(Depth16::quantise(0xABCD_1234), 0xABCD);
+        assert_eq!(Depth32::quantise(0xABCD_1234), 0xABCD_1234);
+    }
+}

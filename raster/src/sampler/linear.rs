@@ -1,0 +1,70 @@
+//! Bilinear sampling with 8-bit weights.
+
+use std::marker::PhantomData;
+
+use super::{Filtering, LevelView, ViewOf};
+
+/// The four texels around the sample point, weighted by distance.
+pub(crate) struct Bilinear<T>(PhantomData<T>);
+
+impl<T: ViewOf> Filtering for Bilinear<T> {
+    const ENABLED: bool = true;
+    type Texel = T;
+
+    #[inline]
+    fn sample(view: &LevelView<'_, T>, u: i64, v: i64) -> [u8; 3] {
+        // Texel centres sit at half-texel offsets.
+        let tu = u * view.width - (1 << 15);
+        let tv = v * view.height - (1 << 15);
+        let (x, y) = (tu >> 16, tv >> 16);
+        let fx = ((tu >> 8) & 255) as u32;
+        let fy = ((tv >> 8) & 255) as u32;
+        let a = view.fetch(x, y);
+        let b = view.fetch(x + 1, y);
+        let c = view.fetch(x, y + 1);
+        let d = view.fetch(x + 1, y + 1);
+        [0, 1, 2].map(|k| {
+            let top = a[k] as u32 * (256 - fx) + b[k] as u32 * fx;
+            let bottom = c[k] as u32 * (256 - fx) + d[k] as u32 * fx;
+            ((top * (256 - fy) + bottom * fy + (1 << 15)) >> 16) as u8
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::texture::Wrap;
+
+    fn view(texels: &[u16], wrap: Wrap) -> LevelView<'_, u16> {
+        LevelView {
+            texels,
+            width: 2,
+            height: 2,
+            width_shift: 1,
+            wrap,
+        }
+    }
+
+    #[test]
+    fn bilinear_at_texel_centres_returns_the_texel_and_blends_between() {
+        let t = [0xFFFF, 0x0000, 0x0000, 0xFFFF];
+        let v = view(&t, Wrap::Clamp);
+        assert_eq!(Bilinear::<u16>::sample(&v, 1 << 14, 1 << 14), [255; 3]);
+        assert_eq!(Bilinear::<u16>::sample(&v, 3 << 14, 1 << 14), [0; 3]);
+        assert_eq!(Bilinear::<u16>::sample(&v, 1 << 15, 1 << 14), [128; 3]);
+    }
+
+    #[test]
+    fn repeat_wraps_and_clamp_holds_the_edge() {
+        let t = [0xFFFF, 0x0000, 0x0000, 0x0000];
+        let r = view(&t, Wrap::Repeat);
+        let c = view(&t, Wrap::Clamp);
+        // u = 1.25 repeats to 0.25 (texel 0); clamped it is the right edge (texel 1).
+        assert_eq!(
+            super::super::Nearest::<u16>::sample(&r, 5 << 14, 0),
+            [255; 3]
+        );
+        assert_eq!(super::super::Nearest::<u16>::sample(&c, 5 << 14, 0), [0; 3]);
+    }
+}

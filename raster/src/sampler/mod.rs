@@ -1,0 +1,103 @@
+//! Reading texels: one file per filter. Coordinates arrive as 16.16 texture repeats.
+
+mod linear;
+mod nearest;
+
+pub(crate) use linear::Bilinear;
+pub(crate) use nearest::Nearest;
+
+use crate::pixel::rgb565_to_rgb;
+use crate::texture::{MipLevel, Texels, Wrap};
+
+/// A texel storage type.
+pub(crate) trait Texel: Copy + Send + Sync + 'static {
+    fn rgb(self) -> [u8; 3];
+}
+
+impl Texel for u16 {
+    #[inline]
+    fn rgb(self) -> [u8; 3] {
+        rgb565_to_rgb(self)
+    }
+}
+
+impl Texel for [u8; 4] {
+    #[inline]
+    fn rgb(self) -> [u8; 3] {
+        [self[0], self[1], self[2]]
+    }
+}
+
+/// One mip level as the inner loop sees it.
+#[derive(Clone, Copy)]
+pub(crate) struct LevelView<'a, T> {
+    pub texels: &'a [T],
+    pub width: i64,
+    pub height: i64,
+    pub width_shift: u32,
+    pub wrap: Wrap,
+}
+
+impl<'a, T: Texel> LevelView<'a, T> {
+    #[inline]
+    pub fn fetch(&self, x: i64, y: i64) -> [u8; 3] {
+        let (x, y) = match self.wrap {
+            Wrap::Repeat => (x & (self.width - 1), y & (self.height - 1)),
+            Wrap::Clamp => (x.clamp(0, self.width - 1), y.clamp(0, self.height - 1)),
+        };
+        self.texels[((y << self.width_shift) + x) as usize].rgb()
+    }
+}
+
+/// Borrows a level's texels in the storage type `T`; `None` when the level holds another type.
+pub(crate) trait ViewOf: Texel {
+    fn view(level: &MipLevel, wrap: Wrap) -> Option<LevelView<'_, Self>>;
+}
+
+fn view_parts<'a, T>(level: &'a MipLevel, texels: &'a [T], wrap: Wrap) -> LevelView<'a, T> {
+    LevelView {
+        texels,
+        width: level.width() as i64,
+        height: level.height() as i64,
+        width_shift: level.width().trailing_zeros(),
+        wrap,
+    }
+}
+
+impl ViewOf for u16 {
+    fn view(level: &MipLevel, wrap: Wrap) -> Option<LevelView<'_, u16>> {
+        match level.texels() {
+            Texels::Rgb565(t) => Some(view_parts(level, t, wrap)),
+            Texels::Rgba8888(_) => None,
+        }
+    }
+}
+
+impl ViewOf for [u8; 4] {
+    fn view(level: &MipLevel, wrap: Wrap) -> Option<LevelView<'_, [u8; 4]>> {
+        match level.texels() {
+            Texels::Rgba8888(t) => Some(view_parts(level, t, wrap)),
+            Texels::Rgb565(_) => None,
+        }
+    }
+}
+
+/// A filter, or no texture at all: the inner loop is generic over this.
+pub(crate) trait Filtering: Send + Sync + 'static {
+    /// False for `NoTexture`: texture work compiles away.
+    const ENABLED: bool;
+    type Texel: ViewOf;
+    fn sample(view: &LevelView<'_, Self::Texel>, u: i64, v: i64) -> [u8; 3];
+}
+
+/// Texturing off.
+pub(crate) struct NoTexture;
+
+impl Filtering for NoTexture {
+    const ENABLED: bool = false;
+    type Texel = u16;
+    #[inline]
+    fn sample(_: &LevelView<'_, u16>, _: i64, _: i64) -> [u8; 3] {
+        [255; 3]
+    }
+}

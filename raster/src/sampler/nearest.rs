@@ -1,0 +1,18 @@
+//! Nearest-texel sampling.
+
+use std::marker::PhantomData;
+
+use super::{Filtering, LevelView, ViewOf};
+
+/// The texel whose square contains the sample point.
+pub(crate) struct Nearest<T>(PhantomData<T>);
+
+impl<T: ViewOf> Filtering for Nearest<T> {
+    const ENABLED: bool = true;
+    type Texel = T;
+
+    #[inline]
+    fn sample(view: &LevelView<'_, T>, u: i64, v: i64) -> [u8; 3] {
+        view.fetch((u * view.width) >> 16, (v * view.height) >> 16)
+    }
+}

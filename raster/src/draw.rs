@@ -8,7 +8,7 @@
 use rayon::prelude::*;
 
 use crate::RasterError;
-use crate::clip::{ClipVertex, clip_triangle};
+use crate::clip::{ClipVertex, MAX_POLYGON, clip_triangle};
 use crate::edge::Coverage;
 use crate::framebuffer::{ColorBuffer, DepthBuffer, Framebuffer};
 use crate::matrix::Transform;
@@ -22,7 +22,10 @@ use crate::texture::{Filter, TextureFormat};
 use crate::vertex::{Mesh, assemble};
 
 /// Triangles per unit of parallel set-up work.
-const SETUP_CHUNK: usize = 2048;
+const SETUP_CHUNK: usize = 512;
+/// Triangles set up before their rows are drawn: enough to keep every thread busy, few enough that
+/// the set-up data stays in cache.
+const RASTER_CHUNK: usize = 4096;
 /// Below this many vertices or triangles, a stage runs on the calling thread.
 const PARALLEL_MIN: usize = 4096;
 
@@ -161,17 +164,21 @@ impl Rasterizer {
                         screen,
                     }
                 });
-                let tris = set_up(
-                    &self.triangles,
-                    &self.fixed_vertices,
-                    &job,
-                    &space,
-                    |c| FixedScreen::project(c, &vp, fog),
-                    |s| s.xy,
-                    FixedTriangle::new,
-                );
-                stats.rasterized = tris.len() as u64;
-                stats.fragments = dispatch_fixed(fb, &tris, &job)?;
+                let mut tris = Vec::new();
+                for chunk in self.triangles.chunks(RASTER_CHUNK) {
+                    let project = |c: &_| FixedScreen::project(c, &vp, fog);
+                    set_up(
+                        chunk,
+                        &self.fixed_vertices,
+                        &job,
+                        &space,
+                        &mut tris,
+                        project,
+                        FixedTriangle::new,
+                    );
+                    stats.rasterized += tris.len() as u64;
+                    stats.fragments += dispatch_fixed(fb, &tris, &job);
+                }
             }
             Precision::Float => {
                 let space = FloatSpace::new(&vp);
@@ -190,17 +197,21 @@ impl Rasterizer {
                         screen,
                     }
                 });
-                let tris = set_up(
-                    &self.triangles,
-                    &self.float_vertices,
-                    &job,
-                    &space,
-                    |c| FloatScreen::project(c, &vp, fog),
-                    |s| s.xy,
-                    FloatTriangle::new,
-                );
-                stats.rasterized = tris.len() as u64;
-                stats.fragments = dispatch_float(fb, &tris, &job);
+                let mut tris = Vec::new();
+                for chunk in self.triangles.chunks(RASTER_CHUNK) {
+                    let project = |c: &_| FloatScreen::project(c, &vp, fog);
+                    set_up(
+                        chunk,
+                        &self.float_vertices,
+                        &job,
+                        &space,
+                        &mut tris,
+                        project,
+                        FloatTriangle::new,
+                    );
+                    stats.rasterized += tris.len() as u64;
+                    stats.fragments += dispatch_float(fb, &tris, &job);
+                }
             }
         }
         Ok(stats)
@@ -272,28 +283,26 @@ fn transform_vertices<T: Send>(
     }
 }
 
-/// Clips, culls and sets up every triangle, in order.
-#[allow(clippy::too_many_arguments)]
+/// Clips, culls and sets up `triangles` into `out` (replacing its contents), in order.
 fn set_up<C, S, T>(
     triangles: &[[u32; 3]],
     vertices: &[Transformed<C, S>],
     job: &Job,
     space: &C::Space,
+    out: &mut Vec<T>,
     project: impl Fn(&C) -> S + Sync,
-    xy: impl Fn(&S) -> [i64; 2] + Sync,
     make: impl Fn([S; 3], i64, Coverage, &Attributes) -> T + Sync,
-) -> Vec<T>
-where
+) where
     C: ClipVertex + Sync,
     C::Space: Sync,
-    S: Copy + Sync,
+    S: Projected,
     T: Send,
 {
     let rows = (job.scissor.y0 as i64, job.scissor.y1 as i64);
     let cull = job.state.cull;
     let ccw_front = job.state.front_face == FrontFace::Ccw;
     let setup_one = |s: [S; 3], out: &mut Vec<T>| {
-        let p = s.each_ref().map(&xy);
+        let p = s.each_ref().map(|v| v.xy());
         let area2 =
             (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
         if area2 == 0 {
@@ -313,42 +322,55 @@ where
             out.push(make(s, area2, cov, &job.attrs));
         }
     };
-    let chunk = |tris: &[[u32; 3]]| {
-        let mut out = Vec::with_capacity(tris.len());
+    let set_up_into = |tris: &[[u32; 3]], out: &mut Vec<T>| {
         for t in tris {
             let v = t.map(|i| &vertices[i as usize]);
-            let (and, or) = (
-                v[0].outcode & v[1].outcode & v[2].outcode,
-                v[0].outcode | v[1].outcode | v[2].outcode,
-            );
+            let and = v[0].outcode & v[1].outcode & v[2].outcode;
+            let or = v[0].outcode | v[1].outcode | v[2].outcode;
             if and != 0 {
                 continue;
             }
             if or == 0 {
-                setup_one(v.map(|v| v.screen), &mut out);
+                setup_one(v.map(|v| v.screen), out);
                 continue;
             }
             let poly = clip_triangle(v.map(|v| v.clip), or, space);
-            if poly.len < 3 {
-                continue;
+            let mut screen = [S::default(); MAX_POLYGON];
+            for (s, c) in screen.iter_mut().zip(&poly.vertices[..poly.len]) {
+                *s = project(c);
             }
-            let screen: Vec<S> = poly.vertices[..poly.len].iter().map(&project).collect();
-            for k in 1..poly.len - 1 {
-                setup_one([screen[0], screen[k], screen[k + 1]], &mut out);
+            for k in 1..poly.len.saturating_sub(1) {
+                setup_one([screen[0], screen[k], screen[k + 1]], out);
             }
         }
-        out
     };
-    if job.threads > 1 && triangles.len() >= PARALLEL_MIN {
-        triangles
-            .par_chunks(SETUP_CHUNK)
-            .map(chunk)
-            .collect::<Vec<_>>()
-            .into_iter()
-            .flatten()
-            .collect()
+    out.clear();
+    if job.threads > 1 && triangles.len() > SETUP_CHUNK {
+        out.par_extend(triangles.par_chunks(SETUP_CHUNK).flat_map_iter(|c| {
+            let mut part = Vec::with_capacity(c.len());
+            set_up_into(c, &mut part);
+            part
+        }));
     } else {
-        chunk(triangles)
+        set_up_into(triangles, out);
+    }
+}
+
+/// A projected vertex of either pipeline.
+trait Projected: Copy + Default + Sync {
+    /// Snapped sub-pixel position.
+    fn xy(&self) -> [i64; 2];
+}
+
+impl Projected for FixedScreen {
+    fn xy(&self) -> [i64; 2] {
+        self.xy
+    }
+}
+
+impl Projected for FloatScreen {
+    fn xy(&self) -> [i64; 2] {
+        self.xy
     }
 }
 
@@ -429,12 +451,8 @@ macro_rules! with_target {
     };
 }
 
-fn dispatch_fixed(
-    fb: &mut Framebuffer,
-    tris: &[FixedTriangle],
-    job: &Job,
-) -> Result<u64, RasterError> {
-    Ok(with_target!(fb, job.attrs.depth, fixed_texture, tris, job))
+fn dispatch_fixed(fb: &mut Framebuffer, tris: &[FixedTriangle], job: &Job) -> u64 {
+    with_target!(fb, job.attrs.depth, fixed_texture, tris, job)
 }
 
 /// Chooses the texture filter and texel type.

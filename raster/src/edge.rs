@@ -12,17 +12,16 @@
 
 use crate::fixed_point::{SUBPIXEL_HALF, SUBPIXEL_ONE, ceil_div, floor_div};
 
-/// A triangle's owned pixels: a row range and up to two bounding edges on each side.
+/// A triangle's owned pixels: its snapped vertices and the rows it owns. Edges are rebuilt when
+/// its rows are walked, so a set-up triangle stays small.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Coverage {
+    /// Vertices in sub-pixels, positive orientation; `|x|, |y| < 2^25` inside the guard band.
+    v: [[i32; 2]; 3],
     /// First row.
-    pub row_start: i64,
+    pub row_start: i32,
     /// One past the last row.
-    pub row_end: i64,
-    lefts: [Edge; 2],
-    rights: [Edge; 2],
-    n_left: u8,
-    n_right: u8,
+    pub row_end: i32,
 }
 
 #[derive(Clone, Copy, Debug, Default)]
@@ -90,42 +89,12 @@ impl Coverage {
     /// Coverage of the triangle `v` (sub-pixel x, y) with positive signed area
     /// `(v1 - v0) x (v2 - v0) > 0`, limited to rows `rows.0 .. rows.1`. `None` when it owns no row.
     pub fn new(v: [[i64; 2]; 3], rows: (i64, i64)) -> Option<Self> {
-        let mut c = Coverage {
-            row_start: 0,
-            row_end: 0,
-            lefts: [Edge::default(); 2],
-            rights: [Edge::default(); 2],
-            n_left: 0,
-            n_right: 0,
-        };
         let ymin = v.iter().map(|p| p[1]).min().expect("3 vertices");
         let ymax = v.iter().map(|p| p[1]).max().expect("3 vertices");
-        let mut bottom_edge = false;
-        for i in 0..3 {
-            let (a, b) = (v[i], v[(i + 1) % 3]);
-            let e = Edge {
-                ax: a[0],
-                ay: a[1],
-                dx: b[0] - a[0],
-                dy: b[1] - a[1],
-            };
-            match e.dy.signum() {
-                -1 => {
-                    c.lefts[c.n_left as usize] = e;
-                    c.n_left += 1;
-                }
-                1 => {
-                    c.rights[c.n_right as usize] = e;
-                    c.n_right += 1;
-                }
-                // dx < 0: the triangle lies above this edge, which therefore does not own its row.
-                _ => bottom_edge |= e.dx < 0,
-            }
-        }
-        debug_assert!(
-            c.n_left >= 1 && c.n_right >= 1,
-            "positive area has both sides"
-        );
+        // A horizontal edge with dx < 0 has the triangle above it: a bottom edge, which does not
+        // own its row.
+        let bottom_edge =
+            (0..3).any(|i| v[i][1] == v[(i + 1) % 3][1] && v[(i + 1) % 3][0] < v[i][0]);
         // Rows whose centre yc satisfies ymin <= yc <= ymax (yc < ymax under a bottom edge).
         let first = ceil_div(ymin - SUBPIXEL_HALF, SUBPIXEL_ONE);
         let end = if bottom_edge {
@@ -133,9 +102,12 @@ impl Coverage {
         } else {
             floor_div(ymax - SUBPIXEL_HALF, SUBPIXEL_ONE) + 1
         };
-        c.row_start = first.max(rows.0);
-        c.row_end = end.min(rows.1);
-        (c.row_start < c.row_end).then_some(c)
+        let (row_start, row_end) = (first.max(rows.0), end.min(rows.1));
+        (row_start < row_end).then(|| Coverage {
+            v: v.map(|p| p.map(|c| c as i32)),
+            row_start: row_start as i32,
+            row_end: row_end as i32,
+        })
     }
 
     /// Calls `span(y, x_start, x_end)` for every row from `from` (clamped into the row range) to
@@ -148,19 +120,33 @@ impl Coverage {
         cols: (i64, i64),
         mut span: impl FnMut(i64, i64, i64),
     ) {
-        let (start, end) = (self.row_start.max(from), self.row_end.min(to));
+        let (start, end) = (
+            (self.row_start as i64).max(from),
+            (self.row_end as i64).min(to),
+        );
         if start >= end {
             return;
         }
         let mut l = [Stepper::default(); 2];
         let mut r = [Stepper::default(); 2];
-        let (nl, nr) = (self.n_left as usize, self.n_right as usize);
-        for i in 0..nl {
-            l[i] = self.lefts[i].stepper(start);
+        let (mut nl, mut nr) = (0, 0);
+        for i in 0..3 {
+            let (a, b) = (self.v[i].map(i64::from), self.v[(i + 1) % 3].map(i64::from));
+            let e = Edge {
+                ax: a[0],
+                ay: a[1],
+                dx: b[0] - a[0],
+                dy: b[1] - a[1],
+            };
+            if e.dy < 0 {
+                l[nl] = e.stepper(start);
+                nl += 1;
+            } else if e.dy > 0 {
+                r[nr] = e.stepper(start);
+                nr += 1;
+            }
         }
-        for i in 0..nr {
-            r[i] = self.rights[i].stepper(start);
-        }
+        debug_assert!(nl >= 1 && nr >= 1, "positive area has both sides");
         for y in start..end {
             let mut x0 = cols.0;
             for s in &mut l[..nl] {

@@ -160,29 +160,20 @@ impl FixedScreen {
 }
 
 /// An attribute as a plane over the triangle: value at the origin vertex and per-pixel gradients,
-/// all with `ATTR_FRAC_BITS` extra fraction. Gradients are i128: a sliver's can exceed i64, though
-/// its covered pixels never step by them (see `step`).
+/// all with `ATTR_FRAC_BITS` extra fraction.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct AttrPlane {
     base: i64,
-    dx: i128,
-    dy: i128,
+    dx: i64,
+    dy: i64,
 }
 
 impl AttrPlane {
     /// Value at the sub-pixel offset `(ox, oy)` from the origin vertex.
     #[inline]
     fn at(&self, ox: i64, oy: i64) -> i64 {
-        let d = self.dx * ox as i128 + self.dy * oy as i128;
+        let d = self.dx as i128 * ox as i128 + self.dy as i128 * oy as i128;
         saturate_i64(self.base as i128 + shift_round(d, SUBPIXEL_BITS as i32))
-    }
-
-    /// Per-pixel step along a row. When the exact gradient does not fit, no two neighbouring pixels
-    /// of the triangle can exist (their values differ by at most the attribute range), so the
-    /// saturated step is never taken between covered pixels.
-    #[inline]
-    fn step(&self) -> i64 {
-        saturate_i64(self.dx)
     }
 }
 
@@ -217,10 +208,16 @@ impl Geometry {
         let (a1, a2) = ((a[1] - a[0]) as i128, (a[2] - a[0]) as i128);
         let nx = a1 * self.d2[1] - a2 * self.d1[1];
         let ny = a2 * self.d1[0] - a1 * self.d2[0];
-        AttrPlane {
-            base: a[0] << ATTR_FRAC_BITS,
-            dx: shift_round(nx * self.inv_area, self.shift),
-            dy: shift_round(ny * self.inv_area, self.shift),
+        let (dx, dy) = (
+            shift_round(nx * self.inv_area, self.shift),
+            shift_round(ny * self.inv_area, self.shift),
+        );
+        let base = a[0] << ATTR_FRAC_BITS;
+        match (i64::try_from(dx), i64::try_from(dy)) {
+            (Ok(dx), Ok(dy)) => AttrPlane { base, dx, dy },
+            // A gradient beyond i64 means the triangle is thinner than 2^-15 pixel across this
+            // attribute's range: it can own at most isolated pixels, which take vertex 0's value.
+            _ => AttrPlane { base, dx: 0, dy: 0 },
         }
     }
 }
@@ -331,7 +328,7 @@ pub(crate) fn shade_row<
     let ox = x0 * SUBPIXEL_ONE + SUBPIXEL_HALF - tri.origin[0];
     let oy = y * SUBPIXEL_ONE + SUBPIXEL_HALF - tri.origin[1];
     let (mut z, dz) = if D::ENABLED {
-        (tri.depth.at(ox, oy), tri.depth.step())
+        (tri.depth.at(ox, oy), tri.depth.dx)
     } else {
         (0, 0)
     };
@@ -340,11 +337,11 @@ pub(crate) fn shade_row<
     if SHADE {
         for k in 0..3 {
             c[k] = tri.color[k].at(ox, oy);
-            dc[k] = tri.color[k].step();
+            dc[k] = tri.color[k].dx;
         }
     }
     let (mut f, df) = if FOG {
-        (tri.fog.at(ox, oy), tri.fog.step())
+        (tri.fog.at(ox, oy), tri.fog.dx)
     } else {
         (0, 0)
     };
@@ -358,7 +355,7 @@ pub(crate) fn shade_row<
     if T::ENABLED {
         for k in 0..3 {
             acc[k] = tri.tex[k].at(ox, oy);
-            dacc[k] = tri.tex[k].step();
+            dacc[k] = tri.tex[k].dx;
         }
     }
     // (u, v) in 16.32 at the current pixel and its per-pixel step within the chunk.

@@ -17,8 +17,8 @@ use crate::sampler::{Filtering, LevelView};
 use crate::state::Compare;
 use crate::vertex::Vertex;
 
-/// Fractional bits of the clip-interpolation parameter.
-const T_BITS: u32 = 30;
+/// Most fractional bits of the clip-interpolation parameter.
+const T_BITS_MAX: i32 = 61;
 
 /// Guard band and viewport in the integer clip test `|x| * W <= 2 * GUARD_BAND_PX * w`.
 pub(crate) struct FixedSpace {
@@ -79,8 +79,13 @@ impl ClipVertex for FixedClip {
 
     fn intersect(a: &Self, b: &Self, plane: Plane, s: &FixedSpace) -> Self {
         let (da, db) = (a.distance(plane, s), b.distance(plane, s));
-        let t = (da << T_BITS) / (da - db); // 0..=2^30: da >= 0 > db
-        let lerp = |p: i64, q: i64| (p as i128 + (((q as i128 - p as i128) * t) >> T_BITS)) as i64;
+        // t = da / (da - db) in 0..=1, with as many fraction bits as keep `da << bits` and
+        // `(q - p) * t` (|q - p| < 2^64) inside i128: a cut far along a long segment stays exact.
+        let bits = (T_BITS_MAX)
+            .min(125 - (128 - da.leading_zeros()) as i32)
+            .max(0);
+        let t = (da << bits) / (da - db);
+        let lerp = |p: i64, q: i64| (p as i128 + (((q as i128 - p as i128) * t) >> bits)) as i64;
         let mut v = Self {
             clip: [0, 1, 2, 3].map(|k| lerp(a.clip[k], b.clip[k])),
             uv: [0, 1].map(|k| lerp(a.uv[k], b.uv[k])),
@@ -148,7 +153,7 @@ impl FixedScreen {
             None => 256,
         };
         Self {
-            xy: [saturate_i64(sx), saturate_i64(sy)],
+            xy: vp.clamp_to_guard_band([saturate_i64(sx), saturate_i64(sy)]),
             depth,
             inv_w,
             w_shift: shift,
@@ -297,14 +302,14 @@ impl Setup for FixedTriangle {
     }
 }
 
-/// `(u, v)` in 16.16 at a point from the perspective accumulators: one division per call.
+/// `(u, v)` in 16.32 at a point from the perspective accumulators: one division per call.
+/// Clamped to the texture-coordinate range, which extrapolation past a span end can leave.
 #[inline]
 fn divide(s: i64, t: i64, q: i64) -> (i64, i64) {
     let r = ((1u64 << 63) / q.max(1) as u64) as i128;
-    (
-        saturate_i64((s as i128 * r) >> 47),
-        saturate_i64((t as i128 * r) >> 47),
-    )
+    let limit = (TEXCOORD_LIMIT as i128) << 16;
+    let uv = |a: i64| ((a as i128 * r) >> 47).clamp(-limit, limit) as i64;
+    (uv(s), uv(t))
 }
 
 /// Shades the pixels `x0..x1` of row `y`. Returns the fragments that passed the depth test.

@@ -127,7 +127,7 @@ impl FloatScreen {
             None => 1.0,
         };
         Self {
-            xy: [snap(sx), snap(sy)],
+            xy: vp.clamp_to_guard_band([snap(sx), snap(sy)]),
             depth: (v.clip.z * inv_w).clamp(0.0, 1.0),
             inv_w,
             uv: v.uv,

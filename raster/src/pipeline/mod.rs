@@ -6,7 +6,7 @@ pub(crate) mod fixed;
 pub(crate) mod float;
 
 use crate::edge::Coverage;
-use crate::fixed_point::SUBPIXEL_BITS;
+use crate::fixed_point::{GUARD_BAND_PX, SUBPIXEL_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE};
 use crate::pixel::{DepthFormat, PixelFormat};
 use crate::state::{Compare, DepthMode, Perspective, RenderState, Shading};
 use crate::texture::{MipFilter, Texture};
@@ -16,6 +16,20 @@ use crate::texture::{MipFilter, Texture};
 pub(crate) struct Viewport {
     pub width: u32,
     pub height: u32,
+}
+
+impl Viewport {
+    /// Keeps a snapped position within the guard band around the viewport centre. Clipping puts
+    /// every vertex there already; this only catches the rounding of a cut far along a long
+    /// segment (or a NaN), so that the edge arithmetic's bounds hold for any input.
+    pub fn clamp_to_guard_band(&self, xy: [i64; 2]) -> [i64; 2] {
+        let band = GUARD_BAND_PX * SUBPIXEL_ONE;
+        let centre = [
+            self.width as i64 * SUBPIXEL_HALF,
+            self.height as i64 * SUBPIXEL_HALF,
+        ];
+        [0, 1].map(|k| xy[k].clamp(centre[k] - band, centre[k] + band))
+    }
 }
 
 /// How texture coordinates are interpolated in this draw.

@@ -2,7 +2,7 @@
 
 use std::marker::PhantomData;
 
-use super::{Filtering, LevelView, ViewOf};
+use super::{Filtering, LevelView, ViewOf, clamp_coord};
 
 /// The four texels around the sample point, weighted by distance.
 pub(crate) struct Bilinear<T>(PhantomData<T>);
@@ -13,6 +13,7 @@ impl<T: ViewOf> Filtering for Bilinear<T> {
 
     #[inline]
     fn sample(view: &LevelView<'_, T>, u: i64, v: i64) -> [u8; 3] {
+        let (u, v) = (clamp_coord(u), clamp_coord(v));
         // Texel centres sit at half-texel offsets.
         let tu = u * view.width - (1 << 15);
         let tv = v * view.height - (1 << 15);

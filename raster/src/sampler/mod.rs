@@ -6,8 +6,16 @@ mod nearest;
 pub(crate) use linear::Bilinear;
 pub(crate) use nearest::Nearest;
 
+use crate::fixed_point::TEXCOORD_LIMIT;
 use crate::pixel::rgb565_to_rgb;
 use crate::texture::{MipLevel, Texels, Wrap};
+
+/// Keeps a 16.16 coordinate within `TEXCOORD_LIMIT`, so `u * width` cannot overflow whatever a
+/// degenerate triangle interpolates.
+#[inline]
+fn clamp_coord(u: i64) -> i64 {
+    u.clamp(-TEXCOORD_LIMIT, TEXCOORD_LIMIT)
+}
 
 /// A texel storage type.
 pub(crate) trait Texel: Copy + Send + Sync + 'static {

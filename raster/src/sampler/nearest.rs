@@ -2,7 +2,7 @@
 
 use std::marker::PhantomData;
 
-use super::{Filtering, LevelView, ViewOf};
+use super::{Filtering, LevelView, ViewOf, clamp_coord};
 
 /// The texel whose square contains the sample point.
 pub(crate) struct Nearest<T>(PhantomData<T>);
@@ -13,6 +13,7 @@ impl<T: ViewOf> Filtering for Nearest<T> {
 
     #[inline]
     fn sample(view: &LevelView<'_, T>, u: i64, v: i64) -> [u8; 3] {
+        let (u, v) = (clamp_coord(u), clamp_coord(v));
         view.fetch((u * view.width) >> 16, (v * view.height) >> 16)
     }
 }

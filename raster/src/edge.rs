@@ -10,7 +10,7 @@
 //! per-pixel test. Two triangles sharing an edge see it with opposite `dy`, so each centre on it
 //! belongs to exactly one of them.
 
-use crate::fixed_point::{SUBPIXEL_HALF, SUBPIXEL_ONE, ceil_div, floor_div};
+use crate::fixed_point::{SUBPIXEL_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE, ceil_div, floor_div};
 
 /// A triangle's owned pixels: its snapped vertices and the rows it owns. Edges are rebuilt when
 /// its rows are walked, so a set-up triangle stays small.
@@ -118,7 +118,7 @@ impl Coverage {
         from: i64,
         to: i64,
         cols: (i64, i64),
-        mut span: impl FnMut(i64, i64, i64),
+        span: impl FnMut(i64, i64, i64),
     ) {
         let (start, end) = (
             (self.row_start as i64).max(from),
@@ -127,10 +127,22 @@ impl Coverage {
         if start >= end {
             return;
         }
-        let mut l = [Stepper::default(); 2];
-        let mut r = [Stepper::default(); 2];
-        let (mut nl, mut nr) = (0, 0);
-        for i in 0..3 {
+        let xs = self.v.map(|p| p[0] as i64);
+        let (xmin, xmax) = (
+            xs.iter().min().expect("3") >> SUBPIXEL_BITS,
+            xs.iter().max().expect("3") >> SUBPIXEL_BITS,
+        );
+        if xmax - xmin <= SMALL_WIDTH {
+            self.walk_small(start, end, (cols.0.max(xmin), cols.1.min(xmax + 1)), span);
+        } else {
+            self.walk_dda(start, end, cols, span);
+        }
+    }
+
+    /// The three edges with the rule's bias: a pixel is owned when `E + bias > 0` for all three.
+    #[inline]
+    fn edges(&self) -> [(Edge, i64); 3] {
+        [0, 1, 2].map(|i| {
             let (a, b) = (self.v[i].map(i64::from), self.v[(i + 1) % 3].map(i64::from));
             let e = Edge {
                 ax: a[0],
@@ -138,6 +150,68 @@ impl Coverage {
                 dx: b[0] - a[0],
                 dy: b[1] - a[1],
             };
+            let top_left = e.dy < 0 || (e.dy == 0 && e.dx > 0);
+            (e, top_left as i64)
+        })
+    }
+
+    /// Narrow triangles: evaluate the edge functions across the bounding box, with no division.
+    #[inline]
+    fn walk_small(
+        &self,
+        start: i64,
+        end: i64,
+        cols: (i64, i64),
+        mut span: impl FnMut(i64, i64, i64),
+    ) {
+        if cols.0 >= cols.1 {
+            return;
+        }
+        let edges = self.edges();
+        let xc = cols.0 * SUBPIXEL_ONE + SUBPIXEL_HALF;
+        let yc = start * SUBPIXEL_ONE + SUBPIXEL_HALF;
+        // E at the first column of each row, plus bias; steps per pixel and per row.
+        let mut row = edges.map(|(e, bias)| e.dx * (yc - e.ay) - e.dy * (xc - e.ax) + bias);
+        let step_x = edges.map(|(e, _)| -e.dy * SUBPIXEL_ONE);
+        let step_y = edges.map(|(e, _)| e.dx * SUBPIXEL_ONE);
+        for y in start..end {
+            let mut w = row;
+            let mut x = cols.0;
+            let mut first = None;
+            while x < cols.1 {
+                let inside = w[0] > 0 && w[1] > 0 && w[2] > 0;
+                match (first, inside) {
+                    (None, true) => first = Some(x),
+                    (Some(_), false) => break,
+                    _ => {}
+                }
+                for k in 0..3 {
+                    w[k] += step_x[k];
+                }
+                x += 1;
+            }
+            if let Some(x0) = first {
+                span(y, x0, x);
+            }
+            for k in 0..3 {
+                row[k] += step_y[k];
+            }
+        }
+    }
+
+    /// Wide triangles: per edge, an exact DDA of the span bound.
+    #[inline]
+    fn walk_dda(
+        &self,
+        start: i64,
+        end: i64,
+        cols: (i64, i64),
+        mut span: impl FnMut(i64, i64, i64),
+    ) {
+        let mut l = [Stepper::default(); 2];
+        let mut r = [Stepper::default(); 2];
+        let (mut nl, mut nr) = (0, 0);
+        for (e, _) in self.edges() {
             if e.dy < 0 {
                 l[nl] = e.stepper(start);
                 nl += 1;
@@ -164,6 +238,9 @@ impl Coverage {
         }
     }
 }
+
+/// Triangles at most this many pixels wide are walked by edge functions instead of DDAs.
+const SMALL_WIDTH: i64 = 12;
 
 #[cfg(test)]
 mod tests {
@@ -246,6 +323,18 @@ mod tests {
         let mut all = spans(c);
         all.extend(spans(d));
         assert_eq!(all, vec![(0, 0)], "top-left corner only");
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn random_triangles_match_the_per_pixel_test(
+            p in proptest::collection::vec((-40 * S..40 * S, -40 * S..40 * S), 3),
+        ) {
+            let v = [[p[0].0, p[0].1], [p[1].0, p[1].1], [p[2].0, p[2].1]];
+            let area = (v[1][0] - v[0][0]) * (v[2][1] - v[0][1]) - (v[2][0] - v[0][0]) * (v[1][1] - v[0][1]);
+            proptest::prop_assume!(area != 0);
+            proptest::prop_assert_eq!(spans(v), brute(oriented(v)));
+        }
     }
 
     #[test]

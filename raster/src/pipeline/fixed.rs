@@ -312,6 +312,24 @@ fn divide(s: i64, t: i64, q: i64) -> (i64, i64) {
     (uv(s), uv(t))
 }
 
+/// `2^32 / n` for span lengths `n` in `1..=64`, rounded up.
+const RECIPROCALS: [i64; 65] = {
+    let mut t = [0i64; 65];
+    let mut n = 1;
+    while n <= 64 {
+        t[n] = ((1i64 << 32) + n as i64 - 1) / n as i64;
+        n += 1;
+    }
+    t
+};
+
+/// `d / n` for a span length `n <= 64` by a multiplication: a division per span would cost more
+/// than the span's pixels. Exact for the `|d| < 2^41` of texture-coordinate differences.
+#[inline]
+fn div_small(d: i64, n: i64) -> i64 {
+    ((d as i128 * RECIPROCALS[n as usize] as i128) >> 32) as i64
+}
+
 /// Shades the pixels `x0..x1` of row `y`. Returns the fragments that passed the depth test.
 #[allow(clippy::too_many_arguments)]
 #[inline]
@@ -384,8 +402,8 @@ pub(crate) fn shade_row<
                         acc[k] = acc[k].saturating_add(dacc[k].saturating_mul(n));
                     }
                     chunk_end = divide(acc[0], acc[1], acc[2]);
-                    du = (chunk_end.0 - u) / n;
-                    dv = (chunk_end.1 - v) / n;
+                    du = div_small(chunk_end.0 - u, n);
+                    dv = div_small(chunk_end.1 - v, n);
                 }
                 _ => (du, dv) = (dacc[0], dacc[1]),
             }

@@ -291,7 +291,7 @@ fn set_up<C, S, T>(
     space: &C::Space,
     out: &mut Vec<T>,
     project: impl Fn(&C) -> S + Sync,
-    make: impl Fn([S; 3], i64, Coverage, &Attributes) -> T + Sync,
+    make: impl Fn([&S; 3], i64, Coverage, &Attributes) -> T + Sync,
 ) where
     C: ClipVertex + Sync,
     C::Space: Sync,
@@ -301,7 +301,7 @@ fn set_up<C, S, T>(
     let rows = (job.scissor.y0 as i64, job.scissor.y1 as i64);
     let cull = job.state.cull;
     let ccw_front = job.state.front_face == FrontFace::Ccw;
-    let setup_one = |s: [S; 3], out: &mut Vec<T>| {
+    let setup_one = |s: [&S; 3], out: &mut Vec<T>| {
         let p = s.each_ref().map(|v| v.xy());
         let area2 =
             (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
@@ -331,7 +331,7 @@ fn set_up<C, S, T>(
                 continue;
             }
             if or == 0 {
-                setup_one(v.map(|v| v.screen), out);
+                setup_one(v.map(|v| &v.screen), out);
                 continue;
             }
             let poly = clip_triangle(v.map(|v| v.clip), or, space);
@@ -340,7 +340,7 @@ fn set_up<C, S, T>(
                 *s = project(c);
             }
             for k in 1..poly.len.saturating_sub(1) {
-                setup_one([screen[0], screen[k], screen[k + 1]], out);
+                setup_one([&screen[0], &screen[k], &screen[k + 1]], out);
             }
         }
     };

@@ -131,7 +131,7 @@ impl FixedScreen {
         let w = w.max(1);
         let (wn, shift) = normalise_positive(w);
         let scale = |c: i128| if shift > 0 { c >> shift } else { c << -shift };
-        let inv_w = ((1i128 << 62) / wn as i128) as i64; // (2^31, 2^32]
+        let inv_w = ((1u64 << 62) / wn as u64) as i64; // (2^31, 2^32]: a 64-bit division
         let half_w = vp.width as i128 * SUBPIXEL_HALF as i128;
         let half_h = vp.height as i128 * SUBPIXEL_HALF as i128;
         // Inside the guard band |x'| < 2^48, so the products stay below 2^100.
@@ -191,7 +191,7 @@ struct Geometry {
 }
 
 impl Geometry {
-    fn new(v: &[FixedScreen; 3], area2: i64) -> Self {
+    fn new(v: &[&FixedScreen; 3], area2: i64) -> Self {
         let (an, ash) = normalise_positive(area2 as i128);
         let d = |i: usize| {
             [
@@ -204,7 +204,7 @@ impl Geometry {
         Self {
             d1: d(1),
             d2: d(2),
-            inv_area: (1i128 << 62) / an as i128,
+            inv_area: ((1u64 << 62) / an as u64) as i128,
             shift,
         }
     }
@@ -237,15 +237,30 @@ pub(crate) struct FixedTriangle {
     fog: AttrPlane,
     /// `s, t, q` (perspective) or `u, v, -` (affine).
     tex: [AttrPlane; 3],
+    /// This triangle's texture interpolation (see `Attributes::tex_mode_for`).
+    tex_mode: TexMode,
     level: u8,
 }
 
 impl FixedTriangle {
     /// Sets up `v` (positive orientation, `area2 > 0`).
-    pub fn new(v: [FixedScreen; 3], area2: i64, coverage: Coverage, a: &Attributes) -> Self {
-        let g = Geometry::new(&v, area2);
+    pub fn new(v: [&FixedScreen; 3], area2: i64, coverage: Coverage, a: &Attributes) -> Self {
         let empty = AttrPlane::default();
-        let pick = |f: fn(&FixedScreen) -> i64| g.plane([f(&v[0]), f(&v[1]), f(&v[2])]);
+        if !a.interpolates() {
+            let (color, tex) = ([empty; 3], [empty; 3]);
+            return Self {
+                coverage,
+                origin: v[0].xy,
+                depth: empty,
+                color,
+                fog: empty,
+                tex,
+                tex_mode: TexMode::Off,
+                level: 0,
+            };
+        }
+        let g = Geometry::new(&v, area2);
+        let pick = |f: fn(&FixedScreen) -> i64| g.plane([f(v[0]), f(v[1]), f(v[2])]);
         let depth = if a.depth { pick(|s| s.depth) } else { empty };
         let color = if a.shade {
             [
@@ -257,7 +272,8 @@ impl FixedTriangle {
             [empty; 3]
         };
         let fog = if a.fog { pick(|s| s.fog) } else { empty };
-        let (tex, level) = match a.tex {
+        let tex_mode = a.tex_mode_for([v[0].xy, v[1].xy, v[2].xy]);
+        let (tex, level) = match tex_mode {
             TexMode::Off => ([empty; 3], 0),
             TexMode::Affine => (
                 [pick(|s| s.uv[0]), pick(|s| s.uv[1]), empty],
@@ -282,13 +298,14 @@ impl FixedTriangle {
             color,
             fog,
             tex,
+            tex_mode,
             level,
         }
     }
 }
 
 /// Doubled texture-space area in 16.16 repeats squared.
-fn texel_area(v: &[FixedScreen; 3]) -> i128 {
+fn texel_area(v: &[&FixedScreen; 3]) -> i128 {
     let d = |i: usize, k: usize| (v[i].uv[k] - v[0].uv[k]) as i128;
     (d(1, 0) * d(2, 1) - d(2, 0) * d(1, 1)).abs()
 }
@@ -371,7 +388,7 @@ pub(crate) fn shade_row<
     // Texture state: accumulators for s, t, q (or u, v) and the chunk length.
     let mut acc = [0i64; 3];
     let mut dacc = [0i64; 3];
-    let chunk = match a.tex {
+    let chunk = match tri.tex_mode {
         TexMode::Perspective(n) => n as i64,
         _ => i64::MAX,
     };
@@ -384,7 +401,7 @@ pub(crate) fn shade_row<
     // (u, v) in 16.32 at the current pixel and its per-pixel step within the chunk.
     let (mut u, mut v) = (0i64, 0i64);
     if T::ENABLED {
-        (u, v) = match a.tex {
+        (u, v) = match tri.tex_mode {
             TexMode::Perspective(_) => divide(acc[0], acc[1], acc[2]),
             _ => (acc[0], acc[1]),
         };
@@ -396,7 +413,7 @@ pub(crate) fn shade_row<
         let (mut du, mut dv) = (0i64, 0i64);
         let mut chunk_end = (0i64, 0i64);
         if T::ENABLED {
-            match a.tex {
+            match tri.tex_mode {
                 TexMode::Perspective(_) => {
                     for k in 0..3 {
                         acc[k] = acc[k].saturating_add(dacc[k].saturating_mul(n));
@@ -456,7 +473,7 @@ pub(crate) fn shade_row<
             cu = cu.wrapping_add(du);
             cv = cv.wrapping_add(dv);
         }
-        (u, v) = match a.tex {
+        (u, v) = match tri.tex_mode {
             TexMode::Perspective(_) => chunk_end,
             _ => (cu, cv),
         };

@@ -161,18 +161,20 @@ pub(crate) struct FloatTriangle {
     color: [FloatPlane; 3],
     fog: FloatPlane,
     tex: [FloatPlane; 3],
+    /// This triangle's texture interpolation (see `Attributes::tex_mode_for`).
+    tex_mode: TexMode,
     level: u8,
 }
 
 impl FloatTriangle {
-    pub fn new(v: [FloatScreen; 3], area2: i64, coverage: Coverage, a: &Attributes) -> Self {
+    pub fn new(v: [&FloatScreen; 3], area2: i64, coverage: Coverage, a: &Attributes) -> Self {
         let px = |s: &FloatScreen| {
             [
                 s.xy[0] as f32 / SUBPIXEL_ONE as f32,
                 s.xy[1] as f32 / SUBPIXEL_ONE as f32,
             ]
         };
-        let p = v.each_ref().map(px);
+        let p = v.map(px);
         let d1 = [p[1][0] - p[0][0], p[1][1] - p[0][1]];
         let d2 = [p[2][0] - p[0][0], p[2][1] - p[0][1]];
         let area = area2 as f32 / (SUBPIXEL_ONE * SUBPIXEL_ONE) as f32;
@@ -184,9 +186,10 @@ impl FloatTriangle {
                 dy: (a2 * d1[0] - a1 * d2[0]) / area,
             }
         };
-        let pick = |f: fn(&FloatScreen) -> f32| plane([f(&v[0]), f(&v[1]), f(&v[2])]);
+        let pick = |f: fn(&FloatScreen) -> f32| plane([f(v[0]), f(v[1]), f(v[2])]);
         let empty = FloatPlane::default();
-        let (tex, level) = match a.tex {
+        let tex_mode = a.tex_mode_for([v[0].xy, v[1].xy, v[2].xy]);
+        let (tex, level) = match tex_mode {
             TexMode::Off => ([empty; 3], 0),
             TexMode::Affine => (
                 [pick(|s| s.uv[0]), pick(|s| s.uv[1]), empty],
@@ -212,13 +215,14 @@ impl FloatTriangle {
             ],
             fog: pick(|s| s.fog),
             tex,
+            tex_mode,
             level,
         }
     }
 }
 
 /// Doubled texture-space area in 16.16 repeats squared, as the fixed path measures it.
-fn texel_area(v: &[FloatScreen; 3]) -> i128 {
+fn texel_area(v: &[&FloatScreen; 3]) -> i128 {
     let d = |i: usize, k: usize| (v[i].uv[k] - v[0].uv[k]) as f64;
     ((d(1, 0) * d(2, 1) - d(2, 0) * d(1, 1)).abs() * 4294967296.0) as i128
 }
@@ -297,7 +301,7 @@ pub(crate) fn shade_row<P: PixelFormat, D: DepthFormat>(
             a.flat
         };
         if let Some((level, sampler)) = texture {
-            let (u, v) = match a.tex {
+            let (u, v) = match tri.tex_mode {
                 TexMode::Affine => (tri.tex[0].at(o, oy), tri.tex[1].at(o, oy)),
                 TexMode::Perspective(1) | TexMode::Off => exact_uv(x),
                 TexMode::Perspective(n) => {

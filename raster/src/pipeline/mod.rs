@@ -85,6 +85,34 @@ impl<'t> Attributes<'t> {
         }
     }
 
+    /// The interpolation a triangle uses: under `Spans(n)`, one whose bounding box fits in
+    /// `n x n` pixels is linear between its exactly projected vertices, which bounds its error as
+    /// an `n`-pixel span does, without a division per row.
+    pub fn tex_mode_for(&self, xy: [[i64; 2]; 3]) -> TexMode {
+        match self.tex {
+            TexMode::Perspective(n) if n > 1 => {
+                let extent = |k: usize| {
+                    let (lo, hi) = xy.iter().fold((i64::MAX, i64::MIN), |(lo, hi), p| {
+                        (lo.min(p[k]), hi.max(p[k]))
+                    });
+                    hi - lo
+                };
+                let limit = n as i64 * SUBPIXEL_ONE;
+                if extent(0) <= limit && extent(1) <= limit {
+                    TexMode::Affine
+                } else {
+                    self.tex
+                }
+            }
+            mode => mode,
+        }
+    }
+
+    /// True when any attribute varies across a triangle (otherwise set-up needs no planes).
+    pub fn interpolates(&self) -> bool {
+        self.depth || self.shade || self.fog || self.tex != TexMode::Off
+    }
+
     /// Mip level of a triangle from its doubled texture-space area (16.16 repeats squared) and
     /// doubled screen area (sub-pixels squared).
     pub fn level(&self, texel_area2: i128, area2: i64) -> u8 {

@@ -374,6 +374,12 @@ impl Projected for FloatScreen {
     }
 }
 
+/// One band's colour rows and depth rows (empty without a depth test).
+type BandSlices<'a, P, D> = (
+    &'a mut [<P as PixelFormat>::Pixel],
+    &'a mut [<D as DepthFormat>::Value],
+);
+
 /// Draws the set-up triangles band by band; `row` shades one span of one row.
 fn raster_bands<T, P, D>(
     tris: &[T],
@@ -398,7 +404,7 @@ where
     } else {
         depth
     };
-    let draw_band = |(band, (color, depth)): (usize, (&mut [P::Pixel], &mut [D::Value]))| {
+    let draw_band = |(band, (color, depth)): (usize, BandSlices<'_, P, D>)| {
         let top = (y0 + band * band_rows) as i64;
         let bottom = top + (color.len() / width) as i64;
         let mut fragments = 0;
@@ -419,7 +425,7 @@ where
         fragments
     };
     let color_bands = color.chunks_mut(band_rows * width);
-    let pairs: Vec<(&mut [P::Pixel], &mut [D::Value])> = if D::ENABLED {
+    let pairs: Vec<BandSlices<'_, P, D>> = if D::ENABLED {
         color_bands
             .zip(depth.chunks_mut(band_rows * width))
             .collect()

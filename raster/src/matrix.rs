@@ -118,7 +118,7 @@ mod tests {
                 .max()
                 .unwrap();
             assert!(
-                max < 1 << MANTISSA_BITS && max >= 1 << 27,
+                (1 << 27..1 << MANTISSA_BITS).contains(&max),
                 "scale {s}: {max}"
             );
         }

@@ -1,5 +1,7 @@
 //! Helpers shared by the rasterizer's integration tests.
 
+#![allow(dead_code)] // each test target uses a different part
+
 use glam::DMat4;
 use stripmask_raster::*;
 

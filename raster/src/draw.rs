@@ -19,7 +19,7 @@ use crate::pixel::{Depth16, Depth32, DepthFormat, NoDepth, PixelFormat, Rgb565, 
 use crate::sampler::{Bilinear, Filtering, LevelView, Nearest, NoTexture, ViewOf};
 use crate::state::{CullMode, FrontFace, Precision, Rect, RenderState};
 use crate::texture::{Filter, TextureFormat};
-use crate::vertex::{Mesh, assemble};
+use crate::vertex::{Mesh, Vertex, assemble};
 
 /// Triangles per unit of parallel set-up work.
 const SETUP_CHUNK: usize = 512;
@@ -142,78 +142,50 @@ impl Rasterizer {
             state,
             threads: self.thread_count(),
         };
-        match state.precision {
+        let (rasterized, fragments) = match state.precision {
             Precision::Fixed => {
-                let space = FixedSpace::new(&vp);
                 let fog = state.fog.map(|f| FixedFog {
                     start: transform.fixed.scale_length(f.start),
                     end: transform.fixed.scale_length(f.end),
                 });
-                let m = &transform.fixed;
-                transform_vertices(&mut self.fixed_vertices, &self.used, job.threads, |i| {
-                    let clip = FixedClip::from_vertex(&mesh.vertices[i], m);
-                    let outcode = clip.outcode(&space);
-                    let screen = if outcode == 0 {
-                        FixedScreen::project(&clip, &vp, fog)
-                    } else {
-                        FixedScreen::default()
-                    };
-                    Transformed {
-                        clip,
-                        outcode,
-                        screen,
-                    }
-                });
-                let mut tris = Vec::new();
-                for chunk in self.triangles.chunks(RASTER_CHUNK) {
-                    let project = |c: &_| FixedScreen::project(c, &vp, fog);
-                    set_up(
-                        chunk,
-                        &self.fixed_vertices,
-                        &job,
-                        &space,
-                        &mut tris,
-                        project,
-                        FixedTriangle::new,
-                    );
-                    stats.rasterized += tris.len() as u64;
-                    stats.fragments += dispatch_fixed(fb, &tris, &job);
-                }
+                let stages = Stages {
+                    space: FixedSpace::new(&vp),
+                    clip: |v: &Vertex| FixedClip::from_vertex(v, &transform.fixed),
+                    project: |c: &FixedClip| FixedScreen::project(c, &vp, fog),
+                    make: FixedTriangle::new,
+                    rows: dispatch_fixed,
+                };
+                run(
+                    &mut self.fixed_vertices,
+                    &self.used,
+                    &self.triangles,
+                    mesh,
+                    fb,
+                    &job,
+                    stages,
+                )
             }
             Precision::Float => {
-                let space = FloatSpace::new(&vp);
-                let fog = state.fog;
-                transform_vertices(&mut self.float_vertices, &self.used, job.threads, |i| {
-                    let clip = FloatClip::from_vertex(&mesh.vertices[i], transform);
-                    let outcode = clip.outcode(&space);
-                    let screen = if outcode == 0 {
-                        FloatScreen::project(&clip, &vp, fog)
-                    } else {
-                        FloatScreen::default()
-                    };
-                    Transformed {
-                        clip,
-                        outcode,
-                        screen,
-                    }
-                });
-                let mut tris = Vec::new();
-                for chunk in self.triangles.chunks(RASTER_CHUNK) {
-                    let project = |c: &_| FloatScreen::project(c, &vp, fog);
-                    set_up(
-                        chunk,
-                        &self.float_vertices,
-                        &job,
-                        &space,
-                        &mut tris,
-                        project,
-                        FloatTriangle::new,
-                    );
-                    stats.rasterized += tris.len() as u64;
-                    stats.fragments += dispatch_float(fb, &tris, &job);
-                }
+                let stages = Stages {
+                    space: FloatSpace::new(&vp),
+                    clip: |v: &Vertex| FloatClip::from_vertex(v, transform),
+                    project: |c: &FloatClip| FloatScreen::project(c, &vp, state.fog),
+                    make: FloatTriangle::new,
+                    rows: dispatch_float,
+                };
+                run(
+                    &mut self.float_vertices,
+                    &self.used,
+                    &self.triangles,
+                    mesh,
+                    fb,
+                    &job,
+                    stages,
+                )
             }
-        }
+        };
+        stats.rasterized = rasterized;
+        stats.fragments = fragments;
         Ok(stats)
     }
 
@@ -264,6 +236,68 @@ struct Job<'s, 't> {
     attrs: Attributes<'t>,
     state: &'s RenderState<'t>,
     threads: usize,
+}
+
+/// One pipeline's stages, so that both precisions share the draw's control flow.
+struct Stages<Sp, Cf, Pf, Mf, Rf> {
+    space: Sp,
+    clip: Cf,
+    project: Pf,
+    make: Mf,
+    rows: Rf,
+}
+
+/// Vertex stage once per used vertex, then set-up and rows chunk by chunk. Returns the
+/// triangles rasterized and the fragments written.
+fn run<C, S, T, Cf, Pf, Mf, Rf>(
+    vertices: &mut Vec<Transformed<C, S>>,
+    used: &[u32],
+    triangles: &[[u32; 3]],
+    mesh: &Mesh,
+    fb: &mut Framebuffer,
+    job: &Job,
+    st: Stages<C::Space, Cf, Pf, Mf, Rf>,
+) -> (u64, u64)
+where
+    C: ClipVertex + Send + Sync,
+    C::Space: Sync,
+    S: Projected + Send,
+    T: Send,
+    Cf: Fn(&Vertex) -> C + Sync,
+    Pf: Fn(&C) -> S + Sync,
+    Mf: Fn([&S; 3], i64, Coverage, &Attributes) -> T + Sync,
+    Rf: Fn(&mut Framebuffer, &[T], &Job) -> u64,
+{
+    transform_vertices(vertices, used, job.threads, |i| {
+        let clip = (st.clip)(&mesh.vertices[i]);
+        let outcode = clip.outcode(&st.space);
+        let screen = if outcode == 0 {
+            (st.project)(&clip)
+        } else {
+            S::default()
+        };
+        Transformed {
+            clip,
+            outcode,
+            screen,
+        }
+    });
+    let (mut rasterized, mut fragments) = (0, 0);
+    let mut tris = Vec::new();
+    for chunk in triangles.chunks(RASTER_CHUNK) {
+        set_up(
+            chunk,
+            vertices,
+            job,
+            &st.space,
+            &mut tris,
+            &st.project,
+            &st.make,
+        );
+        rasterized += tris.len() as u64;
+        fragments += (st.rows)(fb, &tris, job);
+    }
+    (rasterized, fragments)
 }
 
 /// Runs the vertex stage over the used vertices, in parallel when it pays.

@@ -128,11 +128,16 @@ impl Coverage {
             return;
         }
         let xs = self.v.map(|p| p[0] as i64);
+        let ys = self.v.map(|p| p[1] as i64);
         let (xmin, xmax) = (
             xs.iter().min().expect("3") >> SUBPIXEL_BITS,
             xs.iter().max().expect("3") >> SUBPIXEL_BITS,
         );
-        if xmax - xmin <= SMALL_WIDTH {
+        let (ymin, ymax) = (
+            ys.iter().min().expect("3") >> SUBPIXEL_BITS,
+            ys.iter().max().expect("3") >> SUBPIXEL_BITS,
+        );
+        if xmax - xmin < SMALL && ymax - ymin < SMALL {
             self.walk_small(start, end, (cols.0.max(xmin), cols.1.min(xmax + 1)), span);
         } else {
             self.walk_dda(start, end, cols, span);
@@ -155,7 +160,9 @@ impl Coverage {
         })
     }
 
-    /// Narrow triangles: evaluate the edge functions across the bounding box, with no division.
+    /// Small triangles: evaluate the edge functions at every pixel of the bounding box, with no
+    /// division and no data-dependent branch. Within `SMALL` pixels each edge value fits in i32
+    /// (`|E| < 2 * (SMALL * 256)^2 < 2^25`), so a row's lanes are computed side by side.
     #[inline]
     fn walk_small(
         &self,
@@ -170,28 +177,25 @@ impl Coverage {
         let edges = self.edges();
         let xc = cols.0 * SUBPIXEL_ONE + SUBPIXEL_HALF;
         let yc = start * SUBPIXEL_ONE + SUBPIXEL_HALF;
-        // E at the first column of each row, plus bias; steps per pixel and per row.
-        let mut row = edges.map(|(e, bias)| e.dx * (yc - e.ay) - e.dy * (xc - e.ax) + bias);
-        let step_x = edges.map(|(e, _)| -e.dy * SUBPIXEL_ONE);
-        let step_y = edges.map(|(e, _)| e.dx * SUBPIXEL_ONE);
+        // E + bias at the first pixel of each row; steps per pixel and per row.
+        let mut row =
+            edges.map(|(e, bias)| (e.dx * (yc - e.ay) - e.dy * (xc - e.ax) + bias) as i32);
+        let step_x = edges.map(|(e, _)| (-e.dy * SUBPIXEL_ONE) as i32);
+        let step_y = edges.map(|(e, _)| (e.dx * SUBPIXEL_ONE) as i32);
+        let columns = (1u32 << (cols.1 - cols.0)) - 1;
         for y in start..end {
-            let mut w = row;
-            let mut x = cols.0;
-            let mut first = None;
-            while x < cols.1 {
-                let inside = w[0] > 0 && w[1] > 0 && w[2] > 0;
-                match (first, inside) {
-                    (None, true) => first = Some(x),
-                    (Some(_), false) => break,
-                    _ => {}
-                }
-                for k in 0..3 {
-                    w[k] += step_x[k];
-                }
-                x += 1;
+            // One bit per pixel inside all three edges; the set bits are contiguous because the
+            // triangle is convex.
+            let mut inside = 0u32;
+            for i in 0..SMALL as i32 {
+                let lane = |k: usize| row[k] + i * step_x[k] > 0;
+                inside |= ((lane(0) & lane(1) & lane(2)) as u32) << i;
             }
-            if let Some(x0) = first {
-                span(y, x0, x);
+            inside &= columns;
+            if inside != 0 {
+                let x0 = cols.0 + inside.trailing_zeros() as i64;
+                let x1 = cols.0 + (32 - inside.leading_zeros()) as i64;
+                span(y, x0, x1);
             }
             for k in 0..3 {
                 row[k] += step_y[k];
@@ -239,8 +243,9 @@ impl Coverage {
     }
 }
 
-/// Triangles at most this many pixels wide are walked by edge functions instead of DDAs.
-const SMALL_WIDTH: i64 = 12;
+/// Triangles whose bounding box spans fewer than this many pixels each way are walked by edge
+/// functions instead of DDAs.
+const SMALL: i64 = 16;
 
 #[cfg(test)]
 mod tests {

@@ -20,11 +20,17 @@ impl<T: ViewOf> Filtering for Bilinear<T> {
         let (x, y) = (tu >> 16, tv >> 16);
         let fx = ((tu >> 8) & 255) as u32;
         let fy = ((tv >> 8) & 255) as u32;
+        let (x0, x1, y0, y1) = (
+            view.column(x),
+            view.column(x + 1),
+            view.row(y),
+            view.row(y + 1),
+        );
         let t = [
-            view.texel(x, y),
-            view.texel(x + 1, y),
-            view.texel(x, y + 1),
-            view.texel(x + 1, y + 1),
+            view.texel(x0, y0),
+            view.texel(x1, y0),
+            view.texel(x0, y1),
+            view.texel(x1, y1),
         ];
         T::blend(t, fx, fy)
     }

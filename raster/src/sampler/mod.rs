@@ -80,20 +80,34 @@ pub(crate) struct LevelView<'a, T> {
 }
 
 impl<'a, T: Texel> LevelView<'a, T> {
-    /// The texel at `(x, y)`, wrapped.
+    /// Column `x` wrapped into the level.
     #[inline]
-    pub fn texel(&self, x: i64, y: i64) -> T {
-        let (x, y) = match self.wrap {
-            Wrap::Repeat => (x & (self.width - 1), y & (self.height - 1)),
-            Wrap::Clamp => (x.clamp(0, self.width - 1), y.clamp(0, self.height - 1)),
-        };
-        self.texels[((y << self.width_shift) + x) as usize]
+    pub fn column(&self, x: i64) -> i64 {
+        match self.wrap {
+            Wrap::Repeat => x & (self.width - 1),
+            Wrap::Clamp => x.clamp(0, self.width - 1),
+        }
+    }
+
+    /// Row `y` wrapped into the level.
+    #[inline]
+    pub fn row(&self, y: i64) -> i64 {
+        match self.wrap {
+            Wrap::Repeat => y & (self.height - 1),
+            Wrap::Clamp => y.clamp(0, self.height - 1),
+        }
+    }
+
+    /// The texel at an already wrapped column and row.
+    #[inline]
+    pub fn texel(&self, column: i64, row: i64) -> T {
+        self.texels[((row << self.width_shift) + column) as usize]
     }
 
     /// The colour at `(x, y)`, wrapped.
     #[inline]
     pub fn fetch(&self, x: i64, y: i64) -> [u8; 3] {
-        self.texel(x, y).rgb()
+        self.texel(self.column(x), self.row(y)).rgb()
     }
 }
 

@@ -16,7 +16,9 @@ use std::thread::JoinHandle;
 
 use tiny_http::{Header, Method, Request, Response, StatusCode};
 
+use crate::archive::ArchiveReader;
 use crate::error::{Error, Result};
+use crate::source::file::FileSource;
 use crate::source::throttle::{DropDice, LinkProfile, PacedReader};
 
 /// A running server; dropping it (or [`Server::stop`]) shuts it down.
@@ -35,13 +37,11 @@ struct Shared {
 }
 
 impl Server {
-    /// Serves `archive` on `listen` (port 0 picks a free port) over a link shaped by `profile`.
+    /// Serves `archive` (checked to be a valid archive first) on `listen` (port 0 picks a free port) over a link shaped by `profile`.
     pub fn start(archive: &Path, listen: SocketAddr, profile: LinkProfile) -> Result<Server> {
         let name = archive.display().to_string();
-        let file = File::open(archive).map_err(|e| Error::io(&name, e))?;
-        if !file.metadata().map_err(|e| Error::io(&name, e))?.is_file() {
-            return Err(Error::invalid(&name, "not a regular file"));
-        }
+        // Refuse anything that is not a readable archive (checks the header and the index).
+        ArchiveReader::open(FileSource::open(archive)?)?;
         let file_name = archive
             .file_name()
             .and_then(|n| n.to_str())

@@ -93,8 +93,6 @@ impl TiffReader {
         let width = self.info.width;
         let first = chunk_row * self.chunk_height;
         let rows = self.chunk_height.min(self.info.height - first);
-        self.band.clear();
-        self.band.resize(rows * width, f32::NAN);
         for c in 0..self.chunks_across {
             let index = u32::try_from(chunk_row * self.chunks_across + c)
                 .map_err(|_| Error::invalid(name, "too many TIFF chunks"))?;
@@ -103,6 +101,11 @@ impl TiffReader {
                 .read_chunk(index)
                 .map_err(|e| Error::invalid(name, format!("corrupt TIFF chunk {index}: {e}")))?;
             let samples = to_f32(chunk, self.nodata);
+            if c == 0 {
+                // Sized only after the decoder (and its limits) accepted a chunk of this row.
+                self.band.clear();
+                self.band.resize(rows * width, f32::NAN);
+            }
             let x0 = c * self.chunk_width;
             let cw = self.chunk_width.min(width - x0);
             if samples.len() < cw * rows {

@@ -9,6 +9,9 @@ use png::{BitDepth, ColorType, Transformations};
 use super::{DemInfo, DemReader, check_dimensions};
 use crate::error::{Error, Result};
 
+/// The largest interlaced image decoded whole (512 MiB).
+const MAX_INTERLACED_BYTES: usize = 512 << 20;
+
 /// Streams rows of a grayscale PNG. Interlaced files are decoded whole (the rows of an Adam7
 /// image arrive out of order), non-interlaced ones one row at a time.
 pub struct PngReader {
@@ -53,9 +56,12 @@ impl PngReader {
         let (width, height) = (reader.info().width as usize, reader.info().height as usize);
         check_dimensions(&name, width, height)?;
         let frame = if reader.info().interlaced {
-            let size = reader.output_buffer_size().ok_or_else(|| {
-                Error::invalid(&name, "interlaced PNG too large to decode in memory")
-            })?;
+            let size = reader
+                .output_buffer_size()
+                .filter(|&n| n <= MAX_INTERLACED_BYTES)
+                .ok_or_else(|| {
+                    Error::invalid(&name, "interlaced PNG too large to decode in memory")
+                })?;
             let mut buf = vec![0; size];
             reader
                 .next_frame(&mut buf)

@@ -44,6 +44,8 @@ pub enum Codec {
     None,
     /// One LZ4 block (no frame, no size prefix; the size follows from the header).
     Lz4,
+    /// One raw DEFLATE stream (RFC 1951, no zlib header), level 6: smaller, slower to decode.
+    Deflate,
 }
 
 impl Codec {
@@ -51,6 +53,7 @@ impl Codec {
         match self {
             Codec::None => 0,
             Codec::Lz4 => 1,
+            Codec::Deflate => 2,
         }
     }
 
@@ -58,6 +61,7 @@ impl Codec {
         match id {
             0 => Some(Codec::None),
             1 => Some(Codec::Lz4),
+            2 => Some(Codec::Deflate),
             _ => None,
         }
     }
@@ -311,6 +315,8 @@ fn stored_bound(header: &Header) -> usize {
     match header.codec {
         Codec::None => raw,
         Codec::Lz4 => lz4_flex::block::get_maximum_output_size(raw),
+        // Stored blocks add 5 bytes per 64 KiB block at worst.
+        Codec::Deflate => raw + 5 * (raw / 65_535 + 1) + 16,
     }
 }
 
@@ -319,6 +325,7 @@ pub fn compress(raw: &[u8], codec: Codec) -> Vec<u8> {
     match codec {
         Codec::None => raw.to_vec(),
         Codec::Lz4 => lz4_flex::block::compress(raw),
+        Codec::Deflate => miniz_oxide::deflate::compress_to_vec(raw, 6),
     }
 }
 
@@ -338,6 +345,14 @@ pub fn decompress(stored: &[u8], header: &Header, name: &str) -> Result<Vec<u8>>
                 Err(e) => Err(Error::invalid(name, format!("corrupt LZ4 tile: {e}"))),
             }
         }
+        Codec::Deflate => match miniz_oxide::inflate::decompress_to_vec_with_limit(stored, size) {
+            Ok(out) if out.len() == size => Ok(out),
+            Ok(out) => Err(Error::invalid(
+                name,
+                format!("tile decompresses to {} bytes, {size} expected", out.len()),
+            )),
+            Err(e) => Err(Error::invalid(name, format!("corrupt DEFLATE tile: {e}"))),
+        },
     }
 }
 

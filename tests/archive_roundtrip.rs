@@ -36,7 +36,7 @@ fn build_synthetic(dir: &Path, codec: Codec) -> (std::path::PathBuf, Vec<f32>) {
 
 #[test]
 fn every_sample_reads_back_within_half_a_quantum_with_shared_borders_and_padding() {
-    for codec in [Codec::Lz4, Codec::None] {
+    for codec in [Codec::Lz4, Codec::None, Codec::Deflate] {
         let dir = tempfile::tempdir().unwrap();
         let (path, samples) = build_synthetic(dir.path(), codec);
         let reader = ArchiveReader::open(FileSource::open(&path).unwrap()).unwrap();

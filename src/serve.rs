@@ -230,13 +230,16 @@ fn answer(request: Request, shared: &Shared) {
         return;
     }
     let body = PacedReader::new(file.take(count), &shared.profile);
+    // Always a Content-Length: tiny_http switches to chunked encoding above 32 KiB, and a HEAD
+    // answer would then not say how long the archive is.
     let response = Response::new(
         StatusCode(status),
         headers,
         body,
         Some(count as usize),
         None,
-    );
+    )
+    .with_chunked_threshold(usize::MAX);
     let _ = request.respond(response);
 }
 

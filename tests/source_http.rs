@@ -211,6 +211,38 @@ fn latency_and_bandwidth_shape_the_served_link() {
 }
 
 #[test]
+fn large_answers_keep_their_content_length() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("big.smdb");
+    let (w, h) = (129, 129);
+    let samples = (0..w * h).map(|k| ((k * 7919) % 4000) as f32).collect();
+    let reader = MemoryReader::new("big", w, h, samples).unwrap();
+    build(
+        NodataFill::new(reader, None),
+        &path,
+        &BuildOptions {
+            codec: stripmask::archive::Codec::None,
+            ..BuildOptions::default()
+        },
+        &|_, _| {},
+    )
+    .unwrap();
+    let len = std::fs::metadata(&path).unwrap().len();
+    assert!(len > 64 * 1024);
+    let server = Server::start(&path, loopback(), LinkProfile::default()).unwrap();
+    let source = HttpSource::new(server.url());
+    assert_eq!(source.size().unwrap(), len);
+    let r = agent()
+        .get(server.url())
+        .header("Range", "bytes=0-49999")
+        .call()
+        .unwrap();
+    assert_eq!(r.headers()["content-length"].to_str().unwrap(), "50000");
+    let reader = ArchiveReader::open(source).unwrap();
+    reader.tile(0, 0).unwrap();
+}
+
+#[test]
 fn simulated_link_without_a_network_drops_and_delays_deterministically() {
     let dir = tempfile::tempdir().unwrap();
     let path = archive(dir.path());

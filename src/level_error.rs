@@ -8,58 +8,44 @@
 
 use crate::mask_level::{kept_indices, level_count};
 
-/// For each grid index, the kept indices `(a, b)` around it (`a <= i <= b`).
-fn brackets(tile_size: usize, level: usize) -> Vec<(usize, usize)> {
-    let kept = kept_indices(tile_size, level);
-    let mut out = Vec::with_capacity(tile_size);
-    let mut k = 0;
-    for i in 0..tile_size {
-        while k + 1 < kept.len() && kept[k + 1] <= i {
-            k += 1;
-        }
-        let a = kept[k];
-        let b = if a == i { i } else { kept[k + 1] };
-        out.push((a, b));
-    }
-    out
-}
-
 /// The maximum error of every mask level (`tile_size - 1` values, level 0 first) for a tile of
 /// `tile_size x tile_size` heights, row-major.
+///
+/// Works cell by cell of each level's kept grid, so the inner loop runs over a contiguous part of
+/// a row without branches (both triangles are evaluated and one is selected).
 pub fn level_errors(heights: &[f32], tile_size: usize) -> Vec<f32> {
     let s = tile_size;
     debug_assert_eq!(heights.len(), s * s);
-    let h = |i: usize, j: usize| heights[j * s + i];
     let mut errors = Vec::with_capacity(level_count(s));
     errors.push(0.0);
     for level in 1..level_count(s) {
-        let br = brackets(s, level);
+        let kept = kept_indices(s, level);
         let mut worst = 0.0f32;
-        for (j, &(j0, j1)) in br.iter().enumerate() {
-            let v = if j1 > j0 {
-                (j - j0) as f32 / (j1 - j0) as f32
-            } else {
-                0.0
-            };
-            for (i, &(i0, i1)) in br.iter().enumerate() {
-                if i0 == i1 && j0 == j1 {
-                    continue;
+        for cj in kept.windows(2) {
+            let (j0, j1) = (cj[0], cj[1]);
+            for ci in kept.windows(2) {
+                let (i0, i1) = (ci[0], ci[1]);
+                let h00 = heights[j0 * s + i0];
+                let h10 = heights[j0 * s + i1];
+                let h01 = heights[j1 * s + i0];
+                let h11 = heights[j1 * s + i1];
+                let inv_w = 1.0 / (i1 - i0) as f32;
+                let inv_h = 1.0 / (j1 - j0) as f32;
+                for j in j0..=j1 {
+                    let v = (j - j0) as f32 * inv_h;
+                    let row = &heights[j * s + i0..=j * s + i1];
+                    for (di, &h) in row.iter().enumerate() {
+                        let u = di as f32 * inv_w;
+                        // North-east triangle (00, 10, 11) when u >= v, else south-west (00, 01, 11).
+                        let upper = h00 + u * (h10 - h00) + v * (h11 - h10);
+                        let lower = h00 + v * (h01 - h00) + u * (h11 - h01);
+                        let interpolated = if u >= v { upper } else { lower };
+                        let e = (h - interpolated).abs();
+                        if e > worst {
+                            worst = e;
+                        }
+                    }
                 }
-                let u = if i1 > i0 {
-                    (i - i0) as f32 / (i1 - i0) as f32
-                } else {
-                    0.0
-                };
-                let h00 = h(i0, j0);
-                let h11 = h(i1, j1);
-                let interpolated = if u >= v {
-                    let h10 = h(i1, j0);
-                    h00 + u * (h10 - h00) + v * (h11 - h10)
-                } else {
-                    let h01 = h(i0, j1);
-                    h00 + v * (h01 - h00) + u * (h11 - h01)
-                };
-                worst = worst.max((h(i, j) - interpolated).abs());
             }
         }
         errors.push(worst);

@@ -93,3 +93,38 @@ fn the_index_finds_tiles_in_o1_and_the_main_file_is_header_plus_index() {
     assert_eq!(next, std::fs::metadata(&path).unwrap().len());
     assert!(!dir.path().join("synthetic.smdb.partial").exists());
 }
+
+#[test]
+fn a_colour_image_is_cut_into_tile_textures_aligned_with_the_samples() {
+    let dir = tempfile::tempdir().unwrap();
+    // West half red, east half blue, one pixel per sample of a 65 x 33 DEM.
+    let (w, h) = (65u32, 33u32);
+    let img = image::RgbImage::from_fn(w, h, |x, _| {
+        if x < 32 {
+            image::Rgb([200, 0, 0])
+        } else {
+            image::Rgb([0, 0, 200])
+        }
+    });
+    let texture = dir.path().join("ortho.png");
+    img.save(&texture).unwrap();
+    let reader = MemoryReader::new("flat", 65, 33, vec![10.0; 65 * 33]).unwrap();
+    let out = dir.path().join("t.smdb");
+    let options = BuildOptions {
+        tile_size: 17,
+        texture_image: Some(texture),
+        texture_factor: 2,
+        ..BuildOptions::default()
+    };
+    build(NodataFill::new(reader, None), &out, &options, &|_, _| {}).unwrap();
+    let archive = ArchiveReader::open(FileSource::open(&out).unwrap()).unwrap();
+    assert_eq!(archive.header().texture_size, 32);
+    let red = stripmask::rgb565::pack([200, 0, 0]);
+    let blue = stripmask::rgb565::pack([0, 0, 200]);
+    let west = archive.tile(0, 0).unwrap();
+    let east = archive.tile(3, 1).unwrap();
+    assert_eq!(west.texture_mips.len(), 6);
+    assert!(west.texture_mips[0].iter().all(|&t| t == red));
+    assert!(east.texture_mips[0].iter().all(|&t| t == blue));
+    assert_eq!(*west.texture_mips[5].first().unwrap(), red);
+}

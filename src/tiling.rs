@@ -147,9 +147,6 @@ impl<R: DemReader> BandReader<R> {
             } else {
                 // South padding: repeat the previous row.
                 self.band.samples.copy_within(dst - w..dst, dst);
-                if self.rows_read == self.grid.height {
-                    self.rows_read += 1;
-                }
             }
         }
         Ok(Some(&self.band))

@@ -164,6 +164,49 @@ fn srtm_hgt_with_voids() {
 }
 
 #[test]
+fn geographic_geotiff_spacing_is_approximated_in_metres() {
+    let path = fixture("geographic.tif");
+    check(&path, &options(), false);
+    let info = dem::open(&path, &options()).unwrap().info().clone();
+    // 1/29 degree of latitude per row.
+    let spacing = info.spacing_hint.unwrap();
+    assert!((spacing - 111_320.0 / 29.0).abs() < 1e-6, "{spacing}");
+    assert_eq!(info.origin_hint, None);
+}
+
+#[test]
+fn eight_bit_png_and_big_endian_raw() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("eight.png");
+    image::GrayImage::from_fn(5, 4, |x, y| image::Luma([(x * 10 + y) as u8]))
+        .save(&png)
+        .unwrap();
+    let dem = dem::open(&png, &options()).unwrap().read_all().unwrap();
+    assert_eq!((dem.width, dem.height), (5, 4));
+    assert_eq!(dem.at(4, 3), 43.0);
+
+    let raw = dir.path().join("be.r32");
+    let mut bytes = vec![0u8; 8];
+    for k in 0..6 {
+        bytes.extend_from_slice(&(k as f32 * 1.5 - 2.0).to_be_bytes());
+    }
+    std::fs::write(&raw, bytes).unwrap();
+    let opts = OpenOptions {
+        format: None,
+        raw: Some(RawLayout {
+            width: 3,
+            height: 2,
+            sample_type: SampleType::F32,
+            big_endian: true,
+            header_bytes: 8,
+        }),
+        nodata: None,
+    };
+    let dem = dem::open(&raw, &opts).unwrap().read_all().unwrap();
+    assert_eq!(dem.samples, vec![-2.0, -0.5, 1.0, 2.5, 4.0, 5.5]);
+}
+
+#[test]
 fn bad_inputs_name_the_file_and_the_problem() {
     let dir = tempfile::tempdir().unwrap();
     let err = |path: &Path, opts: &OpenOptions| -> String {

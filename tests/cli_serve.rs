@@ -73,3 +73,18 @@ fn serve_refuses_a_missing_file_and_a_bad_drop_rate() {
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("Cargo.toml: bad magic"));
 }
+
+#[cfg(not(feature = "https"))]
+#[test]
+fn https_without_the_feature_says_how_to_get_it() {
+    let o = stripmask()
+        .args(["info", "https://example.invalid/x.smdb"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("https://example.invalid/x.smdb") && err.contains("--features https"),
+        "{err}"
+    );
+}

@@ -9,7 +9,7 @@ pub mod file;
 pub mod http;
 pub mod throttle;
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 
 /// Random access to the bytes of one archive.
 pub trait TileSource: Send + Sync {
@@ -33,8 +33,14 @@ impl<S: TileSource + ?Sized> TileSource for Box<S> {
     }
 }
 
-/// Opens a local path or an `http://` URL as a source.
+/// Opens a local path or an `http://` URL (`https://` with the `https` feature) as a source.
 pub fn open(file_or_url: &str) -> Result<Box<dyn TileSource>> {
+    if file_or_url.starts_with("https://") && !cfg!(feature = "https") {
+        return Err(Error::Http {
+            url: file_or_url.to_string(),
+            problem: "https:// needs stripmask built with `--features https`".into(),
+        });
+    }
     if file_or_url.starts_with("http://") || file_or_url.starts_with("https://") {
         Ok(Box::new(http::HttpSource::new(file_or_url)))
     } else {

@@ -12,16 +12,17 @@
 //! A client reads the header and the index (the paper's "main file") in two range requests, then
 //! any tile in one more: tile `(tx, ty)` is entry `ty * tiles_x + tx`.
 
-use std::fs::File;
-use std::io::{BufWriter, Seek, SeekFrom, Write};
-use std::path::{Path, PathBuf};
+mod reader;
+mod writer;
 
 use serde::Serialize;
 
 use crate::error::{Error, Result};
-use crate::source::TileSource;
-use crate::tile::{Tile, payload_size};
+use crate::tile::payload_size;
 use crate::tiling::is_valid_tile_size;
+
+pub use reader::{ArchiveReader, DEFAULT_ATTEMPTS};
+pub use writer::ArchiveWriter;
 
 /// The first 8 bytes of every archive.
 pub const MAGIC: [u8; 8] = *b"SMDB\r\n\x1a\n";
@@ -309,7 +310,7 @@ pub fn parse_index(
         .collect()
 }
 
-/// The most bytes a stored payload may take (LZ4's worst case over the raw size).
+/// The most bytes a stored payload may take (the codec's worst case over the raw size).
 fn stored_bound(header: &Header) -> usize {
     let raw = header.payload_size();
     match header.codec {
@@ -354,225 +355,4 @@ pub fn decompress(stored: &[u8], header: &Header, name: &str) -> Result<Vec<u8>>
             Err(e) => Err(Error::invalid(name, format!("corrupt DEFLATE tile: {e}"))),
         },
     }
-}
-
-/// Writes an archive: header and index placeholders first, then payloads in any order, then the
-/// real index and header. The file appears under its final name only when [`finish`] succeeds.
-///
-/// [`finish`]: ArchiveWriter::finish
-pub struct ArchiveWriter {
-    path: PathBuf,
-    partial: PathBuf,
-    /// `None` once finished; a writer dropped before that removes its partial file.
-    file: Option<BufWriter<File>>,
-    header: Header,
-    entries: Vec<Option<IndexEntry>>,
-    position: u64,
-}
-
-impl ArchiveWriter {
-    /// Creates `path.partial` for an archive described by `header` (its height range is filled
-    /// in by [`ArchiveWriter::finish`]).
-    pub fn create(path: &Path, header: Header) -> Result<Self> {
-        let mut partial = path.as_os_str().to_owned();
-        partial.push(".partial");
-        let partial = PathBuf::from(partial);
-        let name = partial.display().to_string();
-        let file = File::create(&partial).map_err(|e| Error::io(&name, e))?;
-        let mut file = BufWriter::with_capacity(1 << 20, file);
-        let start = header.payload_start();
-        file.write_all(&vec![0; start as usize])
-            .map_err(|e| Error::io(&name, e))?;
-        Ok(ArchiveWriter {
-            path: path.to_path_buf(),
-            partial,
-            file: Some(file),
-            entries: vec![None; header.tile_count()],
-            header,
-            position: start,
-        })
-    }
-
-    /// Appends the stored bytes of tile `index`.
-    pub fn write_tile(&mut self, index: usize, stored: &[u8]) -> Result<()> {
-        let name = self.partial.display().to_string();
-        let file = self.file.as_mut().expect("writer not finished");
-        file.write_all(stored).map_err(|e| Error::io(&name, e))?;
-        self.entries[index] = Some(IndexEntry {
-            offset: self.position,
-            length: stored.len() as u32,
-            crc32: crc32fast::hash(stored),
-        });
-        self.position += stored.len() as u64;
-        Ok(())
-    }
-
-    /// Writes the index and the header with the height range, and renames the file into place.
-    /// Returns the archive's length in bytes.
-    pub fn finish(mut self, min_height: f32, max_height: f32) -> Result<u64> {
-        let name = self.partial.display().to_string();
-        let entries: Vec<IndexEntry> = self
-            .entries
-            .iter()
-            .enumerate()
-            .map(|(i, e)| {
-                e.ok_or_else(|| Error::invalid(&name, format!("tile {i} was never written")))
-            })
-            .collect::<Result<_>>()?;
-        self.header.min_height = min_height;
-        self.header.max_height = max_height;
-        let io = |e| Error::io(&name, e);
-        let mut file = self.file.take().expect("writer not finished");
-        file.seek(SeekFrom::Start(0)).map_err(io)?;
-        file.write_all(&self.header.to_bytes()).map_err(io)?;
-        file.write_all(&index_to_bytes(&entries)).map_err(io)?;
-        let file = file.into_inner().map_err(|e| io(e.into_error()))?;
-        file.sync_all().map_err(io)?;
-        drop(file);
-        std::fs::rename(&self.partial, &self.path)
-            .map_err(|e| Error::io(self.path.display().to_string(), e))?;
-        Ok(self.position)
-    }
-}
-
-impl Drop for ArchiveWriter {
-    fn drop(&mut self) {
-        if self.file.take().is_some() {
-            // An unfinished archive is useless; do not leave it behind.
-            let _ = std::fs::remove_file(&self.partial);
-        }
-    }
-}
-
-/// Reads an archive through a [`TileSource`]: header and index once, then tiles on demand, each
-/// checked against its crc32 and fetched again (up to `attempts` times) when it fails.
-pub struct ArchiveReader<S> {
-    source: S,
-    header: Header,
-    index: Vec<IndexEntry>,
-    attempts: u32,
-}
-
-/// How many times a reader fetches a piece (header, index, tile) before giving up.
-pub const DEFAULT_ATTEMPTS: u32 = 4;
-
-impl<S: TileSource> ArchiveReader<S> {
-    /// Fetches and validates the header and the index.
-    pub fn open(source: S) -> Result<Self> {
-        Self::open_with_attempts(source, DEFAULT_ATTEMPTS)
-    }
-
-    /// [`ArchiveReader::open`] with a bound on fetch attempts per piece (at least 1).
-    pub fn open_with_attempts(source: S, attempts: u32) -> Result<Self> {
-        let attempts = attempts.max(1);
-        let name = source.name().to_string();
-        let file_len = source.size()?;
-        let header = retry(attempts, || {
-            let bytes = source.read_range(0, file_len.min(HEADER_LEN as u64))?;
-            Header::parse(&bytes, &name)
-        })?;
-        if file_len < header.payload_start() {
-            return Err(Error::invalid(
-                &name,
-                format!(
-                    "truncated index: the file is {file_len} bytes, the index ends at {}",
-                    header.payload_start()
-                ),
-            ));
-        }
-        let index = retry(attempts, || {
-            let bytes = source.read_range(HEADER_LEN as u64, header.index_len() as u64)?;
-            parse_index(&bytes, &header, Some(file_len), &name)
-        })?;
-        Ok(ArchiveReader {
-            source,
-            header,
-            index,
-            attempts,
-        })
-    }
-
-    /// The header.
-    pub fn header(&self) -> &Header {
-        &self.header
-    }
-
-    /// The index, one entry per tile in row-major order.
-    pub fn index(&self) -> &[IndexEntry] {
-        &self.index
-    }
-
-    /// The source's name (file path or URL).
-    pub fn name(&self) -> &str {
-        self.source.name()
-    }
-
-    /// The stored bytes of tile `i` (row-major), verified against the index checksum.
-    pub fn tile_bytes(&self, i: usize) -> Result<Vec<u8>> {
-        let name = self.source.name();
-        let entry = *self.index.get(i).ok_or_else(|| {
-            Error::invalid(
-                name,
-                format!("tile {i} does not exist ({} tiles)", self.index.len()),
-            )
-        })?;
-        let mut last = None;
-        for attempt in 1..=self.attempts {
-            match self
-                .source
-                .read_range(entry.offset, u64::from(entry.length))
-            {
-                Ok(bytes) => {
-                    let actual = crc32fast::hash(&bytes);
-                    if actual == entry.crc32 && bytes.len() == entry.length as usize {
-                        return Ok(bytes);
-                    }
-                    last = Some(Error::Checksum {
-                        name: name.to_string(),
-                        tile: i,
-                        expected: entry.crc32,
-                        actual,
-                        attempts: attempt,
-                    });
-                }
-                Err(e) => last = Some(e),
-            }
-        }
-        Err(last.expect("at least one attempt"))
-    }
-
-    /// Tile `(tx, ty)`, fetched, verified and decoded.
-    pub fn tile(&self, tx: usize, ty: usize) -> Result<Tile> {
-        let name = self.source.name();
-        if tx >= self.header.tiles_x as usize || ty >= self.header.tiles_y as usize {
-            return Err(Error::invalid(
-                name,
-                format!(
-                    "tile ({tx}, {ty}) is outside the {} x {} grid",
-                    self.header.tiles_x, self.header.tiles_y
-                ),
-            ));
-        }
-        let i = ty * self.header.tiles_x as usize + tx;
-        let label = format!("{name} tile {i}");
-        let raw = decompress(&self.tile_bytes(i)?, &self.header, &label)?;
-        Tile::decode(
-            &raw,
-            self.header.tile_size as usize,
-            self.header.texture_size as usize,
-            &label,
-        )
-    }
-}
-
-/// Runs `f` up to `attempts` times until it succeeds; returns the last error.
-fn retry<T>(attempts: u32, mut f: impl FnMut() -> Result<T>) -> Result<T> {
-    let mut result = f();
-    for _ in 1..attempts {
-        if result.is_ok() {
-            break;
-        }
-        result = f();
-    }
-    result
 }

@@ -1,1 +1,24 @@
 //! stripmask: adaptive streaming and CPU rendering of large terrains with strip masks.
+//!
+//! The terrain database side: [`dem`] readers stream elevation rows from PNG, GeoTIFF, SRTM
+//! `.hgt`, ESRI ASCII grids and raw files; [`builder`] cuts them into tiles of `2^n + 1` samples
+//! with shared borders ([`tiling`]), encodes each [`tile`] (quantised heights, per-level errors,
+//! an RGB565 texture with mipmaps) and writes a single-file [`archive`]. A [`source`] reads that
+//! archive back from a local file or over HTTP range requests, and [`serve`] is a small static
+//! server for it.
+#![warn(missing_docs)]
+
+pub mod archive;
+pub mod builder;
+pub mod dem;
+pub mod error;
+pub mod level_error;
+pub mod mask_level;
+pub mod rgb565;
+pub mod serve;
+pub mod source;
+pub mod texture_gen;
+pub mod tile;
+pub mod tiling;
+
+pub use error::{Error, Result};

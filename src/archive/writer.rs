@@ -1,0 +1,96 @@
+//! Writing an archive in one pass over the tiles.
+
+use std::fs::File;
+use std::io::{BufWriter, Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+
+use super::{Header, IndexEntry, index_to_bytes};
+use crate::error::{Error, Result};
+
+/// Writes an archive: header and index placeholders first, then payloads in any order, then the
+/// real index and header. The file appears under its final name only when [`finish`] succeeds.
+///
+/// [`finish`]: ArchiveWriter::finish
+pub struct ArchiveWriter {
+    path: PathBuf,
+    partial: PathBuf,
+    /// `None` once finished; a writer dropped before that removes its partial file.
+    file: Option<BufWriter<File>>,
+    header: Header,
+    entries: Vec<Option<IndexEntry>>,
+    position: u64,
+}
+
+impl ArchiveWriter {
+    /// Creates `path.partial` for an archive described by `header` (its height range is filled
+    /// in by [`ArchiveWriter::finish`]).
+    pub fn create(path: &Path, header: Header) -> Result<Self> {
+        let mut partial = path.as_os_str().to_owned();
+        partial.push(".partial");
+        let partial = PathBuf::from(partial);
+        let name = partial.display().to_string();
+        let file = File::create(&partial).map_err(|e| Error::io(&name, e))?;
+        let mut file = BufWriter::with_capacity(1 << 20, file);
+        let start = header.payload_start();
+        file.write_all(&vec![0; start as usize])
+            .map_err(|e| Error::io(&name, e))?;
+        Ok(ArchiveWriter {
+            path: path.to_path_buf(),
+            partial,
+            file: Some(file),
+            entries: vec![None; header.tile_count()],
+            header,
+            position: start,
+        })
+    }
+
+    /// Appends the stored bytes of tile `index`.
+    pub fn write_tile(&mut self, index: usize, stored: &[u8]) -> Result<()> {
+        let name = self.partial.display().to_string();
+        let file = self.file.as_mut().expect("writer not finished");
+        file.write_all(stored).map_err(|e| Error::io(&name, e))?;
+        self.entries[index] = Some(IndexEntry {
+            offset: self.position,
+            length: stored.len() as u32,
+            crc32: crc32fast::hash(stored),
+        });
+        self.position += stored.len() as u64;
+        Ok(())
+    }
+
+    /// Writes the index and the header with the height range, and renames the file into place.
+    /// Returns the archive's length in bytes.
+    pub fn finish(mut self, min_height: f32, max_height: f32) -> Result<u64> {
+        let name = self.partial.display().to_string();
+        let entries: Vec<IndexEntry> = self
+            .entries
+            .iter()
+            .enumerate()
+            .map(|(i, e)| {
+                e.ok_or_else(|| Error::invalid(&name, format!("tile {i} was never written")))
+            })
+            .collect::<Result<_>>()?;
+        self.header.min_height = min_height;
+        self.header.max_height = max_height;
+        let io = |e| Error::io(&name, e);
+        let mut file = self.file.take().expect("writer not finished");
+        file.seek(SeekFrom::Start(0)).map_err(io)?;
+        file.write_all(&self.header.to_bytes()).map_err(io)?;
+        file.write_all(&index_to_bytes(&entries)).map_err(io)?;
+        let file = file.into_inner().map_err(|e| io(e.into_error()))?;
+        file.sync_all().map_err(io)?;
+        drop(file);
+        std::fs::rename(&self.partial, &self.path)
+            .map_err(|e| Error::io(self.path.display().to_string(), e))?;
+        Ok(self.position)
+    }
+}
+
+impl Drop for ArchiveWriter {
+    fn drop(&mut self) {
+        if self.file.take().is_some() {
+            // An unfinished archive is useless; do not leave it behind.
+            let _ = std::fs::remove_file(&self.partial);
+        }
+    }
+}

@@ -1,0 +1,340 @@
+//! Command-line arguments and the `build`, `info` and `serve` commands.
+
+use std::io::Write;
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use clap::{Args, Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::Serialize;
+use stripmask::archive::{ArchiveReader, Codec, HEADER_LEN, Header};
+use stripmask::builder::{BuildOptions, build};
+use stripmask::dem::{self, DemFormat, OpenOptions, RawLayout, SampleType};
+use stripmask::error::{Error, Result};
+use stripmask::serve::Server;
+use stripmask::source::{self, throttle::LinkProfile};
+
+/// Adaptive streaming and CPU rendering of large terrains with strip masks.
+#[derive(Parser, Debug)]
+#[command(name = "stripmask", version, about)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Cut a DEM (PNG, GeoTIFF, .hgt, .asc, raw/BIL) into tiles and write a .smdb archive.
+    Build(BuildArgs),
+    /// Describe an archive (a file or an http:// URL).
+    Info(InfoArgs),
+    /// Serve one archive over HTTP with byte ranges (loopback by default).
+    Serve(ServeArgs),
+}
+
+#[derive(Args, Debug)]
+struct BuildArgs {
+    /// The DEM file.
+    input: PathBuf,
+    /// The archive to write.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Input format (default: from the extension).
+    #[arg(long, value_enum)]
+    format: Option<DemFormat>,
+    /// Raw/BIL: samples per row.
+    #[arg(long)]
+    width: Option<usize>,
+    /// Raw/BIL: rows.
+    #[arg(long)]
+    height: Option<usize>,
+    /// Raw/BIL: sample type.
+    #[arg(long, value_enum)]
+    sample_type: Option<SampleType>,
+    /// Raw/BIL: samples are big-endian (default little-endian).
+    #[arg(long)]
+    big_endian: bool,
+    /// Raw/BIL: bytes to skip before the first sample.
+    #[arg(long, default_value_t = 0)]
+    header_bytes: u64,
+    /// A raw value that means "no data" (in addition to the file's own).
+    #[arg(long, allow_negative_numbers = true)]
+    nodata: Option<f32>,
+    /// Samples per tile side, 2^n + 1.
+    #[arg(long, default_value_t = 129)]
+    tile_size: usize,
+    /// Metres between samples (default: the file's georeferencing, else 1).
+    #[arg(long)]
+    spacing: Option<f64>,
+    /// Metres per raw height unit.
+    #[arg(long, default_value_t = 1.0)]
+    vertical_scale: f64,
+    /// World x, y of the north-west sample (default: the file's georeferencing, else 0, 0).
+    #[arg(long, num_args = 2, value_names = ["X", "Y"], allow_negative_numbers = true)]
+    origin: Option<Vec<f64>>,
+    /// A colour image covering the DEM, cut into tile textures (default: ramp + hill shading).
+    #[arg(long)]
+    texture: Option<PathBuf>,
+    /// Texels per grid cell in tile textures (1, 2, 4 or 8).
+    #[arg(long, default_value_t = 1)]
+    texture_factor: usize,
+    /// How tile payloads are stored.
+    #[arg(long, value_enum, default_value_t = Codec::Lz4)]
+    codec: Codec,
+    /// No progress bar and no summary.
+    #[arg(short, long)]
+    quiet: bool,
+    /// Print the summary as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Args, Debug)]
+struct InfoArgs {
+    /// An archive file or http:// URL.
+    file_or_url: String,
+    /// Print JSON.
+    #[arg(long)]
+    json: bool,
+    /// Also fetch, verify and decode every tile, and report the rate.
+    #[arg(long)]
+    check: bool,
+}
+
+#[derive(Args, Debug)]
+struct ServeArgs {
+    /// The archive to serve.
+    file: PathBuf,
+    /// Address to listen on (port 0 picks a free port).
+    #[arg(long, default_value = "127.0.0.1:0")]
+    listen: SocketAddr,
+    /// Simulated bandwidth per connection, kilobits per second.
+    #[arg(long)]
+    bandwidth_kbps: Option<f64>,
+    /// Simulated latency before each answer, milliseconds.
+    #[arg(long, default_value_t = 0)]
+    latency_ms: u64,
+    /// Fraction of requests answered 503, 0..1.
+    #[arg(long, default_value_t = 0.0)]
+    drop_rate: f64,
+    /// Seed of the drop decisions.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+}
+
+/// Runs one command.
+pub fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Build(a) => run_build(a),
+        Command::Info(a) => run_info(a),
+        Command::Serve(a) => run_serve(a),
+    }
+}
+
+fn run_build(a: BuildArgs) -> Result<()> {
+    let raw = match (a.width, a.height, a.sample_type) {
+        (Some(width), Some(height), Some(sample_type)) => Some(RawLayout {
+            width,
+            height,
+            sample_type,
+            big_endian: a.big_endian,
+            header_bytes: a.header_bytes,
+        }),
+        (None, None, None) => None,
+        _ => {
+            return Err(Error::Usage(
+                "--width, --height and --sample-type go together".into(),
+            ));
+        }
+    };
+    let reader = dem::open(
+        &a.input,
+        &OpenOptions {
+            format: a.format,
+            raw,
+            nodata: a.nodata,
+        },
+    )?;
+    let options = BuildOptions {
+        tile_size: a.tile_size,
+        spacing: a.spacing,
+        vertical_scale: a.vertical_scale,
+        origin: a.origin.map(|o| (o[0], o[1])),
+        texture_factor: a.texture_factor,
+        texture_image: a.texture,
+        codec: a.codec,
+    };
+    let bar = if a.quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(0).with_style(
+            ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} tiles {eta}")
+                .expect("valid template")
+                .progress_chars("=> "),
+        )
+    };
+    let report = build(reader, &a.output, &options, &|done, total| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    })?;
+    bar.finish_and_clear();
+    if a.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&report).expect("serialisable")
+        );
+    } else if !a.quiet {
+        let h = &report.header;
+        println!(
+            "{}: {} x {} tiles of {} samples, {} bytes ({:.1} KiB per tile stored, {:.1} KiB raw) in {:.2} s",
+            a.output.display(),
+            h.tiles_x,
+            h.tiles_y,
+            h.tile_size,
+            report.archive_bytes,
+            report.stored_payload_bytes as f64 / h.tile_count() as f64 / 1024.0,
+            report.raw_payload_bytes as f64 / h.tile_count() as f64 / 1024.0,
+            report.seconds
+        );
+    }
+    Ok(())
+}
+
+#[derive(Serialize)]
+struct InfoReport {
+    name: String,
+    version: u32,
+    header: Header,
+    tile_count: usize,
+    file_bytes: u64,
+    main_bytes: u64,
+    raw_tile_bytes: usize,
+    stored_tile_bytes_min: u32,
+    stored_tile_bytes_mean: f64,
+    stored_tile_bytes_max: u32,
+    stored_tile_bytes: Vec<u32>,
+    check: Option<CheckReport>,
+}
+
+#[derive(Serialize)]
+struct CheckReport {
+    tiles: usize,
+    bytes: u64,
+    seconds: f64,
+    tiles_per_second: f64,
+    mebibytes_per_second: f64,
+}
+
+fn run_info(a: InfoArgs) -> Result<()> {
+    let source = source::open(&a.file_or_url)?;
+    let file_bytes = source.size()?;
+    let reader = ArchiveReader::open(source)?;
+    let h = reader.header().clone();
+    let lengths: Vec<u32> = reader.index().iter().map(|e| e.length).collect();
+    let check = if a.check {
+        let started = Instant::now();
+        let mut bytes = 0;
+        for ty in 0..h.tiles_y as usize {
+            for tx in 0..h.tiles_x as usize {
+                reader.tile(tx, ty)?;
+                bytes += u64::from(lengths[ty * h.tiles_x as usize + tx]);
+            }
+        }
+        let seconds = started.elapsed().as_secs_f64().max(1e-9);
+        Some(CheckReport {
+            tiles: h.tile_count(),
+            bytes,
+            seconds,
+            tiles_per_second: h.tile_count() as f64 / seconds,
+            mebibytes_per_second: bytes as f64 / seconds / (1024.0 * 1024.0),
+        })
+    } else {
+        None
+    };
+    let report = InfoReport {
+        name: a.file_or_url.clone(),
+        version: stripmask::archive::VERSION,
+        tile_count: h.tile_count(),
+        file_bytes,
+        main_bytes: (HEADER_LEN + h.index_len()) as u64,
+        raw_tile_bytes: h.payload_size(),
+        stored_tile_bytes_min: lengths.iter().copied().min().unwrap_or(0),
+        stored_tile_bytes_mean: lengths.iter().map(|&l| f64::from(l)).sum::<f64>()
+            / lengths.len().max(1) as f64,
+        stored_tile_bytes_max: lengths.iter().copied().max().unwrap_or(0),
+        stored_tile_bytes: lengths,
+        header: h,
+        check,
+    };
+    if a.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&report).expect("serialisable")
+        );
+        return Ok(());
+    }
+    let h = &report.header;
+    let mut out = String::new();
+    let mut line = |s: String| {
+        out.push_str(&s);
+        out.push('\n');
+    };
+    line(format!(
+        "archive     {} (format version {})",
+        report.name, report.version
+    ));
+    line(format!(
+        "grid        {} x {} tiles of {} x {} samples, from a {} x {} DEM",
+        h.tiles_x, h.tiles_y, h.tile_size, h.tile_size, h.source_width, h.source_height
+    ));
+    line(format!(
+        "spacing     {} m, vertical scale {} m per unit, origin ({}, {})",
+        h.spacing, h.vertical_scale, h.origin_x, h.origin_y
+    ));
+    line(format!(
+        "heights     {} .. {} m",
+        h.min_height, h.max_height
+    ));
+    line(format!(
+        "texture     {0} x {0} RGB565 per tile with mipmaps; payload codec {1:?}",
+        h.texture_size, h.codec
+    ));
+    line(format!(
+        "bytes       {} in all; header + index {}; per tile {} raw, stored {} / {:.0} / {} (min / mean / max)",
+        report.file_bytes,
+        report.main_bytes,
+        report.raw_tile_bytes,
+        report.stored_tile_bytes_min,
+        report.stored_tile_bytes_mean,
+        report.stored_tile_bytes_max
+    ));
+    if let Some(c) = &report.check {
+        line(format!(
+            "check       {} tiles verified and decoded in {:.3} s: {:.1} tiles/s, {:.2} MiB/s",
+            c.tiles, c.seconds, c.tiles_per_second, c.mebibytes_per_second
+        ));
+    }
+    print!("{out}");
+    Ok(())
+}
+
+fn run_serve(a: ServeArgs) -> Result<()> {
+    if !(0.0..=1.0).contains(&a.drop_rate) {
+        return Err(Error::Usage(format!(
+            "--drop-rate {} is not between 0 and 1",
+            a.drop_rate
+        )));
+    }
+    let profile = LinkProfile {
+        bandwidth_kbps: a.bandwidth_kbps,
+        latency: Duration::from_millis(a.latency_ms),
+        drop_rate: a.drop_rate,
+        seed: a.seed,
+    };
+    let server = Server::start(&a.file, a.listen, profile)?;
+    println!("{}", server.url());
+    let _ = std::io::stdout().flush();
+    server.wait();
+    Ok(())
+}

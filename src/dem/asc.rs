@@ -1,0 +1,180 @@
+//! ESRI ASCII grids (`.asc`): a `key value` header, then rows of numbers.
+
+use std::fs::File;
+use std::io::{BufRead, BufReader};
+use std::path::Path;
+
+use super::{DemInfo, DemReader, check_dimensions};
+use crate::error::{Error, Result};
+
+/// The longest token (number or header key) accepted, to bound memory on garbage input.
+const MAX_TOKEN: usize = 64;
+
+/// Streams rows of an ESRI ASCII grid.
+pub struct AscReader {
+    info: DemInfo,
+    tokens: Tokens<BufReader<File>>,
+    nodata: Option<f64>,
+    next_row: usize,
+}
+
+struct Tokens<R> {
+    input: R,
+    pending: Option<String>,
+}
+
+impl<R: BufRead> Tokens<R> {
+    fn next(&mut self, name: &str) -> Result<Option<String>> {
+        if let Some(t) = self.pending.take() {
+            return Ok(Some(t));
+        }
+        let mut token = Vec::new();
+        loop {
+            let buf = self.input.fill_buf().map_err(|e| Error::io(name, e))?;
+            if buf.is_empty() {
+                break;
+            }
+            let mut used = 0;
+            let mut done = false;
+            for &b in buf {
+                used += 1;
+                if b.is_ascii_whitespace() {
+                    if !token.is_empty() {
+                        done = true;
+                        break;
+                    }
+                } else {
+                    if token.len() == MAX_TOKEN {
+                        return Err(Error::invalid(name, "token too long for an ASCII grid"));
+                    }
+                    token.push(b);
+                }
+            }
+            self.input.consume(used);
+            if done {
+                break;
+            }
+        }
+        if token.is_empty() {
+            return Ok(None);
+        }
+        String::from_utf8(token)
+            .map(Some)
+            .map_err(|_| Error::invalid(name, "non-ASCII text in an ASCII grid"))
+    }
+}
+
+impl AscReader {
+    /// Opens `path` and parses the header.
+    pub fn open(path: &Path) -> Result<Self> {
+        let name = path.display().to_string();
+        let file = File::open(path).map_err(|e| Error::io(&name, e))?;
+        let mut tokens = Tokens {
+            input: BufReader::new(file),
+            pending: None,
+        };
+        let (mut ncols, mut nrows, mut cell, mut nodata) = (None, None, None, None);
+        let (mut xll, mut yll, mut centre) = (None, None, false);
+        while let Some(key) = tokens.next(&name)? {
+            if key.parse::<f64>().is_ok() {
+                tokens.pending = Some(key);
+                break;
+            }
+            let value = tokens
+                .next(&name)?
+                .ok_or_else(|| Error::invalid(&name, format!("header key {key} has no value")))?;
+            let number: f64 = value.parse().map_err(|_| {
+                Error::invalid(
+                    &name,
+                    format!("header {key} has a non-numeric value {value:?}"),
+                )
+            })?;
+            match key.to_ascii_lowercase().as_str() {
+                "ncols" => ncols = Some(number),
+                "nrows" => nrows = Some(number),
+                "cellsize" | "dx" | "dy" => cell = Some(number),
+                "xllcorner" => xll = Some(number),
+                "yllcorner" => yll = Some(number),
+                "xllcenter" => {
+                    xll = Some(number);
+                    centre = true;
+                }
+                "yllcenter" => yll = Some(number),
+                "nodata_value" => nodata = Some(number),
+                _ => {
+                    return Err(Error::invalid(
+                        &name,
+                        format!("unknown ASCII grid header key {key:?}"),
+                    ));
+                }
+            }
+        }
+        let dim = |v: Option<f64>, key: &str| -> Result<usize> {
+            match v {
+                Some(n) if n >= 1.0 && n.fract() == 0.0 && n < 1e9 => Ok(n as usize),
+                Some(n) => Err(Error::invalid(
+                    &name,
+                    format!("{key} {n} is not a positive integer"),
+                )),
+                None => Err(Error::invalid(&name, format!("the header has no {key}"))),
+            }
+        };
+        let width = dim(ncols, "ncols")?;
+        let height = dim(nrows, "nrows")?;
+        check_dimensions(&name, width, height)?;
+        let cell = cell.filter(|c| c.is_finite() && *c > 0.0);
+        let origin_hint = match (xll, yll, cell) {
+            (Some(x), Some(y), Some(c)) => {
+                let half = if centre { 0.0 } else { c / 2.0 };
+                Some((x + half, y + half + (height - 1) as f64 * c))
+            }
+            _ => None,
+        };
+        Ok(AscReader {
+            info: DemInfo {
+                name,
+                width,
+                height,
+                spacing_hint: cell,
+                origin_hint,
+            },
+            tokens,
+            nodata,
+            next_row: 0,
+        })
+    }
+}
+
+impl DemReader for AscReader {
+    fn info(&self) -> &DemInfo {
+        &self.info
+    }
+
+    fn read_row(&mut self, row: &mut [f32]) -> Result<()> {
+        let name = &self.info.name;
+        for (i, v) in row.iter_mut().enumerate() {
+            let t = self.tokens.next(name)?.ok_or_else(|| {
+                Error::invalid(
+                    name,
+                    format!(
+                        "the grid ends at row {}, column {i} of {} x {}",
+                        self.next_row, self.info.width, self.info.height
+                    ),
+                )
+            })?;
+            let x: f64 = t.parse().map_err(|_| {
+                Error::invalid(
+                    name,
+                    format!("row {}, column {i}: {t:?} is not a number", self.next_row),
+                )
+            })?;
+            *v = if Some(x) == self.nodata {
+                f32::NAN
+            } else {
+                x as f32
+            };
+        }
+        self.next_row += 1;
+        Ok(())
+    }
+}

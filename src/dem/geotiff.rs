@@ -1,0 +1,221 @@
+//! Single-band GeoTIFF (and plain TIFF) elevation grids, read one strip or one row of tiles at a
+//! time with the `tiff` crate (deflate, LZW, PackBits, predictors).
+
+use std::fs::File;
+use std::io::BufReader;
+use std::path::Path;
+
+use tiff::ColorType;
+use tiff::decoder::{Decoder, DecodingResult};
+use tiff::tags::Tag;
+
+use super::{DemInfo, DemReader, check_dimensions};
+use crate::error::{Error, Result};
+
+/// Metres per degree of latitude, to turn a geographic pixel size into an approximate spacing.
+const METRES_PER_DEGREE: f64 = 111_320.0;
+
+/// Streams rows of a single-band TIFF. Holds one chunk row: one strip, or one row of tiles.
+pub struct TiffReader {
+    info: DemInfo,
+    decoder: Decoder<BufReader<File>>,
+    nodata: Option<f64>,
+    chunk_width: usize,
+    chunk_height: usize,
+    chunks_across: usize,
+    /// The current chunk row, `band_rows * width` samples.
+    band: Vec<f32>,
+    band_rows: usize,
+    band_first_row: usize,
+    next_row: usize,
+}
+
+impl TiffReader {
+    /// Opens `path` and reads its first image's tags.
+    pub fn open(path: &Path) -> Result<Self> {
+        let name = path.display().to_string();
+        let bad = |e: tiff::TiffError| Error::invalid(&name, format!("not a readable TIFF: {e}"));
+        let file = File::open(path).map_err(|e| Error::io(&name, e))?;
+        let mut decoder = Decoder::new(BufReader::new(file)).map_err(bad)?;
+        let (w, h) = decoder.dimensions().map_err(bad)?;
+        let (width, height) = (w as usize, h as usize);
+        check_dimensions(&name, width, height)?;
+        match decoder.colortype().map_err(bad)? {
+            ColorType::Gray(8 | 16 | 32 | 64) => {}
+            other => {
+                return Err(Error::invalid(
+                    &name,
+                    format!(
+                        "unsupported TIFF sample layout {other:?}; an elevation grid has one band of 8, 16, 32 or 64 bits"
+                    ),
+                ));
+            }
+        }
+        let nodata = match decoder.find_tag(Tag::GdalNodata) {
+            Ok(Some(v)) => v
+                .into_string()
+                .ok()
+                .and_then(|s| s.trim_matches(char::from(0)).trim().parse::<f64>().ok()),
+            _ => None,
+        };
+        let (spacing_hint, origin_hint) = georeference(&mut decoder);
+        let (cw, ch) = decoder.chunk_dimensions();
+        let (chunk_width, chunk_height) = (cw as usize, ch as usize);
+        if chunk_width == 0 || chunk_height == 0 {
+            return Err(Error::invalid(
+                &name,
+                "TIFF has an empty strip or tile size",
+            ));
+        }
+        Ok(TiffReader {
+            info: DemInfo {
+                name,
+                width,
+                height,
+                spacing_hint,
+                origin_hint,
+            },
+            decoder,
+            nodata,
+            chunk_width,
+            chunk_height,
+            chunks_across: width.div_ceil(chunk_width),
+            band: Vec::new(),
+            band_rows: 0,
+            band_first_row: 0,
+            next_row: 0,
+        })
+    }
+
+    /// Decodes chunk row `chunk_row` into `band`.
+    fn load_band(&mut self, chunk_row: usize) -> Result<()> {
+        let name = &self.info.name;
+        let width = self.info.width;
+        let first = chunk_row * self.chunk_height;
+        let rows = self.chunk_height.min(self.info.height - first);
+        for c in 0..self.chunks_across {
+            let index = u32::try_from(chunk_row * self.chunks_across + c)
+                .map_err(|_| Error::invalid(name, "too many TIFF chunks"))?;
+            let chunk = self
+                .decoder
+                .read_chunk(index)
+                .map_err(|e| Error::invalid(name, format!("corrupt TIFF chunk {index}: {e}")))?;
+            let samples = to_f32(chunk, self.nodata);
+            if c == 0 {
+                // Sized only after the decoder (and its limits) accepted a chunk of this row.
+                self.band.clear();
+                self.band.resize(rows * width, f32::NAN);
+            }
+            let x0 = c * self.chunk_width;
+            let cw = self.chunk_width.min(width - x0);
+            if samples.len() < cw * rows {
+                return Err(Error::invalid(
+                    name,
+                    format!(
+                        "TIFF chunk {index} holds {} samples, {cw} x {rows} expected",
+                        samples.len()
+                    ),
+                ));
+            }
+            let stride = samples.len() / rows;
+            for r in 0..rows {
+                self.band[r * width + x0..r * width + x0 + cw]
+                    .copy_from_slice(&samples[r * stride..r * stride + cw]);
+            }
+        }
+        self.band_rows = rows;
+        self.band_first_row = first;
+        Ok(())
+    }
+}
+
+/// Converts decoded samples to `f32`, nodata as `NaN`.
+fn to_f32(chunk: DecodingResult, nodata: Option<f64>) -> Vec<f32> {
+    fn map<T: Copy>(v: Vec<T>, nodata: Option<f64>, f: impl Fn(T) -> f64) -> Vec<f32> {
+        v.into_iter()
+            .map(|x| {
+                let x = f(x);
+                if Some(x) == nodata {
+                    f32::NAN
+                } else {
+                    x as f32
+                }
+            })
+            .collect()
+    }
+    match chunk {
+        DecodingResult::U8(v) => map(v, nodata, f64::from),
+        DecodingResult::U16(v) => map(v, nodata, f64::from),
+        DecodingResult::U32(v) => map(v, nodata, f64::from),
+        DecodingResult::U64(v) => map(v, nodata, |x| x as f64),
+        DecodingResult::I8(v) => map(v, nodata, f64::from),
+        DecodingResult::I16(v) => map(v, nodata, f64::from),
+        DecodingResult::I32(v) => map(v, nodata, f64::from),
+        DecodingResult::I64(v) => map(v, nodata, |x| x as f64),
+        DecodingResult::F16(v) => map(v, nodata, f64::from),
+        DecodingResult::F32(v) => {
+            // Compare at f32 precision: GDAL writes the nodata text of the f32 value.
+            let nd = nodata.map(|n| n as f32);
+            v.into_iter()
+                .map(|x| if Some(x) == nd { f32::NAN } else { x })
+                .collect()
+        }
+        DecodingResult::F64(v) => map(v, nodata, |x| x),
+    }
+}
+
+/// Spacing (metres) and origin from the GeoTIFF pixel-scale, tie-point and GeoKey tags.
+fn georeference(decoder: &mut Decoder<BufReader<File>>) -> (Option<f64>, Option<(f64, f64)>) {
+    let scale = decoder.get_tag_f64_vec(Tag::ModelPixelScaleTag).ok();
+    let tie = decoder.get_tag_f64_vec(Tag::ModelTiepointTag).ok();
+    let keys = decoder
+        .get_tag_u16_vec(Tag::GeoKeyDirectoryTag)
+        .unwrap_or_default();
+    let key = |id: u16| {
+        keys.chunks_exact(4)
+            .skip(1)
+            .find(|k| k[0] == id && k[1] == 0)
+            .map(|k| k[3])
+    };
+    let geographic = key(1024) == Some(2);
+    let pixel_is_point = key(1025) == Some(2);
+    let Some(scale) = scale.filter(|s| s.len() >= 2 && s[0] > 0.0 && s[1] > 0.0) else {
+        return (None, None);
+    };
+    let spacing = if geographic {
+        scale[1] * METRES_PER_DEGREE
+    } else {
+        scale[0]
+    };
+    let origin = match tie {
+        Some(t) if t.len() >= 6 && !geographic => {
+            let half = if pixel_is_point { 0.0 } else { 0.5 };
+            Some((
+                t[3] + (half - t[0]) * scale[0],
+                t[4] - (half - t[1]) * scale[1],
+            ))
+        }
+        _ => None,
+    };
+    (Some(spacing).filter(|s| s.is_finite()), origin)
+}
+
+impl DemReader for TiffReader {
+    fn info(&self) -> &DemInfo {
+        &self.info
+    }
+
+    fn read_row(&mut self, row: &mut [f32]) -> Result<()> {
+        if self.next_row >= self.info.height {
+            return Err(Error::invalid(&self.info.name, "read past the last row"));
+        }
+        if self.next_row >= self.band_first_row + self.band_rows || self.band_rows == 0 {
+            self.load_band(self.next_row / self.chunk_height)?;
+        }
+        let r = self.next_row - self.band_first_row;
+        let w = self.info.width;
+        row.copy_from_slice(&self.band[r * w..(r + 1) * w]);
+        self.next_row += 1;
+        Ok(())
+    }
+}

@@ -1,0 +1,71 @@
+//! Headerless raw grids and BIL files: the caller gives width, height and sample type.
+
+use std::fs::File;
+use std::io::{BufReader, Read, Seek, SeekFrom};
+use std::path::Path;
+
+use super::{DemInfo, DemReader, RawLayout, check_dimensions};
+use crate::error::{Error, Result};
+
+/// Streams rows of a raw file laid out as [`RawLayout`] says.
+pub struct RawReader {
+    info: DemInfo,
+    layout: RawLayout,
+    file: BufReader<File>,
+    buf: Vec<u8>,
+}
+
+impl RawReader {
+    /// Opens `path`, checking that its length matches the layout exactly.
+    pub fn open(path: &Path, layout: RawLayout) -> Result<Self> {
+        let name = path.display().to_string();
+        check_dimensions(&name, layout.width, layout.height)?;
+        let mut file = File::open(path).map_err(|e| Error::io(&name, e))?;
+        let len = file.metadata().map_err(|e| Error::io(&name, e))?.len();
+        let expected = (layout.width as u64)
+            .checked_mul(layout.height as u64)
+            .and_then(|n| n.checked_mul(layout.sample_type.size() as u64))
+            .and_then(|n| n.checked_add(layout.header_bytes))
+            .ok_or_else(|| Error::invalid(&name, "dimensions overflow"))?;
+        if len != expected {
+            return Err(Error::invalid(
+                &name,
+                format!(
+                    "file is {len} bytes but {} x {} {:?} samples after a {}-byte header need {expected}",
+                    layout.width, layout.height, layout.sample_type, layout.header_bytes
+                ),
+            ));
+        }
+        file.seek(SeekFrom::Start(layout.header_bytes))
+            .map_err(|e| Error::io(&name, e))?;
+        Ok(RawReader {
+            info: DemInfo {
+                name,
+                width: layout.width,
+                height: layout.height,
+                spacing_hint: None,
+                origin_hint: None,
+            },
+            layout,
+            file: BufReader::new(file),
+            buf: vec![0; layout.width * layout.sample_type.size()],
+        })
+    }
+}
+
+impl DemReader for RawReader {
+    fn info(&self) -> &DemInfo {
+        &self.info
+    }
+
+    fn read_row(&mut self, row: &mut [f32]) -> Result<()> {
+        self.file
+            .read_exact(&mut self.buf)
+            .map_err(|e| Error::io(&self.info.name, e))?;
+        let t = self.layout.sample_type;
+        for (v, b) in row.iter_mut().zip(self.buf.chunks_exact(t.size())) {
+            *v = t.decode(b, self.layout.big_endian);
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,108 @@
+//! Bad archives give errors that name the file and the problem, never a panic.
+
+use std::path::{Path, PathBuf};
+
+use stripmask::Error;
+use stripmask::archive::{ArchiveReader, HEADER_LEN};
+use stripmask::builder::{BuildOptions, build};
+use stripmask::dem::{MemoryReader, NodataFill};
+use stripmask::source::file::FileSource;
+
+fn small_archive(dir: &Path) -> PathBuf {
+    let (w, h) = (33, 33);
+    let samples = (0..w * h).map(|k| ((k * 7919) % 1000) as f32).collect();
+    let reader = MemoryReader::new("noise", w, h, samples).unwrap();
+    let out = dir.join("small.smdb");
+    let options = BuildOptions {
+        tile_size: 17,
+        ..BuildOptions::default()
+    };
+    build(NodataFill::new(reader, None), &out, &options, &|_, _| {}).unwrap();
+    out
+}
+
+fn open_err(path: &Path) -> String {
+    match ArchiveReader::open(FileSource::open(path).unwrap()) {
+        Ok(_) => panic!("{} opened", path.display()),
+        Err(e) => e.to_string(),
+    }
+}
+
+fn rewrite(path: &Path, f: impl FnOnce(&mut Vec<u8>)) {
+    let mut bytes = std::fs::read(path).unwrap();
+    f(&mut bytes);
+    std::fs::write(path, bytes).unwrap();
+}
+
+#[test]
+fn bad_magic_wrong_version_and_corrupt_header_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = small_archive(dir.path());
+    let name = path.display().to_string();
+    let good = std::fs::read(&path).unwrap();
+
+    rewrite(&path, |b| b[0] = b'X');
+    let e = open_err(&path);
+    assert!(e.contains(&name) && e.contains("bad magic"), "{e}");
+
+    std::fs::write(&path, &good).unwrap();
+    rewrite(&path, |b| b[8] = 9);
+    let e = open_err(&path);
+    assert!(e.contains(&name) && e.contains("version 9"), "{e}");
+
+    std::fs::write(&path, &good).unwrap();
+    rewrite(&path, |b| b[20] ^= 1);
+    let e = open_err(&path);
+    assert!(e.contains("header checksum"), "{e}");
+}
+
+#[test]
+fn truncated_files_and_corrupt_index_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = small_archive(dir.path());
+    let good = std::fs::read(&path).unwrap();
+
+    std::fs::write(&path, &good[..50]).unwrap();
+    let e = open_err(&path);
+    assert!(e.contains("truncated"), "{e}");
+
+    std::fs::write(&path, &good[..HEADER_LEN + 20]).unwrap();
+    let e = open_err(&path);
+    assert!(e.contains("truncated index"), "{e}");
+
+    std::fs::write(&path, &good).unwrap();
+    rewrite(&path, |b| b[HEADER_LEN + 3] ^= 0x40);
+    let e = open_err(&path);
+    assert!(e.contains("index checksum"), "{e}");
+
+    // Cut inside the payloads: the index now points past the end.
+    std::fs::write(&path, &good[..good.len() - 10]).unwrap();
+    let e = open_err(&path);
+    assert!(e.contains("points outside"), "{e}");
+}
+
+#[test]
+fn a_tile_whose_bytes_changed_fails_its_checksum_and_others_still_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = small_archive(dir.path());
+    let reader = ArchiveReader::open(FileSource::open(&path).unwrap()).unwrap();
+    let e = reader.index()[1];
+    drop(reader);
+    rewrite(&path, |b| b[e.offset as usize + 5] ^= 0xff);
+    let reader = ArchiveReader::open(FileSource::open(&path).unwrap()).unwrap();
+    match reader.tile(1, 0) {
+        Err(Error::Checksum { tile, attempts, .. }) => {
+            assert_eq!(tile, 1);
+            assert_eq!(attempts, 4);
+        }
+        other => panic!("expected a checksum error, got {other:?}"),
+    }
+    let msg = reader.tile(1, 0).unwrap_err().to_string();
+    assert!(
+        msg.contains(&path.display().to_string()) && msg.contains("tile 1"),
+        "{msg}"
+    );
+    for (tx, ty) in [(0, 0), (0, 1), (1, 1)] {
+        reader.tile(tx, ty).unwrap();
+    }
+}

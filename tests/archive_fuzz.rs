@@ -1,0 +1,135 @@
+//! Property-based fuzzing of the archive reader: random and mutated headers, indexes and tile
+//! payloads must give `Err`, never a panic. `PROPTEST_CASES=100000` runs a long campaign.
+
+use std::path::PathBuf;
+use std::sync::OnceLock;
+
+use proptest::prelude::*;
+use stripmask::archive::{ArchiveReader, HEADER_LEN, Header, decompress, parse_index};
+use stripmask::builder::{BuildOptions, build};
+use stripmask::dem::{MemoryReader, NodataFill};
+use stripmask::source::file::FileSource;
+use stripmask::tile::Tile;
+
+fn cases() -> u32 {
+    std::env::var("PROPTEST_CASES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(64)
+}
+
+/// A valid 3 x 2-tile archive, built once.
+fn valid() -> &'static (tempfile::TempDir, PathBuf, Vec<u8>) {
+    static VALID: OnceLock<(tempfile::TempDir, PathBuf, Vec<u8>)> = OnceLock::new();
+    VALID.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        let (w, h) = (33, 17);
+        let samples = (0..w * h).map(|k| ((k * 37) % 101) as f32).collect();
+        let reader = MemoryReader::new("fuzz", w, h, samples).unwrap();
+        let out = dir.path().join("fuzz.smdb");
+        let options = BuildOptions {
+            tile_size: 9,
+            ..BuildOptions::default()
+        };
+        build(NodataFill::new(reader, None), &out, &options, &|_, _| {}).unwrap();
+        let bytes = std::fs::read(&out).unwrap();
+        (dir, out, bytes)
+    })
+}
+
+/// Byte edits: (position as a fraction of the length, new byte), and a truncation fraction.
+fn mutations() -> impl Strategy<Value = (Vec<(f64, u8)>, Option<f64>)> {
+    (
+        proptest::collection::vec((0.0..1.0f64, any::<u8>()), 1..8),
+        proptest::option::of(0.0..1.0f64),
+    )
+}
+
+fn mutate(bytes: &[u8], edits: &[(f64, u8)], cut: Option<f64>) -> Vec<u8> {
+    let mut b = bytes.to_vec();
+    for &(at, v) in edits {
+        let i = ((at * b.len() as f64) as usize).min(b.len() - 1);
+        b[i] = v;
+    }
+    if let Some(c) = cut {
+        b.truncate((c * b.len() as f64) as usize);
+    }
+    b
+}
+
+/// Restores the header and index checksums after an edit, so the edit reaches the validation
+/// behind them.
+fn fix_checksums(b: &mut [u8]) {
+    if b.len() < HEADER_LEN {
+        return;
+    }
+    let crc = crc32fast::hash(&b[..HEADER_LEN - 4]);
+    b[HEADER_LEN - 4..HEADER_LEN].copy_from_slice(&crc.to_le_bytes());
+    let tiles = u32::from_le_bytes(b[16..20].try_into().unwrap()) as usize
+        * u32::from_le_bytes(b[20..24].try_into().unwrap()) as usize;
+    let end = HEADER_LEN + tiles.min(1 << 20) * 16;
+    if end + 4 <= b.len() {
+        let crc = crc32fast::hash(&b[HEADER_LEN..end]);
+        b[end..end + 4].copy_from_slice(&crc.to_le_bytes());
+    }
+}
+
+fn read_everything(bytes: &[u8]) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("m.smdb");
+    std::fs::write(&path, bytes).unwrap();
+    if let Ok(reader) = ArchiveReader::open_with_attempts(FileSource::open(&path).unwrap(), 1) {
+        let h = reader.header().clone();
+        for ty in 0..h.tiles_y as usize {
+            for tx in 0..h.tiles_x as usize {
+                let _ = reader.tile(tx, ty);
+            }
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(cases()))]
+
+    #[test]
+    fn mutated_archives_never_panic((edits, cut) in mutations(), fix in any::<bool>()) {
+        let (_, _, good) = valid();
+        let mut bytes = mutate(good, &edits, cut);
+        if fix {
+            fix_checksums(&mut bytes);
+        }
+        read_everything(&bytes);
+    }
+
+    #[test]
+    fn random_bytes_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..400)) {
+        read_everything(&bytes);
+        let _ = Header::parse(&bytes, "random");
+    }
+
+    #[test]
+    fn mutated_headers_and_indexes_parse_or_fail_cleanly((edits, cut) in mutations()) {
+        let (_, _, good) = valid();
+        let header_and_index = &good[..HEADER_LEN + 6 * 16 + 4];
+        let mut bytes = mutate(header_and_index, &edits, cut);
+        fix_checksums(&mut bytes);
+        if let Ok(h) = Header::parse(&bytes, "m") {
+            let _ = parse_index(&bytes[HEADER_LEN.min(bytes.len())..], &h, Some(good.len() as u64), "m");
+        }
+    }
+
+    #[test]
+    fn mutated_tile_payloads_decode_or_fail_cleanly((edits, cut) in mutations(), index in 0usize..6) {
+        let (_, path, _) = valid();
+        let reader = ArchiveReader::open(FileSource::open(path).unwrap()).unwrap();
+        let stored = reader.tile_bytes(index).unwrap();
+        let bytes = mutate(&stored, &edits, cut);
+        let h = reader.header();
+        if let Ok(raw) = decompress(&bytes, h, "m") {
+            let _ = Tile::decode(&raw, h.tile_size as usize, h.texture_size as usize, "m");
+        }
+        let raw = decompress(&stored, h, "m").unwrap();
+        let raw = mutate(&raw, &edits, cut);
+        let _ = Tile::decode(&raw, h.tile_size as usize, h.texture_size as usize, "m");
+    }
+}

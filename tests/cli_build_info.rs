@@ -1,0 +1,91 @@
+//! The `build` and `info` commands on the real Puget Sound height map.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn stripmask() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_stripmask"))
+}
+
+fn puget() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples/data/puget_sound_1k_height.png")
+}
+
+#[test]
+fn build_puget_sound_then_info_json_describes_the_grid() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("puget.smdb");
+    let status = stripmask()
+        .args([
+            "build",
+            "--quiet",
+            "--spacing",
+            "160",
+            "--vertical-scale",
+            "0.1",
+            "-o",
+        ])
+        .arg(&out)
+        .arg(puget())
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let output = stripmask()
+        .args(["info", "--json", "--check"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    assert_eq!(v["header"]["tiles_x"], 8);
+    assert_eq!(v["header"]["tiles_y"], 8);
+    assert_eq!(v["header"]["tile_size"], 129);
+    assert_eq!(v["header"]["texture_size"], 128);
+    assert_eq!(v["tile_count"], 64);
+    assert_eq!(v["stored_tile_bytes"].as_array().unwrap().len(), 64);
+    assert_eq!(v["header"]["min_height"], 0.0);
+    // The highest sample is 43798 raw units (Mount Rainier, 4379.8 m at 0.1 m per unit).
+    let max = v["header"]["max_height"].as_f64().unwrap();
+    assert!((max - 4379.8).abs() < 0.01, "{max}");
+    assert_eq!(v["check"]["tiles"], 64);
+
+    let text = stripmask().arg("info").arg(&out).output().unwrap();
+    let text = String::from_utf8(text.stdout).unwrap();
+    assert!(text.contains("8 x 8 tiles of 129 x 129 samples"), "{text}");
+}
+
+#[test]
+fn errors_name_the_file_and_exit_non_zero() {
+    let dir = tempfile::tempdir().unwrap();
+    let bogus = dir.path().join("bogus.png");
+    std::fs::write(&bogus, b"\x89PNG\r\n\x1a\nnot really").unwrap();
+    let out = dir.path().join("x.smdb");
+    let o = stripmask()
+        .args(["build", "--quiet", "-o"])
+        .arg(&out)
+        .arg(&bogus)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("bogus.png") && err.contains("PNG"), "{err}");
+    assert!(!out.exists());
+
+    let o = stripmask().arg("info").arg(&bogus).output().unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("bogus.png") && err.contains("magic"), "{err}");
+
+    let o = stripmask()
+        .args(["build", "--quiet", "--tile-size", "100", "-o"])
+        .arg(&out)
+        .arg(puget())
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("2^n + 1"));
+}

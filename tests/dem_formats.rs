@@ -1,0 +1,278 @@
+//! Every DEM reader against fixtures written by GDAL, and a build/read round trip per format.
+
+use std::path::{Path, PathBuf};
+
+use stripmask::archive::ArchiveReader;
+use stripmask::builder::{BuildOptions, build};
+use stripmask::dem::{self, DemFormat, OpenOptions, RawLayout, SampleType};
+use stripmask::source::file::FileSource;
+
+const W: usize = 37;
+const H: usize = 29;
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures")
+        .join(name)
+}
+
+fn truth(i: usize, j: usize) -> f32 {
+    (100 + 7 * i + 3 * j + (i * j) % 11) as f32
+}
+
+/// The expected value after the nodata fill: holes at columns 3..=6 of rows 2..=4 take the
+/// nearest valid sample in their row (columns 2 and 7; the left one on a tie).
+fn filled(i: usize, j: usize, holes: bool) -> f32 {
+    if holes && (2..5).contains(&j) && (3..7).contains(&i) {
+        return if i <= 4 { truth(2, j) } else { truth(7, j) };
+    }
+    truth(i, j)
+}
+
+fn options() -> OpenOptions {
+    OpenOptions {
+        format: None,
+        raw: None,
+        nodata: None,
+    }
+}
+
+fn check(path: &Path, opts: &OpenOptions, holes: bool) {
+    let dem = dem::open(path, opts).unwrap().read_all().unwrap();
+    assert_eq!((dem.width, dem.height), (W, H), "{}", path.display());
+    for j in 0..H {
+        for i in 0..W {
+            assert_eq!(
+                dem.at(i, j),
+                filled(i, j, holes),
+                "{} ({i}, {j})",
+                path.display()
+            );
+        }
+    }
+    // Build an archive with 17-sample tiles and read every sample back.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("t.smdb");
+    let build_opts = BuildOptions {
+        tile_size: 17,
+        ..BuildOptions::default()
+    };
+    let reader = dem::open(path, opts).unwrap();
+    build(reader, &out, &build_opts, &|_, _| {}).unwrap();
+    let archive = ArchiveReader::open(FileSource::open(&out).unwrap()).unwrap();
+    let h = archive.header();
+    assert_eq!((h.tiles_x, h.tiles_y), (3, 2));
+    for ty in 0..2 {
+        for tx in 0..3 {
+            let tile = archive.tile(tx, ty).unwrap();
+            for j in 0..17 {
+                for i in 0..17 {
+                    let (gi, gj) = ((tx * 16 + i).min(W - 1), (ty * 16 + j).min(H - 1));
+                    let want = filled(gi, gj, holes);
+                    assert!((tile.height(i, j) - want).abs() <= tile.scale * 0.5 + 1e-3);
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn geotiff_int16_deflate_predictor_strips_with_nodata() {
+    let path = fixture("int16_deflate_pred2_nodata.tif");
+    check(&path, &options(), true);
+    let info = dem::open(&path, &options()).unwrap().info().clone();
+    assert_eq!(info.spacing_hint, Some(30.0));
+    assert_eq!(info.origin_hint, Some((500_015.0, 4_000_855.0)));
+}
+
+#[test]
+fn geotiff_uint16_lzw_tiled() {
+    check(&fixture("uint16_lzw_tiled.tif"), &options(), false);
+}
+
+#[test]
+fn geotiff_int32_packbits() {
+    check(&fixture("int32_packbits.tif"), &options(), false);
+}
+
+#[test]
+fn geotiff_float32_deflate_float_predictor_tiled_with_nodata() {
+    check(
+        &fixture("float32_deflate_pred3_tiled_nodata.tif"),
+        &options(),
+        true,
+    );
+}
+
+#[test]
+fn png_sixteen_bit_grayscale() {
+    check(&fixture("uint16.png"), &options(), false);
+}
+
+#[test]
+fn esri_ascii_grids_ours_and_gdals() {
+    check(&fixture("holes.asc"), &options(), true);
+    check(&fixture("gdal_holes.asc"), &options(), true);
+    check(&fixture("plain.asc"), &options(), false);
+    let info = dem::open(&fixture("plain.asc"), &options())
+        .unwrap()
+        .info()
+        .clone();
+    assert_eq!(info.spacing_hint, Some(30.0));
+    assert_eq!(info.origin_hint, Some((500_015.0, 4_000_855.0)));
+}
+
+#[test]
+fn bil_with_explicit_layout_and_nodata_option() {
+    let opts = OpenOptions {
+        format: None,
+        raw: Some(RawLayout {
+            width: W,
+            height: H,
+            sample_type: SampleType::I16,
+            big_endian: false,
+            header_bytes: 0,
+        }),
+        nodata: Some(-9999.0),
+    };
+    check(&fixture("int16_bil.bil"), &opts, true);
+}
+
+#[test]
+fn srtm_hgt_with_voids() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("N47W122.hgt");
+    let side = 33;
+    let mut bytes = Vec::new();
+    for j in 0..side {
+        for i in 0..side {
+            let v: i16 = if (i, j) == (5, 5) {
+                -32768
+            } else {
+                (i * 10 + j) as i16 - 50
+            };
+            bytes.extend_from_slice(&v.to_be_bytes());
+        }
+    }
+    std::fs::write(&path, bytes).unwrap();
+    let dem = dem::open(&path, &options()).unwrap().read_all().unwrap();
+    assert_eq!((dem.width, dem.height), (33, 33));
+    assert_eq!(dem.at(0, 0), -50.0);
+    assert_eq!(dem.at(32, 1), 32.0 * 10.0 + 1.0 - 50.0);
+    // The void takes its left neighbour (a tie between columns 4 and 6).
+    assert_eq!(dem.at(5, 5), dem.at(4, 5));
+}
+
+#[test]
+fn geographic_geotiff_spacing_is_approximated_in_metres() {
+    let path = fixture("geographic.tif");
+    check(&path, &options(), false);
+    let info = dem::open(&path, &options()).unwrap().info().clone();
+    // 1/29 degree of latitude per row.
+    let spacing = info.spacing_hint.unwrap();
+    assert!((spacing - 111_320.0 / 29.0).abs() < 1e-6, "{spacing}");
+    assert_eq!(info.origin_hint, None);
+}
+
+#[test]
+fn eight_bit_png_and_big_endian_raw() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("eight.png");
+    image::GrayImage::from_fn(5, 4, |x, y| image::Luma([(x * 10 + y) as u8]))
+        .save(&png)
+        .unwrap();
+    let dem = dem::open(&png, &options()).unwrap().read_all().unwrap();
+    assert_eq!((dem.width, dem.height), (5, 4));
+    assert_eq!(dem.at(4, 3), 43.0);
+
+    let raw = dir.path().join("be.r32");
+    let mut bytes = vec![0u8; 8];
+    for k in 0..6 {
+        bytes.extend_from_slice(&(k as f32 * 1.5 - 2.0).to_be_bytes());
+    }
+    std::fs::write(&raw, bytes).unwrap();
+    let opts = OpenOptions {
+        format: None,
+        raw: Some(RawLayout {
+            width: 3,
+            height: 2,
+            sample_type: SampleType::F32,
+            big_endian: true,
+            header_bytes: 8,
+        }),
+        nodata: None,
+    };
+    let dem = dem::open(&raw, &opts).unwrap().read_all().unwrap();
+    assert_eq!(dem.samples, vec![-2.0, -0.5, 1.0, 2.5, 4.0, 5.5]);
+}
+
+#[test]
+fn bad_inputs_name_the_file_and_the_problem() {
+    let dir = tempfile::tempdir().unwrap();
+    let err = |path: &Path, opts: &OpenOptions| -> String {
+        match dem::open(path, opts).and_then(|r| r.read_all()) {
+            Ok(_) => panic!("{} read", path.display()),
+            Err(e) => e.to_string(),
+        }
+    };
+
+    let e = err(&fixture("rgb_byte.tif"), &options());
+    assert!(
+        e.contains("rgb_byte.tif") && e.contains("unsupported TIFF sample layout"),
+        "{e}"
+    );
+
+    // A truncated GeoTIFF: the strips point past the end of the file.
+    let bytes = std::fs::read(fixture("int32_packbits.tif")).unwrap();
+    let cut = dir.path().join("cut.tif");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    let e = err(&cut, &options());
+    assert!(e.contains("cut.tif"), "{e}");
+
+    // A truncated PNG.
+    let bytes = std::fs::read(fixture("uint16.png")).unwrap();
+    let cut = dir.path().join("cut.png");
+    std::fs::write(&cut, &bytes[..bytes.len() - 40]).unwrap();
+    let e = err(&cut, &options());
+    assert!(e.contains("cut.png"), "{e}");
+
+    // Raw with wrong dimensions.
+    let raw = RawLayout {
+        width: 40,
+        height: H,
+        sample_type: SampleType::I16,
+        big_endian: false,
+        header_bytes: 0,
+    };
+    let opts = OpenOptions {
+        format: Some(DemFormat::Raw),
+        raw: Some(raw),
+        nodata: None,
+    };
+    let e = err(&fixture("int16_bil.bil"), &opts);
+    assert!(
+        e.contains("int16_bil.bil") && e.contains("2146 bytes"),
+        "{e}"
+    );
+
+    // An .hgt that is not square.
+    let hgt = dir.path().join("odd.hgt");
+    std::fs::write(&hgt, vec![0u8; 2 * 30]).unwrap();
+    let e = err(&hgt, &options());
+    assert!(e.contains("odd.hgt") && e.contains("square"), "{e}");
+
+    // An ASCII grid that ends early, and one with a bad number.
+    let text = std::fs::read_to_string(fixture("plain.asc")).unwrap();
+    let short = dir.path().join("short.asc");
+    std::fs::write(&short, &text[..text.len() / 2]).unwrap();
+    let e = err(&short, &options());
+    assert!(e.contains("short.asc") && e.contains("ends at row"), "{e}");
+    let bad = dir.path().join("bad.asc");
+    std::fs::write(&bad, text.replacen(" 107 ", " 1o7 ", 1)).unwrap();
+    let e = err(&bad, &options());
+    assert!(e.contains("bad.asc") && e.contains("not a number"), "{e}");
+
+    // Unknown extension.
+    let e = err(&dir.path().join("x.dat"), &options());
+    assert!(e.contains("x.dat") && e.contains("--format"), "{e}");
+}

@@ -119,8 +119,8 @@ fn a_colour_image_is_cut_into_tile_textures_aligned_with_the_samples() {
     build(NodataFill::new(reader, None), &out, &options, &|_, _| {}).unwrap();
     let archive = ArchiveReader::open(FileSource::open(&out).unwrap()).unwrap();
     assert_eq!(archive.header().texture_size, 32);
-    let red = stripmask::rgb565::pack([200, 0, 0]);
-    let blue = stripmask::rgb565::pack([0, 0, 200]);
+    let red = stripmask_raster::rgb_to_rgb565([200, 0, 0]);
+    let blue = stripmask_raster::rgb_to_rgb565([0, 0, 200]);
     let west = archive.tile(0, 0).unwrap();
     let east = archive.tile(3, 1).unwrap();
     assert_eq!(west.texture_mips.len(), 6);

@@ -11,8 +11,9 @@ use image::codecs::jpeg::JpegEncoder;
 use stripmask::archive::{ArchiveReader, Codec};
 use stripmask::builder::{BuildOptions, build};
 use stripmask::dem::{self, OpenOptions};
-use stripmask::rgb565::{mip_chain, unpack};
+use stripmask::rgb565::mip_chain;
 use stripmask::source::file::FileSource;
+use stripmask_raster::rgb565_to_rgb as unpack;
 
 #[test]
 fn payload_parts_compress_and_jpeg_textures_decode_to_similar_colours() {

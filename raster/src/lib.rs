@@ -54,5 +54,7 @@ pub use state::{
     Compare, CullMode, DepthMode, Fog, FrontFace, Perspective, Precision, Rect, RenderState,
     Shading, TextureBinding,
 };
-pub use texture::{Filter, MipFilter, MipLevel, Sampler, Texels, Texture, TextureFormat, Wrap};
+pub use texture::{
+    Filter, MipFilter, MipLevel, Sampler, Texels, Texture, TextureFormat, Wrap, box_mip_chain,
+};
 pub use vertex::{Indices, Mesh, Topology, Vertex};

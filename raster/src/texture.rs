@@ -72,52 +72,38 @@ impl MipLevel {
             texels,
         })
     }
+}
 
-    /// The next coarser level: a 2x2 box filter (a 1-texel side stays 1).
-    fn downsample(&self) -> Self {
-        let (w, h) = ((self.width / 2).max(1), (self.height / 2).max(1));
-        let sx = (self.width / w) as usize;
-        let sy = (self.height / h) as usize;
-        let sw = self.width as usize;
-        let average = |fetch: &dyn Fn(usize) -> [u8; 3], x: usize, y: usize| {
-            let mut sum = [0u32; 3];
-            for dy in 0..sy {
-                for dx in 0..sx {
-                    let c = fetch((y * sy + dy) * sw + x * sx + dx);
-                    (0..3).for_each(|k| sum[k] += c[k] as u32);
+/// The mip chain of an 8-bit RGB image with power-of-two sides, finest first, down to 1x1: each
+/// level a 2x2 box filter of the one before (a side already 1 stays 1), computed in 8 bits
+/// throughout so that packing to RGB565 rounds once per level, not once per step.
+pub fn box_mip_chain(
+    width: u32,
+    height: u32,
+    level0: Vec<[u8; 3]>,
+) -> Vec<(u32, u32, Vec<[u8; 3]>)> {
+    debug_assert_eq!(level0.len(), width as usize * height as usize);
+    let mut chain = vec![(width, height, level0)];
+    while let Some((w, h, src)) = chain.last().filter(|(w, h, _)| *w > 1 || *h > 1) {
+        let (nw, nh) = ((w / 2).max(1), (h / 2).max(1));
+        let (sx, sy, sw) = ((w / nw) as usize, (h / nh) as usize, *w as usize);
+        let n = (sx * sy) as u32;
+        let mut next = Vec::with_capacity(nw as usize * nh as usize);
+        for y in 0..nh as usize {
+            for x in 0..nw as usize {
+                let mut sum = [0u32; 3];
+                for dy in 0..sy {
+                    for dx in 0..sx {
+                        let c = src[(y * sy + dy) * sw + x * sx + dx];
+                        (0..3).for_each(|k| sum[k] += c[k] as u32);
+                    }
                 }
+                next.push(sum.map(|s| ((s + n / 2) / n) as u8));
             }
-            let n = (sx * sy) as u32;
-            sum.map(|s| ((s + n / 2) / n) as u8)
-        };
-        let coords = (0..h as usize).flat_map(|y| (0..w as usize).map(move |x| (x, y)));
-        let texels = match &self.texels {
-            Texels::Rgb565(t) => {
-                let fetch = |i: usize| rgb565_to_rgb(t[i]);
-                Texels::Rgb565(
-                    coords
-                        .map(|(x, y)| rgb_to_rgb565(average(&fetch, x, y)))
-                        .collect(),
-                )
-            }
-            Texels::Rgba8888(t) => {
-                let fetch = |i: usize| [t[i][0], t[i][1], t[i][2]];
-                Texels::Rgba8888(
-                    coords
-                        .map(|(x, y)| {
-                            let [r, g, b] = average(&fetch, x, y);
-                            [r, g, b, 255]
-                        })
-                        .collect(),
-                )
-            }
-        };
-        Self {
-            width: w,
-            height: h,
-            texels,
         }
+        chain.push((nw, nh, next));
     }
+    chain
 }
 
 /// A texture: level 0 and, optionally, its coarser levels down to 1x1.
@@ -187,9 +173,24 @@ impl Texture {
     /// Builds the mip chain down to 1x1 with a 2x2 box filter (replacing any coarser levels).
     pub fn with_mipmaps(mut self) -> Self {
         self.levels.truncate(1);
-        while let Some(last) = self.levels.last().filter(|l| l.width > 1 || l.height > 1) {
-            let next = last.downsample();
-            self.levels.push(next);
+        let base = &self.levels[0];
+        let rgb: Vec<[u8; 3]> = match &base.texels {
+            Texels::Rgb565(t) => t.iter().map(|&p| rgb565_to_rgb(p)).collect(),
+            Texels::Rgba8888(t) => t.iter().map(|p| [p[0], p[1], p[2]]).collect(),
+        };
+        let chain = box_mip_chain(base.width, base.height, rgb);
+        let rgb565 = matches!(base.texels, Texels::Rgb565(_));
+        for (width, height, level) in chain.into_iter().skip(1) {
+            let texels = if rgb565 {
+                Texels::Rgb565(level.into_iter().map(rgb_to_rgb565).collect())
+            } else {
+                Texels::Rgba8888(level.into_iter().map(|[r, g, b]| [r, g, b, 255]).collect())
+            };
+            self.levels.push(MipLevel {
+                width,
+                height,
+                texels,
+            });
         }
         self
     }

@@ -5,12 +5,13 @@
 //! ```
 //!
 //! The whole 1025 x 1025 grid (2 million triangles at `--step 1`) is one set of triangle strips
-//! with 32-bit indices; the texture is a height colour ramp in RGB565 with its mip chain, lit per
+//! with 32-bit indices; the texture is the database's height colour ramp in RGB565 with its mip chain, lit per
 //! vertex (Gouraud) from normals computed once, with distance fog.
 
 use std::time::Instant;
 
 use glam::{DMat4, DVec3};
+use stripmask::texture_gen::ramp;
 use stripmask_raster::{
     ColorFormat, DepthFormat, Fog, Framebuffer, Indices, Mesh, Perspective, Precision, Rasterizer,
     RenderState, Sampler, Shading, Texture, TextureBinding, Topology, Transform, Vertex,
@@ -59,27 +60,6 @@ fn parse() -> Result<Options, String> {
     Ok(o)
 }
 
-/// Colour ramp from sea level to the peaks, in raw height units (0.1 m).
-fn ramp(h: u16) -> [u8; 3] {
-    const STOPS: [(f32, [f32; 3]); 6] = [
-        (0.0, [40.0, 80.0, 140.0]),
-        (30.0, [60.0, 110.0, 70.0]),
-        (3000.0, [90.0, 140.0, 60.0]),
-        (9000.0, [140.0, 120.0, 80.0]),
-        (15000.0, [150.0, 140.0, 130.0]),
-        (21313.0, [250.0, 250.0, 250.0]),
-    ];
-    let h = h as f32;
-    let i = STOPS
-        .iter()
-        .position(|s| s.0 >= h)
-        .unwrap_or(STOPS.len() - 1)
-        .max(1);
-    let (a, b) = (STOPS[i - 1], STOPS[i]);
-    let t = ((h - a.0) / (b.0 - a.0)).clamp(0.0, 1.0);
-    [0, 1, 2].map(|k| (a.1[k] + (b.1[k] - a.1[k]) * t) as u8)
-}
-
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let o = parse()?;
     let path = concat!(
@@ -96,10 +76,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let tex_side = (n - 1).next_power_of_two() as u32;
     let texels = (0..tex_side as usize * tex_side as usize)
         .map(|k| {
-            rgb_to_rgb565(ramp(h(
+            let (i, j) = (
                 (k % tex_side as usize).min(n - 1),
                 (k / tex_side as usize).min(n - 1),
-            )))
+            );
+            rgb_to_rgb565(ramp((h(i, j) as f64 * METRES_PER_UNIT) as f32))
         })
         .collect();
     let texture = Texture::from_rgb565(tex_side, tex_side, texels)?.with_mipmaps();

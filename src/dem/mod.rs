@@ -166,7 +166,7 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<NodataFill<Box<dyn Dem
     let reader: Box<dyn DemReader> = match format {
         DemFormat::Png => Box::new(png::PngReader::open(path)?),
         DemFormat::Tiff => Box::new(geotiff::TiffReader::open(path)?),
-        DemFormat::Hgt => Box::new(hgt::HgtReader::open(path)?),
+        DemFormat::Hgt => Box::new(hgt::open(path)?),
         DemFormat::Asc => Box::new(asc::AscReader::open(path)?),
         DemFormat::Raw => {
             let layout = options.raw.ok_or_else(|| {

@@ -11,6 +11,8 @@ use crate::error::{Error, Result};
 pub struct RawReader {
     info: DemInfo,
     layout: RawLayout,
+    /// A sample value that the format itself reserves for "no data" (e.g. SRTM's -32768).
+    void: Option<f32>,
     file: BufReader<File>,
     buf: Vec<u8>,
 }
@@ -47,9 +49,24 @@ impl RawReader {
                 origin_hint: None,
             },
             layout,
+            void: None,
             file: BufReader::new(file),
             buf: vec![0; layout.width * layout.sample_type.size()],
         })
+    }
+}
+
+impl RawReader {
+    /// Reads `void` samples as missing (NaN), for formats that reserve a value.
+    pub fn with_void(mut self, void: f32) -> Self {
+        self.void = Some(void);
+        self
+    }
+
+    /// Sets the spacing the format implies, when the caller gives none.
+    pub fn with_spacing_hint(mut self, spacing: f64) -> Self {
+        self.info.spacing_hint = Some(spacing);
+        self
     }
 }
 
@@ -64,7 +81,8 @@ impl DemReader for RawReader {
             .map_err(|e| Error::io(&self.info.name, e))?;
         let t = self.layout.sample_type;
         for (v, b) in row.iter_mut().zip(self.buf.chunks_exact(t.size())) {
-            *v = t.decode(b, self.layout.big_endian);
+            let h = t.decode(b, self.layout.big_endian);
+            *v = if Some(h) == self.void { f32::NAN } else { h };
         }
         Ok(())
     }

@@ -9,11 +9,8 @@ use tiff::ColorType;
 use tiff::decoder::{Decoder, DecodingResult};
 use tiff::tags::Tag;
 
-use super::{DemInfo, DemReader, check_dimensions};
+use super::{DemInfo, DemReader, METRES_PER_DEGREE, check_dimensions};
 use crate::error::{Error, Result};
-
-/// Metres per degree of latitude, to turn a geographic pixel size into an approximate spacing.
-const METRES_PER_DEGREE: f64 = 111_320.0;
 
 /// Streams rows of a single-band TIFF. Holds one chunk row: one strip, or one row of tiles.
 pub struct TiffReader {

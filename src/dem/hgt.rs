@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use super::raw::RawReader;
-use super::{RawLayout, SampleType};
+use super::{METRES_PER_DEGREE, RawLayout, SampleType};
 use crate::error::{Error, Result};
 
 /// The SRTM void value.
@@ -38,5 +38,5 @@ pub fn open(path: &Path) -> Result<RawReader> {
     // 1201 samples span 1 degree at 3 arc-seconds (~90 m); 3601 at 1 arc-second (~30 m).
     Ok(RawReader::open(path, layout)?
         .with_void(f32::from(HGT_VOID))
-        .with_spacing_hint(111_320.0 / (side.max(2) - 1) as f64))
+        .with_spacing_hint(METRES_PER_DEGREE / (side.max(2) - 1) as f64))
 }

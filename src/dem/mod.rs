@@ -125,6 +125,9 @@ impl DemFormat {
     }
 }
 
+/// Metres per degree of latitude, to turn a geographic sample size into an approximate spacing.
+pub(crate) const METRES_PER_DEGREE: f64 = 111_320.0;
+
 /// Layout of a raw/BIL file, which does not describe itself.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RawLayout {

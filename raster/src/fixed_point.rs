@@ -3,15 +3,12 @@
 //! Every integer width in the rasterizer follows from the constants here; the comments give the
 //! arithmetic that proves an overflow impossible, so a change to one constant shows what else moves.
 
-use fixed::types::{I16F16, I24F8};
+use fixed::types::I16F16;
 
 /// Texture coordinate, 16.16: `1.0` spans the texture once.
 pub type TexCoord = I16F16;
 
-/// Screen position snapped to the sub-pixel grid, 24.8.
-pub type SubPixel = I24F8;
-
-/// Fractional bits of the sub-pixel grid (1/256 pixel).
+/// Fractional bits of the sub-pixel grid (1/256 pixel): screen positions are 24.8 integers.
 pub const SUBPIXEL_BITS: u32 = 8;
 /// One pixel in sub-pixel units.
 pub const SUBPIXEL_ONE: i64 = 1 << SUBPIXEL_BITS;
@@ -41,11 +38,6 @@ pub const DEPTH_ONE: i64 = 1 << 32;
 /// Extra fractional bits carried by interpolated attributes so that stepping across a span does not
 /// accumulate rounding error.
 pub const ATTR_FRAC_BITS: u32 = 16;
-
-/// Converts a sub-pixel coordinate to the `fixed` type, for callers that want named units.
-pub fn subpixel(raw: i32) -> SubPixel {
-    SubPixel::from_bits(raw)
-}
 
 /// `ceil(n / d)` for `d > 0`, exact for any sign of `n`.
 #[inline]
@@ -120,10 +112,5 @@ mod tests {
         assert_eq!(shift_round(4, 1), 2);
         assert_eq!(shift_round(-5, 1), -2);
         assert_eq!(shift_round(3, -2), 12);
-    }
-
-    #[test]
-    fn subpixel_type_holds_the_grid() {
-        assert_eq!(subpixel(3 * SUBPIXEL_ONE as i32 + 128).to_num::<f32>(), 3.5);
     }
 }

@@ -22,6 +22,9 @@ pub(crate) struct Coverage {
     pub row_start: i32,
     /// One past the last row.
     pub row_end: i32,
+    /// For a triangle within `SMALL x SMALL` pixels, the columns of its bounding box: it is
+    /// walked by edge functions over them instead of by DDAs (decided once, at set-up).
+    small_cols: Option<[i32; 2]>,
 }
 
 #[derive(Clone, Copy, Debug, Default)]
@@ -103,10 +106,15 @@ impl Coverage {
             floor_div(ymax - SUBPIXEL_HALF, SUBPIXEL_ONE) + 1
         };
         let (row_start, row_end) = (first.max(rows.0), end.min(rows.1));
+        let xmin = v.iter().map(|p| p[0]).min().expect("3 vertices") >> SUBPIXEL_BITS;
+        let xmax = v.iter().map(|p| p[0]).max().expect("3 vertices") >> SUBPIXEL_BITS;
+        let small =
+            xmax - xmin < SMALL && (ymax >> SUBPIXEL_BITS) - (ymin >> SUBPIXEL_BITS) < SMALL;
         (row_start < row_end).then(|| Coverage {
             v: v.map(|p| p.map(|c| c as i32)),
             row_start: row_start as i32,
             row_end: row_end as i32,
+            small_cols: small.then_some([xmin as i32, xmax as i32 + 1]),
         })
     }
 
@@ -127,18 +135,13 @@ impl Coverage {
         if start >= end {
             return;
         }
-        let xs = self.v.map(|p| p[0] as i64);
-        let ys = self.v.map(|p| p[1] as i64);
-        let (xmin, xmax) = (
-            xs.iter().min().expect("3") >> SUBPIXEL_BITS,
-            xs.iter().max().expect("3") >> SUBPIXEL_BITS,
-        );
-        let (ymin, ymax) = (
-            ys.iter().min().expect("3") >> SUBPIXEL_BITS,
-            ys.iter().max().expect("3") >> SUBPIXEL_BITS,
-        );
-        if xmax - xmin < SMALL && ymax - ymin < SMALL {
-            self.walk_small(start, end, (cols.0.max(xmin), cols.1.min(xmax + 1)), span);
+        if let Some([x0, x1]) = self.small_cols {
+            self.walk_small(
+                start,
+                end,
+                (cols.0.max(x0 as i64), cols.1.min(x1 as i64)),
+                span,
+            );
         } else {
             self.walk_dda(start, end, cols, span);
         }

@@ -9,6 +9,12 @@ pub enum RasterError {
     /// The transform holds a NaN or an infinity.
     #[error("transform has a non-finite entry")]
     NonFiniteTransform,
+    /// A model origin beyond ±`MAX_ORIGIN` per axis.
+    #[error("model origin {origin:?} is beyond ±2^24 per axis")]
+    OriginOutOfRange {
+        /// The origin asked for.
+        origin: [i32; 3],
+    },
     /// An index points past the vertex buffer.
     #[error("index {value} at position {position} is out of range for {vertices} vertices")]
     IndexOutOfRange {

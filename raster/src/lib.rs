@@ -48,7 +48,7 @@ mod vertex;
 pub use draw::{DrawStats, Rasterizer};
 pub use error::RasterError;
 pub use framebuffer::{ColorBuffer, ColorFormat, DepthBuffer, DepthFormat, Framebuffer};
-pub use matrix::{FixedMat4, Transform};
+pub use matrix::{FixedMat4, MAX_ORIGIN, Transform};
 pub use pixel::{rgb_to_rgb565, rgb565_to_rgb};
 pub use state::{
     Compare, CullMode, DepthMode, Fog, FrontFace, Perspective, Precision, Rect, RenderState,

@@ -14,6 +14,10 @@ use crate::RasterError;
 /// Bits of a fixed matrix mantissa: every entry has `|m| < 2^MANTISSA_BITS`.
 pub const MANTISSA_BITS: u32 = 29;
 
+/// The largest model origin a [`Transform`] takes, per axis: with it, a vertex position
+/// (below 2^31) plus the origin stays below 2^31 + 2^24, and the transform stays exact in i64.
+pub const MAX_ORIGIN: i32 = 1 << 24;
+
 /// A matrix of i32 mantissas with one shared exponent: `value = mantissa * 2^-exponent`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct FixedMat4 {
@@ -21,6 +25,8 @@ pub struct FixedMat4 {
     pub rows: [[i32; 4]; 4],
     /// Shared exponent.
     pub exponent: i32,
+    /// The model origin's contribution, `rows[i][0..3] · origin`, exact; zero without an origin.
+    pub origin_term: [i64; 4],
 }
 
 impl FixedMat4 {
@@ -35,6 +41,7 @@ impl FixedMat4 {
             return Ok(Self {
                 rows: [[0; 4]; 4],
                 exponent: 0,
+                origin_term: [0; 4],
             });
         }
         // Choose the exponent so that max * 2^exponent lies in [2^27, 2^28]; rounding can then
@@ -48,15 +55,23 @@ impl FixedMat4 {
                 *e = v as i32;
             }
         }
-        Ok(Self { rows, exponent })
+        Ok(Self {
+            rows,
+            exponent,
+            origin_term: [0; 4],
+        })
     }
 
-    /// Exact clip coordinates of an integer position, in units of `2^-exponent`.
+    /// Exact clip coordinates of an integer position (plus the model origin), in units of
+    /// `2^-exponent`.
     #[inline]
     pub fn transform(&self, p: [i32; 3]) -> [i64; 4] {
         let [x, y, z] = p.map(i64::from);
-        self.rows
-            .map(|r| r[0] as i64 * x + r[1] as i64 * y + r[2] as i64 * z + r[3] as i64)
+        let mut c = [0i64; 4];
+        for (c, (r, o)) in c.iter_mut().zip(self.rows.iter().zip(self.origin_term)) {
+            *c = r[0] as i64 * x + r[1] as i64 * y + r[2] as i64 * z + (r[3] as i64 + o);
+        }
+        c
     }
 
     /// Converts a length in the matrix's output units (e.g. an eye distance compared with `w`) to
@@ -73,12 +88,19 @@ fn pow2_scale(v: f64, e: i32) -> f64 {
 }
 
 /// One draw's transform from model units to clip space, for both pipelines.
+///
+/// A draw may carry an integer model origin that is added to every vertex position before the
+/// matrix applies, exactly in both pipelines. Meshes that share a matrix and differ only in their
+/// origin (terrain tiles on one grid) then put shared border vertices at bit-identical screen
+/// positions, so neighbouring draws meet without cracks.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Transform {
     /// Block-floating-point twin used by the fixed path.
     pub fixed: FixedMat4,
     /// Single-precision twin used by the float path.
     pub float: Mat4,
+    /// Model origin added to every position.
+    pub origin: [i32; 3],
 }
 
 impl Transform {
@@ -89,13 +111,31 @@ impl Transform {
         Ok(Self {
             fixed: FixedMat4::from_dmat4(&m)?,
             float: m.as_mat4(),
+            origin: [0; 3],
         })
     }
 
-    /// Clip coordinates of an integer position in f32.
+    /// The same matrix applied to positions shifted by `origin` (each axis within
+    /// ±[`MAX_ORIGIN`]).
+    pub fn with_origin(mut self, origin: [i32; 3]) -> Result<Self, RasterError> {
+        if origin.iter().any(|o| o.unsigned_abs() > MAX_ORIGIN as u32) {
+            return Err(RasterError::OriginOutOfRange { origin });
+        }
+        let o = origin.map(i64::from);
+        self.fixed.origin_term = self
+            .fixed
+            .rows
+            .map(|r| r[0] as i64 * o[0] + r[1] as i64 * o[1] + r[2] as i64 * o[2]);
+        self.origin = origin;
+        Ok(self)
+    }
+
+    /// Clip coordinates of an integer position (plus the origin) in f32. The shifted position is
+    /// summed in i64 and converted once, so equal shifted positions give equal results.
     #[inline]
     pub fn transform_float(&self, p: [i32; 3]) -> Vec4 {
-        self.float * Vec4::new(p[0] as f32, p[1] as f32, p[2] as f32, 1.0)
+        let at = |k: usize| (i64::from(p[k]) + i64::from(self.origin[k])) as f32;
+        self.float * Vec4::new(at(0), at(1), at(2), 1.0)
     }
 }
 
@@ -142,6 +182,31 @@ mod tests {
                 "{got:?} {exact:?}"
             );
         }
+    }
+
+    #[test]
+    fn an_origin_shifts_positions_exactly_in_both_twins() {
+        let m = glam::dcamera::rh::proj::directx::perspective(1.0, 1.5, 0.5, 1e5)
+            * glam::dcamera::rh::view::look_at_mat4(
+                DVec3::new(3.0, 40.0, 9.0),
+                DVec3::new(500.0, 0.0, 700.0),
+                DVec3::Y,
+            )
+            * DMat4::from_scale(DVec3::new(30.0, 0.0625, 30.0));
+        let base = Transform::new(m).unwrap();
+        let shifted = base.with_origin([64, 0, -128]).unwrap();
+        for p in [[0, 7, 0], [64, 9000, 3], [-5, 12, 130]] {
+            let moved = [p[0] + 64, p[1], p[2] - 128];
+            assert_eq!(shifted.fixed.transform(p), base.fixed.transform(moved));
+            assert_eq!(shifted.transform_float(p), base.transform_float(moved));
+        }
+        assert!(matches!(
+            base.with_origin([0, MAX_ORIGIN + 1, 0]),
+            Err(RasterError::OriginOutOfRange { .. })
+        ));
+        let f = base.with_origin([-MAX_ORIGIN; 3]).unwrap().fixed;
+        let c = f.transform([i32::MIN, i32::MIN, i32::MIN]);
+        assert!(c.iter().all(|v| v.unsigned_abs() < 1 << 62));
     }
 
     #[test]

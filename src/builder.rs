@@ -34,7 +34,14 @@ pub struct BuildOptions {
     pub texture_image: Option<PathBuf>,
     /// How tile payloads are stored.
     pub codec: Codec,
+    /// Metres per height quantum, shared by all tiles so that neighbours agree on their shared
+    /// samples; a tile's relief must fit 65535 quanta (4096 m at the default 1/16 m).
+    pub height_quantum: f32,
 }
+
+/// The default height quantum: 1/16 m, finer than the vertical accuracy of any common DEM and a
+/// power of two, so quanta convert to metres exactly.
+pub const DEFAULT_HEIGHT_QUANTUM: f32 = 0.0625;
 
 impl Default for BuildOptions {
     fn default() -> Self {
@@ -46,6 +53,7 @@ impl Default for BuildOptions {
             texture_factor: 1,
             texture_image: None,
             codec: Codec::Lz4,
+            height_quantum: DEFAULT_HEIGHT_QUANTUM,
         }
     }
 }
@@ -113,6 +121,7 @@ pub fn build<R: DemReader>(
         origin_y,
         min_height: 0.0,
         max_height: 0.0,
+        height_quantum: options.height_quantum,
     };
     let mut writer = ArchiveWriter::create(out, header.clone())?;
     let mut bands = BandReader::new(reader, grid, options.vertical_scale as f32);
@@ -123,17 +132,20 @@ pub fn build<R: DemReader>(
         let ty = band.tile_row;
         let encoded: Vec<(Vec<u8>, usize, f32, f32)> = (0..grid.tiles_x)
             .into_par_iter()
-            .map(|tx| {
+            .map(|tx| -> Result<_> {
                 let heights = band.tile_heights(tx);
                 let texture = match &image {
                     Some(img) => img.cut(tx, ty, s, f),
                     None => shaded(&heights, s, spacing as f32, f),
                 };
-                let tile = Tile::new(&heights, s, &texture, texture_size);
+                let tile = Tile::new(&heights, s, options.height_quantum, &texture, texture_size)
+                    .map_err(|problem| {
+                    Error::invalid(&info.name, format!("tile ({tx}, {ty}): {problem}"))
+                })?;
                 let raw = tile.encode();
-                (compress(&raw, options.codec), raw.len(), tile.min, tile.max)
+                Ok((compress(&raw, options.codec), raw.len(), tile.min, tile.max))
             })
-            .collect();
+            .collect::<Result<_>>()?;
         for (tx, (stored, raw_len, min, max)) in encoded.into_iter().enumerate() {
             writer.write_tile(ty * grid.tiles_x + tx, &stored)?;
             raw_bytes += raw_len as u64;

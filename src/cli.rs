@@ -82,6 +82,9 @@ struct BuildArgs {
     /// How tile payloads are stored.
     #[arg(long, value_enum, default_value_t = Codec::Lz4)]
     codec: Codec,
+    /// Metres per height quantum, shared by all tiles; a tile's relief must fit 65535 quanta.
+    #[arg(long, default_value_t = stripmask::builder::DEFAULT_HEIGHT_QUANTUM)]
+    height_quantum: f32,
     /// No progress bar and no summary.
     #[arg(short, long)]
     quiet: bool,
@@ -164,6 +167,7 @@ fn run_build(a: BuildArgs) -> Result<()> {
         texture_factor: a.texture_factor,
         texture_image: a.texture,
         codec: a.codec,
+        height_quantum: a.height_quantum,
     };
     let bar = if a.quiet {
         ProgressBar::hidden()
@@ -293,8 +297,8 @@ fn run_info(a: InfoArgs) -> Result<()> {
         h.spacing, h.vertical_scale, h.origin_x, h.origin_y
     ));
     line(format!(
-        "heights     {} .. {} m",
-        h.min_height, h.max_height
+        "heights     {} .. {} m in quanta of {} m",
+        h.min_height, h.max_height, h.height_quantum
     ));
     line(format!(
         "texture     {0} x {0} RGB565 per tile with mipmaps; payload codec {1:?}",

@@ -7,15 +7,17 @@
 //! | --- | --- |
 //! | 4 | `min` f32, lowest height (metres) |
 //! | 4 | `max` f32, highest height (metres) |
-//! | 4 | `offset` f32 (metres) |
-//! | 4 | `scale` f32 (metres per quantum); height = offset + q * scale |
+//! | 4 | `base` i32, the tile's quantum 0 in archive quanta |
+//! | 4 | `quantum` f32, metres per quantum (the archive's, the same in every tile) |
 //! | 4 L | `level_errors` f32, level 0 first (see [`crate::level_error`]) |
 //! | 2 s² | heights `q` u16, row-major, each row delta-coded: `q[0]`, then `q[i] - q[i-1]` wrapping |
 //! | 2 (t² + (t/2)² + … + 1) | texture RGB565 u16, finest mip first, each row-major |
 //!
-//! Quantisation: `scale = (max - min) / 65535` and `offset = min`, so a decoded height is within
-//! `scale / 2` (plus f32 rounding) of the true one. The payload size is fixed by `s` and `t`,
-//! which the archive header carries.
+//! Quantisation is global: every tile of an archive counts heights in the same `quantum`, and a
+//! sample's archive-wide integer height is `base + q`. The same DEM sample therefore gets the same
+//! integer in both tiles that share it, which is what lets the engine draw neighbouring tiles
+//! without a crack. A decoded height is within `quantum / 2` of the true one; a tile's relief must
+//! fit 65535 quanta. The payload size is fixed by `s` and `t`, which the archive header carries.
 
 use crate::error::{Error, Result};
 use crate::level_error::level_errors;
@@ -31,10 +33,10 @@ pub struct Tile {
     pub min: f32,
     /// Highest height in metres.
     pub max: f32,
-    /// Metres of quantum 0.
-    pub offset: f32,
+    /// The tile's quantum 0 in archive quanta: sample `(i, j)` is `base + heights[j * s + i]`.
+    pub base: i32,
     /// Metres per quantum.
-    pub scale: f32,
+    pub quantum: f32,
     /// Maximum geometric error of each mask level against the full tile, metres, level 0 first.
     pub level_errors: Vec<f32>,
     /// Quantised heights, `tile_size^2`, row-major from the north-west.
@@ -51,54 +53,74 @@ pub fn payload_size(tile_size: usize, texture_size: usize) -> usize {
 }
 
 impl Tile {
-    /// Builds a tile from `s x s` heights in metres and its finest texture (RGB, side `t`).
+    /// Builds a tile from `s x s` heights in metres, quantised in steps of `quantum` metres, and
+    /// its finest texture (RGB, side `t`). Fails when the tile's relief exceeds 65535 quanta or a
+    /// height is beyond ±2^31 quanta.
     pub fn new(
         heights: &[f32],
         tile_size: usize,
+        quantum: f32,
         texture: &[[u8; 3]],
         texture_size: usize,
-    ) -> Tile {
+    ) -> std::result::Result<Tile, String> {
+        if !(quantum.is_finite() && quantum > 0.0) {
+            return Err(format!("height quantum {quantum} is not a positive number"));
+        }
         let (min, max) = heights
             .iter()
             .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &h| {
                 (lo.min(h), hi.max(h))
             });
-        let scale = (max - min) / f32::from(u16::MAX);
+        let step = f64::from(quantum);
+        let to_quanta = |h: f32| (f64::from(h) / step).round();
+        let (lo, hi) = (to_quanta(min), to_quanta(max));
+        if !(lo >= f64::from(i32::MIN) && hi <= f64::from(i32::MAX)) {
+            return Err(format!(
+                "heights {min} ..= {max} m are beyond ±2^31 quanta of {quantum} m"
+            ));
+        }
+        if hi - lo > f64::from(u16::MAX) {
+            return Err(format!(
+                "the tile spans {min} ..= {max} m, more than 65535 quanta of {quantum} m: \
+                 choose a larger height quantum"
+            ));
+        }
+        let base = lo as i32;
         let quantised = heights
             .iter()
-            .map(|&h| {
-                if scale > 0.0 {
-                    ((h - min) / scale).round().clamp(0.0, 65535.0) as u16
-                } else {
-                    0
-                }
-            })
+            .map(|&h| (to_quanta(h) - lo) as u16)
             .collect();
-        Tile {
+        Ok(Tile {
             tile_size,
             min,
             max,
-            offset: min,
-            scale,
+            base,
+            quantum,
             level_errors: level_errors(heights, tile_size),
             heights: quantised,
             texture_size,
             texture_mips: mip_chain(texture, texture_size),
-        }
+        })
+    }
+
+    /// The archive-wide integer height of sample `(i, j)`, in quanta.
+    pub fn quanta(&self, i: usize, j: usize) -> i32 {
+        self.base + i32::from(self.heights[j * self.tile_size + i])
     }
 
     /// The height in metres of sample `(i, j)`.
     pub fn height(&self, i: usize, j: usize) -> f32 {
-        self.offset + f32::from(self.heights[j * self.tile_size + i]) * self.scale
+        (f64::from(self.quanta(i, j)) * f64::from(self.quantum)) as f32
     }
 
     /// The uncompressed payload bytes.
     pub fn encode(&self) -> Vec<u8> {
         let s = self.tile_size;
         let mut out = Vec::with_capacity(payload_size(s, self.texture_size));
-        for v in [self.min, self.max, self.offset, self.scale] {
-            out.extend_from_slice(&v.to_le_bytes());
-        }
+        out.extend_from_slice(&self.min.to_le_bytes());
+        out.extend_from_slice(&self.max.to_le_bytes());
+        out.extend_from_slice(&self.base.to_le_bytes());
+        out.extend_from_slice(&self.quantum.to_le_bytes());
         for e in &self.level_errors {
             out.extend_from_slice(&e.to_le_bytes());
         }
@@ -128,15 +150,17 @@ impl Tile {
         }
         let f32_at =
             |k: usize| f32::from_le_bytes(bytes[4 * k..4 * k + 4].try_into().expect("4 bytes"));
-        let (min, max, offset, scale) = (f32_at(0), f32_at(1), f32_at(2), f32_at(3));
+        let (min, max, quantum) = (f32_at(0), f32_at(1), f32_at(3));
+        let base = i32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
         let levels = level_count(tile_size);
         let level_errors: Vec<f32> = (0..levels).map(|l| f32_at(4 + l)).collect();
-        if ![min, max, offset, scale]
+        if ![min, max, quantum]
             .iter()
             .chain(&level_errors)
             .all(|v| v.is_finite())
-            || scale < 0.0
+            || quantum <= 0.0
             || min > max
+            || i64::from(base) + i64::from(u16::MAX) > i64::from(i32::MAX)
         {
             return Err(Error::invalid(
                 name,
@@ -161,8 +185,8 @@ impl Tile {
             tile_size,
             min,
             max,
-            offset,
-            scale,
+            base,
+            quantum,
             level_errors,
             heights,
             texture_size,
@@ -182,16 +206,26 @@ mod tests {
             .map(|k| (k as f32 * 0.37).sin() * 500.0)
             .collect();
         let texture = vec![[10, 200, 30]; 64];
-        let tile = Tile::new(&heights, s, &texture, 8);
+        let tile = Tile::new(&heights, s, 0.0625, &texture, 8).unwrap();
         let bytes = tile.encode();
         assert_eq!(bytes.len(), payload_size(s, 8));
         let back = Tile::decode(&bytes, s, 8, "t").unwrap();
         assert_eq!(back, tile);
         for j in 0..s {
             for i in 0..s {
-                assert!((back.height(i, j) - heights[j * s + i]).abs() <= tile.scale * 0.5 + 1e-3);
+                assert!((back.height(i, j) - heights[j * s + i]).abs() <= 0.0625 * 0.5 + 1e-3);
             }
         }
         assert!(Tile::decode(&bytes[1..], s, 8, "t").is_err());
+    }
+
+    #[test]
+    fn relief_beyond_65535_quanta_is_refused_with_the_reason() {
+        let texture = vec![[0, 0, 0]; 4];
+        let heights = [0.0, 0.0, 0.0, 4096.0];
+        let err = Tile::new(&heights, 2, 0.0625, &texture, 2).unwrap_err();
+        assert!(err.contains("65535 quanta"), "{err}");
+        assert!(Tile::new(&heights, 2, 0.125, &texture, 2).is_ok());
+        assert!(Tile::new(&heights, 2, 0.0, &texture, 2).is_err());
     }
 }

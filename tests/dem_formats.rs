@@ -69,7 +69,7 @@ fn check(path: &Path, opts: &OpenOptions, holes: bool) {
                 for i in 0..17 {
                     let (gi, gj) = ((tx * 16 + i).min(W - 1), (ty * 16 + j).min(H - 1));
                     let want = filled(gi, gj, holes);
-                    assert!((tile.height(i, j) - want).abs() <= tile.scale * 0.5 + 1e-3);
+                    assert!((tile.height(i, j) - want).abs() <= tile.quantum * 0.5 + 1e-3);
                 }
             }
         }

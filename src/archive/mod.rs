@@ -27,7 +27,7 @@ pub use writer::ArchiveWriter;
 /// The first 8 bytes of every archive.
 pub const MAGIC: [u8; 8] = *b"SMDB\r\n\x1a\n";
 /// The format version this crate writes and reads.
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 /// Bytes in the header.
 pub const HEADER_LEN: usize = 96;
 /// Bytes per index entry.
@@ -97,6 +97,8 @@ pub struct Header {
     pub min_height: f32,
     /// Highest height in the archive, metres.
     pub max_height: f32,
+    /// Metres per height quantum, the same in every tile (see [`crate::tile`]).
+    pub height_quantum: f32,
 }
 
 impl Header {
@@ -148,7 +150,7 @@ impl Header {
         }
         b.extend_from_slice(&self.min_height.to_le_bytes());
         b.extend_from_slice(&self.max_height.to_le_bytes());
-        b.extend_from_slice(&0u32.to_le_bytes());
+        b.extend_from_slice(&self.height_quantum.to_le_bytes());
         let crc = crc32fast::hash(&b);
         b.extend_from_slice(&crc.to_le_bytes());
         b.try_into().expect("header is HEADER_LEN bytes")
@@ -199,6 +201,7 @@ impl Header {
             origin_y: f(72),
             min_height: g(80),
             max_height: g(84),
+            height_quantum: g(88),
         };
         let count = h.tiles_x as usize * h.tiles_y as usize;
         if count == 0 || count > MAX_TILES {
@@ -219,9 +222,12 @@ impl Header {
         let finite = [h.spacing, h.vertical_scale, h.origin_x, h.origin_y]
             .iter()
             .all(|v| v.is_finite());
-        if !finite || h.spacing <= 0.0 {
+        if !finite || h.spacing <= 0.0 || !(h.height_quantum.is_finite() && h.height_quantum > 0.0)
+        {
             return Err(bad(
-                "spacing, vertical scale or origin is not a finite number".into(),
+                "spacing, vertical scale, origin or height quantum is not a finite number \
+                 (or spacing or quantum is not positive)"
+                    .into(),
             ));
         }
         Ok(h)

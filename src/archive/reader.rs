@@ -117,12 +117,22 @@ impl<S: TileSource> ArchiveReader<S> {
         let i = ty * self.header.tiles_x as usize + tx;
         let label = format!("{name} tile {i}");
         let raw = decompress(&self.tile_bytes(i)?, &self.header, &label)?;
-        Tile::decode(
+        let tile = Tile::decode(
             &raw,
             self.header.tile_size as usize,
             self.header.texture_size as usize,
             &label,
-        )
+        )?;
+        if tile.quantum != self.header.height_quantum {
+            return Err(Error::invalid(
+                &label,
+                format!(
+                    "height quantum {} differs from the archive's {}",
+                    tile.quantum, self.header.height_quantum
+                ),
+            ));
+        }
+        Ok(tile)
     }
 }
 

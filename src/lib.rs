@@ -10,14 +10,17 @@
 
 pub mod archive;
 pub mod builder;
+pub mod camera;
 pub mod dem;
 pub mod error;
+pub mod flight;
 pub mod level_error;
 pub mod mask_level;
 pub mod resident;
 pub mod rgb565;
 pub mod serve;
 pub mod source;
+pub mod terrain;
 pub mod texture_gen;
 pub mod tile;
 pub mod tiling;

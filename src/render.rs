@@ -1,0 +1,166 @@
+//! From a draw list to pixels: one shared eye-relative matrix, one integer origin per tile, and
+//! a draw order that suits the depth mode.
+//!
+//! The matrix is built in f64 around an *anchor* tile (the one under the eye): world positions
+//! are never formed, only `anchor origin - eye`, which is small wherever the terrain sits in the
+//! world. Each tile then draws with the same matrix and the integer offset of its grid position
+//! from the anchor (`Transform::with_origin`), so shared border vertices of neighbouring tiles
+//! land on bit-identical sub-pixel positions and no crack opens between tiles at the same level.
+
+use glam::{DMat4, DVec3};
+use stripmask_raster::{
+    CullMode, DepthMode, DrawStats, Fog, Framebuffer, Indices, Mesh, Perspective, Precision,
+    RasterError, Rasterizer, RenderState, Sampler, Shading, TextureBinding, Topology, Transform,
+};
+
+use crate::camera::Camera;
+use crate::resident::ResidentTile;
+use crate::terrain::TerrainFrame;
+
+/// The rendering knobs a user trades speed for accuracy with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderSettings {
+    /// Fixed-point or f32 pipeline.
+    pub precision: Precision,
+    /// Perspective correction of texture coordinates.
+    pub perspective: Perspective,
+    /// Texture sampling; `None` draws untextured (shading colour only).
+    pub sampler: Option<Sampler>,
+    /// Per-vertex lighting (Gouraud); off draws the texture alone.
+    pub lighting: bool,
+    /// Depth test: tiles drawn front to back. Off: back to front, painter's order.
+    pub depth_test: bool,
+    /// Distance fog towards the sky colour, starting at `fog_start` of the far distance.
+    pub fog: bool,
+    /// Where fog starts, as a fraction of the far plane.
+    pub fog_start: f64,
+    /// Background and fog colour.
+    pub sky: [u8; 3],
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            precision: Precision::Fixed,
+            perspective: Perspective::Spans(16),
+            sampler: Some(Sampler::BILINEAR_MIPMAP),
+            lighting: true,
+            depth_test: true,
+            fog: true,
+            fog_start: 0.6,
+            sky: [150, 180, 215],
+        }
+    }
+}
+
+/// One tile in the draw list.
+#[derive(Clone, Copy, Debug)]
+pub struct TileDraw<'a> {
+    /// Grid column.
+    pub x: u32,
+    /// Grid row.
+    pub y: u32,
+    /// Its resident data.
+    pub tile: &'a ResidentTile,
+    /// The strip mask chosen for it.
+    pub indices: Indices<'a>,
+    /// Eye distance to its bounding box, metres: the draw order key.
+    pub distance: f64,
+}
+
+/// The shared part of every tile's transform this frame.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameTransform {
+    base: Transform,
+    anchor: (i64, i64),
+    cells: i64,
+}
+
+impl FrameTransform {
+    /// The matrix for `camera` over `terrain` at `aspect` = width / height.
+    pub fn new(
+        camera: &Camera,
+        terrain: &TerrainFrame,
+        aspect: f64,
+    ) -> Result<FrameTransform, RasterError> {
+        let (px, py) = terrain.tile_position(camera.position);
+        let clamp = |v: f64, n: u32| (v.floor().max(0.0) as i64).min(i64::from(n) - 1);
+        let anchor = (clamp(px, terrain.tiles_x), clamp(py, terrain.tiles_y));
+        let origin = terrain.tile_origin(anchor.0 as u32, anchor.1 as u32);
+        let model = DMat4::from_translation(origin - camera.position)
+            * DMat4::from_scale(DVec3::new(
+                terrain.spacing,
+                terrain.quantum,
+                terrain.spacing,
+            ));
+        Ok(FrameTransform {
+            base: Transform::new(camera.view_projection(aspect) * model)?,
+            anchor,
+            cells: terrain.tile_size as i64 - 1,
+        })
+    }
+
+    /// Tile `(x, y)`'s transform: the shared matrix with the tile's integer grid offset.
+    pub fn tile(&self, x: u32, y: u32) -> Result<Transform, RasterError> {
+        let offset = |t: u32, a: i64| {
+            ((i64::from(t) - a) * self.cells).clamp(i32::MIN.into(), i32::MAX.into()) as i32
+        };
+        self.base
+            .with_origin([offset(x, self.anchor.0), 0, offset(y, self.anchor.1)])
+    }
+}
+
+/// Clears `fb` to the sky and draws `tiles` (reordered for the depth mode).
+pub fn draw_tiles(
+    fb: &mut Framebuffer,
+    rasterizer: &mut Rasterizer,
+    camera: &Camera,
+    terrain: &TerrainFrame,
+    tiles: &mut [TileDraw<'_>],
+    settings: &RenderSettings,
+) -> Result<DrawStats, RasterError> {
+    fb.clear(settings.sky);
+    let aspect = f64::from(fb.width()) / f64::from(fb.height());
+    let transform = FrameTransform::new(camera, terrain, aspect)?;
+    if settings.depth_test {
+        tiles.sort_by(|a, b| a.distance.total_cmp(&b.distance));
+    } else {
+        tiles.sort_by(|a, b| b.distance.total_cmp(&a.distance));
+    }
+    let fog = settings.fog.then(|| Fog {
+        color: settings.sky,
+        start: settings.fog_start * camera.far,
+        end: camera.far,
+    });
+    let mut stats = DrawStats::default();
+    for t in tiles.iter() {
+        let state = RenderState {
+            precision: settings.precision,
+            cull: CullMode::Back,
+            depth: if settings.depth_test {
+                DepthMode::LESS_WRITE
+            } else {
+                DepthMode::NONE
+            },
+            shading: if settings.lighting {
+                Shading::Gouraud
+            } else {
+                Shading::Flat([255; 3])
+            },
+            texture: settings.sampler.map(|sampler| TextureBinding {
+                texture: &t.tile.texture,
+                sampler,
+            }),
+            perspective: settings.perspective,
+            fog,
+            ..RenderState::default()
+        };
+        let mesh = Mesh {
+            vertices: &t.tile.vertices,
+            indices: t.indices,
+            topology: Topology::TriangleStrip,
+        };
+        stats += rasterizer.draw(fb, &mesh, &transform.tile(t.x, t.y)?, &state)?;
+    }
+    Ok(stats)
+}

@@ -12,6 +12,7 @@ pub mod archive;
 pub mod builder;
 pub mod dem;
 pub mod error;
+pub mod frustum;
 pub mod level_error;
 pub mod mask_level;
 pub mod masks;

@@ -13,6 +13,7 @@ pub mod builder;
 pub mod dem;
 pub mod error;
 pub mod frustum;
+pub mod importance;
 pub mod level_error;
 pub mod mask_level;
 pub mod masks;

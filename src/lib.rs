@@ -9,13 +9,17 @@
 #![warn(missing_docs)]
 
 pub mod archive;
+pub mod budget;
 pub mod builder;
 pub mod camera;
 pub mod dem;
 pub mod error;
 pub mod flight;
+pub mod frustum;
+pub mod importance;
 pub mod level_error;
 pub mod mask_level;
+pub mod masks;
 pub mod render;
 pub mod resident;
 pub mod rgb565;

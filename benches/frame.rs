@@ -1,0 +1,168 @@
+//! The CPU cost of one frame's bookkeeping: frustum culling of the tiles' boxes, visual
+//! importance (Algorithm 2), the budget controller's update, the greedy budget allocation with
+//! its mask choice per tile, and the look-up of each chosen mask's index buffer.
+//!
+//! `cargo bench --bench frame`. Scenes: 1,000 tiles all in view (a 40 x 25 grid seen from high
+//! above), and a 32 x 32 grid seen from its southern edge, where about half the tiles are culled.
+//! Tiles have 65 x 65 samples. To compare with a frame: 5 % of a 7 fps frame is 7.1 ms, of a
+//! 25 fps frame 2 ms.
+
+use std::hint::black_box;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use glam::dcamera::rh::{proj::directx::perspective, view::look_at_mat4};
+use glam::{DMat4, DVec3};
+use stripmask::budget::{BudgetController, BudgetSettings, allocate};
+use stripmask::frustum::{Aabb, Frustum};
+use stripmask::importance::{TileMeasure, Weights, visual_importance};
+use stripmask::masks::{LevelSet, MaskSet};
+
+/// Tile side in metres: 64 cells of 10 m.
+const TILE: f64 = 640.0;
+
+struct Scene {
+    boxes: Vec<Aabb>,
+    relief: Vec<f64>,
+    eye: DVec3,
+    view_projection: DMat4,
+}
+
+impl Scene {
+    /// A `columns x rows` grid of tiles with pseudo-random elevations and reliefs.
+    fn grid(
+        columns: usize,
+        rows: usize,
+        eye: DVec3,
+        target: DVec3,
+        up: DVec3,
+        aspect: f64,
+    ) -> Self {
+        let mut boxes = vec![];
+        let mut relief = vec![];
+        for j in 0..rows {
+            for i in 0..columns {
+                let k = (i * 7919 + j * 104_729) % 1000;
+                let low = k as f64 * 0.3;
+                let high = low + 20.0 + (k % 97) as f64 * 4.0;
+                let min = DVec3::new(i as f64 * TILE, low, j as f64 * TILE);
+                boxes.push(Aabb::new(min, DVec3::new(min.x + TILE, high, min.z + TILE)));
+                relief.push(high - low);
+            }
+        }
+        Self {
+            boxes,
+            relief,
+            eye,
+            view_projection: perspective(60f64.to_radians(), aspect, 1.0, 100_000.0)
+                * look_at_mat4(eye, target, up),
+        }
+    }
+}
+
+/// Reused buffers of the frame loop.
+#[derive(Default)]
+struct Frame {
+    visible: Vec<usize>,
+    measures: Vec<TileMeasure>,
+}
+
+/// One frame's bookkeeping; returns the triangles to draw and the index count of their masks.
+fn bookkeeping(
+    scene: &Scene,
+    frame: &mut Frame,
+    masks: &MaskSet,
+    controller: &mut BudgetController,
+    last_frame: (f64, usize),
+) -> (usize, usize) {
+    let frustum = Frustum::from_view_projection(&scene.view_projection);
+    frame.visible.clear();
+    frame.measures.clear();
+    for (tile, aabb) in scene.boxes.iter().enumerate() {
+        if frustum.intersects(aabb) {
+            frame.visible.push(tile);
+            frame.measures.push(TileMeasure {
+                distance: aabb.distance(scene.eye),
+                height: scene.relief[tile],
+            });
+        }
+    }
+    let importance = visual_importance(&frame.measures, Weights::default());
+    let budget = controller.record(last_frame.0, last_frame.1);
+    let allocation = allocate(budget, &importance, masks);
+    let triangles = allocation.iter().map(|a| a.triangles).sum();
+    let indices = allocation
+        .iter()
+        .map(|a| masks.indices(a.level).len())
+        .sum();
+    (triangles, indices)
+}
+
+fn bench_scene(c: &mut Criterion, name: &str, scene: &Scene) {
+    let masks = MaskSet::new(65, LevelSet::All);
+    let mut controller = BudgetController::new(BudgetSettings::default());
+    let mut frame = Frame::default();
+    let budget = controller.budget();
+    let (triangles, _) = bookkeeping(scene, &mut frame, &masks, &mut controller, (0.04, budget));
+    println!(
+        "{name}: {} of {} tiles visible, {triangles} triangles of a {budget} budget",
+        frame.visible.len(),
+        scene.boxes.len()
+    );
+    c.bench_function(name, |b| {
+        b.iter(|| {
+            // A frame that met the target with the whole budget: the budget stays put.
+            let last = (0.04, controller.budget());
+            black_box(bookkeeping(
+                black_box(scene),
+                &mut frame,
+                &masks,
+                &mut controller,
+                last,
+            ))
+        })
+    });
+}
+
+fn frames(c: &mut Criterion) {
+    // 40 x 25 tiles (25.6 x 16 km) seen straight down from 16 km: all 1,000 in view.
+    let center = DVec3::new(20.0 * TILE, 0.0, 12.5 * TILE);
+    let overview = Scene::grid(
+        40,
+        25,
+        center + DVec3::new(0.0, 16_000.0, 0.0),
+        center,
+        DVec3::NEG_Z,
+        1.6,
+    );
+    assert_eq!(
+        overview
+            .boxes
+            .iter()
+            .filter(|b| Frustum::from_view_projection(&overview.view_projection).intersects(b))
+            .count(),
+        1_000
+    );
+    bench_scene(c, "bookkeeping_1000_visible_tiles", &overview);
+
+    // 32 x 32 tiles seen from 500 m above the middle of the southern edge, looking north
+    // through a 3:4 portrait view: 488 tiles in view.
+    let eye = DVec3::new(16.0 * TILE, 500.0, 32.0 * TILE);
+    let edge = Scene::grid(
+        32,
+        32,
+        eye,
+        eye + DVec3::new(0.0, -100.0, -1000.0),
+        DVec3::Y,
+        0.75,
+    );
+    let in_view = edge
+        .boxes
+        .iter()
+        .filter(|b| Frustum::from_view_projection(&edge.view_projection).intersects(b))
+        .count();
+    assert!((400..=600).contains(&in_view), "{in_view}");
+    bench_scene(c, "bookkeeping_32x32_grid_about_half_culled", &edge);
+}
+
+criterion_group!(benches, frames);
+criterion_main!(benches);

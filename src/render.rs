@@ -14,6 +14,7 @@ use stripmask_raster::{
 };
 
 use crate::camera::Camera;
+use crate::masks::FRONT_FACE;
 use crate::resident::ResidentTile;
 use crate::terrain::TerrainFrame;
 
@@ -137,6 +138,7 @@ pub fn draw_tiles(
         let state = RenderState {
             precision: settings.precision,
             cull: CullMode::Back,
+            front_face: FRONT_FACE,
             depth: if settings.depth_test {
                 DepthMode::LESS_WRITE
             } else {

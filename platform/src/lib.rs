@@ -1,113 +1,52 @@
-//! Where stripmask frames go. A [`Presenter`] takes finished framebuffers; this crate will hold
-//! one per target (PNG files, a window, the Linux framebuffer), each optional heavy one behind a
-//! cargo feature so that a headless build pulls in no windowing.
+//! Where stripmask frames go. The engine renders into a [`Framebuffer`] (RGB565 or RGBA8888) and
+//! hands it to a [`Presenter`], which shows or stores it and reports what the user did since the
+//! last frame as an [`Input`]. Three presenters:
+//!
+//! - [`PngFrames`]: every n-th frame as a PNG file; always built, the headless choice.
+//! - `WindowPresenter` (cargo feature `window`): a desktop window through minifb's X11 backend.
+//! - `FbPresenter` (cargo feature `fbdev`, Linux): the Linux framebuffer device, `/dev/fb0`.
+//!
+//! The [`Hud`] draws statistics and a minimap of the belts with tiny-skia into an [`Overlay`],
+//! which a presenter composites over the frame while it converts pixels; when the HUD is off there
+//! is no overlay and the conversion is the plain one. Frames are never scaled or converted twice:
+//! each presenter maps its output pixels to frame pixels once ([`Fit`]), and composition works on
+//! 8-bit RGB rows, so the same frame and overlay give the same bytes on every target.
 
 #![warn(missing_docs)]
 
-use std::path::{Path, PathBuf};
+mod compose;
+mod error;
+#[cfg(all(feature = "fbdev", target_os = "linux"))]
+mod fbdev;
+#[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
+mod fit;
+mod hud;
+mod input;
+mod png;
+#[cfg(feature = "window")]
+mod window;
+
+pub use compose::compose_rgba;
+pub use error::PlatformError;
+#[cfg(all(feature = "fbdev", target_os = "linux"))]
+pub use fbdev::{Bitfield, FbPresenter, ScreenInfo};
+#[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
+pub use fit::Fit;
+pub use hud::{Hud, HudInfo, Minimap, Overlay, PanelRect, TileState};
+pub use input::{Command, Input, Motion};
+pub use png::PngFrames;
+#[cfg(feature = "window")]
+pub use window::WindowPresenter;
 
 use stripmask_raster::Framebuffer;
-use thiserror::Error;
-
-/// What can go wrong while presenting.
-#[derive(Debug, Error)]
-pub enum PlatformError {
-    /// A frame file could not be written.
-    #[error("{path}: {source}")]
-    Write {
-        /// The file.
-        path: PathBuf,
-        /// Why.
-        source: image::ImageError,
-    },
-    /// The output folder could not be created.
-    #[error("{path}: {source}")]
-    Folder {
-        /// The folder.
-        path: PathBuf,
-        /// Why.
-        source: std::io::Error,
-    },
-}
 
 /// A destination for finished frames.
 pub trait Presenter {
-    /// Shows (or stores) one frame.
-    fn present(&mut self, frame: &Framebuffer) -> Result<(), PlatformError>;
-}
+    /// Shows (or stores) one frame, with the HUD overlay composited over it when there is one.
+    fn present(&mut self, frame: &Framebuffer, hud: Option<&Overlay>) -> Result<(), PlatformError>;
 
-/// Writes every `every`-th frame as `frame_NNNNNN.png` into a folder: the headless presenter.
-#[derive(Debug)]
-pub struct PngFrames {
-    dir: PathBuf,
-    every: u64,
-    count: u64,
-}
-
-impl PngFrames {
-    /// Creates the folder if needed; `every` of 0 is taken as 1.
-    pub fn new(dir: impl AsRef<Path>, every: u64) -> Result<Self, PlatformError> {
-        let dir = dir.as_ref().to_path_buf();
-        std::fs::create_dir_all(&dir).map_err(|source| PlatformError::Folder {
-            path: dir.clone(),
-            source,
-        })?;
-        Ok(Self {
-            dir,
-            every: every.max(1),
-            count: 0,
-        })
-    }
-}
-
-impl Presenter for PngFrames {
-    fn present(&mut self, frame: &Framebuffer) -> Result<(), PlatformError> {
-        let n = self.count;
-        self.count += 1;
-        if n % self.every != 0 {
-            return Ok(());
-        }
-        let path = self.dir.join(format!("frame_{n:06}.png"));
-        frame
-            .to_rgba_image()
-            .save(&path)
-            .map_err(|source| PlatformError::Write { path, source })
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use stripmask_raster::{ColorFormat, DepthFormat};
-
-    #[test]
-    fn keeps_one_frame_in_every_and_writes_what_was_drawn() {
-        let dir = std::env::temp_dir().join(format!("stripmask-png-{}", std::process::id()));
-        let mut p = PngFrames::new(&dir, 2).unwrap();
-        let mut fb = Framebuffer::new(4, 3, ColorFormat::Rgb565, DepthFormat::None).unwrap();
-        for shade in [0u8, 80, 160] {
-            fb.clear_color([shade, 255, 0]);
-            p.present(&fb).unwrap();
-        }
-        let mut names: Vec<_> = std::fs::read_dir(&dir)
-            .unwrap()
-            .map(|e| e.unwrap().file_name())
-            .collect();
-        names.sort();
-        assert_eq!(names, ["frame_000000.png", "frame_000002.png"]);
-        let img = image::open(dir.join("frame_000002.png"))
-            .unwrap()
-            .to_rgba8();
-        assert_eq!(img.get_pixel(3, 2).0, fb.to_rgba_image().get_pixel(3, 2).0);
-        std::fs::remove_dir_all(&dir).unwrap();
-    }
-
-    #[test]
-    fn an_unwritable_folder_is_reported_with_its_path() {
-        let file = std::env::temp_dir().join(format!("stripmask-not-a-dir-{}", std::process::id()));
-        std::fs::write(&file, b"x").unwrap();
-        let err = PngFrames::new(file.join("sub"), 1).unwrap_err();
-        assert!(err.to_string().contains("stripmask-not-a-dir"), "{err}");
-        std::fs::remove_file(&file).unwrap();
+    /// What the user did since the last call. Presenters without input devices report nothing.
+    fn poll_input(&mut self) -> Input {
+        Input::default()
     }
 }

@@ -1,0 +1,221 @@
+//! The Linux framebuffer presenter: frames written straight into `/dev/fb*` through an mmap,
+//! in whatever pixel format the screen has.
+
+mod console;
+mod ioctl;
+mod mapping;
+mod pixel_layout;
+mod screen_info;
+mod sigint;
+
+pub use screen_info::{Bitfield, ScreenInfo};
+
+use std::fs::File;
+use std::path::{Path, PathBuf};
+
+use stripmask_raster::Framebuffer;
+
+use crate::compose::RowReader;
+use crate::fit::Placement;
+use crate::{Fit, Input, Overlay, PlatformError, Presenter};
+use console::Console;
+use mapping::Mapping;
+use pixel_layout::PixelLayout;
+use sigint::SigintGuard;
+
+/// Frames on a Linux framebuffer device. Opened with [`FbPresenter::open`], it puts the
+/// console in graphics mode (when run from a virtual terminal) and turns Ctrl-C into
+/// [`Input::quit`]; dropping it restores both. Frames of another size than the screen are
+/// placed by a [`Fit`]; the screen outside the frame is black.
+#[derive(Debug)]
+pub struct FbPresenter {
+    device: PathBuf,
+    info: ScreenInfo,
+    layout: PixelLayout,
+    fit: Fit,
+    map: Mapping,
+    /// Where the last frame went, reused while the frame size stays.
+    placement: Option<Placement>,
+    /// One packed output row.
+    row: Vec<u8>,
+    console: Option<Console>,
+    sigint: Option<SigintGuard>,
+}
+
+impl FbPresenter {
+    /// Opens a framebuffer device such as `/dev/fb0`, reads its mode and maps its memory.
+    pub fn open(device: impl AsRef<Path>, fit: Fit) -> Result<Self, PlatformError> {
+        let device = device.as_ref();
+        let file = open_device(device)?;
+        let (info, memory_len) = ScreenInfo::query(&file, device)?;
+        if memory_len < info.mapped_len() {
+            return Err(PlatformError::Unsupported {
+                device: device.to_path_buf(),
+                detail: format!(
+                    "{memory_len} bytes of screen memory hold fewer than {} rows of {} bytes",
+                    info.yoffset + info.height,
+                    info.line_length
+                ),
+            });
+        }
+        let mut presenter = Self::with_file(file, device, info, fit)?;
+        presenter.console = Console::take_over();
+        presenter.sigint = SigintGuard::install().ok();
+        Ok(presenter)
+    }
+
+    /// Writes into `device`, any file at least as long as `info` needs, as if it were a screen
+    /// described by `info`: no ioctl, no console, no Ctrl-C handler. For tests and for
+    /// devices whose mode is known from elsewhere.
+    pub fn with_screen_info(
+        device: impl AsRef<Path>,
+        info: ScreenInfo,
+        fit: Fit,
+    ) -> Result<Self, PlatformError> {
+        let device = device.as_ref();
+        let file = open_device(device)?;
+        let len = file
+            .metadata()
+            .map_err(|source| PlatformError::DeviceOpen {
+                device: device.to_path_buf(),
+                source,
+                hint: "",
+            })?
+            .len();
+        if len < info.mapped_len() as u64 {
+            return Err(PlatformError::Unsupported {
+                device: device.to_path_buf(),
+                detail: format!(
+                    "{len} bytes are fewer than the {} the screen needs",
+                    info.mapped_len()
+                ),
+            });
+        }
+        Self::with_file(file, device, info, fit)
+    }
+
+    fn with_file(
+        file: File,
+        device: &Path,
+        info: ScreenInfo,
+        fit: Fit,
+    ) -> Result<Self, PlatformError> {
+        let layout = PixelLayout::new(&info).map_err(|detail| PlatformError::Unsupported {
+            device: device.to_path_buf(),
+            detail,
+        })?;
+        let len = info.mapped_len();
+        let map = Mapping::new(&file, len).map_err(|source| PlatformError::Map {
+            device: device.to_path_buf(),
+            len,
+            source,
+        })?;
+        Ok(Self {
+            device: device.to_path_buf(),
+            info,
+            layout,
+            fit,
+            map,
+            placement: None,
+            row: Vec::new(),
+            console: None,
+            sigint: None,
+        })
+    }
+
+    /// The screen's geometry and pixel format.
+    pub fn screen_info(&self) -> &ScreenInfo {
+        &self.info
+    }
+
+    /// The visible size in pixels: render at this size to fill the screen one to one.
+    pub fn size(&self) -> (u32, u32) {
+        (self.info.width, self.info.height)
+    }
+
+    /// The device path.
+    pub fn device(&self) -> &Path {
+        &self.device
+    }
+
+    /// Paints the whole visible area black.
+    fn clear(&mut self) {
+        let bpp = self.layout.bytes();
+        self.row.resize(self.info.width as usize * bpp, 0);
+        for px in self.row.chunks_exact_mut(bpp) {
+            self.layout.write([0, 0, 0], px);
+        }
+        for y in 0..self.info.height {
+            let at = offset(&self.info, bpp, 0, y);
+            self.map.bytes_mut()[at..at + self.row.len()].copy_from_slice(&self.row);
+        }
+    }
+}
+
+/// Byte offset of visible pixel (`x`, `y`) in the mapping.
+fn offset(info: &ScreenInfo, bpp: usize, x: u32, y: u32) -> usize {
+    (info.yoffset + y) as usize * info.line_length as usize + (info.xoffset + x) as usize * bpp
+}
+
+/// Opens a device (or stand-in file) for reading and writing, naming it and the likely fix.
+fn open_device(device: &Path) -> Result<File, PlatformError> {
+    File::options()
+        .read(true)
+        .write(true)
+        .open(device)
+        .map_err(|source| {
+            let hint = match source.kind() {
+                std::io::ErrorKind::PermissionDenied => {
+                    " (add the user to the video group, or run as root)"
+                }
+                std::io::ErrorKind::NotFound => {
+                    " (is a framebuffer driver loaded? see ls /dev/fb*)"
+                }
+                _ => "",
+            };
+            PlatformError::DeviceOpen {
+                device: device.to_path_buf(),
+                source,
+                hint,
+            }
+        })
+}
+
+impl Presenter for FbPresenter {
+    fn present(&mut self, frame: &Framebuffer, hud: Option<&Overlay>) -> Result<(), PlatformError> {
+        let size = (frame.width(), frame.height());
+        if self.placement.as_ref().is_none_or(|p| p.frame != size) {
+            self.clear();
+            let output = (self.info.width, self.info.height);
+            self.placement = Some(Placement::new(size, output, self.fit));
+        }
+        let Self {
+            info,
+            layout,
+            map,
+            placement,
+            row,
+            ..
+        } = self;
+        let placement = placement.as_ref().expect("placed above");
+        let bpp = layout.bytes();
+        row.resize(placement.columns.len() * bpp, 0);
+        let mut reader = RowReader::new(frame, hud);
+        for (dy, &sy) in placement.rows.iter().enumerate() {
+            let src = reader.row(sy);
+            for (px, &sx) in row.chunks_exact_mut(bpp).zip(&placement.columns) {
+                layout.write(src[sx as usize], px);
+            }
+            let at = offset(info, bpp, placement.x, placement.y + dy as u32);
+            map.bytes_mut()[at..at + row.len()].copy_from_slice(row);
+        }
+        Ok(())
+    }
+
+    fn poll_input(&mut self) -> Input {
+        Input {
+            quit: self.sigint.is_some() && sigint::interrupted(),
+            ..Input::default()
+        }
+    }
+}

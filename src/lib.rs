@@ -9,6 +9,7 @@
 #![warn(missing_docs)]
 
 pub mod archive;
+pub mod belts;
 pub mod builder;
 pub mod dem;
 pub mod error;

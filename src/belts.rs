@@ -144,7 +144,8 @@ impl Grid {
         }
         let (fx, fy) = (px.floor(), py.floor());
         let inside = |f: f64, n: u32| f >= 0.0 && f < f64::from(n);
-        if !(inside(fx, self.tiles_x) && inside(fy, self.tiles_y)) && !nearest_when_off {
+        let on_grid = inside(fx, self.tiles_x) && inside(fy, self.tiles_y);
+        if !on_grid && !nearest_when_off {
             return None;
         }
         let clamp = |f: f64, n: u32| f.clamp(0.0, f64::from(n - 1)) as u32;
@@ -318,8 +319,11 @@ impl Ledger {
     /// flight or the reservation would exceed the limit.
     pub fn reserve(&mut self, fetch: Fetch) -> Result<()> {
         let record = self.record(fetch.id);
-        let memory = self.memory.saturating_add(fetch.bytes);
-        if record.fetch.is_some() || memory > self.limit {
+        let memory = self
+            .memory
+            .checked_add(fetch.bytes)
+            .filter(|&m| m <= self.limit);
+        let (Some(memory), None) = (memory, record.fetch) else {
             return Err(Error::invalid(
                 fetch.id.to_string(),
                 format!(
@@ -330,7 +334,7 @@ impl Ledger {
                     record.fetch.is_some()
                 ),
             ));
-        }
+        };
         self.records.entry(fetch.id).or_default().fetch = Some(Reservation {
             bytes: fetch.bytes,
             ring: fetch.ring,
@@ -400,13 +404,18 @@ impl Ledger {
         }
     }
 
-    /// Drops the resident copy of `id`; returns the bytes it held.
+    /// Drops the resident copy of `id`; returns the bytes it held. A copy whose upgrade was
+    /// given up takes its failures with it: the tile may be fetched afresh later.
     pub fn evict(&mut self, id: TileId) -> usize {
         let Some(record) = self.records.get_mut(&id) else {
             return 0;
         };
         let bytes = record.held.take().map_or(0, |h| h.bytes);
         self.memory -= bytes;
+        if record.fetch.is_none() && bytes > 0 {
+            record.failures = 0;
+            record.failure = None;
+        }
         if record.is_empty() {
             self.records.remove(&id);
         }
@@ -545,7 +554,7 @@ pub fn plan(
     let mut victims = evictable.into_iter();
     let mut needed = 0usize;
     for fetch in missing.into_iter().take(max_fetches) {
-        needed += fetch.bytes;
+        needed = needed.saturating_add(fetch.bytes);
         while free < needed {
             let Some((victim, bytes)) = victims.next() else {
                 return plan;
@@ -634,6 +643,7 @@ mod tests {
     ) -> Vec<Plan> {
         let mut plans = Vec::new();
         loop {
+            assert!(plans.len() < 1000, "no steady state after 1000 plans");
             let plan = plan(ledger, Some(center), max_fetches, cost);
             if plan.fetch.is_empty() {
                 plans.push(plan);
@@ -986,6 +996,42 @@ mod tests {
         assert!(l.shrink(id(3, 3), 1, 5).is_err());
         assert_eq!(l.evict(id(0, 0)), 20);
         assert_eq!((l.memory(), l.peak()), (0, 100));
+    }
+
+    #[test]
+    fn evicting_a_copy_whose_upgrade_was_given_up_makes_the_tile_fetchable_again() {
+        let retry = RetryPolicy {
+            max_attempts: 1,
+            delay_updates: 1,
+        };
+        let mut l = Ledger::new(Grid::new(3, 1).unwrap(), 100, retry);
+        let t = id(0, 0);
+        l.reserve(Fetch {
+            id: t,
+            ring: 2,
+            bytes: 10,
+        })
+        .unwrap();
+        l.arrive(t, 10, NOW).unwrap();
+        l.reserve(Fetch {
+            id: t,
+            ring: 0,
+            bytes: 50,
+        })
+        .unwrap();
+        l.fail(t, NOW);
+        assert_eq!(l.record(t).failure, Some(Failure::GaveUp));
+        assert_eq!(l.memory(), 10);
+        assert_eq!(l.evict(t), 10);
+        assert_eq!(l.record(t), Record::default());
+        assert!(
+            l.reserve(Fetch {
+                id: t,
+                ring: 0,
+                bytes: usize::MAX
+            })
+            .is_err()
+        );
     }
 
     #[test]

@@ -15,6 +15,7 @@ pub mod dem;
 pub mod error;
 pub mod level_error;
 pub mod mask_level;
+pub mod pager;
 pub mod rgb565;
 pub mod serve;
 pub mod source;

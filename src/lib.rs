@@ -9,6 +9,7 @@
 #![warn(missing_docs)]
 
 pub mod archive;
+pub mod belts;
 pub mod budget;
 pub mod builder;
 pub mod camera;
@@ -20,6 +21,7 @@ pub mod importance;
 pub mod level_error;
 pub mod mask_level;
 pub mod masks;
+pub mod pager;
 pub mod render;
 pub mod resident;
 pub mod rgb565;

@@ -1,0 +1,435 @@
+//! The pager: Algorithm 1 of [`crate::belts`] driving a [`TileLoader`], beside the frame loop.
+//!
+//! Call [`Pager::update`] once at the start of every frame with the viewpoint: it takes in the
+//! tiles that arrived, shrinks tiles that moved to a farther belt, evicts cache and starts the
+//! next fetches of belt `d_c + 1`, all without waiting on I/O in [`PagerMode::Threaded`]. The
+//! frame then draws [`Pager::tiles`]. [`PagerMode::Stepped`] runs a fixed number of fetches
+//! synchronously inside each update instead, which makes a run reproducible. Either way the
+//! accounted memory, reservations of fetches in flight included, never exceeds the limit.
+
+mod meminfo;
+mod worker;
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+pub use meminfo::{memory_limit_from_available, parse_mem_available};
+
+use crate::belts::{self, Failure, Fetch, Grid, Ledger, Plan, RetryPolicy, TileId};
+use crate::error::{Error, Result};
+use worker::{Arrival, Worker};
+
+/// What the engine gives the pager: costs known before fetching, fetching itself, and shrinking.
+pub trait TileLoader: Send + Sync + 'static {
+    /// A loaded tile.
+    type Loaded: Send + 'static;
+    /// Bytes a tile will hold once loaded for belt distance `ring` (known before fetching).
+    fn predicted_bytes(&self, id: TileId, ring: u32) -> usize;
+    /// Fetches and decodes a tile for belt distance `ring` (on the fetch thread in threaded
+    /// mode). Returns the tile and the bytes downloaded.
+    fn load(&self, id: TileId, ring: u32) -> Result<(Self::Loaded, u64)>;
+    /// Bytes a loaded tile holds; at most what [`TileLoader::predicted_bytes`] said for the ring
+    /// it was loaded for (a tile holding more is refused as an error).
+    fn held_bytes(&self, tile: &Self::Loaded) -> usize;
+    /// Drops detail a tile no longer needs at the larger belt distance `ring` (for example its
+    /// finest texture mips); returns the bytes it holds now, never more than before.
+    fn shrink(&self, tile: &mut Self::Loaded, ring: u32) -> usize;
+}
+
+/// How fetches run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PagerMode {
+    /// A fetch thread; each update queues fetches so that at most `queue_depth` (at least 1)
+    /// are in flight, and takes in what arrived, never waiting.
+    Threaded {
+        /// Fetches in flight at most.
+        queue_depth: usize,
+    },
+    /// No thread: each update runs up to `fetches_per_update` fetches synchronously, one after
+    /// the other, re-planning after each (0 pauses fetching). Deterministic.
+    Stepped {
+        /// Fetches per update at most.
+        fetches_per_update: usize,
+    },
+}
+
+/// Settings of a [`Pager`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PagerConfig {
+    /// The limit on accounted bytes (see [`memory_limit_from_available`] for a percentage).
+    pub memory_limit_bytes: usize,
+    /// A viewpoint off the terrain uses the nearest tile; when false, nothing new is fetched
+    /// while the viewpoint is off the terrain (what is loaded stays, as cache).
+    pub nearest_when_off: bool,
+    /// Threaded or stepped fetching.
+    pub mode: PagerMode,
+    /// How failed tiles are tried again.
+    pub retry: RetryPolicy,
+}
+
+impl PagerConfig {
+    /// `memory_limit_bytes` in `mode`, using the nearest tile off the terrain, default retries.
+    pub fn new(memory_limit_bytes: usize, mode: PagerMode) -> Self {
+        PagerConfig {
+            memory_limit_bytes,
+            nearest_when_off: true,
+            mode,
+            retry: RetryPolicy::default(),
+        }
+    }
+}
+
+/// Where a tile stands, for display (the HUD minimap colours tiles by this).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum TileState {
+    /// Loaded and part of the complete square of belts.
+    Square,
+    /// Being fetched (possibly an upgrade of a copy held for a farther belt).
+    Fetching,
+    /// Loaded outside the complete square: a cache kept until memory is needed.
+    Cached,
+    /// Its last fetch failed (it waits for a retry, or was given up).
+    Failed,
+    /// Not loaded.
+    Absent,
+}
+
+/// Counters of a [`Pager`], for the HUD and the per-frame statistics.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PagerStats {
+    /// Accounted bytes now: loaded tiles plus reservations of fetches in flight.
+    pub memory_bytes: usize,
+    /// The highest `memory_bytes` so far.
+    pub memory_peak_bytes: usize,
+    /// The limit.
+    pub memory_limit_bytes: usize,
+    /// Tiles with a loaded copy.
+    pub loaded_tiles: usize,
+    /// Fetches in flight.
+    pub fetching: usize,
+    /// `d_c`: belts `0..=d_c` around the current tile are complete; `None` while the current
+    /// tile itself is missing or the viewpoint is off the terrain (with `nearest_when_off` off).
+    pub complete_belts: Option<u32>,
+    /// The last plan found that belt `d_c + 1` does not fit the limit even without cache: the
+    /// square is as large as memory allows.
+    pub memory_bound: bool,
+    /// Bytes the loader reported downloaded.
+    pub downloaded_bytes: u64,
+    /// Tiles fetched and accounted.
+    pub fetches: u64,
+    /// Loaded copies dropped to make room.
+    pub evictions: u64,
+    /// Failed fetches (and loader contract violations).
+    pub errors: u64,
+    /// Tiles whose last fetch failed.
+    pub failed_tiles: usize,
+}
+
+/// Pages tiles in belts around the viewpoint under a memory limit (see the module doc).
+pub struct Pager<L: TileLoader> {
+    loader: Arc<L>,
+    config: PagerConfig,
+    ledger: Ledger,
+    tiles: BTreeMap<TileId, L::Loaded>,
+    worker: Option<Worker<L::Loaded>>,
+    center: Option<TileId>,
+    complete: Option<u32>,
+    memory_bound: bool,
+    now: u64,
+    downloaded_bytes: u64,
+    fetches: u64,
+    evictions: u64,
+    errors: u64,
+    last_error: Option<String>,
+}
+
+impl<L: TileLoader> Pager<L> {
+    /// A pager for `grid` with nothing loaded; starts the fetch thread in threaded mode.
+    pub fn new(loader: L, grid: Grid, config: PagerConfig) -> Result<Self> {
+        let loader = Arc::new(loader);
+        let worker = match config.mode {
+            PagerMode::Threaded { queue_depth: 0 } => {
+                return Err(Error::Usage(
+                    "a threaded pager needs a queue depth of at least 1".into(),
+                ));
+            }
+            PagerMode::Threaded { .. } => Some(Worker::spawn(Arc::clone(&loader))?),
+            PagerMode::Stepped { .. } => None,
+        };
+        Ok(Pager {
+            loader,
+            config,
+            ledger: Ledger::new(grid, config.memory_limit_bytes, config.retry),
+            tiles: BTreeMap::new(),
+            worker,
+            center: None,
+            complete: None,
+            memory_bound: false,
+            now: 0,
+            downloaded_bytes: 0,
+            fetches: 0,
+            evictions: 0,
+            errors: 0,
+            last_error: None,
+        })
+    }
+
+    /// Once per frame, before drawing: `viewer` is the viewpoint in tile units (tile `(x, y)`
+    /// covers `[x, x + 1) x [y, y + 1)`, `x` east, `y` south). Takes in arrived tiles, shrinks
+    /// tiles that are now farther, evicts and schedules. Never waits on I/O in threaded mode.
+    pub fn update(&mut self, viewer: (f64, f64)) {
+        self.now += 1;
+        self.center = self
+            .ledger
+            .grid()
+            .locate(viewer, self.config.nearest_when_off);
+        self.receive();
+        self.ledger.tick(self.now);
+        self.shrink();
+        match self.config.mode {
+            PagerMode::Threaded { queue_depth } => {
+                let room = queue_depth.saturating_sub(self.ledger.fetching());
+                let plan = self.plan(room);
+                self.evict(&plan);
+                for fetch in plan.fetch {
+                    self.dispatch(fetch);
+                }
+            }
+            PagerMode::Stepped { fetches_per_update } => {
+                for _ in 0..fetches_per_update {
+                    let plan = self.plan(1);
+                    self.evict(&plan);
+                    let Some(&fetch) = plan.fetch.first() else {
+                        break;
+                    };
+                    if self.reserve(fetch) {
+                        let result = worker::load(&*self.loader, fetch);
+                        self.integrate(fetch.id, result);
+                    }
+                }
+            }
+        }
+        let loader = &*self.loader;
+        self.complete = self.center.and_then(|c| {
+            self.ledger
+                .complete_belts(c, |id, ring| loader.predicted_bytes(id, ring))
+        });
+    }
+
+    /// The tile under the viewpoint at the last update (the nearest one when off the terrain
+    /// and `nearest_when_off`).
+    pub fn current_tile(&self) -> Option<TileId> {
+        self.center
+    }
+
+    /// The loaded tiles, row-major: the complete square and the cache.
+    pub fn tiles(&self) -> impl Iterator<Item = (TileId, &L::Loaded)> {
+        self.tiles.iter().map(|(id, t)| (*id, t))
+    }
+
+    /// The loaded copy of `id`, if any.
+    pub fn get(&self, id: TileId) -> Option<&L::Loaded> {
+        self.tiles.get(&id)
+    }
+
+    /// Where `id` stands.
+    pub fn state(&self, id: TileId) -> TileState {
+        let record = self.ledger.record(id);
+        let in_square = match (self.center, self.complete) {
+            (Some(c), Some(d)) => Grid::ring(c, id) <= d,
+            _ => false,
+        };
+        if record.held.is_some() && in_square {
+            TileState::Square
+        } else if record.fetch.is_some() {
+            TileState::Fetching
+        } else if record.held.is_some() {
+            TileState::Cached
+        } else if record.failure.is_some() {
+            TileState::Failed
+        } else {
+            TileState::Absent
+        }
+    }
+
+    /// The counters.
+    pub fn stats(&self) -> PagerStats {
+        let failed_tiles = self
+            .ledger
+            .records()
+            .filter(|(_, r)| r.failure.is_some())
+            .count();
+        PagerStats {
+            memory_bytes: self.ledger.memory(),
+            memory_peak_bytes: self.ledger.peak(),
+            memory_limit_bytes: self.ledger.limit(),
+            loaded_tiles: self.tiles.len(),
+            fetching: self.ledger.fetching(),
+            complete_belts: self.complete,
+            memory_bound: self.memory_bound,
+            downloaded_bytes: self.downloaded_bytes,
+            fetches: self.fetches,
+            evictions: self.evictions,
+            errors: self.errors,
+            failed_tiles,
+        }
+    }
+
+    /// The message of the last error (a failed fetch names its tile), if any.
+    pub fn last_error(&self) -> Option<&str> {
+        self.last_error.as_deref()
+    }
+
+    /// The accounting: what every tile holds or has reserved.
+    pub fn ledger(&self) -> &Ledger {
+        &self.ledger
+    }
+
+    /// The loader.
+    pub fn loader(&self) -> &L {
+        &self.loader
+    }
+
+    fn plan(&mut self, max_fetches: usize) -> Plan {
+        let loader = &*self.loader;
+        let plan = belts::plan(&self.ledger, self.center, max_fetches, |id, ring| {
+            loader.predicted_bytes(id, ring)
+        });
+        self.memory_bound = plan.full;
+        plan
+    }
+
+    fn evict(&mut self, plan: &Plan) {
+        for &id in &plan.evict {
+            self.ledger.evict(id);
+            self.tiles.remove(&id);
+            self.evictions += 1;
+        }
+    }
+
+    /// Accounts a planned fetch; false (with the error recorded) if the ledger refuses it.
+    fn reserve(&mut self, fetch: Fetch) -> bool {
+        match self.ledger.reserve(fetch) {
+            Ok(()) => true,
+            Err(e) => {
+                self.record_error(e.to_string());
+                false
+            }
+        }
+    }
+
+    fn dispatch(&mut self, fetch: Fetch) {
+        if !self.reserve(fetch) {
+            return;
+        }
+        let sent = match &self.worker {
+            Some(worker) => worker.send(fetch),
+            None => Err(Error::invalid(
+                fetch.id.to_string(),
+                "no fetch thread is running",
+            )),
+        };
+        if let Err(e) = sent {
+            self.ledger.fail(fetch.id, self.now);
+            self.record_error(e.to_string());
+        }
+    }
+
+    /// Takes in every result the fetch thread sent. If the thread is gone, its fetches in
+    /// flight fail and a new thread starts.
+    fn receive(&mut self) {
+        let mut arrivals = Vec::new();
+        let mut stopped = None;
+        if let Some(worker) = &self.worker {
+            loop {
+                match worker.try_recv() {
+                    Ok(Some(arrival)) => arrivals.push(arrival),
+                    Ok(None) => break,
+                    Err(e) => {
+                        stopped = Some(e);
+                        break;
+                    }
+                }
+            }
+        }
+        for Arrival { id, result } in arrivals {
+            self.integrate(id, result);
+        }
+        if let Some(e) = stopped {
+            self.record_error(e.to_string());
+            let in_flight: Vec<TileId> = self
+                .ledger
+                .records()
+                .filter(|(_, r)| r.fetch.is_some())
+                .map(|(id, _)| id)
+                .collect();
+            for id in in_flight {
+                self.ledger.fail(id, self.now);
+            }
+            self.worker = match Worker::spawn(Arc::clone(&self.loader)) {
+                Ok(worker) => Some(worker),
+                Err(e) => {
+                    self.record_error(e.to_string());
+                    None
+                }
+            };
+        }
+    }
+
+    fn integrate(&mut self, id: TileId, result: Result<(L::Loaded, u64)>) {
+        match result {
+            Ok((tile, downloaded)) => {
+                self.downloaded_bytes += downloaded;
+                let held = self.loader.held_bytes(&tile);
+                match self.ledger.arrive(id, held, self.now) {
+                    Ok(()) => {
+                        self.tiles.insert(id, tile);
+                        self.fetches += 1;
+                    }
+                    Err(e) => self.record_error(e.to_string()),
+                }
+            }
+            Err(e) => {
+                let ring = self.ledger.record(id).fetch.map_or(0, |f| f.ring);
+                self.ledger.fail(id, self.now);
+                let outcome = match self.ledger.record(id).failure {
+                    Some(Failure::GaveUp) => "given up",
+                    _ => "will retry",
+                };
+                self.record_error(format!("{id} (ring {ring}, {outcome}): {e}"));
+            }
+        }
+    }
+
+    /// Shrinks every loaded tile that is now in a farther belt than the one it holds detail for.
+    fn shrink(&mut self) {
+        let Some(center) = self.center else {
+            return;
+        };
+        let grown: Vec<(TileId, u32)> = self
+            .ledger
+            .records()
+            .filter_map(|(id, r)| {
+                let ring = Grid::ring(center, id);
+                r.held.filter(|h| ring > h.ring).map(|_| (id, ring))
+            })
+            .collect();
+        for (id, ring) in grown {
+            let Some(tile) = self.tiles.get_mut(&id) else {
+                continue;
+            };
+            let bytes = self.loader.shrink(tile, ring);
+            if let Err(e) = self.ledger.shrink(id, bytes, ring) {
+                self.record_error(e.to_string());
+                self.ledger.evict(id);
+                self.tiles.remove(&id);
+                self.evictions += 1;
+            }
+        }
+    }
+
+    fn record_error(&mut self, message: String) {
+        self.errors += 1;
+        self.last_error = Some(message);
+    }
+}

@@ -1,4 +1,4 @@
-//! Command-line arguments and the `build`, `info` and `serve` commands.
+//! Command-line arguments and the `build`, `info`, `serve` and `fly` commands.
 
 use std::io::Write;
 use std::net::SocketAddr;
@@ -11,9 +11,17 @@ use serde::Serialize;
 use stripmask::archive::{ArchiveReader, Codec, HEADER_LEN, Header};
 use stripmask::builder::{BuildOptions, build};
 use stripmask::dem::{self, DemFormat, OpenOptions, RawLayout, SampleType};
+use stripmask::engine::EngineSettings;
 use stripmask::error::{Error, Result};
+use stripmask::flight::{Builtin, Flight};
+use stripmask::fly::{FlyOptions, Length, fly};
+use stripmask::importance::Weights;
+use stripmask::masks::LevelSet;
+use stripmask::pager::memory_limit_from_available;
 use stripmask::serve::Server;
 use stripmask::source::{self, throttle::LinkProfile};
+use stripmask::terrain::TerrainFrame;
+use stripmask_raster::{ColorFormat, DepthFormat, Precision};
 
 /// Adaptive streaming and CPU rendering of large terrains with strip masks.
 #[derive(Parser, Debug)]
@@ -31,6 +39,81 @@ enum Command {
     Info(InfoArgs),
     /// Serve one archive over HTTP with byte ranges (loopback by default).
     Serve(ServeArgs),
+    /// Fly over an archive headless: stats.csv, PNG frames and a summary.
+    Fly(FlyArgs),
+}
+
+#[derive(Args, Debug)]
+struct FlyArgs {
+    /// An archive file or http:// URL.
+    source: String,
+    /// Stop after N frames (default: the whole flight).
+    #[arg(long, conflicts_with = "seconds")]
+    frames: Option<u64>,
+    /// Stop after S seconds of flight time.
+    #[arg(long)]
+    seconds: Option<f64>,
+    /// A built-in flight (overview, diagonal, low) or a TOML file of keyframes.
+    #[arg(long, default_value = "diagonal")]
+    flight: String,
+    /// Framebuffer size.
+    #[arg(long, default_value = "320x240", value_parser = parse_size)]
+    size: (u32, u32),
+    /// Colour format: rgb565 (the handheld's) or rgba8888.
+    #[arg(long, value_enum, default_value_t = ColorArg::Rgb565)]
+    color: ColorArg,
+    /// Depth buffer bits: 16 or 32.
+    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u8).range(16..=32))]
+    depth_bits: u8,
+    /// The frame rate the triangle budget aims at.
+    #[arg(long, default_value_t = 7.0)]
+    target_fps: f64,
+    /// Memory limit on loaded tiles, MB (10^6 bytes).
+    #[arg(long, default_value_t = 20.0, conflicts_with = "memory_percent")]
+    memory_mb: f64,
+    /// Memory limit as a percentage of available memory (Linux), as in the paper.
+    #[arg(long)]
+    memory_percent: Option<f64>,
+    /// Output folder for stats.csv and frames.
+    #[arg(long, default_value = "stripmask-fly")]
+    out: PathBuf,
+    /// Keep one frame in K as PNG (0: none).
+    #[arg(long, default_value_t = 10)]
+    every: u64,
+    /// Rasterizer threads (0: all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Use the f32 reference pipeline instead of fixed point.
+    #[arg(long)]
+    float: bool,
+    /// Power-of-two mask levels only (geometrical mipmapping) instead of every level.
+    #[arg(long)]
+    pow2_masks: bool,
+    /// Importance weight of distance (the height weight is 1 minus it).
+    #[arg(long, default_value_t = 0.5)]
+    distance_weight: f64,
+    /// No progress bar.
+    #[arg(short, long)]
+    quiet: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum ColorArg {
+    Rgb565,
+    Rgba8888,
+}
+
+fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once('x')
+        .ok_or_else(|| format!("size {s:?} is not WxH"))?;
+    let parse = |v: &str| {
+        v.parse::<u32>()
+            .ok()
+            .filter(|&n| (1..=8192).contains(&n))
+            .ok_or_else(|| format!("size {s:?}: sides are 1 ..= 8192"))
+    };
+    Ok((parse(w)?, parse(h)?))
 }
 
 #[derive(Args, Debug)]
@@ -132,7 +215,96 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Build(a) => run_build(a),
         Command::Info(a) => run_info(a),
         Command::Serve(a) => run_serve(a),
+        Command::Fly(a) => run_fly(a),
     }
+}
+
+fn run_fly(a: FlyArgs) -> Result<()> {
+    let reader = ArchiveReader::open(source::open(&a.source)?)?;
+    let terrain = TerrainFrame::new(reader.header());
+    drop(reader);
+    let flight = match a.flight.as_str() {
+        "overview" => Flight::builtin(Builtin::Overview, &terrain),
+        "diagonal" => Flight::builtin(Builtin::Diagonal, &terrain),
+        "low" => Flight::builtin(Builtin::Low, &terrain),
+        path => Flight::from_toml(std::path::Path::new(path))?,
+    };
+    let memory_limit_bytes = match a.memory_percent {
+        Some(p) => memory_limit_from_available(p)?,
+        None if a.memory_mb > 0.0 && a.memory_mb.is_finite() => (a.memory_mb * 1e6) as usize,
+        None => {
+            return Err(Error::Usage(format!(
+                "--memory-mb {} must be positive",
+                a.memory_mb
+            )));
+        }
+    };
+    if !(a.target_fps > 0.0 && a.target_fps.is_finite()) {
+        return Err(Error::Usage(format!(
+            "--target-fps {} must be positive",
+            a.target_fps
+        )));
+    }
+    let mut engine = EngineSettings {
+        memory_limit_bytes,
+        threads: a.threads,
+        level_set: if a.pow2_masks {
+            LevelSet::PowerOfTwo
+        } else {
+            LevelSet::All
+        },
+        weights: Weights::new(a.distance_weight, 1.0 - a.distance_weight).ok_or_else(|| {
+            Error::Usage(format!(
+                "--distance-weight {} must be within 0 ..= 1",
+                a.distance_weight
+            ))
+        })?,
+        ..EngineSettings::default()
+    };
+    engine.budget.target_fps = a.target_fps;
+    if a.float {
+        engine.render.precision = Precision::Float;
+    }
+    let options = FlyOptions {
+        source: a.source.clone(),
+        flight,
+        length: match (a.frames, a.seconds) {
+            (Some(n), _) => Some(Length::Frames(n)),
+            (None, Some(s)) => Some(Length::Seconds(s)),
+            (None, None) => None,
+        },
+        size: a.size,
+        color: match a.color {
+            ColorArg::Rgb565 => ColorFormat::Rgb565,
+            ColorArg::Rgba8888 => ColorFormat::Rgba8888,
+        },
+        depth: match a.depth_bits {
+            16 => DepthFormat::D16,
+            32 => DepthFormat::D32,
+            b => return Err(Error::Usage(format!("--depth-bits {b}: 16 or 32"))),
+        },
+        engine,
+        out: a.out.clone(),
+        every: a.every,
+        progress: !a.quiet,
+    };
+    let s = fly(&options)?;
+    println!(
+        "{} frames over {:.1} s of flight: median {:.1} fps (target {}), {:.0} triangles per frame, \
+         peak memory {:.1} of {:.1} MB, {:.2} MB downloaded, first frame at {} -> {}",
+        s.frames,
+        s.seconds,
+        s.median_fps,
+        a.target_fps,
+        s.mean_triangles,
+        s.peak_memory_bytes as f64 / 1e6,
+        s.memory_limit_bytes as f64 / 1e6,
+        s.downloaded_bytes as f64 / 1e6,
+        s.first_frame_s
+            .map_or("never".into(), |t| format!("{t:.2} s")),
+        a.out.join("stats.csv").display()
+    );
+    Ok(())
 }
 
 fn run_build(a: BuildArgs) -> Result<()> {

@@ -6,6 +6,13 @@
 //! an RGB565 texture with mipmaps) and writes a single-file [`archive`]. A [`source`] reads that
 //! archive back from a local file or over HTTP range requests, and [`serve`] is a small static
 //! server for it.
+//!
+//! The client side, the paper's engine: a [`pager`] keeps the largest complete square of
+//! [`belts`] of [`resident`] tiles that fits a memory limit (fetched by the [`loader`] on a fetch
+//! thread); each frame the [`engine`] culls tiles against the [`frustum`], weighs them by visual
+//! [`importance`], shares a triangle [`budget`] that holds a target frame rate, picks a strip mask
+//! per tile from the shared [`masks`], and [`render`]s them through `stripmask-raster` with one
+//! eye-relative matrix. [`camera`], [`flight`] paths, [`stats`] and the [`fly`] command drive it.
 #![warn(missing_docs)]
 
 pub mod archive;
@@ -14,11 +21,14 @@ pub mod budget;
 pub mod builder;
 pub mod camera;
 pub mod dem;
+pub mod engine;
 pub mod error;
 pub mod flight;
+pub mod fly;
 pub mod frustum;
 pub mod importance;
 pub mod level_error;
+pub mod loader;
 pub mod mask_level;
 pub mod masks;
 pub mod pager;

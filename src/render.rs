@@ -128,7 +128,7 @@ pub fn draw_tiles(
     } else {
         tiles.sort_by(|a, b| b.distance.total_cmp(&a.distance));
     }
-    let fog = settings.fog.then(|| Fog {
+    let fog = settings.fog.then_some(Fog {
         color: settings.sky,
         start: settings.fog_start * camera.far,
         end: camera.far,

@@ -165,7 +165,7 @@ mod tests {
         let s = 9;
         // Rises 1 m per metre eastwards with a 2 m spacing: dh/dx = 1.
         let heights: Vec<f32> = (0..s * s).map(|k| 2.0 * (k % s) as f32).collect();
-        Tile::new(&heights, s, 0.0625, &vec![[90, 120, 60]; 64], 8).unwrap()
+        Tile::new(&heights, s, 0.0625, &[[90, 120, 60]; 64], 8).unwrap()
     }
 
     #[test]

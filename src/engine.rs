@@ -1,0 +1,289 @@
+//! One frame of the paper's client, end to end: page belts in, cull, weigh tiles by visual
+//! importance, share the triangle budget, pick a strip mask per tile, draw.
+//!
+//! ```text
+//! camera ──> frustum cull ──> importance ──> budget ──> mask per tile ──> draw list ──> raster
+//!               ^
+//!        pager (belts) <── tile source
+//! ```
+
+use std::time::Instant;
+
+use glam::DVec3;
+use stripmask_raster::{DrawStats, Framebuffer, Rasterizer};
+
+use crate::archive::ArchiveReader;
+use crate::belts::{Grid, TileId};
+use crate::budget::{BudgetController, BudgetSettings, allocate};
+use crate::camera::Camera;
+use crate::error::{Error, Result};
+use crate::frustum::{Aabb, Frustum};
+use crate::importance::{TileMeasure, Weights, visual_importance};
+use crate::loader::ArchiveLoader;
+use crate::masks::{LevelSet, MaskSet};
+use crate::pager::{Pager, PagerConfig, PagerMode, PagerStats};
+use crate::render::{RenderSettings, TileDraw, draw_tiles};
+use crate::resident::Light;
+use crate::source::TileSource;
+use crate::terrain::TerrainFrame;
+
+/// Everything a run can set.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EngineSettings {
+    /// Rendering knobs.
+    pub render: RenderSettings,
+    /// Memory limit on loaded tiles, bytes.
+    pub memory_limit_bytes: usize,
+    /// Threaded (real runs) or stepped (deterministic) fetching.
+    pub pager_mode: PagerMode,
+    /// A viewpoint off the terrain pages around the nearest tile.
+    pub nearest_when_off: bool,
+    /// All mask levels, or powers of two only (geometrical mipmapping).
+    pub level_set: LevelSet,
+    /// Importance weights (distance, height).
+    pub weights: Weights,
+    /// The frame-rate controller.
+    pub budget: BudgetSettings,
+    /// Sun direction and ambient light.
+    pub light: Light,
+    /// Vertical field of view, radians.
+    pub fov_y: f64,
+    /// The eye never goes lower than this above the ground, metres.
+    pub clearance: f64,
+    /// Rasterizer threads (0: all cores).
+    pub threads: usize,
+}
+
+impl Default for EngineSettings {
+    fn default() -> Self {
+        EngineSettings {
+            render: RenderSettings::default(),
+            memory_limit_bytes: 64 << 20,
+            pager_mode: PagerMode::Threaded { queue_depth: 4 },
+            nearest_when_off: true,
+            level_set: LevelSet::All,
+            weights: Weights::default(),
+            budget: BudgetSettings::default(),
+            light: Light::default(),
+            fov_y: 60f64.to_radians(),
+            clearance: 20.0,
+            threads: 0,
+        }
+    }
+}
+
+/// What one frame did.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameReport {
+    /// The camera as drawn (near and far planes set by the engine).
+    pub camera: Camera,
+    /// The triangle budget of this frame.
+    pub budget: usize,
+    /// Triangles the chosen masks hold.
+    pub triangles: usize,
+    /// Tiles in the view frustum among the loaded ones: the tiles drawn.
+    pub rendered_tiles: usize,
+    /// What the rasterizer did.
+    pub draw: DrawStats,
+    /// Seconds spent on culling, importance, budget and masks.
+    pub bookkeeping_seconds: f64,
+    /// Seconds spent drawing.
+    pub draw_seconds: f64,
+    /// The pager's counters after this frame's update.
+    pub pager: PagerStats,
+}
+
+/// The engine: an archive, its pager, the shared strip masks and the budget controller.
+pub struct Engine {
+    terrain: TerrainFrame,
+    pager: Pager<ArchiveLoader>,
+    masks: MaskSet,
+    budget: BudgetController,
+    settings: EngineSettings,
+    rasterizer: Rasterizer,
+}
+
+impl Engine {
+    /// Opens `source` for a screen `height` pixels tall.
+    pub fn new(source: Box<dyn TileSource>, settings: EngineSettings, height: u32) -> Result<Self> {
+        let reader = ArchiveReader::open(source)?;
+        let header = reader.header().clone();
+        let terrain = TerrainFrame::new(&header);
+        let focal_px = f64::from(height) / (2.0 * (settings.fov_y / 2.0).tan());
+        let loader = ArchiveLoader::new(reader, settings.light, focal_px);
+        let grid = Grid::new(header.tiles_x, header.tiles_y)?;
+        let mut config = PagerConfig::new(settings.memory_limit_bytes, settings.pager_mode);
+        config.nearest_when_off = settings.nearest_when_off;
+        let pager = Pager::new(loader, grid, config)?;
+        let rasterizer = if settings.threads == 0 {
+            Rasterizer::new()
+        } else {
+            Rasterizer::with_threads(settings.threads)
+        };
+        Ok(Engine {
+            terrain,
+            pager,
+            masks: MaskSet::new(header.tile_size as usize, settings.level_set),
+            budget: BudgetController::new(settings.budget),
+            settings,
+            rasterizer,
+        })
+    }
+
+    /// Where the terrain is.
+    pub fn terrain(&self) -> &TerrainFrame {
+        &self.terrain
+    }
+
+    /// Moves the terrain in the world (e.g. 10^7 m from the origin); cameras move with it.
+    pub fn place_terrain(&mut self, origin: DVec3) {
+        self.terrain.origin = origin;
+    }
+
+    /// The pager, for its tile states and counters.
+    pub fn pager(&self) -> &Pager<ArchiveLoader> {
+        &self.pager
+    }
+
+    /// The strip masks.
+    pub fn masks(&self) -> &MaskSet {
+        &self.masks
+    }
+
+    /// The settings in force.
+    pub fn settings(&self) -> &EngineSettings {
+        &self.settings
+    }
+
+    /// The rendering settings, changeable between frames.
+    pub fn render_settings_mut(&mut self) -> &mut RenderSettings {
+        &mut self.settings.render
+    }
+
+    /// The ground height under `position` if its tile is loaded.
+    pub fn ground(&self, position: DVec3) -> Option<f64> {
+        let (px, py) = self.terrain.tile_position(position);
+        if px < 0.0 || py < 0.0 {
+            return None;
+        }
+        let id = TileId::new(px as u32, py as u32);
+        let tile = self.pager.get(id)?;
+        self.terrain.ground_in(tile, id.x, id.y, position)
+    }
+
+    /// A camera for an eye and gaze in terrain-frame metres. With `above_ground`, heights count
+    /// from the ground under the eye (the archive's lowest height where no tile is loaded). The
+    /// eye is kept `clearance` metres above loaded ground.
+    pub fn camera(&self, eye: DVec3, target: DVec3, above_ground: bool) -> Camera {
+        let (eye, target) = (eye + self.terrain.origin, target + self.terrain.origin);
+        let ground = self.ground(eye);
+        let lift = if above_ground {
+            ground.unwrap_or(self.terrain.heights.0 + self.terrain.origin.y)
+        } else {
+            0.0
+        };
+        let mut eye = eye + DVec3::Y * lift;
+        let target = target + DVec3::Y * lift;
+        if let Some(g) = ground {
+            eye.y = eye.y.max(g + self.settings.clearance);
+        }
+        let mut camera = Camera::looking_at(eye, target);
+        camera.fov_y = self.settings.fov_y;
+        camera
+    }
+
+    /// Renders one frame into `fb` from `camera` (its near and far planes are set here).
+    pub fn render(&mut self, camera: &Camera, fb: &mut Framebuffer) -> Result<FrameReport> {
+        let started = Instant::now();
+        self.pager
+            .update(self.terrain.tile_position(camera.position));
+        let mut camera = *camera;
+        self.fit_depth_range(&mut camera);
+        let aspect = f64::from(fb.width()) / f64::from(fb.height());
+        let frustum = Frustum::from_view_projection(&camera.view_projection(aspect));
+
+        let mut visible = Vec::new();
+        let mut measures = Vec::new();
+        for (id, tile) in self.pager.tiles() {
+            let (lo, hi) =
+                self.terrain
+                    .tile_box(id.x, id.y, f64::from(tile.min), f64::from(tile.max));
+            let aabb = Aabb::new(lo - camera.position, hi - camera.position);
+            if frustum.intersects(&aabb) {
+                let distance = aabb.distance(DVec3::ZERO);
+                visible.push((id, tile, distance));
+                measures.push(TileMeasure {
+                    distance,
+                    height: f64::from(tile.max - tile.min),
+                });
+            }
+        }
+        let importance = visual_importance(&measures, self.settings.weights);
+        let budget = self.budget.budget();
+        let allocation = allocate(budget, &importance, &self.masks);
+        let mut draws: Vec<TileDraw<'_>> = visible
+            .iter()
+            .zip(&allocation)
+            .map(|(&(id, tile, distance), a)| TileDraw {
+                x: id.x,
+                y: id.y,
+                tile,
+                indices: self.masks.indices(a.level).as_indices(),
+                distance,
+            })
+            .collect();
+        let triangles = allocation.iter().map(|a| a.triangles).sum();
+        let bookkeeping_seconds = started.elapsed().as_secs_f64();
+
+        let drawing = Instant::now();
+        let draw = draw_tiles(
+            fb,
+            &mut self.rasterizer,
+            &camera,
+            &self.terrain,
+            &mut draws,
+            &self.settings.render,
+        )
+        .map_err(|e| Error::Usage(format!("rendering failed: {e}")))?;
+        Ok(FrameReport {
+            camera,
+            budget,
+            triangles,
+            rendered_tiles: draws.len(),
+            draw,
+            bookkeeping_seconds,
+            draw_seconds: drawing.elapsed().as_secs_f64(),
+            pager: self.pager.stats(),
+        })
+    }
+
+    /// Feeds the time a frame took (as the target device would have spent it) to the budget
+    /// controller; returns the next frame's budget.
+    pub fn record_frame(&mut self, seconds: f64, triangles: usize) -> usize {
+        self.budget.record(seconds, triangles)
+    }
+
+    /// Near plane from the height above the ground (depth precision where it matters), far
+    /// plane at the farthest loaded tile (nothing beyond it can be drawn).
+    fn fit_depth_range(&self, camera: &mut Camera) {
+        let ground = self
+            .ground(camera.position)
+            .unwrap_or(self.terrain.heights.0 + self.terrain.origin.y);
+        let height = (camera.position.y - ground).max(0.0);
+        camera.near = (0.25 * height).clamp(0.5, 1000.0);
+        let far = self
+            .pager
+            .tiles()
+            .map(|(id, tile)| {
+                let (lo, hi) =
+                    self.terrain
+                        .tile_box(id.x, id.y, f64::from(tile.min), f64::from(tile.max));
+                let d = (lo - camera.position)
+                    .abs()
+                    .max((hi - camera.position).abs());
+                d.length()
+            })
+            .fold(0.0f64, f64::max);
+        camera.far = far.max(camera.near * 4.0);
+    }
+}

@@ -1,0 +1,180 @@
+//! `stripmask fly`: a flight over an archive, headless, with per-frame statistics and frames.
+//!
+//! Flight time advances by each frame's measured cost (bookkeeping and drawing; writing PNGs is
+//! not counted), so a slow renderer covers the path in fewer frames, as on the real device.
+
+use std::path::PathBuf;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use stripmask_platform::{PngFrames, Presenter};
+use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
+
+use crate::engine::{Engine, EngineSettings};
+use crate::error::{Error, Result};
+use crate::flight::Flight;
+use crate::source;
+use crate::stats::{FrameRecord, StatsCsv};
+
+/// When a flight stops.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Length {
+    /// After this many frames.
+    Frames(u64),
+    /// After this many seconds of flight time.
+    Seconds(f64),
+}
+
+/// What to fly, where to write it.
+#[derive(Clone, Debug)]
+pub struct FlyOptions {
+    /// Archive path or URL.
+    pub source: String,
+    /// The path.
+    pub flight: Flight,
+    /// When to stop; `None` flies the whole path once.
+    pub length: Option<Length>,
+    /// Framebuffer size.
+    pub size: (u32, u32),
+    /// Colour format (RGB565 as on the handheld, or RGBA8888).
+    pub color: ColorFormat,
+    /// Depth buffer format.
+    pub depth: DepthFormat,
+    /// Engine settings.
+    pub engine: EngineSettings,
+    /// Output folder for `stats.csv` and frames.
+    pub out: PathBuf,
+    /// Keep one frame in `every` as PNG (0: none).
+    pub every: u64,
+    /// Show a progress bar.
+    pub progress: bool,
+}
+
+/// A run's summary.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FlySummary {
+    /// Frames rendered.
+    pub frames: u64,
+    /// Flight seconds covered.
+    pub seconds: f64,
+    /// Median frame rate.
+    pub median_fps: f64,
+    /// Mean triangles per frame.
+    pub mean_triangles: f64,
+    /// Peak accounted memory, bytes.
+    pub peak_memory_bytes: usize,
+    /// The memory limit, bytes.
+    pub memory_limit_bytes: usize,
+    /// Bytes downloaded.
+    pub downloaded_bytes: u64,
+    /// Flight time of the first frame that drew any tile, seconds.
+    pub first_frame_s: Option<f64>,
+}
+
+/// Flies `o.flight` and writes `stats.csv` (and frames) into `o.out`.
+pub fn fly(o: &FlyOptions) -> Result<FlySummary> {
+    let out_name = o.out.display().to_string();
+    std::fs::create_dir_all(&o.out).map_err(|e| Error::io(&out_name, e))?;
+    let mut csv = StatsCsv::create(&o.out.join("stats.csv"))?;
+    let mut frames = if o.every > 0 {
+        Some(
+            PngFrames::new(o.out.join("frames"), o.every)
+                .map_err(|e| Error::Usage(e.to_string()))?,
+        )
+    } else {
+        None
+    };
+    let (w, h) = o.size;
+    let mut fb = Framebuffer::new(w, h, o.color, o.depth)
+        .map_err(|e| Error::Usage(format!("--size {w}x{h}: {e}")))?;
+    let mut engine = Engine::new(source::open(&o.source)?, o.engine, h)?;
+    let length = o
+        .length
+        .unwrap_or(Length::Seconds(o.flight.duration().max(f64::MIN_POSITIVE)));
+    let bar = progress_bar(o.progress, length);
+
+    let mut t = 0.0;
+    let mut frame = 0u64;
+    let mut fps = Vec::new();
+    let mut triangles = 0u64;
+    let mut first_frame_s = None;
+    let mut last_stats = None;
+    loop {
+        let done = match length {
+            Length::Frames(n) => frame >= n,
+            Length::Seconds(s) => t >= s,
+        };
+        if done {
+            break;
+        }
+        let (eye, target) = o.flight.at(t);
+        let camera = engine.camera(eye, target, o.flight.above_ground);
+        let report = engine.render(&camera, &mut fb)?;
+        let seconds = report.bookkeeping_seconds + report.draw_seconds;
+        engine.record_frame(seconds, report.draw.triangles as usize);
+        if report.rendered_tiles > 0 && first_frame_s.is_none() {
+            first_frame_s = Some(t);
+        }
+        let record = FrameRecord {
+            frame,
+            time_s: t,
+            frame_ms: seconds * 1e3,
+            fps: 1.0 / seconds.max(1e-9),
+            target_fps: o.engine.budget.target_fps,
+            budget: report.budget as u64,
+            triangles: report.triangles as u64,
+            rendered_tiles: report.rendered_tiles as u64,
+            loaded_tiles: report.pager.loaded_tiles as u64,
+            memory_bytes: report.pager.memory_bytes as u64,
+            memory_limit_bytes: report.pager.memory_limit_bytes as u64,
+            downloaded_bytes: report.pager.downloaded_bytes,
+            complete_belts: report.pager.complete_belts.map_or(0, |d| u64::from(d) + 1),
+            fetching: report.pager.fetching as u64,
+        };
+        csv.write(&record)?;
+        if let Some(frames) = frames.as_mut() {
+            frames
+                .present(&fb, None)
+                .map_err(|e| Error::Usage(e.to_string()))?;
+        }
+        fps.push(record.fps);
+        triangles += record.triangles;
+        last_stats = Some(report.pager);
+        t += seconds;
+        frame += 1;
+        match length {
+            Length::Frames(_) => bar.set_position(frame),
+            Length::Seconds(_) => bar.set_position((t * 10.0) as u64),
+        }
+    }
+    bar.finish_and_clear();
+    csv.finish()?;
+    fps.sort_by(f64::total_cmp);
+    let stats = last_stats.unwrap_or_else(|| engine.pager().stats());
+    Ok(FlySummary {
+        frames: frame,
+        seconds: t,
+        median_fps: fps.get(fps.len() / 2).copied().unwrap_or(0.0),
+        mean_triangles: triangles as f64 / frame.max(1) as f64,
+        peak_memory_bytes: stats.memory_peak_bytes,
+        memory_limit_bytes: stats.memory_limit_bytes,
+        downloaded_bytes: stats.downloaded_bytes,
+        first_frame_s,
+    })
+}
+
+fn progress_bar(show: bool, length: Length) -> ProgressBar {
+    if !show {
+        return ProgressBar::hidden();
+    }
+    let (len, unit) = match length {
+        Length::Frames(n) => (n, "frames"),
+        Length::Seconds(s) => ((s * 10.0).ceil() as u64, "ds of flight"),
+    };
+    ProgressBar::new(len).with_style(
+        ProgressStyle::with_template(&format!(
+            "{{elapsed_precise}} [{{bar:40}}] {{pos}}/{{len}} {unit} {{eta}}"
+        ))
+        .expect("valid template")
+        .progress_chars("=> "),
+    )
+}

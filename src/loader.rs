@@ -1,0 +1,81 @@
+//! The engine's [`TileLoader`]: fetches a tile from an archive and makes it resident, keeping
+//! only the texture detail its belt distance can show.
+//!
+//! A tile `ring` belts away is at least about `ring - 1/2` tile sides from the eye, so on a screen
+//! with focal length `f` pixels its texture of `t` texels spans at most `f / ring` pixels: mips
+//! finer than that would never be sampled. The loader keeps mips from
+//! `floor(log2(t · ring / f))` down — far tiles never hold full-resolution texels — and the pager
+//! shrinks a tile (drops mips) when the viewer moves away, or fetches it again when the viewer
+//! comes back.
+
+use crate::archive::ArchiveReader;
+use crate::belts::TileId;
+use crate::error::Result;
+use crate::pager::TileLoader;
+use crate::resident::{Light, ResidentTile, predicted_bytes};
+use crate::rgb565::mip_count;
+use crate::source::TileSource;
+
+/// Loads resident tiles from an archive.
+pub struct ArchiveLoader {
+    reader: ArchiveReader<Box<dyn TileSource>>,
+    light: Light,
+    focal_px: f64,
+}
+
+impl ArchiveLoader {
+    /// A loader over `reader`, lighting with `light`, for a screen whose focal length is
+    /// `focal_px` pixels (height / (2 tan(fov_y / 2))).
+    pub fn new(reader: ArchiveReader<Box<dyn TileSource>>, light: Light, focal_px: f64) -> Self {
+        ArchiveLoader {
+            reader,
+            light,
+            focal_px: focal_px.max(1.0),
+        }
+    }
+
+    /// The archive.
+    pub fn reader(&self) -> &ArchiveReader<Box<dyn TileSource>> {
+        &self.reader
+    }
+
+    /// The finest texture mip worth holding for a tile `ring` belts away.
+    pub fn texture_base(&self, ring: u32) -> usize {
+        let t = self.reader.header().texture_size as f64;
+        let needed = (t * f64::from(ring.max(1)) / self.focal_px).log2().floor();
+        (needed.max(0.0) as usize).min(mip_count(t as usize) - 1)
+    }
+}
+
+impl TileLoader for ArchiveLoader {
+    type Loaded = ResidentTile;
+
+    fn predicted_bytes(&self, _id: TileId, ring: u32) -> usize {
+        let h = self.reader.header();
+        predicted_bytes(
+            h.tile_size as usize,
+            h.texture_size as usize,
+            self.texture_base(ring),
+        )
+    }
+
+    fn load(&self, id: TileId, ring: u32) -> Result<(ResidentTile, u64)> {
+        let (x, y) = (id.x as usize, id.y as usize);
+        let tile = self.reader.tile(x, y)?;
+        let index = y * self.reader.header().tiles_x as usize + x;
+        let downloaded = u64::from(self.reader.index()[index].length);
+        let spacing = self.reader.header().spacing;
+        Ok((
+            ResidentTile::new(&tile, self.texture_base(ring), spacing, &self.light),
+            downloaded,
+        ))
+    }
+
+    fn held_bytes(&self, tile: &ResidentTile) -> usize {
+        tile.bytes()
+    }
+
+    fn shrink(&self, tile: &mut ResidentTile, ring: u32) -> usize {
+        tile.coarsen_texture(self.texture_base(ring))
+    }
+}

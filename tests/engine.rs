@@ -1,0 +1,173 @@
+//! The engine end to end on a synthetic archive: flights, statistics, memory, exactness far from
+//! the origin, and watertight tiles.
+
+use std::path::{Path, PathBuf};
+
+use glam::DVec3;
+use stripmask::builder::{BuildOptions, build};
+use stripmask::dem::{MemoryReader, NodataFill};
+use stripmask::engine::{Engine, EngineSettings};
+use stripmask::flight::{Builtin, Flight};
+use stripmask::fly::{FlyOptions, Length, fly};
+use stripmask::pager::PagerMode;
+use stripmask::source;
+use stripmask::stats::CSV_HEADER;
+use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
+
+/// A 257 x 257 DEM of hills, cut into 8 x 8 tiles of 33 samples, 30 m apart.
+fn archive(dir: &Path) -> PathBuf {
+    let n = 257;
+    let samples = (0..n * n)
+        .map(|k| {
+            let (i, j) = ((k % n) as f32, (k / n) as f32);
+            400.0 + 250.0 * (i * 0.05).sin() * (j * 0.04).cos() + 80.0 * (i * 0.21 + j * 0.17).sin()
+        })
+        .collect();
+    let reader = MemoryReader::new("hills", n, n, samples).unwrap();
+    let out = dir.join("hills.smdb");
+    let options = BuildOptions {
+        tile_size: 33,
+        spacing: Some(30.0),
+        texture_factor: 1,
+        ..BuildOptions::default()
+    };
+    build(NodataFill::new(reader, None), &out, &options, &|_, _| {}).unwrap();
+    out
+}
+
+fn stepped(memory_limit_bytes: usize) -> EngineSettings {
+    EngineSettings {
+        memory_limit_bytes,
+        pager_mode: PagerMode::Stepped {
+            fetches_per_update: 64,
+        },
+        threads: 1,
+        ..EngineSettings::default()
+    }
+}
+
+/// Renders a few frames from one pose so that the stepped pager has loaded what it can.
+fn settle(engine: &mut Engine, eye: DVec3, target: DVec3, fb: &mut Framebuffer) {
+    for _ in 0..4 {
+        let camera = engine.camera(eye, target, false);
+        engine.render(&camera, fb).unwrap();
+    }
+}
+
+#[test]
+fn fly_writes_one_stats_row_per_frame_and_keeps_every_kth_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = archive(dir.path());
+    let engine = stepped(2_000_000);
+    let reader =
+        stripmask::archive::ArchiveReader::open(source::open(path.to_str().unwrap()).unwrap())
+            .unwrap();
+    let terrain = stripmask::terrain::TerrainFrame::new(reader.header());
+    let out = dir.path().join("run");
+    let summary = fly(&FlyOptions {
+        source: path.display().to_string(),
+        flight: Flight::builtin(Builtin::Diagonal, &terrain),
+        length: Some(Length::Frames(25)),
+        size: (160, 120),
+        color: ColorFormat::Rgb565,
+        depth: DepthFormat::D16,
+        engine,
+        out: out.clone(),
+        every: 10,
+        progress: false,
+    })
+    .unwrap();
+    assert_eq!(summary.frames, 25);
+    assert!(summary.peak_memory_bytes <= 2_000_000);
+    assert!(summary.downloaded_bytes > 0);
+    assert_eq!(summary.first_frame_s, Some(0.0));
+
+    let csv = std::fs::read_to_string(out.join("stats.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!(header, CSV_HEADER.split(',').collect::<Vec<_>>());
+    for column in "frame,time_s,frame_ms,fps,target_fps,budget,triangles,rendered_tiles,loaded_tiles,memory_bytes,memory_limit_bytes,downloaded_bytes".split(',') {
+        assert!(header.contains(&column), "{column}");
+    }
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 25);
+    for (k, r) in rows.iter().enumerate() {
+        assert_eq!(r[col("frame")], k as f64);
+        assert!(r[col("memory_bytes")] <= r[col("memory_limit_bytes")]);
+        assert!(r[col("rendered_tiles")] <= r[col("loaded_tiles")]);
+        assert!(r[col("triangles")] > 0.0);
+    }
+    let mut frames: Vec<_> = std::fs::read_dir(out.join("frames"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    frames.sort();
+    assert_eq!(frames.len(), 3, "{frames:?}");
+}
+
+#[test]
+fn a_terrain_far_from_the_origin_renders_the_same_picture() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = archive(dir.path());
+    // Dyadic positions, so that adding 10^7 or 10^8 m is exact and any difference is the engine's.
+    let eye = DVec3::new(1200.5, 1500.25, 3900.75);
+    let target = DVec3::new(4000.0, 300.0, 2000.0);
+    let mut pictures = Vec::new();
+    for offset in [0.0, 1e3, 1e7, 1e8] {
+        let mut engine = Engine::new(
+            source::open(path.to_str().unwrap()).unwrap(),
+            stepped(64 << 20),
+            120,
+        )
+        .unwrap();
+        engine.place_terrain(DVec3::new(offset, -offset / 8.0, -offset));
+        let mut fb = Framebuffer::new(160, 120, ColorFormat::Rgba8888, DepthFormat::D32).unwrap();
+        settle(&mut engine, eye, target, &mut fb);
+        let report = engine
+            .render(&engine.camera(eye, target, false), &mut fb)
+            .unwrap();
+        assert!(report.rendered_tiles > 4);
+        pictures.push((offset, fb.to_rgba_image()));
+    }
+    for (offset, p) in &pictures[1..] {
+        assert!(p == &pictures[0].1, "offset {offset} changed the picture");
+    }
+}
+
+#[test]
+fn neighbouring_tiles_at_the_same_level_leave_no_crack() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = archive(dir.path());
+    let mut settings = stepped(64 << 20);
+    settings.budget.initial_budget = 1 << 20;
+    settings.budget.min_budget = 1 << 20;
+    settings.budget.max_budget = 1 << 20;
+    settings.render.sky = [255, 0, 255];
+    settings.render.fog = false;
+    for precision in [
+        stripmask_raster::Precision::Fixed,
+        stripmask_raster::Precision::Float,
+    ] {
+        settings.render.precision = precision;
+        let mut engine =
+            Engine::new(source::open(path.to_str().unwrap()).unwrap(), settings, 240).unwrap();
+        let mut fb = Framebuffer::new(320, 240, ColorFormat::Rgb565, DepthFormat::D16).unwrap();
+        // Oblique, looking across several tile borders, the horizon out of frame.
+        let eye = DVec3::new(3840.0, 2500.0, 6400.0);
+        let target = DVec3::new(3900.0, 0.0, 5000.0);
+        settle(&mut engine, eye, target, &mut fb);
+        let report = engine
+            .render(&engine.camera(eye, target, false), &mut fb)
+            .unwrap();
+        assert!(report.rendered_tiles >= 9, "{}", report.rendered_tiles);
+        let img = fb.to_rgba_image();
+        let holes = img.pixels().filter(|p| p.0[..3] == [255, 0, 255]).count();
+        assert_eq!(
+            holes, 0,
+            "{precision:?}: {holes} background pixels between tiles"
+        );
+    }
+}

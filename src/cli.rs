@@ -1,4 +1,4 @@
-//! Command-line arguments and the `build`, `info`, `serve` and `fly` commands.
+//! Command-line arguments and the `build`, `info`, `serve`, `fly`, `view` and `fb` commands.
 
 use std::io::Write;
 use std::net::SocketAddr;
@@ -17,10 +17,14 @@ use stripmask::flight::{Builtin, Flight};
 use stripmask::fly::{FlyOptions, Length, fly};
 use stripmask::importance::Weights;
 use stripmask::masks::LevelSet;
+#[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
+use stripmask::pager::PagerMode;
 use stripmask::pager::memory_limit_from_available;
 use stripmask::serve::Server;
 use stripmask::source::{self, throttle::LinkProfile};
 use stripmask::terrain::TerrainFrame;
+#[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
+use stripmask::viewer::{self, ViewerOptions, ViewerSummary};
 use stripmask_raster::{ColorFormat, DepthFormat, Precision};
 
 /// Adaptive streaming and CPU rendering of large terrains with strip masks.
@@ -41,6 +45,10 @@ enum Command {
     Serve(ServeArgs),
     /// Fly over an archive headless: stats.csv, PNG frames and a summary.
     Fly(FlyArgs),
+    /// Fly over an archive in a window (WASD/arrows, Space/C, mouse drag; H HUD; Esc quits).
+    View(ViewArgs),
+    /// Fly over an archive on the Linux framebuffer (a scripted flight; Ctrl-C quits).
+    Fb(FbArgs),
 }
 
 #[derive(Args, Debug)]
@@ -53,6 +61,58 @@ struct FlyArgs {
     /// Stop after S seconds of flight time.
     #[arg(long)]
     seconds: Option<f64>,
+    /// Output folder for stats.csv and frames.
+    #[arg(long, default_value = "stripmask-fly")]
+    out: PathBuf,
+    /// Keep one frame in K as PNG (0: none).
+    #[arg(long, default_value_t = 10)]
+    every: u64,
+    /// Draw the HUD (statistics and belt minimap) into the kept frames.
+    #[arg(long)]
+    hud: bool,
+    /// No progress bar.
+    #[arg(short, long)]
+    quiet: bool,
+    #[command(flatten)]
+    scene: SceneArgs,
+}
+
+/// What `view` and `fb` show: a window, or the Linux framebuffer.
+#[derive(Args, Debug)]
+struct ViewArgs {
+    /// An archive file or http:// URL.
+    source: String,
+    /// Stop after N frames (default: until Esc, the window closing, or Ctrl-C).
+    #[arg(long)]
+    frames: Option<u64>,
+    /// Start with the HUD off (H toggles it).
+    #[arg(long)]
+    no_hud: bool,
+    #[command(flatten)]
+    scene: SceneArgs,
+}
+
+#[derive(Args, Debug)]
+struct FbArgs {
+    #[command(flatten)]
+    view: ViewArgs,
+    /// The framebuffer device.
+    #[arg(long, default_value = "/dev/fb0")]
+    device: PathBuf,
+    /// Fit a frame that differs from the screen: centre it, or scale it to fill.
+    #[arg(long, value_enum, default_value_t = FitArg::Center)]
+    fit: FitArg,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum FitArg {
+    Center,
+    Scale,
+}
+
+/// The scene and engine settings `fly`, `view` and `fb` share.
+#[derive(Args, Debug)]
+struct SceneArgs {
     /// A built-in flight (overview, diagonal, low) or a TOML file of keyframes.
     #[arg(long, default_value = "diagonal")]
     flight: String,
@@ -74,12 +134,6 @@ struct FlyArgs {
     /// Memory limit as a percentage of available memory (Linux), as in the paper.
     #[arg(long)]
     memory_percent: Option<f64>,
-    /// Output folder for stats.csv and frames.
-    #[arg(long, default_value = "stripmask-fly")]
-    out: PathBuf,
-    /// Keep one frame in K as PNG (0: none).
-    #[arg(long, default_value_t = 10)]
-    every: u64,
     /// Rasterizer threads (0: all cores).
     #[arg(long, default_value_t = 0)]
     threads: usize,
@@ -92,9 +146,82 @@ struct FlyArgs {
     /// Importance weight of distance (the height weight is 1 minus it).
     #[arg(long, default_value_t = 0.5)]
     distance_weight: f64,
-    /// No progress bar.
-    #[arg(short, long)]
-    quiet: bool,
+}
+
+/// A scene resolved from its arguments: the flight, the engine settings and the framebuffer.
+struct Scene {
+    flight: Flight,
+    engine: EngineSettings,
+    size: (u32, u32),
+    color: ColorFormat,
+    depth: DepthFormat,
+}
+
+impl SceneArgs {
+    fn resolve(&self, source_name: &str) -> Result<Scene> {
+        let reader = ArchiveReader::open(source::open(source_name)?)?;
+        let terrain = TerrainFrame::new(reader.header());
+        let flight = match self.flight.as_str() {
+            "overview" => Flight::builtin(Builtin::Overview, &terrain),
+            "diagonal" => Flight::builtin(Builtin::Diagonal, &terrain),
+            "low" => Flight::builtin(Builtin::Low, &terrain),
+            path => Flight::from_toml(std::path::Path::new(path))?,
+        };
+        let memory_limit_bytes = match self.memory_percent {
+            Some(p) => memory_limit_from_available(p)?,
+            None if self.memory_mb > 0.0 && self.memory_mb.is_finite() => {
+                (self.memory_mb * 1e6) as usize
+            }
+            None => {
+                return Err(Error::Usage(format!(
+                    "--memory-mb {} must be positive",
+                    self.memory_mb
+                )));
+            }
+        };
+        if !(self.target_fps > 0.0 && self.target_fps.is_finite()) {
+            return Err(Error::Usage(format!(
+                "--target-fps {} must be positive",
+                self.target_fps
+            )));
+        }
+        let weights =
+            Weights::new(self.distance_weight, 1.0 - self.distance_weight).ok_or_else(|| {
+                Error::Usage(format!(
+                    "--distance-weight {} must be within 0 ..= 1",
+                    self.distance_weight
+                ))
+            })?;
+        let mut engine = EngineSettings {
+            memory_limit_bytes,
+            threads: self.threads,
+            level_set: if self.pow2_masks {
+                LevelSet::PowerOfTwo
+            } else {
+                LevelSet::All
+            },
+            weights,
+            ..EngineSettings::default()
+        };
+        engine.budget.target_fps = self.target_fps;
+        if self.float {
+            engine.render.precision = Precision::Float;
+        }
+        Ok(Scene {
+            flight,
+            engine,
+            size: self.size,
+            color: match self.color {
+                ColorArg::Rgb565 => ColorFormat::Rgb565,
+                ColorArg::Rgba8888 => ColorFormat::Rgba8888,
+            },
+            depth: match self.depth_bits {
+                16 => DepthFormat::D16,
+                32 => DepthFormat::D32,
+                b => return Err(Error::Usage(format!("--depth-bits {b}: 16 or 32"))),
+            },
+        })
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -216,76 +343,93 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Info(a) => run_info(a),
         Command::Serve(a) => run_serve(a),
         Command::Fly(a) => run_fly(a),
+        Command::View(a) => run_view(a),
+        Command::Fb(a) => run_fb(a),
     }
 }
 
+#[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
+fn viewer_options(a: &ViewArgs) -> Result<ViewerOptions> {
+    let scene = a.scene.resolve(&a.source)?;
+    let mut engine = scene.engine;
+    engine.pager_mode = PagerMode::Threaded { queue_depth: 4 };
+    Ok(ViewerOptions {
+        source: a.source.clone(),
+        size: scene.size,
+        color: scene.color,
+        depth: scene.depth,
+        engine,
+        hud: !a.no_hud,
+        flight: scene.flight,
+        frames: a.frames,
+    })
+}
+
+#[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
+fn report_view(s: ViewerSummary) {
+    println!(
+        "{} frames in {:.1} s ({:.1} fps)",
+        s.frames,
+        s.seconds,
+        s.frames as f64 / s.seconds.max(1e-9)
+    );
+}
+
+#[cfg(feature = "window")]
+fn run_view(a: ViewArgs) -> Result<()> {
+    let options = viewer_options(&a)?;
+    let (w, h) = options.size;
+    let mut window =
+        stripmask_platform::WindowPresenter::open(&format!("stripmask: {}", a.source), w, h)
+            .map_err(|e| Error::Usage(e.to_string()))?;
+    report_view(viewer::run(&mut window, &options)?);
+    Ok(())
+}
+
+#[cfg(not(feature = "window"))]
+fn run_view(_: ViewArgs) -> Result<()> {
+    Err(Error::Usage(
+        "this stripmask was built without the `window` feature".into(),
+    ))
+}
+
+#[cfg(all(feature = "fbdev", target_os = "linux"))]
+fn run_fb(a: FbArgs) -> Result<()> {
+    let options = viewer_options(&a.view)?;
+    let fit = match a.fit {
+        FitArg::Center => stripmask_platform::Fit::Center,
+        FitArg::Scale => stripmask_platform::Fit::Scale,
+    };
+    let mut screen = stripmask_platform::FbPresenter::open(&a.device, fit)
+        .map_err(|e| Error::Usage(e.to_string()))?;
+    report_view(viewer::run(&mut screen, &options)?);
+    Ok(())
+}
+
+#[cfg(not(all(feature = "fbdev", target_os = "linux")))]
+fn run_fb(_: FbArgs) -> Result<()> {
+    Err(Error::Usage(
+        "this stripmask was built without the `fbdev` feature (Linux only)".into(),
+    ))
+}
+
 fn run_fly(a: FlyArgs) -> Result<()> {
-    let reader = ArchiveReader::open(source::open(&a.source)?)?;
-    let terrain = TerrainFrame::new(reader.header());
-    drop(reader);
-    let flight = match a.flight.as_str() {
-        "overview" => Flight::builtin(Builtin::Overview, &terrain),
-        "diagonal" => Flight::builtin(Builtin::Diagonal, &terrain),
-        "low" => Flight::builtin(Builtin::Low, &terrain),
-        path => Flight::from_toml(std::path::Path::new(path))?,
-    };
-    let memory_limit_bytes = match a.memory_percent {
-        Some(p) => memory_limit_from_available(p)?,
-        None if a.memory_mb > 0.0 && a.memory_mb.is_finite() => (a.memory_mb * 1e6) as usize,
-        None => {
-            return Err(Error::Usage(format!(
-                "--memory-mb {} must be positive",
-                a.memory_mb
-            )));
-        }
-    };
-    if !(a.target_fps > 0.0 && a.target_fps.is_finite()) {
-        return Err(Error::Usage(format!(
-            "--target-fps {} must be positive",
-            a.target_fps
-        )));
-    }
-    let mut engine = EngineSettings {
-        memory_limit_bytes,
-        threads: a.threads,
-        level_set: if a.pow2_masks {
-            LevelSet::PowerOfTwo
-        } else {
-            LevelSet::All
-        },
-        weights: Weights::new(a.distance_weight, 1.0 - a.distance_weight).ok_or_else(|| {
-            Error::Usage(format!(
-                "--distance-weight {} must be within 0 ..= 1",
-                a.distance_weight
-            ))
-        })?,
-        ..EngineSettings::default()
-    };
-    engine.budget.target_fps = a.target_fps;
-    if a.float {
-        engine.render.precision = Precision::Float;
-    }
+    let scene = a.scene.resolve(&a.source)?;
     let options = FlyOptions {
         source: a.source.clone(),
-        flight,
+        flight: scene.flight,
         length: match (a.frames, a.seconds) {
             (Some(n), _) => Some(Length::Frames(n)),
             (None, Some(s)) => Some(Length::Seconds(s)),
             (None, None) => None,
         },
-        size: a.size,
-        color: match a.color {
-            ColorArg::Rgb565 => ColorFormat::Rgb565,
-            ColorArg::Rgba8888 => ColorFormat::Rgba8888,
-        },
-        depth: match a.depth_bits {
-            16 => DepthFormat::D16,
-            32 => DepthFormat::D32,
-            b => return Err(Error::Usage(format!("--depth-bits {b}: 16 or 32"))),
-        },
-        engine,
+        size: scene.size,
+        color: scene.color,
+        depth: scene.depth,
+        engine: scene.engine,
         out: a.out.clone(),
         every: a.every,
+        hud: a.hud,
         progress: !a.quiet,
     };
     let s = fly(&options)?;
@@ -295,7 +439,7 @@ fn run_fly(a: FlyArgs) -> Result<()> {
         s.frames,
         s.seconds,
         s.median_fps,
-        a.target_fps,
+        a.scene.target_fps,
         s.mean_triangles,
         s.peak_memory_bytes as f64 / 1e6,
         s.memory_limit_bytes as f64 / 1e6,

@@ -73,7 +73,7 @@ impl Default for EngineSettings {
 }
 
 /// What one frame did.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct FrameReport {
     /// The camera as drawn (near and far planes set by the engine).
     pub camera: Camera,
@@ -83,6 +83,8 @@ pub struct FrameReport {
     pub triangles: usize,
     /// Tiles in the view frustum among the loaded ones: the tiles drawn.
     pub rendered_tiles: usize,
+    /// The drawn tiles with their visual importance and mask level.
+    pub rendered: Vec<RenderedTile>,
     /// What the rasterizer did.
     pub draw: DrawStats,
     /// Seconds spent on culling, importance, budget and masks.
@@ -91,6 +93,17 @@ pub struct FrameReport {
     pub draw_seconds: f64,
     /// The pager's counters after this frame's update.
     pub pager: PagerStats,
+}
+
+/// One drawn tile.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderedTile {
+    /// Which tile.
+    pub id: TileId,
+    /// Its visual importance this frame (the drawn tiles' values sum to 1).
+    pub importance: f64,
+    /// The strip-mask level it was drawn at.
+    pub level: usize,
 }
 
 /// The engine: an archive, its pager, the shared strip masks and the budget controller.
@@ -233,6 +246,16 @@ impl Engine {
             })
             .collect();
         let triangles = allocation.iter().map(|a| a.triangles).sum();
+        let rendered = visible
+            .iter()
+            .zip(&allocation)
+            .zip(&importance.values)
+            .map(|((&(id, _, _), a), &importance)| RenderedTile {
+                id,
+                importance,
+                level: a.level,
+            })
+            .collect();
         let bookkeeping_seconds = started.elapsed().as_secs_f64();
 
         let drawing = Instant::now();
@@ -250,11 +273,24 @@ impl Engine {
             budget,
             triangles,
             rendered_tiles: draws.len(),
+            rendered,
             draw,
             bookkeeping_seconds,
             draw_seconds: drawing.elapsed().as_secs_f64(),
             pager: self.pager.stats(),
         })
+    }
+
+    /// Changes the frame rate the budget aims at (a lower target allows more triangles).
+    pub fn set_target_fps(&mut self, fps: f64) {
+        let mut settings = *self.budget.settings();
+        settings.target_fps = fps;
+        self.settings.budget.target_fps = fps;
+        let budget = self.budget.budget();
+        self.budget = BudgetController::new(BudgetSettings {
+            initial_budget: budget,
+            ..settings
+        });
     }
 
     /// Feeds the time a frame took (as the target device would have spent it) to the budget

@@ -6,7 +6,7 @@
 use std::path::PathBuf;
 
 use indicatif::{ProgressBar, ProgressStyle};
-use stripmask_platform::{PngFrames, Presenter};
+use stripmask_platform::{Hud, PngFrames, Presenter};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
 use crate::engine::{Engine, EngineSettings};
@@ -14,6 +14,7 @@ use crate::error::{Error, Result};
 use crate::flight::Flight;
 use crate::source;
 use crate::stats::{FrameRecord, StatsCsv};
+use crate::viewer::hud_info;
 
 /// When a flight stops.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -45,6 +46,8 @@ pub struct FlyOptions {
     pub out: PathBuf,
     /// Keep one frame in `every` as PNG (0: none).
     pub every: u64,
+    /// Draw the HUD (statistics and minimap) into the kept frames.
+    pub hud: bool,
     /// Show a progress bar.
     pub progress: bool,
 }
@@ -91,6 +94,7 @@ pub fn fly(o: &FlyOptions) -> Result<FlySummary> {
         .length
         .unwrap_or(Length::Seconds(o.flight.duration().max(f64::MIN_POSITIVE)));
     let bar = progress_bar(o.progress, length);
+    let mut hud = Hud::new(o.hud);
 
     let mut t = 0.0;
     let mut frame = 0u64;
@@ -132,8 +136,9 @@ pub fn fly(o: &FlyOptions) -> Result<FlySummary> {
         };
         csv.write(&record)?;
         if let Some(frames) = frames.as_mut() {
+            let info = hud_info(&engine, &report, record.fps);
             frames
-                .present(&fb, None)
+                .present(&fb, hud.render(&info, w, h))
                 .map_err(|e| Error::Usage(e.to_string()))?;
         }
         fps.push(record.fps);

@@ -12,7 +12,8 @@
 //! thread); each frame the [`engine`] culls tiles against the [`frustum`], weighs them by visual
 //! [`importance`], shares a triangle [`budget`] that holds a target frame rate, picks a strip mask
 //! per tile from the shared [`masks`], and [`render`]s them through `stripmask-raster` with one
-//! eye-relative matrix. [`camera`], [`flight`] paths, [`stats`] and the [`fly`] command drive it.
+//! eye-relative matrix. [`camera`], [`flight`] paths, [`stats`], the [`fly`] command and the
+//! interactive [`viewer`] drive it.
 #![warn(missing_docs)]
 
 pub mod archive;
@@ -42,5 +43,6 @@ pub mod terrain;
 pub mod texture_gen;
 pub mod tile;
 pub mod tiling;
+pub mod viewer;
 
 pub use error::{Error, Result};

@@ -74,6 +74,7 @@ fn fly_writes_one_stats_row_per_frame_and_keeps_every_kth_frame() {
         engine,
         out: out.clone(),
         every: 10,
+        hud: true,
         progress: false,
     })
     .unwrap();

@@ -134,6 +134,9 @@ struct SceneArgs {
     /// Memory limit as a percentage of available memory (Linux), as in the paper.
     #[arg(long)]
     memory_percent: Option<f64>,
+    /// Of the memory limit, the most tile textures may take, MB (default: no separate cap).
+    #[arg(long)]
+    texture_mb: Option<f64>,
     /// Rasterizer threads (0: all cores).
     #[arg(long, default_value_t = 0)]
     threads: usize,
@@ -192,8 +195,14 @@ impl SceneArgs {
                     self.distance_weight
                 ))
             })?;
+        let texture_budget_bytes = match self.texture_mb {
+            Some(mb) if mb > 0.0 && mb.is_finite() => Some((mb * 1e6) as usize),
+            Some(mb) => return Err(Error::Usage(format!("--texture-mb {mb} must be positive"))),
+            None => None,
+        };
         let mut engine = EngineSettings {
             memory_limit_bytes,
+            texture_budget_bytes,
             threads: self.threads,
             level_set: if self.pow2_masks {
                 LevelSet::PowerOfTwo

@@ -34,6 +34,8 @@ pub struct EngineSettings {
     pub render: RenderSettings,
     /// Memory limit on loaded tiles, bytes.
     pub memory_limit_bytes: usize,
+    /// Of that, the most the textures of the complete square may take (`None`: no separate cap).
+    pub texture_budget_bytes: Option<usize>,
     /// Threaded (real runs) or stepped (deterministic) fetching.
     pub pager_mode: PagerMode,
     /// A viewpoint off the terrain pages around the nearest tile.
@@ -59,6 +61,7 @@ impl Default for EngineSettings {
         EngineSettings {
             render: RenderSettings::default(),
             memory_limit_bytes: 64 << 20,
+            texture_budget_bytes: None,
             pager_mode: PagerMode::Threaded { queue_depth: 4 },
             nearest_when_off: true,
             level_set: LevelSet::All,
@@ -123,7 +126,10 @@ impl Engine {
         let header = reader.header().clone();
         let terrain = TerrainFrame::new(&header);
         let focal_px = f64::from(height) / (2.0 * (settings.fov_y / 2.0).tan());
-        let loader = ArchiveLoader::new(reader, settings.light, focal_px);
+        let mut loader = ArchiveLoader::new(reader, settings.light, focal_px);
+        if let Some(budget) = settings.texture_budget_bytes {
+            loader.fit_texture_budget(settings.memory_limit_bytes, budget);
+        }
         let grid = Grid::new(header.tiles_x, header.tiles_y)?;
         let mut config = PagerConfig::new(settings.memory_limit_bytes, settings.pager_mode);
         config.nearest_when_off = settings.nearest_when_off;

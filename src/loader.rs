@@ -7,6 +7,11 @@
 //! `floor(log2(t · ring / f))` down — far tiles never hold full-resolution texels — and the pager
 //! shrinks a tile (drops mips) when the viewer moves away, or fetches it again when the viewer
 //! comes back.
+//!
+//! A texture memory budget coarsens that rule by a whole number of mip levels (the *bias*): the
+//! smallest bias with which the textures of the largest square of belts the memory limit allows
+//! fit the budget. It is decided once, before anything is fetched, so the pager's accounting
+//! stays exact.
 
 use crate::archive::ArchiveReader;
 use crate::belts::TileId;
@@ -21,6 +26,7 @@ pub struct ArchiveLoader {
     reader: ArchiveReader<Box<dyn TileSource>>,
     light: Light,
     focal_px: f64,
+    bias: usize,
 }
 
 impl ArchiveLoader {
@@ -31,7 +37,37 @@ impl ArchiveLoader {
             reader,
             light,
             focal_px: focal_px.max(1.0),
+            bias: 0,
         }
+    }
+
+    /// Coarsens textures until those of the largest square of belts that fits `memory_limit`
+    /// take at most `texture_budget` bytes (or every tile holds only its 1 x 1 mip). Returns
+    /// the bias chosen. The square is counted whole (8 d tiles in belt d), as it is away from
+    /// the terrain's borders.
+    pub fn fit_texture_budget(&mut self, memory_limit: usize, texture_budget: usize) -> usize {
+        let h = self.reader.header();
+        let (s, t) = (h.tile_size as usize, h.texture_size as usize);
+        let max_ring = h.tiles_x.max(h.tiles_y);
+        // A tile's bytes without any texture: its bytes with only the 1 x 1 RGB565 mip, less it.
+        let geometry = predicted_bytes(s, t, usize::MAX) - 2;
+        for bias in 0..mip_count(t) {
+            self.bias = bias;
+            let (mut memory, mut texture) = (0usize, 0usize);
+            for ring in 0..=max_ring {
+                let tiles = if ring == 0 { 1 } else { 8 * ring as usize };
+                let tile = predicted_bytes(s, t, self.texture_base(ring));
+                if memory + tiles * tile > memory_limit {
+                    break;
+                }
+                memory += tiles * tile;
+                texture += tiles * (tile - geometry);
+            }
+            if texture <= texture_budget {
+                break;
+            }
+        }
+        self.bias
     }
 
     /// The archive.
@@ -43,7 +79,7 @@ impl ArchiveLoader {
     pub fn texture_base(&self, ring: u32) -> usize {
         let t = self.reader.header().texture_size as f64;
         let needed = (t * f64::from(ring.max(1)) / self.focal_px).log2().floor();
-        (needed.max(0.0) as usize).min(mip_count(t as usize) - 1)
+        (needed.max(0.0) as usize + self.bias).min(mip_count(t as usize) - 1)
     }
 }
 

@@ -172,3 +172,31 @@ fn neighbouring_tiles_at_the_same_level_leave_no_crack() {
         );
     }
 }
+
+#[test]
+fn a_texture_budget_coarsens_the_textures_of_the_square_to_fit() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = archive(dir.path());
+    // Viewer over the centre tile; the limit holds the 5 x 5 square around it.
+    let eye = DVec3::new(4.5 * 960.0, 1500.0, 4.5 * 960.0);
+    let target = eye + DVec3::new(10.0, -30.0, 0.0);
+    let texture_bytes = |budget: Option<usize>| {
+        let mut settings = stepped(25 * 40_000);
+        settings.texture_budget_bytes = budget;
+        let mut engine =
+            Engine::new(source::open(path.to_str().unwrap()).unwrap(), settings, 120).unwrap();
+        let mut fb = Framebuffer::new(160, 120, ColorFormat::Rgb565, DepthFormat::D16).unwrap();
+        settle(&mut engine, eye, target, &mut fb);
+        let stats = engine.pager().stats();
+        assert!(stats.memory_peak_bytes <= 25 * 40_000);
+        engine
+            .pager()
+            .tiles()
+            .map(|(_, t)| t.texture.byte_size())
+            .sum::<usize>()
+    };
+    let free = texture_bytes(None);
+    let capped = texture_bytes(Some(free / 3));
+    assert!(capped <= free / 3, "{capped} of {} allowed", free / 3);
+    assert!(capped > 0);
+}

@@ -11,6 +11,7 @@ use serde::Serialize;
 use stripmask::archive::{ArchiveReader, Codec, HEADER_LEN, Header};
 use stripmask::builder::{BuildOptions, build};
 use stripmask::dem::{self, DemFormat, OpenOptions, RawLayout, SampleType};
+use stripmask::demo::DemoOptions;
 use stripmask::engine::EngineSettings;
 use stripmask::error::{Error, Result};
 use stripmask::flight::{Builtin, Flight};
@@ -20,7 +21,9 @@ use stripmask::masks::LevelSet;
 #[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
 use stripmask::pager::PagerMode;
 use stripmask::pager::memory_limit_from_available;
+use stripmask::profile::{DeviceProfile, Overrides, depth_format};
 use stripmask::serve::Server;
+use stripmask::simclock::{Clock, CostModel};
 use stripmask::source::{self, throttle::LinkProfile};
 use stripmask::terrain::TerrainFrame;
 #[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
@@ -49,6 +52,47 @@ enum Command {
     View(ViewArgs),
     /// Fly over an archive on the Linux framebuffer (a scripted flight; Ctrl-C quits).
     Fb(FbArgs),
+    /// Draw the flyover plots of DIR/stats.csv into DIR.
+    Report(ReportArgs),
+    /// The paper's PocketPC flyover over the Puget Sound model, in one command.
+    Demo(DemoArgs),
+}
+
+#[derive(Args, Debug)]
+struct ReportArgs {
+    /// A folder holding stats.csv (what `fly` or `demo` wrote).
+    dir: PathBuf,
+}
+
+#[derive(Args, Debug)]
+struct DemoArgs {
+    /// Output folder: archive, stats.csv, frames and plots.
+    #[arg(long, default_value = "stripmask-demo")]
+    out: PathBuf,
+    /// The elevation model (default: examples/data/puget_sound_1k_height.png).
+    #[arg(long)]
+    dem: Option<PathBuf>,
+    /// Device profile: pocketpc, workstation or native.
+    #[arg(long, default_value = "pocketpc")]
+    profile: String,
+    /// A TOML device profile instead of a built-in one.
+    #[arg(long, conflicts_with = "profile")]
+    profile_file: Option<PathBuf>,
+    /// simulated (reproducible, the default) or wall (measured frame costs).
+    #[arg(long, value_enum, default_value_t = ClockArg::Simulated)]
+    clock: ClockArg,
+    /// Stop after N frames (default: the whole flight).
+    #[arg(long, conflicts_with = "seconds")]
+    frames: Option<u64>,
+    /// Stop after S seconds of flight time.
+    #[arg(long)]
+    seconds: Option<f64>,
+    /// Keep one frame in K as PNG (0: none).
+    #[arg(long, default_value_t = 10)]
+    every: u64,
+    /// No progress bar.
+    #[arg(short, long)]
+    quiet: bool,
 }
 
 #[derive(Args, Debug)]
@@ -73,6 +117,9 @@ struct FlyArgs {
     /// No progress bar.
     #[arg(short, long)]
     quiet: bool,
+    /// Do not draw the report's plots at the end.
+    #[arg(long)]
+    no_plots: bool,
     #[command(flatten)]
     scene: SceneArgs,
 }
@@ -116,30 +163,14 @@ struct SceneArgs {
     /// A built-in flight (overview, diagonal, low) or a TOML file of keyframes.
     #[arg(long, default_value = "diagonal")]
     flight: String,
-    /// Framebuffer size.
-    #[arg(long, default_value = "320x240", value_parser = parse_size)]
-    size: (u32, u32),
-    /// Colour format: rgb565 (the handheld's) or rgba8888.
-    #[arg(long, value_enum, default_value_t = ColorArg::Rgb565)]
-    color: ColorArg,
-    /// Depth buffer bits: 16 or 32.
-    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u8).range(16..=32))]
-    depth_bits: u8,
-    /// The frame rate the triangle budget aims at.
-    #[arg(long, default_value_t = 7.0)]
-    target_fps: f64,
-    /// Memory limit on loaded tiles, MB (10^6 bytes).
-    #[arg(long, default_value_t = 20.0, conflicts_with = "memory_percent")]
-    memory_mb: f64,
+    #[command(flatten)]
+    device: DeviceArgs,
     /// Memory limit as a percentage of available memory (Linux), as in the paper.
     #[arg(long)]
     memory_percent: Option<f64>,
     /// Of the memory limit, the most tile textures may take, MB (default: no separate cap).
     #[arg(long)]
     texture_mb: Option<f64>,
-    /// Rasterizer threads (0: all cores).
-    #[arg(long, default_value_t = 0)]
-    threads: usize,
     /// Use the f32 reference pipeline instead of fixed point.
     #[arg(long)]
     float: bool,
@@ -151,43 +182,35 @@ struct SceneArgs {
     distance_weight: f64,
 }
 
-/// A scene resolved from its arguments: the flight, the engine settings and the framebuffer.
+/// A scene resolved from its arguments: the flight, the engine settings, the framebuffer, the
+/// clock and the link of the device profile.
 struct Scene {
     flight: Flight,
     engine: EngineSettings,
     size: (u32, u32),
     color: ColorFormat,
     depth: DepthFormat,
+    target_fps: f64,
+    clock: Clock,
+    link: Option<LinkProfile>,
 }
 
 impl SceneArgs {
     fn resolve(&self, source_name: &str) -> Result<Scene> {
         let reader = ArchiveReader::open(source::open(source_name)?)?;
         let terrain = TerrainFrame::new(reader.header());
+        drop(reader);
         let flight = match self.flight.as_str() {
             "overview" => Flight::builtin(Builtin::Overview, &terrain),
             "diagonal" => Flight::builtin(Builtin::Diagonal, &terrain),
             "low" => Flight::builtin(Builtin::Low, &terrain),
             path => Flight::from_toml(std::path::Path::new(path))?,
         };
+        let device = self.device.resolve()?;
         let memory_limit_bytes = match self.memory_percent {
             Some(p) => memory_limit_from_available(p)?,
-            None if self.memory_mb > 0.0 && self.memory_mb.is_finite() => {
-                (self.memory_mb * 1e6) as usize
-            }
-            None => {
-                return Err(Error::Usage(format!(
-                    "--memory-mb {} must be positive",
-                    self.memory_mb
-                )));
-            }
+            None => device.memory_limit_bytes(),
         };
-        if !(self.target_fps > 0.0 && self.target_fps.is_finite()) {
-            return Err(Error::Usage(format!(
-                "--target-fps {} must be positive",
-                self.target_fps
-            )));
-        }
         let weights =
             Weights::new(self.distance_weight, 1.0 - self.distance_weight).ok_or_else(|| {
                 Error::Usage(format!(
@@ -203,7 +226,7 @@ impl SceneArgs {
         let mut engine = EngineSettings {
             memory_limit_bytes,
             texture_budget_bytes,
-            threads: self.threads,
+            threads: device.threads,
             level_set: if self.pow2_masks {
                 LevelSet::PowerOfTwo
             } else {
@@ -212,31 +235,122 @@ impl SceneArgs {
             weights,
             ..EngineSettings::default()
         };
-        engine.budget.target_fps = self.target_fps;
+        engine.budget.target_fps = device.target_fps;
         if self.float {
             engine.render.precision = Precision::Float;
         }
+        let clock = match self.device.clock {
+            ClockArg::Wall => Clock::Wall {
+                slowdown: device.cpu_slowdown,
+            },
+            ClockArg::Simulated => Clock::Simulated {
+                model: CostModel::HOST,
+                slowdown: device.cpu_slowdown,
+            },
+        };
         Ok(Scene {
             flight,
             engine,
-            size: self.size,
-            color: match self.color {
-                ColorArg::Rgb565 => ColorFormat::Rgb565,
-                ColorArg::Rgba8888 => ColorFormat::Rgba8888,
-            },
-            depth: match self.depth_bits {
-                16 => DepthFormat::D16,
-                32 => DepthFormat::D32,
-                b => return Err(Error::Usage(format!("--depth-bits {b}: 16 or 32"))),
-            },
+            size: (device.width, device.height),
+            color: device.color,
+            depth: device.depth,
+            target_fps: device.target_fps,
+            clock,
+            link: (!device.link.is_unlimited())
+                .then(|| device.link.to_link_profile(self.device.seed)),
         })
     }
+}
+
+/// The device a flight runs as: a profile, and values that override it.
+#[derive(Args, Debug)]
+struct DeviceArgs {
+    /// Device profile: pocketpc, workstation or native (the handheld's screen on this CPU).
+    #[arg(long, default_value = "native")]
+    profile: String,
+    /// A TOML device profile (see docs/pocketpc.md) instead of a built-in one.
+    #[arg(long, conflicts_with = "profile")]
+    profile_file: Option<PathBuf>,
+    /// wall: frame costs measured; simulated: modelled, so the run is reproducible.
+    #[arg(long, value_enum, default_value_t = ClockArg::Wall)]
+    clock: ClockArg,
+    /// Framebuffer size [profile].
+    #[arg(long, value_parser = parse_size)]
+    size: Option<(u32, u32)>,
+    /// Colour format: rgb565 (the handheld's) or rgba8888 [profile].
+    #[arg(long, value_enum)]
+    color: Option<ColorArg>,
+    /// Depth buffer bits: 16 or 32 [profile].
+    #[arg(long, value_parser = clap::value_parser!(u8).range(16..=32))]
+    depth_bits: Option<u8>,
+    /// The frame rate the triangle budget aims at [profile].
+    #[arg(long)]
+    target_fps: Option<f64>,
+    /// Memory limit on loaded tiles, MB (10^6 bytes) [profile].
+    #[arg(long, conflicts_with = "memory_percent")]
+    memory_mb: Option<f64>,
+    /// Rasterizer threads (0: all cores) [profile].
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Frame costs are multiplied by this (the device's CPU is this many times slower) [profile].
+    #[arg(long)]
+    cpu_slowdown: Option<f64>,
+    /// Link bandwidth, kilobits per second [profile].
+    #[arg(long)]
+    bandwidth_kbps: Option<f64>,
+    /// Link latency per request, milliseconds [profile].
+    #[arg(long)]
+    latency_ms: Option<f64>,
+    /// Fraction of requests the link drops, 0..1 [profile].
+    #[arg(long)]
+    drop_rate: Option<f64>,
+    /// Seed of the link's drop decisions.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+}
+
+impl DeviceArgs {
+    fn resolve(&self) -> Result<DeviceProfile> {
+        let depth = self
+            .depth_bits
+            .map(depth_format)
+            .transpose()
+            .map_err(Error::Usage)?;
+        let overrides = Overrides {
+            size: self.size,
+            color: self.color.map(ColorArg::format),
+            depth,
+            memory_mb: self.memory_mb,
+            target_fps: self.target_fps,
+            threads: self.threads,
+            cpu_slowdown: self.cpu_slowdown,
+            bandwidth_kbps: self.bandwidth_kbps,
+            latency_ms: self.latency_ms,
+            drop_rate: self.drop_rate,
+        };
+        DeviceProfile::resolve(&self.profile, self.profile_file.as_deref(), &overrides)
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum ClockArg {
+    Wall,
+    Simulated,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 enum ColorArg {
     Rgb565,
     Rgba8888,
+}
+
+impl ColorArg {
+    fn format(self) -> ColorFormat {
+        match self {
+            ColorArg::Rgb565 => ColorFormat::Rgb565,
+            ColorArg::Rgba8888 => ColorFormat::Rgba8888,
+        }
+    }
 }
 
 fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
@@ -354,6 +468,8 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Fly(a) => run_fly(a),
         Command::View(a) => run_view(a),
         Command::Fb(a) => run_fb(a),
+        Command::Report(a) => run_report(a),
+        Command::Demo(a) => run_demo(a),
     }
 }
 
@@ -440,6 +556,9 @@ fn run_fly(a: FlyArgs) -> Result<()> {
         every: a.every,
         hud: a.hud,
         progress: !a.quiet,
+        clock: scene.clock,
+        link: scene.link,
+        plots: !a.no_plots,
     };
     let s = fly(&options)?;
     println!(
@@ -448,7 +567,7 @@ fn run_fly(a: FlyArgs) -> Result<()> {
         s.frames,
         s.seconds,
         s.median_fps,
-        a.scene.target_fps,
+        scene.target_fps,
         s.mean_triangles,
         s.peak_memory_bytes as f64 / 1e6,
         s.memory_limit_bytes as f64 / 1e6,
@@ -457,6 +576,35 @@ fn run_fly(a: FlyArgs) -> Result<()> {
             .map_or("never".into(), |t| format!("{t:.2} s")),
         a.out.join("stats.csv").display()
     );
+    Ok(())
+}
+
+fn run_report(a: ReportArgs) -> Result<()> {
+    for path in stripmask::report::draw(&a.dir)? {
+        println!("{}", path.display());
+    }
+    Ok(())
+}
+
+fn run_demo(a: DemoArgs) -> Result<()> {
+    let options = DemoOptions {
+        out: a.out,
+        dem: a.dem,
+        profile: DeviceProfile::resolve(
+            &a.profile,
+            a.profile_file.as_deref(),
+            &Overrides::default(),
+        )?,
+        simulated: a.clock == ClockArg::Simulated,
+        length: match (a.frames, a.seconds) {
+            (Some(n), _) => Some(Length::Frames(n)),
+            (None, Some(s)) => Some(Length::Seconds(s)),
+            (None, None) => None,
+        },
+        every: a.every,
+        progress: !a.quiet,
+    };
+    println!("{}", stripmask::demo::run(&options)?);
     Ok(())
 }
 

@@ -7,6 +7,7 @@
 //!        pager (belts) <── tile source
 //! ```
 
+use std::sync::Arc;
 use std::time::Instant;
 
 use glam::DVec3;
@@ -21,7 +22,7 @@ use crate::frustum::{Aabb, Frustum};
 use crate::importance::{TileMeasure, Weights, visual_importance};
 use crate::loader::ArchiveLoader;
 use crate::masks::{LevelSet, MaskSet};
-use crate::pager::{Pager, PagerConfig, PagerMode, PagerStats};
+use crate::pager::{Pager, PagerConfig, PagerMode, PagerStats, TransferClock};
 use crate::render::{RenderSettings, TileDraw, draw_tiles};
 use crate::resident::Light;
 use crate::source::TileSource;
@@ -36,7 +37,7 @@ pub struct EngineSettings {
     pub memory_limit_bytes: usize,
     /// Of that, the most the textures of the complete square may take (`None`: no separate cap).
     pub texture_budget_bytes: Option<usize>,
-    /// Threaded (real runs) or stepped (deterministic) fetching.
+    /// Threaded (real runs), stepped or simulated (deterministic) fetching.
     pub pager_mode: PagerMode,
     /// A viewpoint off the terrain pages around the nearest tile.
     pub nearest_when_off: bool,
@@ -162,6 +163,16 @@ impl Engine {
     /// The pager, for its tile states and counters.
     pub fn pager(&self) -> &Pager<ArchiveLoader> {
         &self.pager
+    }
+
+    /// Sets the simulated time for a pager in [`PagerMode::Simulated`], seconds.
+    pub fn set_time(&mut self, seconds: f64) {
+        self.pager.set_time(seconds);
+    }
+
+    /// Times tile transfers for a pager in [`PagerMode::Simulated`].
+    pub fn set_transfer_clock(&mut self, clock: Arc<dyn TransferClock>) {
+        self.pager.set_transfer_clock(clock);
     }
 
     /// The strip masks.

@@ -1,7 +1,8 @@
 //! `stripmask fly`: a flight over an archive, headless, with per-frame statistics and frames.
 //!
-//! Flight time advances by each frame's measured cost (bookkeeping and drawing; writing PNGs is
-//! not counted), so a slow renderer covers the path in fewer frames, as on the real device.
+//! Flight time advances by each frame's cost as [`Clock`] tells it (measured bookkeeping and
+//! drawing, or modelled; times the device's CPU slowdown; writing PNGs is not counted), so a slow
+//! renderer covers the path in fewer frames, as on the real device.
 
 use std::path::PathBuf;
 
@@ -12,7 +13,11 @@ use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 use crate::engine::{Engine, EngineSettings};
 use crate::error::{Error, Result};
 use crate::flight::Flight;
+use crate::pager::PagerMode;
+use crate::report;
+use crate::simclock::{Clock, connect};
 use crate::source;
+use crate::source::throttle::LinkProfile;
 use crate::stats::{FrameRecord, StatsCsv};
 use crate::viewer::hud_info;
 
@@ -50,6 +55,13 @@ pub struct FlyOptions {
     pub hud: bool,
     /// Show a progress bar.
     pub progress: bool,
+    /// Where frame costs come from. The simulated clock turns a threaded pager into a
+    /// simulated one with the same queue depth.
+    pub clock: Clock,
+    /// The link tiles come over (`None`: the source as it is).
+    pub link: Option<LinkProfile>,
+    /// Draw the report's plots into `out` at the end.
+    pub plots: bool,
 }
 
 /// A run's summary.
@@ -89,7 +101,17 @@ pub fn fly(o: &FlyOptions) -> Result<FlySummary> {
     let (w, h) = o.size;
     let mut fb = Framebuffer::new(w, h, o.color, o.depth)
         .map_err(|e| Error::Usage(format!("--size {w}x{h}: {e}")))?;
-    let mut engine = Engine::new(source::open(&o.source)?, o.engine, h)?;
+    let mut settings = o.engine;
+    if let (Clock::Simulated { .. }, PagerMode::Threaded { queue_depth }) =
+        (o.clock, settings.pager_mode)
+    {
+        settings.pager_mode = PagerMode::Simulated { queue_depth };
+    }
+    let (source, meter) = connect(source::open(&o.source)?, o.link, &o.clock);
+    let mut engine = Engine::new(source, settings, h)?;
+    if let Some(meter) = meter {
+        engine.set_transfer_clock(meter);
+    }
     let length = o
         .length
         .unwrap_or(Length::Seconds(o.flight.duration().max(f64::MIN_POSITIVE)));
@@ -112,8 +134,9 @@ pub fn fly(o: &FlyOptions) -> Result<FlySummary> {
         }
         let (eye, target) = o.flight.at(t);
         let camera = engine.camera(eye, target, o.flight.above_ground);
+        engine.set_time(t);
         let report = engine.render(&camera, &mut fb)?;
-        let seconds = report.bookkeeping_seconds + report.draw_seconds;
+        let seconds = o.clock.frame_seconds(&report);
         engine.record_frame(seconds, report.draw.triangles as usize);
         if report.rendered_tiles > 0 && first_frame_s.is_none() {
             first_frame_s = Some(t);
@@ -126,11 +149,13 @@ pub fn fly(o: &FlyOptions) -> Result<FlySummary> {
             target_fps: o.engine.budget.target_fps,
             budget: report.budget as u64,
             triangles: report.triangles as u64,
+            fragments: report.draw.fragments,
             rendered_tiles: report.rendered_tiles as u64,
             loaded_tiles: report.pager.loaded_tiles as u64,
             memory_bytes: report.pager.memory_bytes as u64,
             memory_limit_bytes: report.pager.memory_limit_bytes as u64,
             downloaded_bytes: report.pager.downloaded_bytes,
+            downloads: report.pager.fetches,
             complete_belts: report.pager.complete_belts.map_or(0, |d| u64::from(d) + 1),
             fetching: report.pager.fetching as u64,
         };
@@ -153,6 +178,9 @@ pub fn fly(o: &FlyOptions) -> Result<FlySummary> {
     }
     bar.finish_and_clear();
     csv.finish()?;
+    if o.plots {
+        report::draw(&o.out)?;
+    }
     fps.sort_by(f64::total_cmp);
     let stats = last_stats.unwrap_or_else(|| engine.pager().stats());
     Ok(FlySummary {

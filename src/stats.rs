@@ -22,6 +22,8 @@ pub struct FrameRecord {
     pub budget: u64,
     /// Triangles drawn.
     pub triangles: u64,
+    /// Pixels written.
+    pub fragments: u64,
     /// Tiles drawn (in the view frustum and loaded).
     pub rendered_tiles: u64,
     /// Tiles in memory.
@@ -32,6 +34,8 @@ pub struct FrameRecord {
     pub memory_limit_bytes: u64,
     /// Bytes downloaded since the start.
     pub downloaded_bytes: u64,
+    /// Tiles downloaded since the start.
+    pub downloads: u64,
     /// Belts of the complete square around the viewer.
     pub complete_belts: u64,
     /// Tiles being fetched.
@@ -39,13 +43,13 @@ pub struct FrameRecord {
 }
 
 /// The CSV header, matching [`FrameRecord`]'s fields.
-pub const CSV_HEADER: &str = "frame,time_s,frame_ms,fps,target_fps,budget,triangles,rendered_tiles,loaded_tiles,memory_bytes,memory_limit_bytes,downloaded_bytes,complete_belts,fetching";
+pub const CSV_HEADER: &str = "frame,time_s,frame_ms,fps,target_fps,budget,triangles,fragments,rendered_tiles,loaded_tiles,memory_bytes,memory_limit_bytes,downloaded_bytes,downloads,complete_belts,fetching";
 
 impl FrameRecord {
     /// The record as one CSV line, without the newline.
     pub fn csv_line(&self) -> String {
         format!(
-            "{},{:.4},{:.3},{:.2},{},{},{},{},{},{},{},{},{},{}",
+            "{},{:.4},{:.3},{:.2},{},{},{},{},{},{},{},{},{},{},{},{}",
             self.frame,
             self.time_s,
             self.frame_ms,
@@ -53,11 +57,13 @@ impl FrameRecord {
             self.target_fps,
             self.budget,
             self.triangles,
+            self.fragments,
             self.rendered_tiles,
             self.loaded_tiles,
             self.memory_bytes,
             self.memory_limit_bytes,
             self.downloaded_bytes,
+            self.downloads,
             self.complete_belts,
             self.fetching
         )

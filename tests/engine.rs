@@ -10,6 +10,7 @@ use stripmask::engine::{Engine, EngineSettings};
 use stripmask::flight::{Builtin, Flight};
 use stripmask::fly::{FlyOptions, Length, fly};
 use stripmask::pager::PagerMode;
+use stripmask::simclock::Clock;
 use stripmask::source;
 use stripmask::stats::CSV_HEADER;
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
@@ -76,6 +77,9 @@ fn fly_writes_one_stats_row_per_frame_and_keeps_every_kth_frame() {
         every: 10,
         hud: true,
         progress: false,
+        clock: Clock::default(),
+        link: None,
+        plots: false,
     })
     .unwrap();
     assert_eq!(summary.frames, 25);

@@ -4,13 +4,17 @@
 //! tiles that arrived, shrinks tiles that moved to a farther belt, evicts cache and starts the
 //! next fetches of belt `d_c + 1`, all without waiting on I/O in [`PagerMode::Threaded`]. The
 //! frame then draws [`Pager::tiles`]. [`PagerMode::Stepped`] runs a fixed number of fetches
-//! synchronously inside each update instead, which makes a run reproducible. Either way the
-//! accounted memory, reservations of fetches in flight included, never exceeds the limit.
+//! synchronously inside each update instead, which makes a run reproducible.
+//! [`PagerMode::Simulated`] is reproducible too and also models the link: each fetch runs when it
+//! is planned, but its tile arrives only once the simulated time ([`Pager::set_time`]) passes the
+//! moment its transfer would end on a link that carries one request at a time, as timed by a
+//! [`TransferClock`]. Either way the accounted memory, reservations of fetches in flight
+//! included, never exceeds the limit.
 
 mod meminfo;
 mod worker;
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
 
 pub use meminfo::{memory_limit_from_available, parse_mem_available};
@@ -51,6 +55,27 @@ pub enum PagerMode {
         /// Fetches per update at most.
         fetches_per_update: usize,
     },
+    /// No thread: fetches run synchronously when planned, at most `queue_depth` (at least 1) in
+    /// flight, and each tile arrives at the first update whose simulated time is past the end
+    /// of its transfer. Deterministic.
+    Simulated {
+        /// Fetches in flight at most.
+        queue_depth: usize,
+    },
+}
+
+/// The time a link spent on transfers, for [`PagerMode::Simulated`]: the pager reads it before
+/// and after each fetch, and the difference is that fetch's transfer time.
+pub trait TransferClock: Send + Sync {
+    /// Seconds of transfers so far (never decreasing).
+    fn busy_seconds(&self) -> f64;
+}
+
+/// A fetch done in [`PagerMode::Simulated`] whose transfer ends at `due` (simulated seconds).
+struct Pending<T> {
+    due: f64,
+    id: TileId,
+    result: Result<(T, u64)>,
 }
 
 /// Settings of a [`Pager`].
@@ -132,6 +157,10 @@ pub struct Pager<L: TileLoader> {
     ledger: Ledger,
     tiles: BTreeMap<TileId, L::Loaded>,
     worker: Option<Worker<L::Loaded>>,
+    transfer_clock: Option<Arc<dyn TransferClock>>,
+    pending: VecDeque<Pending<L::Loaded>>,
+    time: f64,
+    link_free: f64,
     center: Option<TileId>,
     complete: Option<u32>,
     memory_bound: bool,
@@ -148,13 +177,13 @@ impl<L: TileLoader> Pager<L> {
     pub fn new(loader: L, grid: Grid, config: PagerConfig) -> Result<Self> {
         let loader = Arc::new(loader);
         let worker = match config.mode {
-            PagerMode::Threaded { queue_depth: 0 } => {
+            PagerMode::Threaded { queue_depth: 0 } | PagerMode::Simulated { queue_depth: 0 } => {
                 return Err(Error::Usage(
-                    "a threaded pager needs a queue depth of at least 1".into(),
+                    "a threaded or simulated pager needs a queue depth of at least 1".into(),
                 ));
             }
             PagerMode::Threaded { .. } => Some(Worker::spawn(Arc::clone(&loader))?),
-            PagerMode::Stepped { .. } => None,
+            PagerMode::Stepped { .. } | PagerMode::Simulated { .. } => None,
         };
         Ok(Pager {
             loader,
@@ -162,6 +191,10 @@ impl<L: TileLoader> Pager<L> {
             ledger: Ledger::new(grid, config.memory_limit_bytes, config.retry),
             tiles: BTreeMap::new(),
             worker,
+            transfer_clock: None,
+            pending: VecDeque::new(),
+            time: 0.0,
+            link_free: 0.0,
             center: None,
             complete: None,
             memory_bound: false,
@@ -172,6 +205,17 @@ impl<L: TileLoader> Pager<L> {
             errors: 0,
             last_error: None,
         })
+    }
+
+    /// Sets the simulated time, seconds, for [`PagerMode::Simulated`] (never moves it back).
+    pub fn set_time(&mut self, seconds: f64) {
+        self.time = self.time.max(seconds);
+    }
+
+    /// Times transfers in [`PagerMode::Simulated`]; without one they take no time and a tile
+    /// arrives at the update after its fetch.
+    pub fn set_transfer_clock(&mut self, clock: Arc<dyn TransferClock>) {
+        self.transfer_clock = Some(clock);
     }
 
     /// Once per frame, before drawing: `viewer` is the viewpoint in tile units (tile `(x, y)`
@@ -206,6 +250,14 @@ impl<L: TileLoader> Pager<L> {
                         let result = worker::load(&*self.loader, fetch);
                         self.integrate(fetch.id, result);
                     }
+                }
+            }
+            PagerMode::Simulated { queue_depth } => {
+                let room = queue_depth.saturating_sub(self.ledger.fetching());
+                let plan = self.plan(room);
+                self.evict(&plan);
+                for fetch in plan.fetch {
+                    self.schedule(fetch);
                 }
             }
         }
@@ -335,9 +387,36 @@ impl<L: TileLoader> Pager<L> {
         }
     }
 
-    /// Takes in every result the fetch thread sent. If the thread is gone, its fetches in
-    /// flight fail and a new thread starts.
+    /// Runs a fetch now and queues its result until the end of its transfer, which starts when
+    /// the link is free and takes what the transfer clock says.
+    fn schedule(&mut self, fetch: Fetch) {
+        if !self.reserve(fetch) {
+            return;
+        }
+        let busy = || {
+            self.transfer_clock
+                .as_ref()
+                .map_or(0.0, |c| c.busy_seconds())
+        };
+        let before = busy();
+        let result = worker::load(&*self.loader, fetch);
+        let took = (busy() - before).max(0.0);
+        let due = self.link_free.max(self.time) + took;
+        self.link_free = due;
+        self.pending.push_back(Pending {
+            due,
+            id: fetch.id,
+            result,
+        });
+    }
+
+    /// Takes in every result the fetch thread sent, or every simulated transfer that has ended.
+    /// If the thread is gone, its fetches in flight fail and a new thread starts.
     fn receive(&mut self) {
+        while self.pending.front().is_some_and(|p| p.due <= self.time) {
+            let Pending { id, result, .. } = self.pending.pop_front().expect("checked");
+            self.integrate(id, result);
+        }
         let mut arrivals = Vec::new();
         let mut stopped = None;
         if let Some(worker) = &self.worker {

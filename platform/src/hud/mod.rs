@@ -40,14 +40,15 @@ pub struct HudInfo {
 impl HudInfo {
     /// The statistics panel's lines.
     fn lines(&self) -> [String; 4] {
-        const MIB: f64 = 1024.0 * 1024.0;
+        // MB of 10^6 bytes, as the command line counts them.
+        const MB: f64 = 1e6;
         [
             format!("FPS {:.1} / {:.0}", self.fps, self.target_fps),
             format!("TRIS {} / {}", self.triangles, self.budget),
             format!(
                 "MEM {:.1} / {:.1} MB",
-                self.memory_bytes as f64 / MIB,
-                self.memory_limit_bytes as f64 / MIB
+                self.memory_bytes as f64 / MB,
+                self.memory_limit_bytes as f64 / MB
             ),
             format!(
                 "TILES {} LOADED {} DRAWN",

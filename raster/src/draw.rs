@@ -9,7 +9,7 @@ use rayon::prelude::*;
 
 use crate::RasterError;
 use crate::clip::{ClipVertex, MAX_POLYGON, clip_triangle};
-use crate::edge::{Coverage, EdgeFn};
+use crate::edge::Coverage;
 use crate::framebuffer::{ColorBuffer, DepthBuffer, Framebuffer};
 use crate::matrix::Transform;
 use crate::pipeline::fixed::{self, FixedClip, FixedFog, FixedScreen, FixedSpace, FixedTriangle};
@@ -66,7 +66,7 @@ pub struct Rasterizer {
     slot: Vec<u32>,
     generation: u32,
     used: Vec<u32>,
-    triangles: Vec<Assembled>,
+    triangles: Vec<[u32; 3]>,
     fixed_vertices: Vec<Transformed<FixedClip, FixedScreen>>,
     float_vertices: Vec<Transformed<FloatClip, FloatScreen>>,
     threads: Option<usize>,
@@ -210,19 +210,16 @@ impl Rasterizer {
         used.clear();
         self.triangles.clear();
         let triangles = &mut self.triangles;
-        assemble(mesh, |t, link| {
-            triangles.push(Assembled {
-                slots: t.map(|v| {
-                    let v = v as usize;
-                    if stamp[v] != generation {
-                        stamp[v] = generation;
-                        slot[v] = used.len() as u32;
-                        used.push(v as u32);
-                    }
-                    slot[v]
-                }),
-                link,
-            })
+        assemble(mesh, |t| {
+            triangles.push(t.map(|v| {
+                let v = v as usize;
+                if stamp[v] != generation {
+                    stamp[v] = generation;
+                    slot[v] = used.len() as u32;
+                    used.push(v as u32);
+                }
+                slot[v]
+            }))
         })
         .map_err(|(position, value)| RasterError::IndexOutOfRange {
             position,
@@ -230,14 +227,6 @@ impl Rasterizer {
             vertices: n,
         })
     }
-}
-
-/// An assembled triangle: its vertices' slots in the draw's vertex array, and its link to the
-/// triangle before it in a strip (see `vertex::assemble`).
-#[derive(Clone, Copy, Debug)]
-struct Assembled {
-    slots: [u32; 3],
-    link: Option<u8>,
 }
 
 /// The per-draw constants every stage reads.
@@ -263,7 +252,7 @@ struct Stages<Sp, Cf, Pf, Mf, Rf> {
 fn run<C, S, T, Cf, Pf, Mf, Rf>(
     vertices: &mut Vec<Transformed<C, S>>,
     used: &[u32],
-    triangles: &[Assembled],
+    triangles: &[[u32; 3]],
     mesh: &Mesh,
     fb: &mut Framebuffer,
     job: &Job,
@@ -330,7 +319,7 @@ fn transform_vertices<T: Send>(
 
 /// Clips, culls and sets up `triangles` into `out` (replacing its contents), in order.
 fn set_up<C, S, T>(
-    triangles: &[Assembled],
+    triangles: &[[u32; 3]],
     vertices: &[Transformed<C, S>],
     job: &Job,
     space: &C::Space,
@@ -346,26 +335,37 @@ fn set_up<C, S, T>(
     let rows = (job.scissor.y0 as i64, job.scissor.y1 as i64);
     let cull = job.state.cull;
     let ccw_front = job.state.front_face == FrontFace::Ccw;
-    let setup_one = |s: [&S; 3], shared: Option<EdgeFn>, prev: &mut Previous, out: &mut Vec<T>| {
-        if let Some((s, p, area2, edges)) = oriented(s, shared, cull, ccw_front, prev) {
-            if let Some(cov) = Coverage::new(p, edges, rows) {
-                out.push(make(s, area2, cov, &job.attrs));
-            }
+    let setup_one = |s: [&S; 3], out: &mut Vec<T>| {
+        let p = s.each_ref().map(|v| v.xy());
+        let area2 =
+            (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
+        if area2 == 0 {
+            return;
+        }
+        // Screen y points down, so a triangle counter-clockwise in NDC has negative area here.
+        let front = (area2 < 0) == ccw_front;
+        if (cull == CullMode::Back && !front) || (cull == CullMode::Front && front) {
+            return;
+        }
+        let (s, p, area2) = if area2 < 0 {
+            ([s[0], s[2], s[1]], [p[0], p[2], p[1]], -area2)
+        } else {
+            (s, p, area2)
+        };
+        if let Some(cov) = Coverage::new(p, rows) {
+            out.push(make(s, area2, cov, &job.attrs));
         }
     };
-    let set_up_into = |tris: &[Assembled], out: &mut Vec<T>| {
-        let mut prev = None;
+    let set_up_into = |tris: &[[u32; 3]], out: &mut Vec<T>| {
         for t in tris {
-            let v = t.slots.map(|i| &vertices[i as usize]);
+            let v = t.map(|i| &vertices[i as usize]);
             let and = v[0].outcode & v[1].outcode & v[2].outcode;
             let or = v[0].outcode | v[1].outcode | v[2].outcode;
             if and != 0 {
-                prev = None;
                 continue;
             }
             if or == 0 {
-                let shared = link_edge(t.link, &prev);
-                setup_one(v.map(|v| &v.screen), shared, &mut prev, out);
+                setup_one(v.map(|v| &v.screen), out);
                 continue;
             }
             let poly = clip_triangle(v.map(|v| v.clip), or, space);
@@ -374,14 +374,8 @@ fn set_up<C, S, T>(
                 *s = project(c);
             }
             for k in 1..poly.len.saturating_sub(1) {
-                setup_one(
-                    [&screen[0], &screen[k], &screen[k + 1]],
-                    None,
-                    &mut prev,
-                    out,
-                );
+                setup_one([&screen[0], &screen[k], &screen[k + 1]], out);
             }
-            prev = None;
         }
     };
     out.clear();
@@ -394,60 +388,6 @@ fn set_up<C, S, T>(
     } else {
         set_up_into(triangles, out);
     }
-}
-
-/// The last triangle set up unclipped: whether it was swapped into positive orientation, and its
-/// edges in that orientation.
-type Previous = Option<(bool, [EdgeFn; 3])>;
-
-/// The previous triangle's edge `link` (in the application's winding, see `vertex::assemble`), in
-/// its own direction.
-#[inline]
-fn link_edge(link: Option<u8>, prev: &Previous) -> Option<EdgeFn> {
-    let (e, (swapped, edges)) = (link? as usize, prev.as_ref()?);
-    // Swapped to v0, v2, v1, its edges are v0 -> v2, v2 -> v1, v1 -> v0: application edge e is
-    // edge 2 - e walked the other way.
-    Some(if *swapped {
-        edges[2 - e].reversed()
-    } else {
-        edges[e]
-    })
-}
-
-/// Culls the triangle `s` or brings it into positive orientation: its vertices, their positions,
-/// its doubled area and its edges. `shared` is the edge its edge 0 shares with the previous
-/// triangle, as that one walks it; `prev` becomes this triangle's own state, for the next one.
-#[inline(always)]
-#[allow(clippy::type_complexity)]
-fn oriented<'s, S: Projected>(
-    s: [&'s S; 3],
-    shared: Option<EdgeFn>,
-    cull: CullMode,
-    ccw_front: bool,
-    prev: &mut Previous,
-) -> Option<([&'s S; 3], [[i64; 2]; 3], i64, [EdgeFn; 3])> {
-    let p = s.each_ref().map(|v| v.xy());
-    let area2 =
-        (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
-    // Screen y points down, so a triangle counter-clockwise in NDC has negative area here.
-    let front = (area2 < 0) == ccw_front;
-    if area2 == 0 || (cull == CullMode::Back && !front) || (cull == CullMode::Front && front) {
-        *prev = None;
-        return None;
-    }
-    // Swapped to v0, v2, v1, edge 0 (v0 -> v1) becomes edge 2 (v1 -> v0): the shared edge in the
-    // previous triangle's direction.
-    let swapped = area2 < 0;
-    let (s, p, area2, shared) = if swapped {
-        let shared = shared.map(|e| (2, e));
-        ([s[0], s[2], s[1]], [p[0], p[2], p[1]], -area2, shared)
-    } else {
-        (s, p, area2, shared.map(|e| (0, e.reversed())))
-    };
-    let edges = Coverage::edges(p, shared);
-    debug_assert_eq!(edges, Coverage::edges(p, None), "a reused edge is the edge");
-    *prev = Some((swapped, edges));
-    Some((s, p, area2, edges))
 }
 
 /// A projected vertex of either pipeline.

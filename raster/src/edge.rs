@@ -5,83 +5,58 @@
 //! top-left fill rule). For one row, an edge with `dy < 0` (a left edge) bounds the span from below
 //! and owns its boundary; an edge with `dy > 0` (a right edge) bounds it from above and does not; a
 //! horizontal edge is a top edge (owns its row) or a bottom edge (does not). Each bound is
-//! `ceil(N / K)` of integers that change by a constant per row, so an integer DDA with a remainder
+//! `ceil(R / K)` of integers that change by a constant per row, so an integer DDA with a remainder
 //! steps it exactly: the spans are those of per-pixel edge functions, bit for bit, with no
 //! per-pixel test. Two triangles sharing an edge see it with opposite `dy`, so each centre on it
 //! belongs to exactly one of them.
-//!
-//! Edges are set up once per triangle, as `EdgeFn`s with the rule's bias folded in. Consecutive
-//! triangles of a strip share an edge, walked in opposite directions; the second takes it from the
-//! first by `EdgeFn::reversed` instead of setting it up again.
 
 use crate::fixed_point::{SUBPIXEL_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE, ceil_div, floor_div};
 
-/// One edge's function with the fill rule folded in: the pixel centre at sub-pixel `(x, y)` lies
-/// on the owned side when `F(x, y) = c + dx * y - dy * x > 0`.
-///
-/// `F` is the edge function `E = dx * (y - ay) - dy * (x - ax)` plus the top-left bias (1 on a top
-/// or left edge, 0 otherwise), so `F > 0` is exactly `E > 0`, or `E = 0` on a top or left edge.
-/// Walked the other way round (as the next triangle of a strip sees their shared edge), `E`
-/// negates and exactly one of the two directions is top or left: `c' = 1 - c`, with no
-/// multiplication (see `reversed`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) struct EdgeFn {
-    /// `|dx|, |dy| < 2^25` inside the guard band.
-    dx: i32,
-    dy: i32,
-    /// `|c| < 2^51`.
-    c: i64,
+/// A triangle's owned pixels: its snapped vertices and the rows it owns. Edges are rebuilt when
+/// its rows are walked, so a set-up triangle stays small.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Coverage {
+    /// Vertices in sub-pixels, positive orientation; `|x|, |y| < 2^25` inside the guard band.
+    v: [[i32; 2]; 3],
+    /// First row.
+    pub row_start: i32,
+    /// One past the last row.
+    pub row_end: i32,
+    /// For a triangle within `SMALL x SMALL` pixels, the columns of its bounding box: it is
+    /// walked by edge functions over them instead of by DDAs (decided once, at set-up).
+    small_cols: Option<[i32; 2]>,
 }
 
-impl EdgeFn {
-    /// The edge from `a` to `b` (sub-pixels, inside the guard band).
+#[derive(Clone, Copy, Debug, Default)]
+struct Edge {
+    ax: i64,
+    ay: i64,
+    dx: i64,
+    dy: i64,
+}
+
+impl Edge {
+    /// `K` of the bound `ceil(R / K)`.
     #[inline]
-    pub fn new(a: [i64; 2], b: [i64; 2]) -> Self {
-        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-        let top_left = dy < 0 || (dy == 0 && dx > 0);
-        Self {
-            dx: dx as i32,
-            dy: dy as i32,
-            c: dy * a[0] - dx * a[1] + top_left as i64,
-        }
+    fn k(&self) -> i64 {
+        self.dy.abs() * SUBPIXEL_ONE
     }
 
-    /// The same (non-degenerate) edge from `b` to `a`: what `EdgeFn::new(b, a)` computes.
+    /// `R` at row `py`.
     #[inline]
-    pub fn reversed(self) -> Self {
-        Self {
-            dx: -self.dx,
-            dy: -self.dy,
-            c: 1 - self.c,
-        }
+    fn r_at(&self, py: i64) -> i64 {
+        let yc = py * SUBPIXEL_ONE + SUBPIXEL_HALF;
+        self.dy.abs() * (self.ax - SUBPIXEL_HALF) + self.dy.signum() * self.dx * (yc - self.ay)
     }
 
-    /// `F` at the sub-pixel point `(x, y)`.
-    #[inline]
-    fn at(&self, x: i64, y: i64) -> i64 {
-        self.c + self.dx as i64 * y - self.dy as i64 * x
-    }
-
-    /// For an edge with `dy != 0`, a DDA of the column bound at row `py`: the first owned column
-    /// of a left edge (`dy < 0`), one past the last of a right edge (`dy > 0`), both `ceil(N / K)`.
-    ///
-    /// With `F0 = F(HALF, yc)` and `K = |dy| * ONE`, `F` at column `x` is `F0 - dy * ONE * x`. A
-    /// right edge owns `x < F0 / K`, that is `x < ceil(F0 / K)`; a left edge owns `K x > -F0`, that
-    /// is `x >= ceil((1 - F0) / K)`. Walked the other way, `F0` becomes `1 - F0`: both sides of a
-    /// shared edge compute the same bound, so a centre on it belongs to exactly one of them.
     fn stepper(&self, py: i64) -> Stepper {
-        let (dx, dy) = (self.dx as i64, self.dy as i64);
-        let k = dy.abs() * SUBPIXEL_ONE;
-        let f0 = self.at(SUBPIXEL_HALF, py * SUBPIXEL_ONE + SUBPIXEL_HALF);
-        let (n, step) = if dy < 0 {
-            (1 - f0, -dx * SUBPIXEL_ONE)
-        } else {
-            (f0, dx * SUBPIXEL_ONE)
-        };
-        let q = ceil_div(n, k);
+        let k = self.k();
+        let r = self.r_at(py);
+        let q = ceil_div(r, k);
+        let step = self.dy.signum() * self.dx * SUBPIXEL_ONE;
         Stepper {
             q,
-            rem: q * k - n,
+            rem: q * k - r,
             k,
             step_q: step.div_euclid(k),
             step_rem: step.rem_euclid(k),
@@ -89,7 +64,7 @@ impl EdgeFn {
     }
 }
 
-/// Integer DDA for `q = ceil(N / K)`, with `rem = q * K - N` in `0..K`.
+/// Integer DDA for `q = ceil(R / K)`, with `rem = q * K - R` in `0..K`.
 #[derive(Clone, Copy, Debug, Default)]
 struct Stepper {
     q: i64,
@@ -102,7 +77,7 @@ struct Stepper {
 impl Stepper {
     #[inline]
     fn next_row(&mut self) {
-        // N' = N + step_q * K + step_rem; the ceiling moves up one more when step_rem > rem.
+        // R' = R + step_q * K + step_rem; the ceiling moves up one more when step_rem > rem.
         if self.step_rem > self.rem {
             self.q += self.step_q + 1;
             self.rem += self.k - self.step_rem;
@@ -113,44 +88,16 @@ impl Stepper {
     }
 }
 
-/// A triangle's owned pixels: its three edge functions, set up once (a strip triangle takes the
-/// edge it shares with its predecessor from it, reversed), and the rows it owns.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Coverage {
-    /// Edges `v0 -> v1`, `v1 -> v2`, `v2 -> v0` of the positively oriented triangle.
-    edges: [EdgeFn; 3],
-    /// First row.
-    pub row_start: i32,
-    /// One past the last row.
-    pub row_end: i32,
-    /// For a triangle within `SMALL x SMALL` pixels, the columns of its bounding box: it is
-    /// walked by edge functions over them instead of by DDAs (decided once, at set-up).
-    small_cols: Option<[i32; 2]>,
-}
-
 impl Coverage {
-    /// The edge functions of the triangle `v` (sub-pixel x, y) with positive signed area, taking
-    /// edge `shared.0` (from `v[i]` to `v[i + 1]`) ready-made when given.
-    #[inline]
-    pub fn edges(v: [[i64; 2]; 3], shared: Option<(usize, EdgeFn)>) -> [EdgeFn; 3] {
-        let new = |i: usize| EdgeFn::new(v[i], v[(i + 1) % 3]);
-        match shared {
-            None => [new(0), new(1), new(2)],
-            Some((0, e)) => [e, new(1), new(2)],
-            Some((1, e)) => [new(0), e, new(2)],
-            Some((_, e)) => [new(0), new(1), e],
-        }
-    }
-
     /// Coverage of the triangle `v` (sub-pixel x, y) with positive signed area
-    /// `(v1 - v0) x (v2 - v0) > 0` and edge functions `edges` (see `Coverage::edges`), limited to
-    /// rows `rows.0 .. rows.1`. `None` when it owns no row.
-    pub fn new(v: [[i64; 2]; 3], edges: [EdgeFn; 3], rows: (i64, i64)) -> Option<Self> {
+    /// `(v1 - v0) x (v2 - v0) > 0`, limited to rows `rows.0 .. rows.1`. `None` when it owns no row.
+    pub fn new(v: [[i64; 2]; 3], rows: (i64, i64)) -> Option<Self> {
         let ymin = v.iter().map(|p| p[1]).min().expect("3 vertices");
         let ymax = v.iter().map(|p| p[1]).max().expect("3 vertices");
         // A horizontal edge with dx < 0 has the triangle above it: a bottom edge, which does not
         // own its row.
-        let bottom_edge = edges.iter().any(|e| e.dy == 0 && e.dx < 0);
+        let bottom_edge =
+            (0..3).any(|i| v[i][1] == v[(i + 1) % 3][1] && v[(i + 1) % 3][0] < v[i][0]);
         // Rows whose centre yc satisfies ymin <= yc <= ymax (yc < ymax under a bottom edge).
         let first = ceil_div(ymin - SUBPIXEL_HALF, SUBPIXEL_ONE);
         let end = if bottom_edge {
@@ -163,8 +110,8 @@ impl Coverage {
         let xmax = v.iter().map(|p| p[0]).max().expect("3 vertices") >> SUBPIXEL_BITS;
         let small =
             xmax - xmin < SMALL && (ymax >> SUBPIXEL_BITS) - (ymin >> SUBPIXEL_BITS) < SMALL;
-        (row_start < row_end).then_some(Coverage {
-            edges,
+        (row_start < row_end).then(|| Coverage {
+            v: v.map(|p| p.map(|c| c as i32)),
             row_start: row_start as i32,
             row_end: row_end as i32,
             small_cols: small.then_some([xmin as i32, xmax as i32 + 1]),
@@ -200,9 +147,25 @@ impl Coverage {
         }
     }
 
+    /// The three edges with the rule's bias: a pixel is owned when `E + bias > 0` for all three.
+    #[inline]
+    fn edges(&self) -> [(Edge, i64); 3] {
+        [0, 1, 2].map(|i| {
+            let (a, b) = (self.v[i].map(i64::from), self.v[(i + 1) % 3].map(i64::from));
+            let e = Edge {
+                ax: a[0],
+                ay: a[1],
+                dx: b[0] - a[0],
+                dy: b[1] - a[1],
+            };
+            let top_left = e.dy < 0 || (e.dy == 0 && e.dx > 0);
+            (e, top_left as i64)
+        })
+    }
+
     /// Small triangles: evaluate the edge functions at every pixel of the bounding box, with no
     /// division and no data-dependent branch. Within `SMALL` pixels each edge value fits in i32
-    /// (`|F| < 2 * (SMALL * 256)^2 + 1 < 2^25`), so a row's lanes are computed side by side.
+    /// (`|E| < 2 * (SMALL * 256)^2 < 2^25`), so a row's lanes are computed side by side.
     #[inline]
     fn walk_small(
         &self,
@@ -214,12 +177,14 @@ impl Coverage {
         if cols.0 >= cols.1 {
             return;
         }
+        let edges = self.edges();
         let xc = cols.0 * SUBPIXEL_ONE + SUBPIXEL_HALF;
         let yc = start * SUBPIXEL_ONE + SUBPIXEL_HALF;
-        // F at the first pixel of each row; steps per pixel and per row.
-        let mut row = self.edges.map(|e| e.at(xc, yc) as i32);
-        let step_x = self.edges.map(|e| -e.dy * SUBPIXEL_ONE as i32);
-        let step_y = self.edges.map(|e| e.dx * SUBPIXEL_ONE as i32);
+        // E + bias at the first pixel of each row; steps per pixel and per row.
+        let mut row =
+            edges.map(|(e, bias)| (e.dx * (yc - e.ay) - e.dy * (xc - e.ax) + bias) as i32);
+        let step_x = edges.map(|(e, _)| (-e.dy * SUBPIXEL_ONE) as i32);
+        let step_y = edges.map(|(e, _)| (e.dx * SUBPIXEL_ONE) as i32);
         let columns = (1u32 << (cols.1 - cols.0)) - 1;
         for y in start..end {
             // One bit per pixel inside all three edges; the set bits are contiguous because the
@@ -253,7 +218,7 @@ impl Coverage {
         let mut l = [Stepper::default(); 2];
         let mut r = [Stepper::default(); 2];
         let (mut nl, mut nr) = (0, 0);
-        for e in &self.edges {
+        for (e, _) in self.edges() {
             if e.dy < 0 {
                 l[nl] = e.stepper(start);
                 nl += 1;
@@ -314,7 +279,7 @@ mod tests {
     fn spans(v: [[i64; 2]; 3]) -> Vec<(i64, i64)> {
         let v = oriented(v);
         let mut out = vec![];
-        if let Some(c) = Coverage::new(v, Coverage::edges(v, None), (-100, 100)) {
+        if let Some(c) = Coverage::new(v, (-100, 100)) {
             c.for_each_span(-100, 100, (-100, 100), |y, a, b| {
                 out.extend((a..b).map(|x| (x, y)))
             });
@@ -380,58 +345,10 @@ mod tests {
         }
     }
 
-    proptest::proptest! {
-        #[test]
-        fn a_reversed_edge_is_the_edge_set_up_the_other_way(
-            a in (-(1i64 << 24)..1 << 24, -(1i64 << 24)..1 << 24),
-            b in (-(1i64 << 24)..1 << 24, -(1i64 << 24)..1 << 24),
-        ) {
-            proptest::prop_assume!(a != b);
-            let (a, b) = ([a.0, a.1], [b.0, b.1]);
-            proptest::prop_assert_eq!(EdgeFn::new(a, b).reversed(), EdgeFn::new(b, a));
-        }
-
-        #[test]
-        fn a_strip_pair_sharing_its_edge_covers_like_two_fresh_triangles(
-            p in proptest::collection::vec((-40 * S..40 * S, -40 * S..40 * S), 4),
-        ) {
-            // Strip a, b, c, d: triangles (a, b, c) and (c, b, d) share b -> c and c -> b.
-            let area = |v: [[i64; 2]; 3]| {
-                (v[1][0] - v[0][0]) * (v[2][1] - v[0][1]) - (v[2][0] - v[0][0]) * (v[1][1] - v[0][1])
-            };
-            let mut q = [p[0], p[1], p[2], p[3]].map(|(x, y)| [x, y]);
-            if area([q[0], q[1], q[2]]) < 0 {
-                // Mirrored, the strip keeps its shape and turns positive.
-                q = q.map(|[x, y]| [-x, y]);
-            }
-            let [a, b, c, d] = q;
-            let (first, second) = ([a, b, c], [c, b, d]);
-            proptest::prop_assume!(area(first) > 0 && area(second) > 0);
-            let shared = Coverage::edges(first, None)[1].reversed();
-            let reused = Coverage::edges(second, Some((0, shared)));
-            proptest::prop_assert_eq!(reused, Coverage::edges(second, None));
-            let walk = |edges| {
-                let mut out = vec![];
-                if let Some(c) = Coverage::new(second, edges, (-100, 100)) {
-                    c.for_each_span(-100, 100, (-100, 100), |y, a, b| out.push((y, a, b)));
-                }
-                out
-            };
-            proptest::prop_assert_eq!(walk(reused), walk(Coverage::edges(second, None)));
-            // Every centre near the pair is owned by at most one of the two.
-            let (mut one, mut two) = (spans(first), spans(second));
-            one.append(&mut two);
-            let n = one.len();
-            one.sort();
-            one.dedup();
-            proptest::prop_assert_eq!(one.len(), n);
-        }
-    }
-
     #[test]
     fn row_window_matches_the_full_walk() {
         let v = [[3, 7], [40 * S + 1, 30 * S + 5], [-20 * S, 13 * S + 9]];
-        let c = Coverage::new(v, Coverage::edges(v, None), (-100, 100)).unwrap();
+        let c = Coverage::new(v, (-100, 100)).unwrap();
         let mut full = vec![];
         c.for_each_span(-100, 100, (-100, 100), |y, a, b| full.push((y, a, b)));
         let mut banded = vec![];

@@ -83,15 +83,12 @@ pub struct Mesh<'a> {
 /// A triangle as three vertex indices, in the winding the application gave.
 pub(crate) type IndexTriangle = [u32; 3];
 
-/// Calls `emit(triangle, link)` for every non-degenerate triangle of `mesh`, in order. Strip
-/// triangles alternate their vertex order so that every triangle keeps the strip's winding.
-/// `link` is `Some(e)` when the triangle continues a strip from the triangle emitted just before
-/// it: its edge 0 (`t[0] -> t[1]`) is that triangle's edge `e` (1 or 2, from `t[e]` to
-/// `t[(e + 1) % 3]`) walked the other way. Returns the first index that is out of range, if any
-/// (nothing is emitted after it).
+/// Calls `emit` for every non-degenerate triangle of `mesh`, in order. Strip triangles alternate
+/// their vertex order so that every triangle keeps the strip's winding. Returns the first index
+/// that is out of range, if any (nothing is emitted after it).
 pub(crate) fn assemble(
     mesh: &Mesh,
-    mut emit: impl FnMut(IndexTriangle, Option<u8>),
+    mut emit: impl FnMut(IndexTriangle),
 ) -> Result<(), (usize, u32)> {
     let n = mesh.vertices.len() as u64;
     let check = |k: usize, v: u32| if (v as u64) < n { Ok(v) } else { Err((k, v)) };
@@ -107,30 +104,24 @@ pub(crate) fn assemble(
                 };
                 let t = [check(k, a)?, check(k + 1, b)?, check(k + 2, c)?];
                 if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] {
-                    emit(t, None);
+                    emit(t);
                 }
             }
         }
         Topology::TriangleStrip => {
             let mut window = [0u32; 2];
             let mut run = 0usize; // indices since the last restart
-            let mut emitted = false; // the strip's previous triangle was emitted
             for k in 0..mesh.indices.len() {
                 let Some(v) = mesh.indices.get(k) else {
                     run = 0;
-                    emitted = false;
                     continue;
                 };
                 let v = check(k, v)?;
                 if run >= 2 {
                     let [a, b] = window;
-                    let link = emitted.then_some(if run % 2 == 0 { 2 } else { 1 });
-                    emitted = a != b && b != v && a != v;
-                    if emitted {
-                        // Odd triangles of a strip are wound the other way round. Either way the
-                        // edge a -> b (or b -> a) is the previous triangle's last edge (b -> a) or
-                        // middle one (a -> b).
-                        emit(if run % 2 == 0 { [a, b, v] } else { [b, a, v] }, link);
+                    if a != b && b != v && a != v {
+                        // Odd triangles of a strip are wound the other way round.
+                        emit(if run % 2 == 0 { [a, b, v] } else { [b, a, v] });
                     }
                 }
                 window = [window[1], v];
@@ -154,37 +145,10 @@ mod tests {
                 indices,
                 topology,
             },
-            |t, _| out.push(t),
+            |t| out.push(t),
         )
         .unwrap();
         out
-    }
-
-    fn links(indices: &[u16], n: usize) -> Vec<([u32; 3], Option<u8>)> {
-        let vertices = vec![Vertex::default(); n];
-        let mut out = vec![];
-        let mesh = Mesh {
-            vertices: &vertices,
-            indices: Indices::U16(indices),
-            topology: Topology::TriangleStrip,
-        };
-        assemble(&mesh, |t, l| out.push((t, l))).unwrap();
-        out
-    }
-
-    #[test]
-    fn strip_links_name_the_previous_triangles_edge_walked_the_other_way() {
-        let t = links(&[0, 1, 2, 3, 4, 5, 0xFFFF, 6, 7, 8, 9, 9, 10, 11, 12], 13);
-        for w in t.windows(2) {
-            let ([p, c], Some(e)) = ([w[0].0, w[1].0], w[1].1) else {
-                continue;
-            };
-            let e = e as usize;
-            assert_eq!([c[0], c[1]], [p[(e + 1) % 3], p[e]], "{p:?} -> {c:?}");
-        }
-        let linked: Vec<bool> = t.iter().map(|(_, l)| l.is_some()).collect();
-        // A restart and a degenerate triangle (9, 9) break the chain.
-        assert_eq!(linked, [false, true, true, true, false, true, false, true]);
     }
 
     #[test]
@@ -218,6 +182,6 @@ mod tests {
             indices: Indices::U32(&[0, 1, 7]),
             topology: Topology::TriangleList,
         };
-        assert_eq!(assemble(&mesh, |_, _| {}), Err((2, 7)));
+        assert_eq!(assemble(&mesh, |_| {}), Err((2, 7)));
     }
 }

@@ -190,39 +190,40 @@ impl AttrPlane {
 }
 
 /// Per-triangle reciprocal of the doubled area, and the edge vectors from vertex 0.
+///
+/// Kept as i64 (edge vectors below 2^26, the reciprocal below 2^33) and widened per product, so
+/// that every product of two of them is one widening multiplication.
 struct Geometry {
-    d1: [i128; 2],
-    d2: [i128; 2],
-    inv_area: i128,
+    d1: [i64; 2],
+    d2: [i64; 2],
+    inv_area: i64,
     shift: i32,
 }
 
 impl Geometry {
     fn new(v: &[&FixedScreen; 3], area2: i64) -> Self {
         let (an, ash) = normalise_positive(area2 as i128);
-        let d = |i: usize| {
-            [
-                (v[i].xy[0] - v[0].xy[0]) as i128,
-                (v[i].xy[1] - v[0].xy[1]) as i128,
-            ]
-        };
+        let d = |i: usize| [v[i].xy[0] - v[0].xy[0], v[i].xy[1] - v[0].xy[1]];
         // gradient per pixel, with ATTR_FRAC_BITS = num * 2^(SUBPIXEL_BITS + ATTR_FRAC_BITS) / area2
         let shift = 62 - (SUBPIXEL_BITS + ATTR_FRAC_BITS) as i32 + ash;
         Self {
             d1: d(1),
             d2: d(2),
-            inv_area: ((1u64 << 62) / an as u64) as i128,
+            inv_area: ((1u64 << 62) / an as u64) as i64,
             shift,
         }
     }
 
     fn plane(&self, a: [i64; 3]) -> AttrPlane {
-        let (a1, a2) = ((a[1] - a[0]) as i128, (a[2] - a[0]) as i128);
-        let nx = a1 * self.d2[1] - a2 * self.d1[1];
-        let ny = a2 * self.d1[0] - a1 * self.d2[0];
+        let wide = |x: i64, y: i64| x as i128 * y as i128;
+        // Attribute differences stay below 2^62 (depth 2^32, s and t 2^44, colour 2^8).
+        let (a1, a2) = (a[1] - a[0], a[2] - a[0]);
+        let nx = wide(a1, self.d2[1]) - wide(a2, self.d1[1]);
+        let ny = wide(a2, self.d1[0]) - wide(a1, self.d2[0]);
+        let inv = self.inv_area as i128;
         let (dx, dy) = (
-            shift_round(nx * self.inv_area, self.shift),
-            shift_round(ny * self.inv_area, self.shift),
+            shift_round(nx * inv, self.shift),
+            shift_round(ny * inv, self.shift),
         );
         let base = a[0] << ATTR_FRAC_BITS;
         match (i64::try_from(dx), i64::try_from(dy)) {
@@ -270,11 +271,15 @@ impl FixedTriangle {
         let pick = |f: fn(&FixedScreen) -> i64| g.plane([f(v[0]), f(v[1]), f(v[2])]);
         let depth = if a.depth { pick(|s| s.depth) } else { empty };
         let color = if a.shade {
-            [
-                pick(|s| s.color[0]),
-                pick(|s| s.color[1]),
-                pick(|s| s.color[2]),
-            ]
+            let red = pick(|s| s.color[0]);
+            // Terrain lighting is grey (r = g = b at every vertex): one plane serves all three.
+            if v.iter()
+                .all(|s| s.color[1] == s.color[0] && s.color[2] == s.color[0])
+            {
+                [red; 3]
+            } else {
+                [red, pick(|s| s.color[1]), pick(|s| s.color[2])]
+            }
         } else {
             [empty; 3]
         };

@@ -11,7 +11,7 @@ impl<T: ViewOf> Filtering for Nearest<T> {
     const ENABLED: bool = true;
     type Texel = T;
 
-    #[inline]
+    #[inline(always)]
     fn sample(view: &LevelView<'_, T>, u: i64, v: i64) -> [u8; 3] {
         let (u, v) = (clamp_coord(u), clamp_coord(v));
         view.fetch((u * view.width) >> 16, (v * view.height) >> 16)

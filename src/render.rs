@@ -9,12 +9,13 @@
 
 use glam::{DMat4, DVec3};
 use stripmask_raster::{
-    CullMode, DepthMode, DrawStats, Fog, Framebuffer, Indices, Mesh, Perspective, Precision,
-    RasterError, Rasterizer, RenderState, Sampler, Shading, TextureBinding, Topology, Transform,
+    CullMode, DepthMode, DrawStats, Fog, Framebuffer, Mesh, Perspective, Precision, RasterError,
+    Rasterizer, RenderState, Sampler, Shading, TextureBinding, Transform,
 };
 
 use crate::camera::Camera;
-use crate::masks::FRONT_FACE;
+use crate::cracks::TileIndices;
+use crate::masks::{FRONT_FACE, MaskSet};
 use crate::resident::ResidentTile;
 use crate::terrain::TerrainFrame;
 
@@ -63,8 +64,10 @@ pub struct TileDraw<'a> {
     pub y: u32,
     /// Its resident data.
     pub tile: &'a ResidentTile,
-    /// The strip mask chosen for it.
-    pub indices: Indices<'a>,
+    /// The strip-mask level chosen for it.
+    pub level: usize,
+    /// The levels of its neighbours this frame (`crate::cracks::Side::ALL` order).
+    pub neighbours: [usize; 4],
     /// Eye distance to its bounding box, metres: the draw order key.
     pub distance: f64,
 }
@@ -111,6 +114,14 @@ impl FrameTransform {
     }
 }
 
+/// The indices every tile is drawn with: the shared strip masks, and the crack mode's pieces.
+pub struct TileMeshes<'m> {
+    /// The strip masks.
+    pub masks: &'m MaskSet,
+    /// The crack mode's index buffers.
+    pub cracks: &'m mut TileIndices,
+}
+
 /// Clears `fb` to the sky and draws `tiles` (reordered for the depth mode).
 pub fn draw_tiles(
     fb: &mut Framebuffer,
@@ -118,6 +129,7 @@ pub fn draw_tiles(
     camera: &Camera,
     terrain: &TerrainFrame,
     tiles: &mut [TileDraw<'_>],
+    meshes: TileMeshes<'_>,
     settings: &RenderSettings,
 ) -> Result<DrawStats, RasterError> {
     fb.clear(settings.sky);
@@ -157,10 +169,11 @@ pub fn draw_tiles(
             fog,
             ..RenderState::default()
         };
+        let (indices, topology) = meshes.cracks.tile(meshes.masks, t.level, t.neighbours);
         let mesh = Mesh {
             vertices: &t.tile.vertices,
-            indices: t.indices,
-            topology: Topology::TriangleStrip,
+            indices,
+            topology,
         };
         stats += rasterizer.draw(fb, &mesh, &transform.tile(t.x, t.y)?, &state)?;
     }

@@ -133,7 +133,7 @@ impl Engine {
         let header = reader.header().clone();
         let terrain = TerrainFrame::new(&header);
         let focal_px = f64::from(height) / (2.0 * (settings.fov_y / 2.0).tan());
-        let mut loader = ArchiveLoader::new(reader, settings.light, focal_px);
+        let mut loader = ArchiveLoader::new(reader, settings.light, focal_px, settings.cracks);
         if let Some(budget) = settings.texture_budget_bytes {
             loader.fit_texture_budget(settings.memory_limit_bytes, budget);
         }

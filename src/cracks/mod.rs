@@ -13,6 +13,7 @@
 //!   from the viewpoint.
 
 pub mod neighbours;
+pub mod skirts;
 pub mod stitch;
 
 #[cfg(test)]
@@ -21,6 +22,7 @@ mod test_view;
 use stripmask_raster::{Indices, Topology};
 
 use crate::masks::{MaskIndices, MaskSet};
+use skirts::SkirtSet;
 use stitch::StitchSet;
 
 /// How the gaps between tiles at different levels are hidden.
@@ -50,6 +52,16 @@ pub enum Side {
     West,
 }
 
+impl CrackMode {
+    /// Vertices a tile of `tile_size` samples per side holds beyond its grid in this mode.
+    pub fn extra_vertices(self, tile_size: usize) -> usize {
+        match self {
+            CrackMode::Skirts => skirts::vertex_count(tile_size),
+            CrackMode::None | CrackMode::Shadow | CrackMode::Stitch => 0,
+        }
+    }
+}
+
 impl Side {
     /// The four sides, in the order of a tile's neighbour levels.
     pub const ALL: [Side; 4] = [Side::North, Side::East, Side::South, Side::West];
@@ -60,6 +72,7 @@ impl Side {
 pub struct TileIndices {
     mode: CrackMode,
     stitch: StitchSet,
+    skirts: SkirtSet,
     /// One tile's stitched triangle list, rebuilt for every stitched tile and reused.
     scratch: MaskIndices,
 }
@@ -72,6 +85,7 @@ impl TileIndices {
             mode,
             scratch: stitch.buffer(),
             stitch,
+            skirts: SkirtSet::new(tile_size),
         }
     }
 
@@ -93,7 +107,11 @@ impl TileIndices {
                 self.stitch.tile(level, neighbours, &mut self.scratch);
                 (self.scratch.as_indices(), Topology::TriangleList)
             }
-            CrackMode::None | CrackMode::Shadow | CrackMode::Skirts => {
+            CrackMode::Skirts => (
+                self.skirts.indices(masks, level).as_indices(),
+                Topology::TriangleStrip,
+            ),
+            CrackMode::None | CrackMode::Shadow => {
                 (masks.indices(level).as_indices(), Topology::TriangleStrip)
             }
         }

@@ -12,6 +12,7 @@
 //! - [`CrackMode::Shadow`] ([`shadow`]): the paper's planar shadow under each tile, projected
 //!   from the viewpoint.
 
+pub mod metric;
 pub mod neighbours;
 pub mod skirts;
 pub mod stitch;

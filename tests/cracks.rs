@@ -7,7 +7,7 @@ mod support;
 use std::sync::OnceLock;
 
 use stripmask::cracks::CrackMode;
-use stripmask::cracks::metric::{CrackMeasurement, CrackScene, TILE_SIZE};
+use stripmask::cracks::metric::{CrackMeasurement, CrackScene, TILE_SIZE, crack_pixels};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 use support::golden::check;
 
@@ -95,4 +95,51 @@ fn golden_cracks_stitch_closes_every_border() {
         "cracks_stitch_closes_every_border",
         &golden_view(CrackMode::Stitch),
     );
+}
+
+#[test]
+fn shadows_cut_crack_pixels_by_at_least_ninety_percent() {
+    let none = measure(CrackMode::None);
+    let shadow = measure(CrackMode::Shadow);
+    assert!(
+        shadow.crack_pixels * 10 <= none.crack_pixels,
+        "shadow {} against none {}",
+        shadow.crack_pixels,
+        none.crack_pixels
+    );
+    assert!(
+        shadow.triangles > shadow.mask_triangles,
+        "two triangles per quad drawn"
+    );
+}
+
+#[test]
+fn golden_cracks_shadow_fills_them_with_the_projected_tile() {
+    check(
+        "cracks_shadow_fills_them_with_the_projected_tile",
+        &golden_view(CrackMode::Shadow),
+    );
+}
+
+/// The grazing view in `mode`.
+fn grazing(mode: CrackMode) -> Framebuffer {
+    let mut scene = scene().clone();
+    scene.views = vec![CrackScene::grazing_view()];
+    let mut engine = scene.engine(mode, SIZE).unwrap();
+    let mut fb = Framebuffer::new(SIZE.0, SIZE.1, ColorFormat::Rgb565, DepthFormat::D16).unwrap();
+    scene.render(&mut engine, 0, &mut fb).unwrap();
+    fb
+}
+
+#[test]
+fn shadows_fail_at_grazing_angles_where_stitch_does_not() {
+    let none = crack_pixels(&grazing(CrackMode::None));
+    let shadow = grazing(CrackMode::Shadow);
+    assert!(
+        crack_pixels(&shadow) * 2 > none,
+        "the eye below the hills skips their shadows: {} of {none} crack pixels remain",
+        crack_pixels(&shadow)
+    );
+    assert_eq!(crack_pixels(&grazing(CrackMode::Stitch)), 0);
+    check("cracks_shadow_fails_at_grazing_angles", &shadow);
 }

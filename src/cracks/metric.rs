@@ -167,6 +167,16 @@ impl CrackScene {
         Ok(CrackScene { archive, views })
     }
 
+    /// A grazing view, where the paper's shadows fail: the eye 380 m up in a valley, below the
+    /// hills it looks at (terrain still covers the screen).
+    pub fn grazing_view() -> (DVec3, DVec3) {
+        let tile = (TILE_SIZE - 1) as f64 * SPACING;
+        (
+            DVec3::new(9.5 * tile, 380.0, 7.5 * tile),
+            DVec3::new(9.5 * tile, 250.0, 6.8 * tile),
+        )
+    }
+
     /// The engine settings of a measurement in `mode`: fixed point, RGB565-friendly background,
     /// no fog, a 40 degree field of view, one rasterizer thread, every tile of the scene
     /// resident.

@@ -14,6 +14,7 @@
 
 pub mod metric;
 pub mod neighbours;
+pub mod shadow;
 pub mod skirts;
 pub mod stitch;
 

@@ -10,6 +10,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 use stripmask::archive::{ArchiveReader, Codec, HEADER_LEN, Header};
 use stripmask::builder::{BuildOptions, build};
+use stripmask::cracks::CrackMode;
 use stripmask::dem::{self, DemFormat, OpenOptions, RawLayout, SampleType};
 use stripmask::engine::EngineSettings;
 use stripmask::error::{Error, Result};
@@ -149,6 +150,9 @@ struct SceneArgs {
     /// Importance weight of distance (the height weight is 1 minus it).
     #[arg(long, default_value_t = 0.5)]
     distance_weight: f64,
+    /// How cracks between tiles at different levels are hidden (docs/cracks.md).
+    #[arg(long, value_enum, default_value_t = CracksArg::Stitch)]
+    cracks: CracksArg,
 }
 
 /// A scene resolved from its arguments: the flight, the engine settings and the framebuffer.
@@ -213,6 +217,12 @@ impl SceneArgs {
             ..EngineSettings::default()
         };
         engine.budget.target_fps = self.target_fps;
+        engine.cracks = match self.cracks {
+            CracksArg::None => CrackMode::None,
+            CracksArg::Shadow => CrackMode::Shadow,
+            CracksArg::Skirts => CrackMode::Skirts,
+            CracksArg::Stitch => CrackMode::Stitch,
+        };
         if self.float {
             engine.render.precision = Precision::Float;
         }
@@ -231,6 +241,14 @@ impl SceneArgs {
             },
         })
     }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum CracksArg {
+    None,
+    Shadow,
+    Skirts,
+    Stitch,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]

@@ -27,17 +27,18 @@ use crate::masks::{MaskIndices, MaskSet};
 use skirts::SkirtSet;
 use stitch::StitchSet;
 
-/// How the gaps between tiles at different levels are hidden.
+/// How the gaps between tiles at different levels are hidden. The default is the best
+/// measured (`docs/cracks.md`): [`CrackMode::Stitch`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum CrackMode {
     /// Nothing: cracks show.
-    #[default]
     None,
     /// The paper's planar shadow quad under each tile.
     Shadow,
     /// Vertical skirts hanging from the tile borders.
     Skirts,
     /// Border bands that match the neighbours' levels: no crack at all.
+    #[default]
     Stitch,
 }
 

@@ -10,6 +10,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 use stripmask::archive::{ArchiveReader, Codec, HEADER_LEN, Header};
 use stripmask::builder::{BuildOptions, build};
+use stripmask::cracks::CrackMode;
 use stripmask::dem::{self, DemFormat, OpenOptions, RawLayout, SampleType};
 use stripmask::demo::DemoOptions;
 use stripmask::engine::EngineSettings;
@@ -180,6 +181,9 @@ struct SceneArgs {
     /// Importance weight of distance (the height weight is 1 minus it).
     #[arg(long, default_value_t = 0.5)]
     distance_weight: f64,
+    /// How cracks between tiles at different levels are hidden (docs/cracks.md).
+    #[arg(long, value_enum, default_value_t = CracksArg::Stitch)]
+    cracks: CracksArg,
 }
 
 /// A scene resolved from its arguments: the flight, the engine settings, the framebuffer, the
@@ -236,6 +240,12 @@ impl SceneArgs {
             ..EngineSettings::default()
         };
         engine.budget.target_fps = device.target_fps;
+        engine.cracks = match self.cracks {
+            CracksArg::None => CrackMode::None,
+            CracksArg::Shadow => CrackMode::Shadow,
+            CracksArg::Skirts => CrackMode::Skirts,
+            CracksArg::Stitch => CrackMode::Stitch,
+        };
         if self.float {
             engine.render.precision = Precision::Float;
         }
@@ -336,6 +346,14 @@ impl DeviceArgs {
 enum ClockArg {
     Wall,
     Simulated,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum CracksArg {
+    None,
+    Shadow,
+    Skirts,
+    Stitch,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]

@@ -17,13 +17,14 @@ use crate::archive::ArchiveReader;
 use crate::belts::{Grid, TileId};
 use crate::budget::{BudgetController, BudgetSettings, allocate};
 use crate::camera::Camera;
+use crate::cracks::{CrackMode, TileIndices, neighbours::neighbour_levels};
 use crate::error::{Error, Result};
 use crate::frustum::{Aabb, Frustum};
 use crate::importance::{TileMeasure, Weights, visual_importance};
 use crate::loader::ArchiveLoader;
 use crate::masks::{LevelSet, MaskSet};
 use crate::pager::{Pager, PagerConfig, PagerMode, PagerStats, TransferClock};
-use crate::render::{RenderSettings, TileDraw, draw_tiles};
+use crate::render::{RenderSettings, TileDraw, TileMeshes, draw_tiles};
 use crate::resident::Light;
 use crate::source::TileSource;
 use crate::terrain::TerrainFrame;
@@ -43,6 +44,8 @@ pub struct EngineSettings {
     pub nearest_when_off: bool,
     /// All mask levels, or powers of two only (geometrical mipmapping).
     pub level_set: LevelSet,
+    /// How cracks between tiles at different levels are hidden.
+    pub cracks: CrackMode,
     /// Importance weights (distance, height).
     pub weights: Weights,
     /// The frame-rate controller.
@@ -66,6 +69,7 @@ impl Default for EngineSettings {
             pager_mode: PagerMode::Threaded { queue_depth: 4 },
             nearest_when_off: true,
             level_set: LevelSet::All,
+            cracks: CrackMode::default(),
             weights: Weights::default(),
             budget: BudgetSettings::default(),
             light: Light::default(),
@@ -115,6 +119,9 @@ pub struct Engine {
     terrain: TerrainFrame,
     pager: Pager<ArchiveLoader>,
     masks: MaskSet,
+    cracks: TileIndices,
+    /// Levels pinned per tile instead of the budget's choice (for measurements).
+    forced_levels: Option<Box<dyn Fn(TileId) -> usize + Send>>,
     budget: BudgetController,
     settings: EngineSettings,
     rasterizer: Rasterizer,
@@ -127,7 +134,7 @@ impl Engine {
         let header = reader.header().clone();
         let terrain = TerrainFrame::new(&header);
         let focal_px = f64::from(height) / (2.0 * (settings.fov_y / 2.0).tan());
-        let mut loader = ArchiveLoader::new(reader, settings.light, focal_px);
+        let mut loader = ArchiveLoader::new(reader, settings.light, focal_px, settings.cracks);
         if let Some(budget) = settings.texture_budget_bytes {
             loader.fit_texture_budget(settings.memory_limit_bytes, budget);
         }
@@ -144,6 +151,8 @@ impl Engine {
             terrain,
             pager,
             masks: MaskSet::new(header.tile_size as usize, settings.level_set),
+            cracks: TileIndices::new(settings.cracks, header.tile_size as usize),
+            forced_levels: None,
             budget: BudgetController::new(settings.budget),
             settings,
             rasterizer,
@@ -178,6 +187,13 @@ impl Engine {
     /// The strip masks.
     pub fn masks(&self) -> &MaskSet {
         &self.masks
+    }
+
+    /// Pins every drawn tile's mask level to `level_of(tile)` instead of the budget's choice
+    /// (`None` gives the choice back to the budget): views with known level pairs, for
+    /// measuring cracks.
+    pub fn force_levels(&mut self, level_of: Option<Box<dyn Fn(TileId) -> usize + Send>>) {
+        self.forced_levels = level_of;
     }
 
     /// The settings in force.
@@ -250,17 +266,32 @@ impl Engine {
         }
         let importance = visual_importance(&measures, self.settings.weights);
         let budget = self.budget.budget();
-        let allocation = allocate(budget, &importance, &self.masks);
-        let mut draws: Vec<TileDraw<'_>> = visible
+        let mut allocation = allocate(budget, &importance, &self.masks);
+        if let Some(level_of) = &self.forced_levels {
+            for (a, &(id, _, _)) in allocation.iter_mut().zip(&visible) {
+                a.level = level_of(id);
+                a.triangles = self.masks.triangle_count(a.level);
+            }
+        }
+        let levels: Vec<(TileId, usize)> = visible
             .iter()
             .zip(&allocation)
-            .map(|(&(id, tile, distance), a)| TileDraw {
-                x: id.x,
-                y: id.y,
-                tile,
-                indices: self.masks.indices(a.level).as_indices(),
-                distance,
-            })
+            .map(|(&(id, _, _), a)| (id, a.level))
+            .collect();
+        let mut draws: Vec<TileDraw<'_>> = visible
+            .iter()
+            .zip(neighbour_levels(&levels))
+            .zip(&levels)
+            .map(
+                |((&(id, tile, distance), neighbours), &(_, level))| TileDraw {
+                    x: id.x,
+                    y: id.y,
+                    tile,
+                    level,
+                    neighbours,
+                    distance,
+                },
+            )
             .collect();
         let triangles = allocation.iter().map(|a| a.triangles).sum();
         let rendered = visible
@@ -282,6 +313,10 @@ impl Engine {
             &camera,
             &self.terrain,
             &mut draws,
+            TileMeshes {
+                masks: &self.masks,
+                cracks: &mut self.cracks,
+            },
             &self.settings.render,
         )
         .map_err(|e| Error::Usage(format!("rendering failed: {e}")))?;

@@ -21,6 +21,7 @@ pub mod belts;
 pub mod budget;
 pub mod builder;
 pub mod camera;
+pub mod cracks;
 pub mod dem;
 pub mod demo;
 pub mod engine;

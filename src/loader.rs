@@ -15,6 +15,7 @@
 
 use crate::archive::ArchiveReader;
 use crate::belts::TileId;
+use crate::cracks::CrackMode;
 use crate::error::Result;
 use crate::pager::TileLoader;
 use crate::resident::{Light, ResidentTile, predicted_bytes};
@@ -26,17 +27,25 @@ pub struct ArchiveLoader {
     reader: ArchiveReader<Box<dyn TileSource>>,
     light: Light,
     focal_px: f64,
+    cracks: CrackMode,
     bias: usize,
 }
 
 impl ArchiveLoader {
     /// A loader over `reader`, lighting with `light`, for a screen whose focal length is
-    /// `focal_px` pixels (height / (2 tan(fov_y / 2))).
-    pub fn new(reader: ArchiveReader<Box<dyn TileSource>>, light: Light, focal_px: f64) -> Self {
+    /// `focal_px` pixels (height / (2 tan(fov_y / 2))), with the vertices crack mode `cracks`
+    /// draws.
+    pub fn new(
+        reader: ArchiveReader<Box<dyn TileSource>>,
+        light: Light,
+        focal_px: f64,
+        cracks: CrackMode,
+    ) -> Self {
         ArchiveLoader {
             reader,
             light,
             focal_px: focal_px.max(1.0),
+            cracks,
             bias: 0,
         }
     }
@@ -50,13 +59,13 @@ impl ArchiveLoader {
         let (s, t) = (h.tile_size as usize, h.texture_size as usize);
         let max_ring = h.tiles_x.max(h.tiles_y);
         // A tile's bytes without any texture: its bytes with only the 1 x 1 RGB565 mip, less it.
-        let geometry = predicted_bytes(s, t, usize::MAX) - 2;
+        let geometry = predicted_bytes(s, t, usize::MAX, self.cracks) - 2;
         for bias in 0..mip_count(t) {
             self.bias = bias;
             let (mut memory, mut texture) = (0usize, 0usize);
             for ring in 0..=max_ring {
                 let tiles = if ring == 0 { 1 } else { 8 * ring as usize };
-                let tile = predicted_bytes(s, t, self.texture_base(ring));
+                let tile = predicted_bytes(s, t, self.texture_base(ring), self.cracks);
                 if memory + tiles * tile > memory_limit {
                     break;
                 }
@@ -92,6 +101,7 @@ impl TileLoader for ArchiveLoader {
             h.tile_size as usize,
             h.texture_size as usize,
             self.texture_base(ring),
+            self.cracks,
         )
     }
 
@@ -102,7 +112,13 @@ impl TileLoader for ArchiveLoader {
         let downloaded = u64::from(self.reader.index()[index].length);
         let spacing = self.reader.header().spacing;
         Ok((
-            ResidentTile::new(&tile, self.texture_base(ring), spacing, &self.light),
+            ResidentTile::new(
+                &tile,
+                self.texture_base(ring),
+                spacing,
+                &self.light,
+                self.cracks,
+            ),
             downloaded,
         ))
     }

@@ -68,6 +68,16 @@ pub enum MaskIndices {
 }
 
 impl MaskIndices {
+    /// `indices` into a buffer of `vertex_count` vertices in the narrowest width that leaves the
+    /// restart marker free; `usize::MAX` becomes that width's restart marker.
+    pub fn narrowest(vertex_count: usize, indices: Vec<usize>) -> MaskIndices {
+        if vertex_count <= u16::MAX as usize {
+            MaskIndices::U16(indices.into_iter().map(|v| v as u16).collect())
+        } else {
+            MaskIndices::U32(indices.into_iter().map(|v| v as u32).collect())
+        }
+    }
+
     /// The indices as the rasterizer takes them (draw with `Topology::TriangleStrip`).
     pub fn as_indices(&self) -> Indices<'_> {
         match self {
@@ -189,35 +199,17 @@ impl MaskSet {
 /// `(i0, j0)` to `(i1, j1)`.
 fn build(s: usize, level: usize) -> MaskIndices {
     let kept = mask_level::kept_indices(s, level);
-    let strip = |restart| {
-        let mut out = Vec::with_capacity((kept.len() - 1) * (2 * kept.len() + 1));
-        for (r, rows) in kept.windows(2).enumerate() {
-            if r > 0 {
-                out.push(restart);
-            }
-            for &i in &kept {
-                out.push(rows[1] * s + i);
-                out.push(rows[0] * s + i);
-            }
+    let mut out = Vec::with_capacity((kept.len() - 1) * (2 * kept.len() + 1));
+    for (r, rows) in kept.windows(2).enumerate() {
+        if r > 0 {
+            out.push(usize::MAX);
         }
-        out
-    };
-    // A u16 buffer must leave 0xFFFF free for the restart marker.
-    if s * s <= u16::MAX as usize {
-        MaskIndices::U16(
-            strip(u16::MAX as usize)
-                .into_iter()
-                .map(|v| v as u16)
-                .collect(),
-        )
-    } else {
-        MaskIndices::U32(
-            strip(u32::MAX as usize)
-                .into_iter()
-                .map(|v| v as u32)
-                .collect(),
-        )
+        for &i in &kept {
+            out.push(rows[1] * s + i);
+            out.push(rows[0] * s + i);
+        }
     }
+    MaskIndices::narrowest(s * s, out)
 }
 
 #[cfg(test)]

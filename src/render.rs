@@ -14,7 +14,8 @@ use stripmask_raster::{
 };
 
 use crate::camera::Camera;
-use crate::masks::FRONT_FACE;
+use crate::cracks::{CrackMode, TileIndices, shadow};
+use crate::masks::{FRONT_FACE, MaskSet};
 use crate::resident::ResidentTile;
 use crate::terrain::TerrainFrame;
 
@@ -63,8 +64,10 @@ pub struct TileDraw<'a> {
     pub y: u32,
     /// Its resident data.
     pub tile: &'a ResidentTile,
-    /// The strip mask chosen for it.
-    pub indices: Indices<'a>,
+    /// The strip-mask level chosen for it.
+    pub level: usize,
+    /// The levels of its neighbours this frame (`crate::cracks::Side::ALL` order).
+    pub neighbours: [usize; 4],
     /// Eye distance to its bounding box, metres: the draw order key.
     pub distance: f64,
 }
@@ -78,26 +81,36 @@ pub struct FrameTransform {
 }
 
 impl FrameTransform {
-    /// The matrix for `camera` over `terrain` at `aspect` = width / height.
+    /// The matrix for `camera` over `terrain` at `aspect` = width / height, for vertices in
+    /// grid steps and height quanta.
     pub fn new(
         camera: &Camera,
         terrain: &TerrainFrame,
         aspect: f64,
     ) -> Result<FrameTransform, RasterError> {
+        FrameTransform::subdivided(camera, terrain, aspect, 1)
+    }
+
+    /// The same for vertices in `1 / subdivision` of a grid step and of a height quantum.
+    pub fn subdivided(
+        camera: &Camera,
+        terrain: &TerrainFrame,
+        aspect: f64,
+        subdivision: i32,
+    ) -> Result<FrameTransform, RasterError> {
+        let unit = 1.0 / f64::from(subdivision);
         let (px, py) = terrain.tile_position(camera.position);
         let clamp = |v: f64, n: u32| (v.floor().max(0.0) as i64).min(i64::from(n) - 1);
         let anchor = (clamp(px, terrain.tiles_x), clamp(py, terrain.tiles_y));
         let origin = terrain.tile_origin(anchor.0 as u32, anchor.1 as u32);
         let model = DMat4::from_translation(origin - camera.position)
-            * DMat4::from_scale(DVec3::new(
-                terrain.spacing,
-                terrain.quantum,
-                terrain.spacing,
-            ));
+            * DMat4::from_scale(
+                DVec3::new(terrain.spacing, terrain.quantum, terrain.spacing) * unit,
+            );
         Ok(FrameTransform {
             base: Transform::new(camera.view_projection(aspect) * model)?,
             anchor,
-            cells: terrain.tile_size as i64 - 1,
+            cells: (terrain.tile_size as i64 - 1) * i64::from(subdivision),
         })
     }
 
@@ -111,6 +124,14 @@ impl FrameTransform {
     }
 }
 
+/// The indices every tile is drawn with: the shared strip masks, and the crack mode's pieces.
+pub struct TileMeshes<'m> {
+    /// The strip masks.
+    pub masks: &'m MaskSet,
+    /// The crack mode's index buffers.
+    pub cracks: &'m mut TileIndices,
+}
+
 /// Clears `fb` to the sky and draws `tiles` (reordered for the depth mode).
 pub fn draw_tiles(
     fb: &mut Framebuffer,
@@ -118,6 +139,7 @@ pub fn draw_tiles(
     camera: &Camera,
     terrain: &TerrainFrame,
     tiles: &mut [TileDraw<'_>],
+    meshes: TileMeshes<'_>,
     settings: &RenderSettings,
 ) -> Result<DrawStats, RasterError> {
     fb.clear(settings.sky);
@@ -133,36 +155,97 @@ pub fn draw_tiles(
         start: settings.fog_start * camera.far,
         end: camera.far,
     });
+    let shadows = meshes.cracks.mode() == CrackMode::Shadow;
     let mut stats = DrawStats::default();
+    if shadows && !settings.depth_test {
+        stats += draw_shadows(
+            fb, rasterizer, camera, terrain, tiles, aspect, settings, fog,
+        )?;
+    }
     for t in tiles.iter() {
-        let state = RenderState {
-            precision: settings.precision,
-            cull: CullMode::Back,
-            front_face: FRONT_FACE,
-            depth: if settings.depth_test {
-                DepthMode::LESS_WRITE
-            } else {
-                DepthMode::NONE
-            },
-            shading: if settings.lighting {
-                Shading::Gouraud
-            } else {
-                Shading::Flat([255; 3])
-            },
-            texture: settings.sampler.map(|sampler| TextureBinding {
-                texture: &t.tile.texture,
-                sampler,
-            }),
-            perspective: settings.perspective,
-            fog,
-            ..RenderState::default()
-        };
+        let (indices, topology) = meshes.cracks.tile(meshes.masks, t.level, t.neighbours);
         let mesh = Mesh {
             vertices: &t.tile.vertices,
-            indices: t.indices,
-            topology: Topology::TriangleStrip,
+            indices,
+            topology,
         };
-        stats += rasterizer.draw(fb, &mesh, &transform.tile(t.x, t.y)?, &state)?;
+        stats += rasterizer.draw(
+            fb,
+            &mesh,
+            &transform.tile(t.x, t.y)?,
+            &tile_state(settings, fog, t.tile),
+        )?;
+    }
+    if shadows && settings.depth_test {
+        stats += draw_shadows(
+            fb, rasterizer, camera, terrain, tiles, aspect, settings, fog,
+        )?;
     }
     Ok(stats)
+}
+
+/// Draws the shadow quad of every tile in `tiles` ([`crate::cracks::shadow`]), in their order,
+/// with each tile's render state; a quad that grazes or lies beyond the subdivided transform's
+/// reach is skipped.
+#[allow(clippy::too_many_arguments)]
+fn draw_shadows(
+    fb: &mut Framebuffer,
+    rasterizer: &mut Rasterizer,
+    camera: &Camera,
+    terrain: &TerrainFrame,
+    tiles: &[TileDraw<'_>],
+    aspect: f64,
+    settings: &RenderSettings,
+    fog: Option<Fog>,
+) -> Result<DrawStats, RasterError> {
+    let fine = FrameTransform::subdivided(camera, terrain, aspect, shadow::SUBDIVISION)?;
+    let mut stats = DrawStats::default();
+    for t in tiles {
+        let origin = terrain.tile_origin(t.x, t.y);
+        let eye = (camera.position - origin)
+            / DVec3::new(terrain.spacing, terrain.quantum, terrain.spacing);
+        let (Some(vertices), Ok(transform)) = (
+            shadow::quad(t.tile, terrain.tile_size, eye),
+            fine.tile(t.x, t.y),
+        ) else {
+            continue;
+        };
+        let mesh = Mesh {
+            vertices: &vertices,
+            indices: Indices::U16(&shadow::QUAD_STRIP),
+            topology: Topology::TriangleStrip,
+        };
+        stats += rasterizer.draw(fb, &mesh, &transform, &tile_state(settings, fog, t.tile))?;
+    }
+    Ok(stats)
+}
+
+/// The render state of `tile`'s draws.
+fn tile_state<'t>(
+    settings: &RenderSettings,
+    fog: Option<Fog>,
+    tile: &'t ResidentTile,
+) -> RenderState<'t> {
+    RenderState {
+        precision: settings.precision,
+        cull: CullMode::Back,
+        front_face: FRONT_FACE,
+        depth: if settings.depth_test {
+            DepthMode::LESS_WRITE
+        } else {
+            DepthMode::NONE
+        },
+        shading: if settings.lighting {
+            Shading::Gouraud
+        } else {
+            Shading::Flat([255; 3])
+        },
+        texture: settings.sampler.map(|sampler| TextureBinding {
+            texture: &tile.texture,
+            sampler,
+        }),
+        perspective: settings.perspective,
+        fog,
+        ..RenderState::default()
+    }
 }

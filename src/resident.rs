@@ -10,6 +10,7 @@
 use glam::DVec3;
 use stripmask_raster::{Texels, Texture, Vertex};
 
+use crate::cracks::{CrackMode, skirts};
 use crate::rgb565::mip_count;
 use crate::tile::Tile;
 
@@ -35,9 +36,10 @@ impl Default for Light {
 /// One loaded tile.
 #[derive(Clone, Debug)]
 pub struct ResidentTile {
-    /// `s x s` vertices, row-major from the north-west.
+    /// `s x s` vertices, row-major from the north-west, then the crack mode's extra vertices
+    /// ([`CrackMode::extra_vertices`]).
     pub vertices: Vec<Vertex>,
-    /// Unit normals packed as `round(127 n)`, one per vertex.
+    /// Unit normals packed as `round(127 n)`, one per grid vertex.
     pub normals: Vec<[i8; 3]>,
     /// The texture from mip `texture_base` of the archive's chain down to 1 x 1.
     pub texture: Texture,
@@ -53,12 +55,19 @@ pub struct ResidentTile {
 
 impl ResidentTile {
     /// Builds the resident form of `tile`, keeping texture mips from `texture_base` down (clamped
-    /// to the chain), with `spacing` metres between samples and vertex colours lit by `light`.
-    pub fn new(tile: &Tile, texture_base: usize, spacing: f64, light: &Light) -> ResidentTile {
+    /// to the chain), with `spacing` metres between samples, vertex colours lit by `light` and
+    /// the extra vertices `cracks` draws.
+    pub fn new(
+        tile: &Tile,
+        texture_base: usize,
+        spacing: f64,
+        light: &Light,
+        cracks: CrackMode,
+    ) -> ResidentTile {
         let s = tile.tile_size;
         let normals = normals(tile, spacing);
         let towards = light.direction.normalize_or(DVec3::Y);
-        let vertices = (0..s * s)
+        let mut vertices: Vec<Vertex> = (0..s * s)
             .map(|k| {
                 let (i, j) = (k % s, k / s);
                 let n = normals[k].map(|c| f64::from(c) / 127.0);
@@ -72,6 +81,10 @@ impl ResidentTile {
                 )
             })
             .collect();
+        if cracks == CrackMode::Skirts {
+            let depth = skirts::depth_quanta(&tile.level_errors, tile.quantum);
+            skirts::append_vertices(&mut vertices, s, depth);
+        }
         let base = texture_base.min(tile.texture_mips.len() - 1);
         ResidentTile {
             vertices,
@@ -88,6 +101,7 @@ impl ResidentTile {
     pub fn bytes(&self) -> usize {
         resident_bytes(
             self.vertices.len(),
+            self.normals.len(),
             self.level_errors.len(),
             self.texture.byte_size(),
         )
@@ -110,18 +124,30 @@ impl ResidentTile {
 }
 
 /// The bytes a resident tile of `tile_size` samples holds with its texture from mip `base` of a
-/// `texture_size` RGB565 chain, known before the tile is fetched.
-pub fn predicted_bytes(tile_size: usize, texture_size: usize, base: usize) -> usize {
+/// `texture_size` RGB565 chain, drawn in crack mode `cracks`, known before the tile is fetched.
+pub fn predicted_bytes(
+    tile_size: usize,
+    texture_size: usize,
+    base: usize,
+    cracks: CrackMode,
+) -> usize {
     let base = base.min(mip_count(texture_size) - 1);
     let texels: usize = (base..mip_count(texture_size))
         .map(|l| (texture_size >> l).pow(2))
         .sum();
-    resident_bytes(tile_size * tile_size, tile_size - 1, 2 * texels)
+    let grid = tile_size * tile_size;
+    resident_bytes(
+        grid + cracks.extra_vertices(tile_size),
+        grid,
+        tile_size - 1,
+        2 * texels,
+    )
 }
 
-fn resident_bytes(vertices: usize, levels: usize, texture_bytes: usize) -> usize {
+fn resident_bytes(vertices: usize, normals: usize, levels: usize, texture_bytes: usize) -> usize {
     std::mem::size_of::<ResidentTile>()
-        + vertices * (std::mem::size_of::<Vertex>() + std::mem::size_of::<[i8; 3]>())
+        + vertices * std::mem::size_of::<Vertex>()
+        + normals * std::mem::size_of::<[i8; 3]>()
         + levels * std::mem::size_of::<f32>()
         + texture_bytes
 }
@@ -171,7 +197,7 @@ mod tests {
     #[test]
     fn vertices_carry_grid_indices_and_archive_quanta() {
         let tile = sloped_tile();
-        let r = ResidentTile::new(&tile, 0, 2.0, &Light::default());
+        let r = ResidentTile::new(&tile, 0, 2.0, &Light::default(), CrackMode::None);
         assert_eq!(r.vertices.len(), 81);
         let v = r.vertices[2 * 9 + 3];
         assert_eq!(v.position, [3, tile.quanta(3, 2), 2]);
@@ -183,7 +209,7 @@ mod tests {
     fn normals_follow_the_slope_and_light_follows_the_normals() {
         let tile = sloped_tile();
         // A 45° slope facing west: the normal is (-1, 1, 0) / sqrt 2.
-        let r = ResidentTile::new(&tile, 0, 2.0, &Light::default());
+        let r = ResidentTile::new(&tile, 0, 2.0, &Light::default(), CrackMode::None);
         for n in &r.normals {
             assert_eq!(*n, [-90, 90, 0]);
         }
@@ -195,8 +221,8 @@ mod tests {
             direction: DVec3::new(1.0, 1.0, 0.0),
             ambient: 0.2,
         };
-        let lit = ResidentTile::new(&tile, 0, 2.0, &west).vertices[40].color[0];
-        let dark = ResidentTile::new(&tile, 0, 2.0, &east).vertices[40].color[0];
+        let lit = ResidentTile::new(&tile, 0, 2.0, &west, CrackMode::None).vertices[40].color[0];
+        let dark = ResidentTile::new(&tile, 0, 2.0, &east, CrackMode::None).vertices[40].color[0];
         assert_eq!(lit, 255);
         assert_eq!(dark, (0.2f64 * 255.0).round() as u8);
     }
@@ -205,16 +231,25 @@ mod tests {
     fn accounted_bytes_are_known_before_loading_and_shrink_with_the_texture() {
         let tile = sloped_tile();
         for base in 0..5 {
-            let r = ResidentTile::new(&tile, base, 2.0, &Light::default());
-            assert_eq!(r.bytes(), predicted_bytes(9, 8, base), "base {base}");
+            for cracks in [
+                CrackMode::None,
+                CrackMode::Shadow,
+                CrackMode::Skirts,
+                CrackMode::Stitch,
+            ] {
+                let r = ResidentTile::new(&tile, base, 2.0, &Light::default(), cracks);
+                assert_eq!(r.bytes(), predicted_bytes(9, 8, base, cracks), "{cracks:?}");
+            }
         }
-        let mut r = ResidentTile::new(&tile, 0, 2.0, &Light::default());
+        let skirted = ResidentTile::new(&tile, 0, 2.0, &Light::default(), CrackMode::Skirts);
+        assert_eq!(skirted.vertices.len(), 81 + 36);
+        let mut r = ResidentTile::new(&tile, 0, 2.0, &Light::default(), CrackMode::None);
         let full = r.bytes();
         assert_eq!(r.texture.levels().len(), 4);
         let smaller = r.coarsen_texture(2);
         assert_eq!(r.texture_base, 2);
         assert_eq!(r.texture.levels()[0].width(), 2);
-        assert_eq!(smaller, predicted_bytes(9, 8, 2));
+        assert_eq!(smaller, predicted_bytes(9, 8, 2, CrackMode::None));
         assert_eq!(full - smaller, 2 * (64 + 16));
         assert_eq!(r.coarsen_texture(1), smaller, "never refines");
     }

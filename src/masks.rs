@@ -213,7 +213,7 @@ fn build(s: usize, level: usize) -> MaskIndices {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use std::collections::BTreeSet;
 
     use glam::{DMat4, DVec3};
@@ -395,7 +395,7 @@ mod tests {
     }
 
     /// A tile with some relief, vertex `j * s + i` at `(i, h, j)`.
-    fn tile_vertices(s: usize) -> Vec<Vertex> {
+    pub(crate) fn tile_vertices(s: usize) -> Vec<Vertex> {
         (0..s * s)
             .map(|k| {
                 let (i, j) = (k % s, k / s);

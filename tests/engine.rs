@@ -1,11 +1,7 @@
 //! The engine end to end on a synthetic archive: flights, statistics, memory, exactness far from
 //! the origin, and watertight tiles.
 
-use std::path::{Path, PathBuf};
-
 use glam::DVec3;
-use stripmask::builder::{BuildOptions, build};
-use stripmask::dem::{MemoryReader, NodataFill};
 use stripmask::engine::{Engine, EngineSettings};
 use stripmask::flight::{Builtin, Flight};
 use stripmask::fly::{FlyOptions, Length, fly};
@@ -15,26 +11,9 @@ use stripmask::source;
 use stripmask::stats::CSV_HEADER;
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
-/// A 257 x 257 DEM of hills, cut into 8 x 8 tiles of 33 samples, 30 m apart.
-fn archive(dir: &Path) -> PathBuf {
-    let n = 257;
-    let samples = (0..n * n)
-        .map(|k| {
-            let (i, j) = ((k % n) as f32, (k / n) as f32);
-            400.0 + 250.0 * (i * 0.05).sin() * (j * 0.04).cos() + 80.0 * (i * 0.21 + j * 0.17).sin()
-        })
-        .collect();
-    let reader = MemoryReader::new("hills", n, n, samples).unwrap();
-    let out = dir.join("hills.smdb");
-    let options = BuildOptions {
-        tile_size: 33,
-        spacing: Some(30.0),
-        texture_factor: 1,
-        ..BuildOptions::default()
-    };
-    build(NodataFill::new(reader, None), &out, &options, &|_, _| {}).unwrap();
-    out
-}
+#[path = "support/hills.rs"]
+mod hills;
+use hills::archive;
 
 fn stepped(memory_limit_bytes: usize) -> EngineSettings {
     EngineSettings {

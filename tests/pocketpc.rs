@@ -3,13 +3,11 @@
 //! the report's plots; the demo.
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::{Arc, Mutex};
 
 use stripmask::archive::ArchiveReader;
 use stripmask::belts::TileId;
-use stripmask::builder::{BuildOptions, build};
-use stripmask::dem::{MemoryReader, NodataFill};
 use stripmask::demo::{DemoOptions, run};
 use stripmask::engine::{Engine, EngineSettings};
 use stripmask::flight::{Builtin, Flight};
@@ -23,26 +21,9 @@ use stripmask::stats::{FrameRecord, StatsCsv};
 use stripmask::terrain::TerrainFrame;
 use stripmask_raster::Framebuffer;
 
-/// A 257 x 257 DEM of hills, cut into 8 x 8 tiles of 33 samples, 30 m apart.
-fn archive(dir: &Path) -> PathBuf {
-    let n = 257;
-    let samples = (0..n * n)
-        .map(|k| {
-            let (i, j) = ((k % n) as f32, (k / n) as f32);
-            400.0 + 250.0 * (i * 0.05).sin() * (j * 0.04).cos() + 80.0 * (i * 0.21 + j * 0.17).sin()
-        })
-        .collect();
-    let reader = MemoryReader::new("hills", n, n, samples).unwrap();
-    let out = dir.join("hills.smdb");
-    let options = BuildOptions {
-        tile_size: 33,
-        spacing: Some(30.0),
-        texture_factor: 1,
-        ..BuildOptions::default()
-    };
-    build(NodataFill::new(reader, None), &out, &options, &|_, _| {}).unwrap();
-    out
-}
+#[path = "support/hills.rs"]
+mod hills;
+use hills::archive;
 
 fn simulated(p: &DeviceProfile) -> Clock {
     Clock::Simulated {

@@ -225,7 +225,7 @@ fn band(outer: &[usize], inner: &[usize]) -> Vec<[Chain; 3]> {
 
 #[cfg(test)]
 mod tests {
-    use stripmask_raster::{FrontFace, Indices, Topology, Vertex};
+    use stripmask_raster::{FrontFace, Indices, Topology};
 
     use super::*;
     use crate::cracks::test_view;
@@ -308,21 +308,11 @@ mod tests {
         }
     }
 
-    fn vertices(s: usize) -> Vec<Vertex> {
-        (0..s * s)
-            .map(|k| {
-                let (i, j) = (k % s, k / s);
-                let h = ((i * 7 + j * 13) % 5) as i32;
-                Vertex::new([i as i32, h, j as i32], [0.0, 0.0], [255, 255, 255])
-            })
-            .collect()
-    }
-
     #[test]
     fn rasterized_from_above_every_pixel_is_hit_once_with_back_faces_culled() {
         let s = 9;
         let set = StitchSet::new(s);
-        let vertices = vertices(s);
+        let vertices = crate::masks::tests::tile_vertices(s);
         let mut out = set.buffer();
         for level in 0..s - 1 {
             for ln in 0..s - 1 {

@@ -117,10 +117,7 @@ fn features(c: &mut Criterion) {
         (
             "nearest",
             RenderState {
-                texture: Some(TextureBinding {
-                    texture: &s.texture,
-                    sampler: Sampler::NEAREST,
-                }),
+                texture: Some(TextureBinding::new(&s.texture, Sampler::NEAREST)),
                 ..base
             },
             DepthFormat::D16,
@@ -128,10 +125,7 @@ fn features(c: &mut Criterion) {
         (
             "bilinear_no_mips",
             RenderState {
-                texture: Some(TextureBinding {
-                    texture: &s.texture,
-                    sampler: Sampler::BILINEAR,
-                }),
+                texture: Some(TextureBinding::new(&s.texture, Sampler::BILINEAR)),
                 ..base
             },
             DepthFormat::D16,

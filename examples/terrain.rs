@@ -141,10 +141,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let state = RenderState {
         precision: o.precision,
         shading: Shading::Gouraud,
-        texture: Some(TextureBinding {
-            texture: &texture,
-            sampler: Sampler::BILINEAR_MIPMAP,
-        }),
+        texture: Some(TextureBinding::new(&texture, Sampler::BILINEAR_MIPMAP)),
         perspective: Perspective::Spans(16),
         fog: Some(Fog {
             color: [135, 170, 215],

@@ -173,7 +173,7 @@ pub fn draw_tiles(
             fb,
             &mesh,
             &transform.tile(t.x, t.y)?,
-            &tile_state(settings, fog, t.tile),
+            &tile_state(settings, fog, t),
         )?;
     }
     if shadows && settings.depth_test {
@@ -215,17 +215,19 @@ fn draw_shadows(
             indices: Indices::U16(&shadow::QUAD_STRIP),
             topology: Topology::TriangleStrip,
         };
-        stats += rasterizer.draw(fb, &mesh, &transform, &tile_state(settings, fog, t.tile))?;
+        stats += rasterizer.draw(fb, &mesh, &transform, &tile_state(settings, fog, t))?;
     }
     Ok(stats)
 }
 
-/// The render state of `tile`'s draws.
+/// The render state of a tile's draws, its texture detail capped by its mask level.
 fn tile_state<'t>(
     settings: &RenderSettings,
     fog: Option<Fog>,
-    tile: &'t ResidentTile,
+    draw: &TileDraw<'t>,
 ) -> RenderState<'t> {
+    let tile = draw.tile;
+    let finest_level = tile.finest_texture_level(draw.level);
     RenderState {
         precision: settings.precision,
         cull: CullMode::Back,
@@ -241,8 +243,8 @@ fn tile_state<'t>(
             Shading::Flat([255; 3])
         },
         texture: settings.sampler.map(|sampler| TextureBinding {
-            texture: &tile.texture,
-            sampler,
+            finest_level,
+            ..TextureBinding::new(&tile.texture, sampler)
         }),
         perspective: settings.perspective,
         fog,

@@ -107,6 +107,17 @@ impl ResidentTile {
         )
     }
 
+    /// The finest level of [`Self::texture`] worth reading when the tile is drawn at mask level
+    /// `mask_level`: texture detail follows the geometric detail the tile's importance bought
+    /// (the paper's textures-follow-importance rule). A mask that keeps every `l + 1`-th sample
+    /// spans `l + 1` cells per triangle edge, so the archive mip `floor(log2(l + 1))` keeps the
+    /// full level's texels per mesh edge; mips the tile no longer holds count as dropped already.
+    pub fn finest_texture_level(&self, mask_level: usize) -> u8 {
+        let archive_mip = (mask_level + 1).ilog2() as usize;
+        let held = self.texture.levels().len() - 1;
+        archive_mip.saturating_sub(self.texture_base).min(held) as u8
+    }
+
     /// Drops texture mips finer than `base` (no-op when already coarser); returns the new bytes.
     pub fn coarsen_texture(&mut self, base: usize) -> usize {
         let drop = base.saturating_sub(self.texture_base);
@@ -252,5 +263,22 @@ mod tests {
         assert_eq!(smaller, predicted_bytes(9, 8, 2, CrackMode::None));
         assert_eq!(full - smaller, 2 * (64 + 16));
         assert_eq!(r.coarsen_texture(1), smaller, "never refines");
+    }
+
+    #[test]
+    fn texture_detail_follows_the_mask_level_and_what_the_tile_holds() {
+        let tile = sloped_tile();
+        let full = ResidentTile::new(&tile, 0, 2.0, &Light::default(), CrackMode::None);
+        // Mask levels 0..7 keep every 1st..8th sample: archive mips 0, 1, 1, 2, 2, 2, 2, 3.
+        let levels: Vec<u8> = (0..8).map(|l| full.finest_texture_level(l)).collect();
+        assert_eq!(levels, [0, 1, 1, 2, 2, 2, 2, 3]);
+        let coarse = ResidentTile::new(&tile, 2, 2.0, &Light::default(), CrackMode::None);
+        let levels: Vec<u8> = (0..8).map(|l| coarse.finest_texture_level(l)).collect();
+        assert_eq!(levels, [0, 0, 0, 0, 0, 0, 0, 1], "mips from 2 on are held");
+        assert_eq!(
+            full.finest_texture_level(1000),
+            3,
+            "never past the last level"
+        );
     }
 }

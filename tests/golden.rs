@@ -108,13 +108,13 @@ fn floor(perspective: Perspective, sampler: Sampler) -> Framebuffer {
     let mut fb = Framebuffer::new(128, 128, ColorFormat::Rgba8888, DepthFormat::None).unwrap();
     let state = RenderState {
         perspective,
-        texture: Some(TextureBinding {
-            texture: &tex,
-            sampler: Sampler {
+        texture: Some(TextureBinding::new(
+            &tex,
+            Sampler {
                 wrap: Wrap::Repeat,
                 ..sampler
             },
-        }),
+        )),
         ..RenderState::default()
     };
     let mesh = Mesh {

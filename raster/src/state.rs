@@ -139,6 +139,21 @@ pub struct TextureBinding<'t> {
     pub texture: &'t Texture,
     /// Filter, mipmapping and wrap.
     pub sampler: Sampler,
+    /// The finest mip level this draw may read (clamped to the chain), whatever the triangle's
+    /// screen size asks for: a caller that knows an object matters little (the terrain engine's
+    /// importance budget) caps its texture detail here, as GL's base level does.
+    pub finest_level: u8,
+}
+
+impl<'t> TextureBinding<'t> {
+    /// `texture` read with `sampler`, every level allowed.
+    pub fn new(texture: &'t Texture, sampler: Sampler) -> Self {
+        Self {
+            texture,
+            sampler,
+            finest_level: 0,
+        }
+    }
 }
 
 /// A pixel rectangle, `x0..x1` by `y0..y1`.

@@ -59,13 +59,13 @@ fn render(
         let state = RenderState {
             precision,
             shading: Shading::Gouraud,
-            texture: Some(TextureBinding {
-                texture: &tex,
-                sampler: Sampler {
+            texture: Some(TextureBinding::new(
+                &tex,
+                Sampler {
                     wrap: Wrap::Repeat,
                     ..Sampler::BILINEAR_MIPMAP
                 },
-            }),
+            )),
             fog: Some(Fog {
                 color: [10, 20, 30],
                 start: 4000.0,

@@ -212,7 +212,7 @@ proptest! {
                     precision,
                     perspective,
                     shading: Shading::Gouraud,
-                    texture: Some(TextureBinding { texture: &tex, sampler: Sampler { wrap: Wrap::Repeat, ..Sampler::BILINEAR_MIPMAP } }),
+                    texture: Some(TextureBinding::new(&tex, Sampler { wrap: Wrap::Repeat, ..Sampler::BILINEAR_MIPMAP })),
                     fog: Some(Fog { color: [1, 2, 3], start: 1.0, end: 1e6 }),
                     ..RenderState::default()
                 };

@@ -34,10 +34,7 @@ impl Scene {
         RenderState {
             cull: CullMode::Back,
             shading: Shading::Gouraud,
-            texture: Some(TextureBinding {
-                texture: &self.texture,
-                sampler: Sampler::BILINEAR_MIPMAP,
-            }),
+            texture: Some(TextureBinding::new(&self.texture, Sampler::BILINEAR_MIPMAP)),
             perspective: Perspective::Spans(16),
             ..RenderState::default()
         }

@@ -55,7 +55,8 @@ pub(crate) struct Attributes<'t> {
     pub fog_color: [u8; 3],
     pub compare: Compare,
     pub depth_write: bool,
-    texture: Option<(&'t Texture, bool)>,
+    /// The bound texture, whether the level is chosen per triangle, and the finest level allowed.
+    texture: Option<(&'t Texture, bool, u8)>,
 }
 
 impl<'t> Attributes<'t> {
@@ -79,9 +80,13 @@ impl<'t> Attributes<'t> {
             fog_color: state.fog.map_or([0; 3], |f| f.color),
             compare: state.depth.compare,
             depth_write: state.depth.write,
-            texture: state
-                .texture
-                .map(|b| (b.texture, b.sampler.mip == MipFilter::Nearest)),
+            texture: state.texture.map(|b| {
+                (
+                    b.texture,
+                    b.sampler.mip == MipFilter::Nearest,
+                    b.finest_level,
+                )
+            }),
         }
     }
 
@@ -114,20 +119,22 @@ impl<'t> Attributes<'t> {
     }
 
     /// Mip level of a triangle from its doubled texture-space area (16.16 repeats squared) and
-    /// doubled screen area (sub-pixels squared).
+    /// doubled screen area (sub-pixels squared), never finer than the binding's finest level.
     pub fn level(&self, texel_area2: i128, area2: i64) -> u8 {
-        let Some((texture, true)) = self.texture else {
+        let Some((texture, per_triangle, finest)) = self.texture else {
             return 0;
         };
-        if texel_area2 <= 0 || area2 <= 0 {
-            return 0;
+        let last = texture.levels().len() - 1;
+        let finest = usize::from(finest).min(last);
+        if !per_triangle || texel_area2 <= 0 || area2 <= 0 {
+            return finest as u8;
         }
         let base = &texture.levels()[0];
         let texels = (base.width() * base.height()).trailing_zeros() as i32;
         let bits = |v: i128| 128 - v.leading_zeros() as i32;
         let ratio_log2 =
             bits(texel_area2) - 32 + texels + 2 * SUBPIXEL_BITS as i32 - bits(area2 as i128);
-        texture.level_for_area_ratio(ratio_log2) as u8
+        texture.level_for_area_ratio(ratio_log2).max(finest) as u8
     }
 }
 

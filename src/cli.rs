@@ -311,10 +311,13 @@ struct DeviceArgs {
     /// Link latency per request, milliseconds [profile].
     #[arg(long)]
     latency_ms: Option<f64>,
+    /// Each request's latency varies within ± this many milliseconds (seeded) [profile].
+    #[arg(long)]
+    jitter_ms: Option<f64>,
     /// Fraction of requests the link drops, 0..1 [profile].
     #[arg(long)]
     drop_rate: Option<f64>,
-    /// Seed of the link's drop decisions.
+    /// Seed of the link's delays and drop decisions.
     #[arg(long, default_value_t = 1)]
     seed: u64,
 }
@@ -336,6 +339,7 @@ impl DeviceArgs {
             cpu_slowdown: self.cpu_slowdown,
             bandwidth_kbps: self.bandwidth_kbps,
             latency_ms: self.latency_ms,
+            jitter_ms: self.jitter_ms,
             drop_rate: self.drop_rate,
         };
         DeviceProfile::resolve(&self.profile, self.profile_file.as_deref(), &overrides)
@@ -469,10 +473,13 @@ struct ServeArgs {
     /// Simulated latency before each answer, milliseconds.
     #[arg(long, default_value_t = 0)]
     latency_ms: u64,
+    /// Each answer's latency varies within ± this many milliseconds.
+    #[arg(long, default_value_t = 0)]
+    jitter_ms: u64,
     /// Fraction of requests answered 503, 0..1.
     #[arg(long, default_value_t = 0.0)]
     drop_rate: f64,
-    /// Seed of the drop decisions.
+    /// Seed of the latency and drop decisions.
     #[arg(long, default_value_t = 1)]
     seed: u64,
 }
@@ -821,9 +828,15 @@ fn run_serve(a: ServeArgs) -> Result<()> {
             a.drop_rate
         )));
     }
+    if let Some(b) = a.bandwidth_kbps.filter(|b| !(b.is_finite() && *b > 0.0)) {
+        return Err(Error::Usage(format!(
+            "--bandwidth-kbps {b} must be positive"
+        )));
+    }
     let profile = LinkProfile {
         bandwidth_kbps: a.bandwidth_kbps,
         latency: Duration::from_millis(a.latency_ms),
+        jitter: Duration::from_millis(a.jitter_ms),
         drop_rate: a.drop_rate,
         seed: a.seed,
     };

@@ -139,8 +139,13 @@ impl fmt::Display for DemoSummary {
 fn link_text(p: &DeviceProfile) -> String {
     match p.link.bandwidth_kbps {
         Some(kbps) => format!(
-            "{kbps} kbit/s, {} ms latency, {}% dropped",
+            "{kbps} kbit/s, {} ms latency{}, {}% dropped",
             p.link.latency_ms,
+            if p.link.jitter_ms > 0.0 {
+                format!(" ± {} ms", p.link.jitter_ms)
+            } else {
+                String::new()
+            },
             100.0 * p.link.drop_rate
         ),
         None => "unlimited".into(),

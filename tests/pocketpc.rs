@@ -82,6 +82,28 @@ fn the_simulated_clock_gives_the_same_stats_csv_twice() {
 }
 
 #[test]
+fn a_jittery_simulated_link_repeats_byte_for_byte_and_changes_the_arrivals() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = archive(dir.path());
+    let steady = DeviceProfile::pocketpc();
+    let mut jittery = steady.clone();
+    jittery.link.jitter_ms = 40.0;
+    let run = |p: &DeviceProfile, name: &str| {
+        let out = dir.path().join(name);
+        let summary = fly_as(p, &path, &out, 60);
+        (summary, std::fs::read(out.join("stats.csv")).unwrap())
+    };
+    let (a, csv_a) = run(&jittery, "a");
+    let (b, csv_b) = run(&jittery, "b");
+    let (c, csv_c) = run(&steady, "c");
+    assert_eq!((a, &csv_a), (b, &csv_b));
+    assert_ne!(csv_a, csv_c, "jitter moves the arrivals");
+    assert!(c.downloaded_bytes > 0);
+    let earliest = (jittery.link.latency_ms - jittery.link.jitter_ms) / 1e3;
+    assert!(a.first_frame_s.unwrap() >= earliest);
+}
+
+#[test]
 fn a_simulated_pocketpc_flight_holds_its_target_fps_within_40_frames_and_its_memory_limit() {
     let dir = tempfile::tempdir().unwrap();
     let path = archive(dir.path());

@@ -16,7 +16,7 @@ use stripmask::demo::DemoOptions;
 use stripmask::engine::EngineSettings;
 use stripmask::error::{Error, Result};
 use stripmask::flight::{Builtin, Flight};
-use stripmask::fly::{FlyOptions, Length, fly};
+use stripmask::fly::{FlyOptions, Length, LiveView, fly};
 use stripmask::importance::Weights;
 use stripmask::masks::LevelSet;
 #[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
@@ -29,6 +29,7 @@ use stripmask::source::{self, throttle::LinkProfile};
 use stripmask::terrain::TerrainFrame;
 #[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
 use stripmask::viewer::{self, ViewerOptions, ViewerSummary};
+use stripmask_platform::Presenter;
 use stripmask_raster::{ColorFormat, DepthFormat, Precision};
 
 /// Adaptive streaming and CPU rendering of large terrains with strip masks.
@@ -91,6 +92,9 @@ struct DemoArgs {
     /// Keep one frame in K as PNG (0: none).
     #[arg(long, default_value_t = 10)]
     every: u64,
+    /// Also show the flight live in a window, at the device's pace (Esc ends it early).
+    #[arg(long)]
+    window: bool,
     /// No progress bar.
     #[arg(short, long)]
     quiet: bool,
@@ -629,8 +633,47 @@ fn run_demo(a: DemoArgs) -> Result<()> {
         every: a.every,
         progress: !a.quiet,
     };
-    println!("{}", stripmask::demo::run(&options)?);
-    Ok(())
+    if !a.window {
+        println!("{}", stripmask::demo::run(&options)?);
+        return Ok(());
+    }
+    let p = &options.profile;
+    // A handheld's screen is small on a desktop: scale the window up to about 960 pixels wide.
+    let scale = (960 / p.width).max(1);
+    match open_window("stripmask demo", p.width * scale, p.height * scale) {
+        Ok(mut window) => {
+            let live = LiveView {
+                presenter: window.as_mut(),
+                real_time: true,
+            };
+            println!("{}", stripmask::demo::run_live(&options, Some(live))?);
+            Ok(())
+        }
+        Err(problem) => {
+            eprintln!("stripmask demo: --window: {problem}; running headless");
+            println!("{}", stripmask::demo::run(&options)?);
+            Err(Error::Usage(format!(
+                "--window: {problem} (the demo ran headless and wrote its outputs)"
+            )))
+        }
+    }
+}
+
+/// A window for live frames, or why there is none.
+#[cfg(feature = "window")]
+fn open_window(
+    title: &str,
+    width: u32,
+    height: u32,
+) -> std::result::Result<Box<dyn Presenter>, String> {
+    stripmask_platform::WindowPresenter::open(title, width, height)
+        .map(|w| Box::new(w) as Box<dyn Presenter>)
+        .map_err(|e| e.to_string())
+}
+
+#[cfg(not(feature = "window"))]
+fn open_window(_: &str, _: u32, _: u32) -> std::result::Result<Box<dyn Presenter>, String> {
+    Err("this stripmask was built without the `window` feature".into())
 }
 
 fn run_build(a: BuildArgs) -> Result<()> {

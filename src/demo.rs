@@ -5,6 +5,7 @@
 //! intact and was built with the same settings — then flies the paper's corner-to-corner
 //! diagonal as the PocketPC profile (320x240 RGB565, 20 MB, 7 fps, 1 Mbit/s link) on the
 //! simulated clock, headless, and writes frames, `stats.csv` and the report's plots beside it.
+//! [`run_live`] also shows the flight in a window as it runs, at the device's pace.
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -15,7 +16,7 @@ use crate::dem::{self, OpenOptions};
 use crate::engine::EngineSettings;
 use crate::error::{Error, Result};
 use crate::flight::{Builtin, Flight};
-use crate::fly::{FlyOptions, FlySummary, Length, fly};
+use crate::fly::{FlyOptions, FlySummary, Length, LiveView, fly_live};
 use crate::profile::DeviceProfile;
 use crate::simclock::{Clock, CostModel};
 use crate::source::{self, file::FileSource};
@@ -154,6 +155,11 @@ fn link_text(p: &DeviceProfile) -> String {
 
 /// Runs the demo.
 pub fn run(o: &DemoOptions) -> Result<DemoSummary> {
+    run_live(o, None)
+}
+
+/// Runs the demo, showing the flight in `live` as well when given.
+pub fn run_live(o: &DemoOptions, live: Option<LiveView<'_>>) -> Result<DemoSummary> {
     let out_name = o.out.display().to_string();
     std::fs::create_dir_all(&o.out).map_err(|e| Error::io(&out_name, e))?;
     let archive = o.out.join(ARCHIVE);
@@ -204,7 +210,7 @@ pub fn run(o: &DemoOptions) -> Result<DemoSummary> {
         link: (!p.link.is_unlimited()).then(|| p.link.to_link_profile(1)),
         plots: true,
     };
-    let summary = fly(&fly_options)?;
+    let summary = fly_live(&fly_options, live)?;
     Ok(DemoSummary {
         archive,
         built,

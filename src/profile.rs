@@ -299,7 +299,6 @@ impl DeviceProfile {
     pub fn memory_limit_bytes(&self) -> usize {
         (self.memory_mb * 1e6) as usize
     }
-
 }
 
 /// Values given on the command line, which win over the profile's.

@@ -23,6 +23,10 @@ use crate::source::TileSource;
 use crate::source::throttle::{DropDice, LatencyDice, LinkProfile, SimulatedLink};
 
 /// What one frame costs, in seconds of one core of this machine, as a function of what it drew.
+///
+/// One core whatever the device's thread count: only the rows of a tile-sized draw are split
+/// between threads, and on this shared machine a second thread made frames slower, not faster
+/// (`examples/thread_cost.rs`), so there is no measured gain to credit (docs/pocketpc.md).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CostModel {
     /// Seconds per frame whatever it draws (clearing, culling, importance, set-up).

@@ -16,7 +16,7 @@ use stripmask::demo::DemoOptions;
 use stripmask::engine::EngineSettings;
 use stripmask::error::{Error, Result};
 use stripmask::flight::{Builtin, Flight};
-use stripmask::fly::{FlyOptions, Length, fly};
+use stripmask::fly::{FlyOptions, Length, LiveView, fly};
 use stripmask::importance::Weights;
 use stripmask::masks::LevelSet;
 #[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
@@ -29,6 +29,7 @@ use stripmask::source::{self, throttle::LinkProfile};
 use stripmask::terrain::TerrainFrame;
 #[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
 use stripmask::viewer::{self, ViewerOptions, ViewerSummary};
+use stripmask_platform::Presenter;
 use stripmask_raster::{ColorFormat, DepthFormat, Precision};
 
 /// Adaptive streaming and CPU rendering of large terrains with strip masks.
@@ -91,6 +92,9 @@ struct DemoArgs {
     /// Keep one frame in K as PNG (0: none).
     #[arg(long, default_value_t = 10)]
     every: u64,
+    /// Also show the flight live in a window, at the device's pace (Esc ends it early).
+    #[arg(long)]
+    window: bool,
     /// No progress bar.
     #[arg(short, long)]
     quiet: bool,
@@ -311,10 +315,13 @@ struct DeviceArgs {
     /// Link latency per request, milliseconds [profile].
     #[arg(long)]
     latency_ms: Option<f64>,
+    /// Each request's latency varies within ± this many milliseconds (seeded) [profile].
+    #[arg(long)]
+    jitter_ms: Option<f64>,
     /// Fraction of requests the link drops, 0..1 [profile].
     #[arg(long)]
     drop_rate: Option<f64>,
-    /// Seed of the link's drop decisions.
+    /// Seed of the link's delays and drop decisions.
     #[arg(long, default_value_t = 1)]
     seed: u64,
 }
@@ -336,6 +343,7 @@ impl DeviceArgs {
             cpu_slowdown: self.cpu_slowdown,
             bandwidth_kbps: self.bandwidth_kbps,
             latency_ms: self.latency_ms,
+            jitter_ms: self.jitter_ms,
             drop_rate: self.drop_rate,
         };
         DeviceProfile::resolve(&self.profile, self.profile_file.as_deref(), &overrides)
@@ -469,10 +477,13 @@ struct ServeArgs {
     /// Simulated latency before each answer, milliseconds.
     #[arg(long, default_value_t = 0)]
     latency_ms: u64,
+    /// Each answer's latency varies within ± this many milliseconds.
+    #[arg(long, default_value_t = 0)]
+    jitter_ms: u64,
     /// Fraction of requests answered 503, 0..1.
     #[arg(long, default_value_t = 0.0)]
     drop_rate: f64,
-    /// Seed of the drop decisions.
+    /// Seed of the latency and drop decisions.
     #[arg(long, default_value_t = 1)]
     seed: u64,
 }
@@ -622,8 +633,47 @@ fn run_demo(a: DemoArgs) -> Result<()> {
         every: a.every,
         progress: !a.quiet,
     };
-    println!("{}", stripmask::demo::run(&options)?);
-    Ok(())
+    if !a.window {
+        println!("{}", stripmask::demo::run(&options)?);
+        return Ok(());
+    }
+    let p = &options.profile;
+    // A handheld's screen is small on a desktop: scale the window up to about 960 pixels wide.
+    let scale = (960 / p.width).max(1);
+    match open_window("stripmask demo", p.width * scale, p.height * scale) {
+        Ok(mut window) => {
+            let live = LiveView {
+                presenter: window.as_mut(),
+                real_time: true,
+            };
+            println!("{}", stripmask::demo::run_live(&options, Some(live))?);
+            Ok(())
+        }
+        Err(problem) => {
+            eprintln!("stripmask demo: --window: {problem}; running headless");
+            println!("{}", stripmask::demo::run(&options)?);
+            Err(Error::Usage(format!(
+                "--window: {problem} (the demo ran headless and wrote its outputs)"
+            )))
+        }
+    }
+}
+
+/// A window for live frames, or why there is none.
+#[cfg(feature = "window")]
+fn open_window(
+    title: &str,
+    width: u32,
+    height: u32,
+) -> std::result::Result<Box<dyn Presenter>, String> {
+    stripmask_platform::WindowPresenter::open(title, width, height)
+        .map(|w| Box::new(w) as Box<dyn Presenter>)
+        .map_err(|e| e.to_string())
+}
+
+#[cfg(not(feature = "window"))]
+fn open_window(_: &str, _: u32, _: u32) -> std::result::Result<Box<dyn Presenter>, String> {
+    Err("this stripmask was built without the `window` feature".into())
 }
 
 fn run_build(a: BuildArgs) -> Result<()> {
@@ -821,9 +871,15 @@ fn run_serve(a: ServeArgs) -> Result<()> {
             a.drop_rate
         )));
     }
+    if let Some(b) = a.bandwidth_kbps.filter(|b| !(b.is_finite() && *b > 0.0)) {
+        return Err(Error::Usage(format!(
+            "--bandwidth-kbps {b} must be positive"
+        )));
+    }
     let profile = LinkProfile {
         bandwidth_kbps: a.bandwidth_kbps,
         latency: Duration::from_millis(a.latency_ms),
+        jitter: Duration::from_millis(a.jitter_ms),
         drop_rate: a.drop_rate,
         seed: a.seed,
     };

@@ -5,6 +5,7 @@
 //! intact and was built with the same settings — then flies the paper's corner-to-corner
 //! diagonal as the PocketPC profile (320x240 RGB565, 20 MB, 7 fps, 1 Mbit/s link) on the
 //! simulated clock, headless, and writes frames, `stats.csv` and the report's plots beside it.
+//! [`run_live`] also shows the flight in a window as it runs, at the device's pace.
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -15,7 +16,7 @@ use crate::dem::{self, OpenOptions};
 use crate::engine::EngineSettings;
 use crate::error::{Error, Result};
 use crate::flight::{Builtin, Flight};
-use crate::fly::{FlyOptions, FlySummary, Length, fly};
+use crate::fly::{FlyOptions, FlySummary, Length, LiveView, fly_live};
 use crate::profile::DeviceProfile;
 use crate::simclock::{Clock, CostModel};
 use crate::source::{self, file::FileSource};
@@ -139,8 +140,13 @@ impl fmt::Display for DemoSummary {
 fn link_text(p: &DeviceProfile) -> String {
     match p.link.bandwidth_kbps {
         Some(kbps) => format!(
-            "{kbps} kbit/s, {} ms latency, {}% dropped",
+            "{kbps} kbit/s, {} ms latency{}, {}% dropped",
             p.link.latency_ms,
+            if p.link.jitter_ms > 0.0 {
+                format!(" ± {} ms", p.link.jitter_ms)
+            } else {
+                String::new()
+            },
             100.0 * p.link.drop_rate
         ),
         None => "unlimited".into(),
@@ -149,6 +155,11 @@ fn link_text(p: &DeviceProfile) -> String {
 
 /// Runs the demo.
 pub fn run(o: &DemoOptions) -> Result<DemoSummary> {
+    run_live(o, None)
+}
+
+/// Runs the demo, showing the flight in `live` as well when given.
+pub fn run_live(o: &DemoOptions, live: Option<LiveView<'_>>) -> Result<DemoSummary> {
     let out_name = o.out.display().to_string();
     std::fs::create_dir_all(&o.out).map_err(|e| Error::io(&out_name, e))?;
     let archive = o.out.join(ARCHIVE);
@@ -199,7 +210,7 @@ pub fn run(o: &DemoOptions) -> Result<DemoSummary> {
         link: (!p.link.is_unlimited()).then(|| p.link.to_link_profile(1)),
         plots: true,
     };
-    let summary = fly(&fly_options)?;
+    let summary = fly_live(&fly_options, live)?;
     Ok(DemoSummary {
         archive,
         built,

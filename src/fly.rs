@@ -2,9 +2,11 @@
 //!
 //! Flight time advances by each frame's cost as [`Clock`] tells it (measured bookkeeping and
 //! drawing, or modelled; times the device's CPU slowdown; writing PNGs is not counted), so a slow
-//! renderer covers the path in fewer frames, as on the real device.
+//! renderer covers the path in fewer frames, as on the real device. A [`LiveView`] shows the
+//! frames as they are computed as well (`demo --window`).
 
 use std::path::PathBuf;
+use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressStyle};
 use stripmask_platform::{Hud, PngFrames, Presenter};
@@ -64,6 +66,17 @@ pub struct FlyOptions {
     pub plots: bool,
 }
 
+/// Where a flight is shown while it runs, besides the files it writes.
+pub struct LiveView<'a> {
+    /// The window (or any presenter) the frames go to, with the HUD when the flight draws one.
+    /// Its quit input (Esc, closing the window) ends the flight early; what was flown is still
+    /// written.
+    pub presenter: &'a mut dyn Presenter,
+    /// Show each frame when its flight time has passed on the wall clock, so that the flight
+    /// plays at the device's pace; otherwise frames are shown as fast as they are drawn.
+    pub real_time: bool,
+}
+
 /// A run's summary.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FlySummary {
@@ -87,6 +100,11 @@ pub struct FlySummary {
 
 /// Flies `o.flight` and writes `stats.csv` (and frames) into `o.out`.
 pub fn fly(o: &FlyOptions) -> Result<FlySummary> {
+    fly_live(o, None)
+}
+
+/// [`fly`], showing the frames in `live` as well when given.
+pub fn fly_live(o: &FlyOptions, mut live: Option<LiveView<'_>>) -> Result<FlySummary> {
     let out_name = o.out.display().to_string();
     std::fs::create_dir_all(&o.out).map_err(|e| Error::io(&out_name, e))?;
     let mut csv = StatsCsv::create(&o.out.join("stats.csv"))?;
@@ -117,6 +135,7 @@ pub fn fly(o: &FlyOptions) -> Result<FlySummary> {
         .unwrap_or(Length::Seconds(o.flight.duration().max(f64::MIN_POSITIVE)));
     let bar = progress_bar(o.progress, length);
     let mut hud = Hud::new(o.hud);
+    let started = Instant::now();
 
     let mut t = 0.0;
     let mut frame = 0u64;
@@ -129,7 +148,7 @@ pub fn fly(o: &FlyOptions) -> Result<FlySummary> {
             Length::Frames(n) => frame >= n,
             Length::Seconds(s) => t >= s,
         };
-        if done {
+        if done || live.as_mut().is_some_and(|l| l.presenter.poll_input().quit) {
             break;
         }
         let (eye, target) = o.flight.at(t);
@@ -160,11 +179,23 @@ pub fn fly(o: &FlyOptions) -> Result<FlySummary> {
             fetching: report.pager.fetching as u64,
         };
         csv.write(&record)?;
-        if let Some(frames) = frames.as_mut() {
+        if frames.is_some() || live.is_some() {
             let info = hud_info(&engine, &report, record.fps);
-            frames
-                .present(&fb, hud.render(&info, w, h))
-                .map_err(|e| Error::Usage(e.to_string()))?;
+            let overlay = hud.render(&info, w, h);
+            if let Some(frames) = frames.as_mut() {
+                frames
+                    .present(&fb, overlay)
+                    .map_err(|e| Error::Usage(e.to_string()))?;
+            }
+            if let Some(live) = live.as_mut() {
+                if live.real_time {
+                    let due = Duration::from_secs_f64(t);
+                    std::thread::sleep(due.saturating_sub(started.elapsed()));
+                }
+                live.presenter
+                    .present(&fb, overlay)
+                    .map_err(|e| Error::Usage(e.to_string()))?;
+            }
         }
         fps.push(record.fps);
         triangles += record.triangles;

@@ -14,11 +14,12 @@
 //! [link]
 //! bandwidth_kbps = 5000.0
 //! latency_ms = 20.0
+//! jitter_ms = 10.0
 //! ```
 //!
 //! Fields: `name`, `width`, `height`, `color` (`"rgb565"` or `"rgba8888"`), `depth_bits` (16 or
 //! 32), `memory_mb`, `target_fps`, `threads` (0: all cores), `cpu_slowdown`, and `[link]` with
-//! `bandwidth_kbps` (absent: unlimited), `latency_ms`, `drop_rate`.
+//! `bandwidth_kbps` (absent: unlimited), `latency_ms`, `jitter_ms`, `drop_rate`.
 //!
 //! The CPU slowdown factor multiplies the cost of every frame — measured on the wall clock, or
 //! modelled by [`crate::simclock::CostModel`] on the simulated clock — before the budget
@@ -39,8 +40,10 @@ use crate::source::throttle::LinkProfile;
 pub struct Link {
     /// Kilobits (1000 bits) per second; `None` is unlimited.
     pub bandwidth_kbps: Option<f64>,
-    /// Delay before the first byte of every request, milliseconds.
+    /// Mean delay before the first byte of every request, milliseconds.
     pub latency_ms: f64,
+    /// Each request's delay varies uniformly within `latency_ms ± jitter_ms` (seeded).
+    pub jitter_ms: f64,
     /// Fraction of requests that fail, 0 ..= 1.
     pub drop_rate: f64,
 }
@@ -50,6 +53,7 @@ impl Link {
     pub const UNLIMITED: Link = Link {
         bandwidth_kbps: None,
         latency_ms: 0.0,
+        jitter_ms: 0.0,
         drop_rate: 0.0,
     };
 
@@ -58,11 +62,12 @@ impl Link {
         *self == Link::UNLIMITED
     }
 
-    /// The link as the simulated link's profile, with `seed` for its drop decisions.
+    /// The link as the simulated link's profile, with `seed` for its delays and drops.
     pub fn to_link_profile(self, seed: u64) -> LinkProfile {
         LinkProfile {
             bandwidth_kbps: self.bandwidth_kbps,
             latency: Duration::from_secs_f64(self.latency_ms / 1e3),
+            jitter: Duration::from_secs_f64(self.jitter_ms / 1e3),
             drop_rate: self.drop_rate,
             seed,
         }
@@ -116,6 +121,7 @@ impl DeviceProfile {
             link: Link {
                 bandwidth_kbps: Some(1000.0),
                 latency_ms: 50.0,
+                jitter_ms: 0.0,
                 drop_rate: 0.0,
             },
             cpu_slowdown: POCKETPC_SLOWDOWN,
@@ -233,6 +239,9 @@ impl DeviceProfile {
             if let Some(v) = link.latency_ms {
                 p.link.latency_ms = v;
             }
+            if let Some(v) = link.jitter_ms {
+                p.link.jitter_ms = v;
+            }
             if let Some(v) = link.drop_rate {
                 p.link.drop_rate = v;
             }
@@ -271,6 +280,12 @@ impl DeviceProfile {
                 self.link.latency_ms
             ));
         }
+        if !(self.link.jitter_ms.is_finite() && self.link.jitter_ms >= 0.0) {
+            return Err(format!(
+                "link jitter_ms {} must be 0 or more",
+                self.link.jitter_ms
+            ));
+        }
         if !(0.0..=1.0).contains(&self.link.drop_rate) {
             return Err(format!(
                 "link drop_rate {} is not between 0 and 1",
@@ -307,6 +322,8 @@ pub struct Overrides {
     pub bandwidth_kbps: Option<f64>,
     /// Link latency, ms.
     pub latency_ms: Option<f64>,
+    /// Link jitter, ms.
+    pub jitter_ms: Option<f64>,
     /// Link drop rate.
     pub drop_rate: Option<f64>,
 }
@@ -327,6 +344,7 @@ impl Overrides {
             p.link.bandwidth_kbps = self.bandwidth_kbps;
         }
         p.link.latency_ms = self.latency_ms.unwrap_or(p.link.latency_ms);
+        p.link.jitter_ms = self.jitter_ms.unwrap_or(p.link.jitter_ms);
         p.link.drop_rate = self.drop_rate.unwrap_or(p.link.drop_rate);
     }
 }
@@ -368,6 +386,7 @@ enum ColorName {
 struct LinkFile {
     bandwidth_kbps: Option<f64>,
     latency_ms: Option<f64>,
+    jitter_ms: Option<f64>,
     drop_rate: Option<f64>,
 }
 
@@ -398,13 +417,15 @@ mod tests {
     #[test]
     fn a_toml_profile_changes_only_what_it_names() {
         let text = "base = \"pocketpc\"\nname = \"wifi\"\nmemory_mb = 32.0\n\
-                    [link]\nbandwidth_kbps = 5000.0\n";
+                    [link]\nbandwidth_kbps = 5000.0\njitter_ms = 15.0\n";
         let p = DeviceProfile::parse_toml(text, "wifi.toml").unwrap();
         let base = DeviceProfile::pocketpc();
         assert_eq!(p.name, "wifi");
         assert_eq!(p.memory_mb, 32.0);
         assert_eq!(p.link.bandwidth_kbps, Some(5000.0));
         assert_eq!(p.link.latency_ms, base.link.latency_ms);
+        assert_eq!(p.link.jitter_ms, 15.0);
+        assert_eq!(p.link.to_link_profile(1).jitter, Duration::from_millis(15));
         assert_eq!(
             (p.width, p.target_fps, p.cpu_slowdown),
             (320, 7.0, base.cpu_slowdown)
@@ -443,6 +464,7 @@ mod tests {
             ("target_fps = -1.0\n", "target_fps"),
             ("depth_bits = 24\n", "depth_bits 24"),
             ("[link]\ndrop_rate = 2.0\n", "drop_rate"),
+            ("[link]\njitter_ms = -1.0\n", "jitter_ms"),
             ("cpu_speed = 3.0\n", "cpu_speed"),
             ("width = 0\n", "sides"),
         ] {

@@ -1,11 +1,12 @@
 //! `stripmask serve`: a small static HTTP server for one archive, with byte ranges and an
-//! optional simulated link (latency, bandwidth, drops) for experiments.
+//! optional simulated link (latency with jitter, bandwidth, drops) for experiments.
 //!
 //! It answers `GET` and `HEAD` for `/` and `/<file name>` only; every other path is 404 and
 //! every other method 405, so nothing but the archive can be read (no listing, no traversal).
 //! `Range: bytes=a-b`, `bytes=a-` and `bytes=-n` give 206 with `Content-Range`; an unsatisfiable
 //! range gives 416; a request without a (single, parseable) range gets the whole file with 200.
-//! A dropped request (see [`LinkProfile::drop_rate`]) is answered 503.
+//! Every answer waits for its delay (`latency ± jitter`, [`LatencyDice`]) and is paced at the
+//! bandwidth per connection; a dropped request (see [`LinkProfile::drop_rate`]) is answered 503.
 
 use std::fs::File;
 use std::io::{Read, Seek, SeekFrom};
@@ -19,7 +20,7 @@ use tiny_http::{Header, Method, Request, Response, StatusCode};
 use crate::archive::ArchiveReader;
 use crate::error::{Error, Result};
 use crate::source::file::FileSource;
-use crate::source::throttle::{DropDice, LinkProfile, PacedReader};
+use crate::source::throttle::{DropDice, LatencyDice, LinkProfile, PacedReader};
 
 /// A running server; dropping it (or [`Server::stop`]) shuts it down.
 pub struct Server {
@@ -34,6 +35,7 @@ struct Shared {
     url_path: String,
     profile: LinkProfile,
     dice: DropDice,
+    delays: LatencyDice,
 }
 
 impl Server {
@@ -73,6 +75,7 @@ impl Server {
             path: archive.to_path_buf(),
             url_path: format!("/{file_name}"),
             dice: DropDice::new(profile.drop_rate, profile.seed),
+            delays: LatencyDice::new(&profile),
             profile,
         });
         let accept = {
@@ -214,7 +217,7 @@ fn answer(request: Request, shared: &Shared) {
             .respond(plain(405, "only GET and HEAD\n").with_header(header("Allow", "GET, HEAD")));
         return;
     }
-    std::thread::sleep(shared.profile.latency);
+    std::thread::sleep(shared.delays.next());
     if shared.dice.roll() {
         let _ = request.respond(plain(503, "dropped by the simulated link\n"));
         return;

@@ -8,10 +8,10 @@ use std::sync::{Arc, Mutex};
 
 use stripmask::archive::ArchiveReader;
 use stripmask::belts::TileId;
-use stripmask::demo::{DemoOptions, run};
+use stripmask::demo::{DemoOptions, run, run_live};
 use stripmask::engine::{Engine, EngineSettings};
 use stripmask::flight::{Builtin, Flight};
-use stripmask::fly::{FlyOptions, FlySummary, Length, fly};
+use stripmask::fly::{FlyOptions, FlySummary, Length, LiveView, fly};
 use stripmask::pager::PagerMode;
 use stripmask::profile::DeviceProfile;
 use stripmask::report::{PLOT_FILES, PLOT_SIZE, StatsTable, draw};
@@ -19,6 +19,7 @@ use stripmask::simclock::{Clock, CostModel, MeteredLink};
 use stripmask::source::{self, TileSource};
 use stripmask::stats::{FrameRecord, StatsCsv};
 use stripmask::terrain::TerrainFrame;
+use stripmask_platform::{Input, Overlay, PlatformError, Presenter};
 use stripmask_raster::Framebuffer;
 
 #[path = "support/hills.rs"]
@@ -79,6 +80,28 @@ fn the_simulated_clock_gives_the_same_stats_csv_twice() {
     assert!(first.downloaded_bytes > 0 && first.seconds > 1.0);
     // No tile can be drawn before the first transfer's latency has passed on the simulated link.
     assert!(first.first_frame_s.unwrap() >= p.link.latency_ms / 1e3);
+}
+
+#[test]
+fn a_jittery_simulated_link_repeats_byte_for_byte_and_changes_the_arrivals() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = archive(dir.path());
+    let steady = DeviceProfile::pocketpc();
+    let mut jittery = steady.clone();
+    jittery.link.jitter_ms = 40.0;
+    let run = |p: &DeviceProfile, name: &str| {
+        let out = dir.path().join(name);
+        let summary = fly_as(p, &path, &out, 60);
+        (summary, std::fs::read(out.join("stats.csv")).unwrap())
+    };
+    let (a, csv_a) = run(&jittery, "a");
+    let (b, csv_b) = run(&jittery, "b");
+    let (c, csv_c) = run(&steady, "c");
+    assert_eq!((a, &csv_a), (b, &csv_b));
+    assert_ne!(csv_a, csv_c, "jitter moves the arrivals");
+    assert!(c.downloaded_bytes > 0);
+    let earliest = (jittery.link.latency_ms - jittery.link.jitter_ms) / 1e3;
+    assert!(a.first_frame_s.unwrap() >= earliest);
 }
 
 #[test]
@@ -349,6 +372,77 @@ fn report_plots_are_pngs_of_the_stated_size_that_follow_the_data() {
     std::fs::write(dir.path().join("stats.csv"), "frame,fps\n0,7\n").unwrap();
     let e = draw(dir.path()).unwrap_err().to_string();
     assert!(e.contains("stats.csv") && e.contains("time_s"), "{e}");
+}
+
+/// A screen that counts what it is shown and asks to quit after `quit_after` polls.
+struct Screen {
+    shown: u64,
+    with_hud: u64,
+    polls: u64,
+    quit_after: u64,
+}
+
+impl Screen {
+    fn new(quit_after: u64) -> Self {
+        Screen {
+            shown: 0,
+            with_hud: 0,
+            polls: 0,
+            quit_after,
+        }
+    }
+}
+
+impl Presenter for Screen {
+    fn present(&mut self, _: &Framebuffer, hud: Option<&Overlay>) -> Result<(), PlatformError> {
+        self.shown += 1;
+        self.with_hud += u64::from(hud.is_some());
+        Ok(())
+    }
+
+    fn poll_input(&mut self) -> Input {
+        self.polls += 1;
+        Input {
+            quit: self.polls > self.quit_after,
+            ..Input::default()
+        }
+    }
+}
+
+#[test]
+fn the_live_demo_shows_every_frame_writes_the_same_outputs_and_stops_on_quit() {
+    let dir = tempfile::tempdir().unwrap();
+    let options = DemoOptions {
+        out: dir.path().join("demo"),
+        length: Some(Length::Frames(12)),
+        every: 4,
+        progress: false,
+        ..DemoOptions::default()
+    };
+    let stats = || std::fs::read_to_string(options.out.join("stats.csv")).unwrap();
+    let headless = run(&options).unwrap();
+    let csv = stats();
+    let mut screen = Screen::new(u64::MAX);
+    let live = LiveView {
+        presenter: &mut screen,
+        real_time: false,
+    };
+    let shown = run_live(&options, Some(live)).unwrap();
+    assert_eq!((screen.shown, screen.with_hud), (12, 12));
+    assert_eq!(shown.fly, headless.fly);
+    assert_eq!(stats(), csv, "showing the flight changes nothing in it");
+    // Quitting after five frames: the flight stops there, and what was flown is written.
+    let mut screen = Screen::new(5);
+    let live = LiveView {
+        presenter: &mut screen,
+        real_time: false,
+    };
+    let cut = run_live(&options, Some(live)).unwrap();
+    assert_eq!((cut.fly.frames, screen.shown), (5, 5));
+    assert_eq!(stats().lines().count(), 1 + 5);
+    for file in PLOT_FILES {
+        assert!(options.out.join(file).is_file(), "{file}");
+    }
 }
 
 #[test]

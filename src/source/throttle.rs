@@ -1,8 +1,10 @@
-//! A simulated network link: latency before the first byte, a bandwidth cap, and requests that
-//! fail at a given rate, decided by a seeded random generator so a run can be repeated.
+//! A simulated network link: latency before the first byte (varying by up to a jitter), a
+//! bandwidth cap, and requests that fail at a given rate, decided by seeded random generators so
+//! a run can be repeated.
 //!
-//! [`LinkProfile`] is shared by [`SimulatedLink`] (a [`TileSource`] wrapper, no network at all)
-//! and by `stripmask serve`, which paces its answers with [`PacedReader`].
+//! [`LinkProfile`] is shared by [`SimulatedLink`] (a [`TileSource`] wrapper, no network at all),
+//! by the simulated clock's metered link, and by `stripmask serve`, which delays each answer by
+//! [`LatencyDice`] and paces it with [`PacedReader`].
 
 use std::io::Read;
 use std::sync::Mutex;
@@ -11,13 +13,16 @@ use std::time::{Duration, Instant};
 use super::TileSource;
 use crate::error::{Error, Result};
 
-/// Latency, bandwidth and drop rate of a link.
+/// Latency, jitter, bandwidth and drop rate of a link.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LinkProfile {
     /// Bandwidth in kilobits (1000 bits) per second; `None` is unlimited.
     pub bandwidth_kbps: Option<f64>,
-    /// Delay before the first byte of every answer.
+    /// Mean delay before the first byte of every answer.
     pub latency: Duration,
+    /// Each request's delay is drawn uniformly from `latency ± jitter` (never below zero), so
+    /// that answers do not arrive like clockwork.
+    pub jitter: Duration,
     /// Fraction of requests that fail, 0 ..= 1.
     pub drop_rate: f64,
     /// Seed of the drop decisions.
@@ -29,6 +34,7 @@ impl Default for LinkProfile {
         LinkProfile {
             bandwidth_kbps: None,
             latency: Duration::ZERO,
+            jitter: Duration::ZERO,
             drop_rate: 0.0,
             seed: 1,
         }
@@ -52,6 +58,17 @@ impl LinkProfile {
     }
 }
 
+/// The next number of a SplitMix64 stream, uniform in `[0, 1)`.
+fn next_unit(state: &Mutex<u64>) -> f64 {
+    let mut s = state.lock().unwrap_or_else(|p| p.into_inner());
+    *s = s.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    let mut z = *s;
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    (z >> 11) as f64 / (1u64 << 53) as f64
+}
+
 /// Deterministic drop decisions (SplitMix64 from the profile's seed).
 pub struct DropDice {
     rate: f64,
@@ -72,13 +89,36 @@ impl DropDice {
         if self.rate <= 0.0 {
             return false;
         }
-        let mut s = self.state.lock().unwrap_or_else(|p| p.into_inner());
-        *s = s.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = *s;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        ((z >> 11) as f64 / (1u64 << 53) as f64) < self.rate
+        next_unit(&self.state) < self.rate
+    }
+}
+
+/// Deterministic per-request delays: uniform in `latency ± jitter`, never below zero. The
+/// stream is derived from the profile's seed but is not the drop dice' stream, so adding jitter
+/// to a link leaves its drop decisions as they were.
+pub struct LatencyDice {
+    latency: Duration,
+    jitter: Duration,
+    state: Mutex<u64>,
+}
+
+impl LatencyDice {
+    /// The delays of `profile`'s requests.
+    pub fn new(profile: &LinkProfile) -> Self {
+        LatencyDice {
+            latency: profile.latency,
+            jitter: profile.jitter,
+            state: Mutex::new(profile.seed ^ 0x6A09_E667_F3BC_C908),
+        }
+    }
+
+    /// The next request's delay before its first byte.
+    pub fn next(&self) -> Duration {
+        if self.jitter.is_zero() {
+            return self.latency;
+        }
+        let offset = self.jitter.as_secs_f64() * (2.0 * next_unit(&self.state) - 1.0);
+        Duration::from_secs_f64((self.latency.as_secs_f64() + offset).max(0.0))
     }
 }
 
@@ -121,12 +161,13 @@ impl<R: Read> Read for PacedReader<R> {
     }
 }
 
-/// A [`TileSource`] behind a simulated link: every read waits for the latency and the transfer
-/// time, and a dropped read fails (as a lost connection would).
+/// A [`TileSource`] behind a simulated link: every read waits for its delay (latency ± jitter)
+/// and the transfer time, and a dropped read fails (as a lost connection would).
 pub struct SimulatedLink<S> {
     inner: S,
     profile: LinkProfile,
     dice: DropDice,
+    delays: LatencyDice,
 }
 
 impl<S: TileSource> SimulatedLink<S> {
@@ -134,6 +175,7 @@ impl<S: TileSource> SimulatedLink<S> {
     pub fn new(inner: S, profile: LinkProfile) -> Self {
         SimulatedLink {
             dice: DropDice::new(profile.drop_rate, profile.seed),
+            delays: LatencyDice::new(&profile),
             inner,
             profile,
         }
@@ -150,7 +192,7 @@ impl<S: TileSource> TileSource for SimulatedLink<S> {
     }
 
     fn read_range(&self, offset: u64, len: u64) -> Result<Vec<u8>> {
-        std::thread::sleep(self.profile.latency + self.profile.transfer_time(len));
+        std::thread::sleep(self.delays.next() + self.profile.transfer_time(len));
         if self.dice.roll() {
             return Err(Error::invalid(
                 self.inner.name(),
@@ -183,6 +225,47 @@ mod tests {
         let drops = a.iter().filter(|&&x| x).count();
         assert!((200..300).contains(&drops), "{drops}");
         assert!(!DropDice::new(0.0, 7).roll());
+    }
+
+    #[test]
+    fn jittered_delays_repeat_spread_over_the_range_and_keep_the_drops() {
+        let profile = LinkProfile {
+            latency: Duration::from_millis(50),
+            jitter: Duration::from_millis(20),
+            drop_rate: 0.25,
+            seed: 9,
+            ..LinkProfile::default()
+        };
+        let delays = |p: &LinkProfile| {
+            let dice = LatencyDice::new(p);
+            (0..1000).map(|_| dice.next()).collect::<Vec<_>>()
+        };
+        let a = delays(&profile);
+        assert_eq!(a, delays(&profile));
+        let (lo, hi) = (Duration::from_millis(30), Duration::from_millis(70));
+        assert!(a.iter().all(|d| (lo..=hi).contains(d)));
+        let ms: Vec<f64> = a.iter().map(|d| d.as_secs_f64() * 1e3).collect();
+        let mean = ms.iter().sum::<f64>() / ms.len() as f64;
+        assert!((mean - 50.0).abs() < 1.5, "mean {mean}");
+        assert!(ms.iter().any(|&m| m < 35.0) && ms.iter().any(|&m| m > 65.0));
+        // Never below zero; no jitter is the latency itself.
+        let wide = LinkProfile {
+            latency: Duration::from_millis(5),
+            jitter: Duration::from_millis(50),
+            ..profile
+        };
+        assert!(delays(&wide).contains(&Duration::ZERO));
+        let steady = LinkProfile {
+            jitter: Duration::ZERO,
+            ..profile
+        };
+        assert!(delays(&steady).iter().all(|d| *d == profile.latency));
+        // The drop decisions do not depend on the jitter.
+        let drops = |p: &LinkProfile| {
+            let dice = DropDice::new(p.drop_rate, p.seed);
+            (0..200).map(|_| dice.roll()).collect::<Vec<_>>()
+        };
+        assert_eq!(drops(&profile), drops(&steady));
     }
 
     #[test]

@@ -14,8 +14,8 @@ use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
 const SIZE: (u32, u32) = (320, 240);
 const VIEW: usize = 9;
-/// A threshold at which this scene's vertices are visibly morphed (its 30 m steps span 8 to
-/// 14 pixels at 320x240).
+/// A threshold at which this scene's vertices are visibly morphed (its 30 m steps span roughly
+/// 10 pixels at 320x240).
 const MORPHED: Geomorph = Geomorph::Distance { pixels: 16.0 };
 
 fn scene() -> &'static CrackScene {

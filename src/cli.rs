@@ -17,6 +17,7 @@ use stripmask::engine::EngineSettings;
 use stripmask::error::{Error, Result};
 use stripmask::flight::{Builtin, Flight};
 use stripmask::fly::{FlyOptions, Length, LiveView, fly};
+use stripmask::geomorph::Geomorph;
 use stripmask::importance::Weights;
 use stripmask::masks::LevelSet;
 #[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
@@ -188,6 +189,13 @@ struct SceneArgs {
     /// How cracks between tiles at different levels are hidden (docs/cracks.md).
     #[arg(long, value_enum, default_value_t = CracksArg::Stitch)]
     cracks: CracksArg,
+    /// Morph the vertices coarser levels drop by distance, against popping (docs/cracks.md).
+    #[arg(long, value_enum, default_value_t = GeomorphArg::Off)]
+    geomorph: GeomorphArg,
+    /// With --geomorph distance: vertices whose grid step spans fewer pixels than this are
+    /// fully morphed, those spanning twice as many not at all.
+    #[arg(long, default_value_t = Geomorph::DEFAULT_PIXELS)]
+    geomorph_pixels: f64,
 }
 
 /// A scene resolved from its arguments: the flight, the engine settings, the framebuffer, the
@@ -249,6 +257,22 @@ impl SceneArgs {
             CracksArg::Shadow => CrackMode::Shadow,
             CracksArg::Skirts => CrackMode::Skirts,
             CracksArg::Stitch => CrackMode::Stitch,
+        };
+        engine.geomorph = match self.geomorph {
+            GeomorphArg::Off => Geomorph::Off,
+            GeomorphArg::Distance
+                if self.geomorph_pixels > 0.0 && self.geomorph_pixels.is_finite() =>
+            {
+                Geomorph::Distance {
+                    pixels: self.geomorph_pixels,
+                }
+            }
+            GeomorphArg::Distance => {
+                return Err(Error::Usage(format!(
+                    "--geomorph-pixels {} must be a positive number",
+                    self.geomorph_pixels
+                )));
+            }
         };
         if self.float {
             engine.render.precision = Precision::Float;
@@ -362,6 +386,12 @@ enum CracksArg {
     Shadow,
     Skirts,
     Stitch,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum GeomorphArg {
+    Off,
+    Distance,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]

@@ -20,6 +20,7 @@ use crate::camera::Camera;
 use crate::cracks::{CrackMode, TileIndices, neighbours::neighbour_levels};
 use crate::error::{Error, Result};
 use crate::frustum::{Aabb, Frustum};
+use crate::geomorph::{Geomorph, Morpher, SUBDIVISION};
 use crate::importance::{TileMeasure, Weights, visual_importance};
 use crate::loader::ArchiveLoader;
 use crate::masks::{LevelSet, MaskSet};
@@ -46,6 +47,8 @@ pub struct EngineSettings {
     pub level_set: LevelSet,
     /// How cracks between tiles at different levels are hidden.
     pub cracks: CrackMode,
+    /// Whether vertices that coarser levels drop glide onto the coarser surface with distance.
+    pub geomorph: Geomorph,
     /// Importance weights (distance, height).
     pub weights: Weights,
     /// The frame-rate controller.
@@ -70,6 +73,7 @@ impl Default for EngineSettings {
             nearest_when_off: true,
             level_set: LevelSet::All,
             cracks: CrackMode::default(),
+            geomorph: Geomorph::default(),
             weights: Weights::default(),
             budget: BudgetSettings::default(),
             light: Light::default(),
@@ -120,6 +124,8 @@ pub struct Engine {
     pager: Pager<ArchiveLoader>,
     masks: MaskSet,
     cracks: TileIndices,
+    /// The geomorph state, `None` when geomorphing is off.
+    morpher: Option<Morpher>,
     /// Levels pinned per tile instead of the budget's choice (for measurements).
     forced_levels: Option<Box<dyn Fn(TileId) -> usize + Send>>,
     budget: BudgetController,
@@ -133,6 +139,7 @@ impl Engine {
         let reader = ArchiveReader::open(source)?;
         let header = reader.header().clone();
         let terrain = TerrainFrame::new(&header);
+        check_morph_range(&settings, &terrain, reader.name())?;
         let focal_px = f64::from(height) / (2.0 * (settings.fov_y / 2.0).tan());
         let mut loader = ArchiveLoader::new(reader, settings.light, focal_px, settings.cracks);
         if let Some(budget) = settings.texture_budget_bytes {
@@ -152,6 +159,7 @@ impl Engine {
             pager,
             masks: MaskSet::new(header.tile_size as usize, settings.level_set),
             cracks: TileIndices::new(settings.cracks, header.tile_size as usize),
+            morpher: Morpher::new(settings.geomorph, header.tile_size as usize),
             forced_levels: None,
             budget: BudgetController::new(settings.budget),
             settings,
@@ -316,6 +324,7 @@ impl Engine {
             TileMeshes {
                 masks: &self.masks,
                 cracks: &mut self.cracks,
+                morph: self.morpher.as_mut(),
             },
             &self.settings.render,
         )
@@ -374,4 +383,21 @@ impl Engine {
             .fold(0.0f64, f64::max);
         camera.far = far.max(camera.near * 4.0);
     }
+}
+
+/// Morphed heights count 1/[`SUBDIVISION`] quanta in an i32: refuses an archive whose heights
+/// would not fit when geomorphing is on.
+fn check_morph_range(settings: &EngineSettings, terrain: &TerrainFrame, name: &str) -> Result<()> {
+    let limit = f64::from(i32::MAX / SUBDIVISION - i32::from(u16::MAX));
+    let reach = terrain.heights.0.abs().max(terrain.heights.1.abs()) / terrain.quantum;
+    if settings.geomorph != Geomorph::Off && reach >= limit {
+        return Err(Error::invalid(
+            name,
+            format!(
+                "heights up to {reach:.0} quanta are beyond the {limit:.0} that geomorphing \
+                 can count in 1/{SUBDIVISION} quanta: turn geomorphing off"
+            ),
+        ));
+    }
+    Ok(())
 }

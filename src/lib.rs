@@ -13,7 +13,9 @@
 //! [`importance`], shares a triangle [`budget`] that holds a target frame rate, picks a strip mask
 //! per tile from the shared [`masks`], and [`render`]s them through `stripmask-raster` with one
 //! eye-relative matrix. [`camera`], [`flight`] paths, [`stats`], the [`fly`] command and the
-//! interactive [`viewer`] drive it.
+//! interactive [`viewer`] drive it. [`cracks`] hides the gaps between tiles at different
+//! levels, [`geomorph`] optionally morphs the vertices coarser levels drop, and [`popping`]
+//! measures how much the picture jumps when a tile switches level.
 #![warn(missing_docs)]
 
 pub mod archive;
@@ -29,12 +31,14 @@ pub mod error;
 pub mod flight;
 pub mod fly;
 pub mod frustum;
+pub mod geomorph;
 pub mod importance;
 pub mod level_error;
 pub mod loader;
 pub mod mask_level;
 pub mod masks;
 pub mod pager;
+pub mod popping;
 pub mod profile;
 pub mod render;
 pub mod report;

@@ -15,6 +15,7 @@ use stripmask_raster::{
 
 use crate::camera::Camera;
 use crate::cracks::{CrackMode, TileIndices, shadow};
+use crate::geomorph::{self, Morpher};
 use crate::masks::{FRONT_FACE, MaskSet};
 use crate::resident::ResidentTile;
 use crate::terrain::TerrainFrame;
@@ -130,6 +131,9 @@ pub struct TileMeshes<'m> {
     pub masks: &'m MaskSet,
     /// The crack mode's index buffers.
     pub cracks: &'m mut TileIndices,
+    /// The geomorph state when geomorphing is on: tiles are then drawn morphed, in
+    /// [`geomorph::SUBDIVISION`] units.
+    pub morph: Option<&'m mut Morpher>,
 }
 
 /// Clears `fb` to the sky and draws `tiles` (reordered for the depth mode).
@@ -162,17 +166,32 @@ pub fn draw_tiles(
             fb, rasterizer, camera, terrain, tiles, aspect, settings, fog,
         )?;
     }
+    let mut morph = match meshes.morph {
+        Some(morpher) => Some((
+            morpher.view(camera, terrain, fb.height()),
+            FrameTransform::subdivided(camera, terrain, aspect, geomorph::SUBDIVISION)?,
+            morpher,
+        )),
+        None => None,
+    };
     for t in tiles.iter() {
         let (indices, topology) = meshes.cracks.tile(meshes.masks, t.level, t.neighbours);
+        let (vertices, tile_transform) = match &mut morph {
+            Some((view, fine, morpher)) => (
+                morpher.tile(view, &t.tile.vertices, (t.x, t.y)),
+                fine.tile(t.x, t.y)?,
+            ),
+            None => (&t.tile.vertices[..], transform.tile(t.x, t.y)?),
+        };
         let mesh = Mesh {
-            vertices: &t.tile.vertices,
+            vertices,
             indices,
             topology,
         };
         stats += rasterizer.draw(
             fb,
             &mesh,
-            &transform.tile(t.x, t.y)?,
+            &tile_transform,
             &tile_state(settings, fog, t),
         )?;
     }

@@ -199,8 +199,13 @@ impl CrackScene {
     /// An engine over the scene in `mode`, every tile loaded and levels pinned by
     /// [`pair_pattern`], for frames of `size`.
     pub fn engine(&self, mode: CrackMode, size: (u32, u32)) -> Result<Engine> {
+        self.engine_with(Self::settings(mode), size)
+    }
+
+    /// The same with `settings` (e.g. [`CrackScene::settings`] with geomorphing on).
+    pub fn engine_with(&self, settings: EngineSettings, size: (u32, u32)) -> Result<Engine> {
         let source = source::open(&self.archive.display().to_string())?;
-        let mut engine = Engine::new(source, Self::settings(mode), size.1)?;
+        let mut engine = Engine::new(source, settings, size.1)?;
         engine.force_levels(Some(Box::new(pair_pattern(TILE_SIZE - 1))));
         let mut fb = Framebuffer::new(size.0, size.1, ColorFormat::Rgb565, DepthFormat::D16)
             .expect("a valid frame size");
@@ -231,7 +236,18 @@ impl CrackScene {
         size: (u32, u32),
         repeats: usize,
     ) -> Result<CrackMeasurement> {
-        let mut engine = self.engine(mode, size)?;
+        self.measure_with(Self::settings(mode), size, repeats)
+    }
+
+    /// The same with `settings` (e.g. [`CrackScene::settings`] with geomorphing on).
+    pub fn measure_with(
+        &self,
+        settings: EngineSettings,
+        size: (u32, u32),
+        repeats: usize,
+    ) -> Result<CrackMeasurement> {
+        let mode = settings.cracks;
+        let mut engine = self.engine_with(settings, size)?;
         let mut fb = Framebuffer::new(size.0, size.1, ColorFormat::Rgb565, DepthFormat::D16)
             .expect("a valid frame size");
         let aspect = f64::from(size.0) / f64::from(size.1);

@@ -5,19 +5,14 @@
 //! cargo run --release --example cracks -- 640x480 15
 //! ```
 
+#[path = "support/args.rs"]
+mod args;
+
 use stripmask::cracks::CrackMode;
 use stripmask::cracks::metric::CrackScene;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let mut args = std::env::args().skip(1);
-    let size = args
-        .next()
-        .and_then(|s| {
-            let (w, h) = s.split_once('x')?;
-            Some((w.parse().ok()?, h.parse().ok()?))
-        })
-        .unwrap_or((320, 240));
-    let repeats = args.next().and_then(|r| r.parse().ok()).unwrap_or(7);
+    let (size, repeats) = args::size_and_repeats();
     let dir = tempfile::tempdir()?;
     let scene = CrackScene::build(dir.path())?;
     let modes = [

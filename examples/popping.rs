@@ -6,6 +6,9 @@
 //! cargo run --release --example popping -- 640x480 15
 //! ```
 
+#[path = "support/args.rs"]
+mod args;
+
 use stripmask::cracks::CrackMode;
 use stripmask::cracks::metric::{CrackScene, TILE_SIZE, crack_pixels};
 use stripmask::engine::EngineSettings;
@@ -31,15 +34,7 @@ fn name(geomorph: Geomorph) -> String {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let mut args = std::env::args().skip(1);
-    let size = args
-        .next()
-        .and_then(|s| {
-            let (w, h) = s.split_once('x')?;
-            Some((w.parse().ok()?, h.parse().ok()?))
-        })
-        .unwrap_or((320, 240));
-    let repeats = args.next().and_then(|r| r.parse().ok()).unwrap_or(7);
+    let (size, repeats) = args::size_and_repeats();
     let dir = tempfile::tempdir()?;
     let scene = CrackScene::build(dir.path())?;
     let fb = || Framebuffer::new(size.0, size.1, ColorFormat::Rgb565, DepthFormat::D16);

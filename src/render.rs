@@ -188,12 +188,7 @@ pub fn draw_tiles(
             indices,
             topology,
         };
-        stats += rasterizer.draw(
-            fb,
-            &mesh,
-            &tile_transform,
-            &tile_state(settings, fog, t),
-        )?;
+        stats += rasterizer.draw(fb, &mesh, &tile_transform, &tile_state(settings, fog, t))?;
     }
     if shadows && settings.depth_test {
         stats += draw_shadows(

@@ -4,8 +4,10 @@
 
 mod support;
 
-use std::sync::OnceLock;
+#[path = "support/crack_scene.rs"]
+mod crack_scene;
 
+use crack_scene::scene;
 use stripmask::cracks::CrackMode;
 use stripmask::cracks::metric::{CrackMeasurement, CrackScene, TILE_SIZE, crack_pixels};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
@@ -14,17 +16,6 @@ use support::golden::check;
 const SIZE: (u32, u32) = (320, 240);
 /// The view of the golden images: cracks of many level pairs in the open.
 const GOLDEN_VIEW: usize = 9;
-
-fn scene() -> &'static CrackScene {
-    static SCENE: OnceLock<(tempfile::TempDir, CrackScene)> = OnceLock::new();
-    &SCENE
-        .get_or_init(|| {
-            let dir = tempfile::tempdir().unwrap();
-            let scene = CrackScene::build(dir.path()).unwrap();
-            (dir, scene)
-        })
-        .1
-}
 
 fn measure(mode: CrackMode) -> CrackMeasurement {
     let m = scene().measure(mode, SIZE, 1).unwrap();

@@ -3,8 +3,10 @@
 //! tiles up to sub-pixel rounding. (Factor 1 giving exactly the coarse surface is checked on the mesh, in
 //! `src/geomorph.rs`.)
 
-use std::sync::OnceLock;
+#[path = "support/crack_scene.rs"]
+mod crack_scene;
 
+use crack_scene::scene;
 use stripmask::cracks::CrackMode;
 use stripmask::cracks::metric::{CrackScene, TILE_SIZE};
 use stripmask::engine::EngineSettings;
@@ -17,17 +19,6 @@ const VIEW: usize = 9;
 /// A threshold at which this scene's vertices are visibly morphed (its 30 m steps span roughly
 /// 10 pixels at 320x240).
 const MORPHED: Geomorph = Geomorph::Distance { pixels: 16.0 };
-
-fn scene() -> &'static CrackScene {
-    static SCENE: OnceLock<(tempfile::TempDir, CrackScene)> = OnceLock::new();
-    &SCENE
-        .get_or_init(|| {
-            let dir = tempfile::tempdir().unwrap();
-            let scene = CrackScene::build(dir.path()).unwrap();
-            (dir, scene)
-        })
-        .1
-}
 
 fn settings(geomorph: Geomorph) -> EngineSettings {
     EngineSettings {

@@ -7,8 +7,6 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use stripmask::archive::ArchiveReader;
-use stripmask::builder::{BuildOptions, build};
-use stripmask::dem::{MemoryReader, NodataFill};
 use stripmask::engine::{Engine, EngineSettings};
 use stripmask::flight::{Builtin, Flight};
 use stripmask::pager::PagerMode;
@@ -19,26 +17,14 @@ use stripmask::source::throttle::LinkProfile;
 use stripmask::terrain::TerrainFrame;
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
+#[path = "support/hills.rs"]
+mod hills;
+
 /// Hills of 257 x 257 samples in 4 x 4 tiles of 65: few requests, so that the time a request
 /// costs whatever its size (latency, and a loaded machine's scheduling) stays small beside the
 /// time the bandwidth takes.
 fn archive(dir: &Path) -> PathBuf {
-    let n = 257;
-    let samples = (0..n * n)
-        .map(|k| {
-            let (i, j) = ((k % n) as f32, (k / n) as f32);
-            400.0 + 250.0 * (i * 0.05).sin() * (j * 0.04).cos() + 80.0 * (i * 0.21 + j * 0.17).sin()
-        })
-        .collect();
-    let reader = MemoryReader::new("hills", n, n, samples).unwrap();
-    let out = dir.join("hills65.smdb");
-    let options = BuildOptions {
-        tile_size: 65,
-        spacing: Some(30.0),
-        ..BuildOptions::default()
-    };
-    build(NodataFill::new(reader, None), &out, &options, &|_, _| {}).unwrap();
-    out
+    hills::archive_tiled(dir, 65)
 }
 
 /// What the client saw of each request.

@@ -7,6 +7,11 @@ use stripmask::dem::{MemoryReader, NodataFill};
 
 /// A 257 x 257 DEM of hills, cut into 8 x 8 tiles of 33 samples, 30 m apart, written into `dir`.
 pub fn archive(dir: &Path) -> PathBuf {
+    archive_tiled(dir, 33)
+}
+
+/// The same hills cut into tiles of `tile_size` samples.
+pub fn archive_tiled(dir: &Path, tile_size: usize) -> PathBuf {
     let n = 257;
     let samples = (0..n * n)
         .map(|k| {
@@ -15,9 +20,9 @@ pub fn archive(dir: &Path) -> PathBuf {
         })
         .collect();
     let reader = MemoryReader::new("hills", n, n, samples).unwrap();
-    let out = dir.join("hills.smdb");
+    let out = dir.join(format!("hills{tile_size}.smdb"));
     let options = BuildOptions {
-        tile_size: 33,
+        tile_size,
         spacing: Some(30.0),
         texture_factor: 1,
         ..BuildOptions::default()

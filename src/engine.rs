@@ -345,6 +345,18 @@ impl Engine {
         });
     }
 
+    /// Sets the next frame's budget to `triangles`, where it stays until a recorded frame moves
+    /// it: measurements at a fixed budget (the tradeoff report) bypass the frame-rate controller.
+    pub fn hold_budget(&mut self, triangles: usize) {
+        let settings = *self.budget.settings();
+        self.budget = BudgetController::new(BudgetSettings {
+            initial_budget: triangles,
+            min_budget: settings.min_budget.min(triangles),
+            max_budget: settings.max_budget.max(triangles),
+            ..settings
+        });
+    }
+
     /// Feeds the time a frame took (as the target device would have spent it) to the budget
     /// controller; returns the next frame's budget.
     pub fn record_frame(&mut self, seconds: f64, triangles: usize) -> usize {

@@ -123,7 +123,7 @@ fn check_report(r: &FrameReport) {
 }
 
 /// Renders `camera`'s view in both pipelines and asserts they agree within [`FIXED_VS_FLOAT`];
-/// returns the fixed frame and the fraction of pixels off.
+/// returns the fixed frame and its report.
 fn fixed_matches_float(
     engine: &mut Engine,
     camera: &Camera,

@@ -188,12 +188,11 @@ impl Bench {
         let camera = self.cameras[v];
         let (w, h) = self.size;
         let key = (setting.color, setting.depth);
-        if !self.framebuffers.contains_key(&key) {
-            let fb = Framebuffer::new(w, h, key.0, key.1)
-                .map_err(|e| Error::Usage(format!("frame {w}x{h}: {e}")))?;
-            self.framebuffers.insert(key, fb);
-        }
-        let mut fb = self.framebuffers.remove(&key).expect("inserted above");
+        let mut fb = match self.framebuffers.remove(&key) {
+            Some(fb) => fb,
+            None => Framebuffer::new(w, h, key.0, key.1)
+                .map_err(|e| Error::Usage(format!("frame {w}x{h}: {e}")))?,
+        };
         let engine = self.engine(setting.cracks, setting.threads)?;
         apply(engine, setting);
         let (cpu, wall) = (ProcessTime::now(), Instant::now());

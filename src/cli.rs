@@ -59,6 +59,42 @@ enum Command {
     Report(ReportArgs),
     /// The paper's PocketPC flyover over the Puget Sound model, in one command.
     Demo(DemoArgs),
+    /// Measure every speed-for-accuracy knob: frame time against error, table, CSV and plot.
+    Tradeoff(TradeoffArgs),
+}
+
+#[derive(Args, Debug)]
+struct TradeoffArgs {
+    /// An archive file or http:// URL.
+    source: String,
+    /// Output folder: tradeoff.md, tradeoff.csv, pareto.png and the reference pictures.
+    #[arg(long, default_value = "stripmask-tradeoff")]
+    out: PathBuf,
+    /// Also views along this flight: a built-in one (overview, diagonal, low) or a TOML file.
+    #[arg(long)]
+    flight: Option<String>,
+    /// Views taken from --flight, evenly spaced in time.
+    #[arg(long, default_value_t = 3)]
+    flight_views: usize,
+    /// Use only the first N built-in views (overview, oblique, low, horizon, down).
+    #[arg(long)]
+    views: Option<usize>,
+    /// Frame size.
+    #[arg(long, value_parser = parse_size, default_value = "320x240")]
+    size: (u32, u32),
+    /// Timed frames per setting and view (the median counts).
+    #[arg(long, default_value_t = 5)]
+    repeats: usize,
+    /// A pixel is off when a channel differs from the reference by more than this.
+    #[arg(long, default_value_t = 16)]
+    threshold: u8,
+    /// Turn only these knobs, comma-separated (budget, precision, perspective, filter, colour,
+    /// depth, cracks, threads, texture, depth-test, lighting, fog).
+    #[arg(long, value_delimiter = ',')]
+    knobs: Option<Vec<String>>,
+    /// No line per setting on stderr.
+    #[arg(short, long)]
+    quiet: bool,
 }
 
 #[derive(Args, Debug)]
@@ -529,6 +565,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Fb(a) => run_fb(a),
         Command::Report(a) => run_report(a),
         Command::Demo(a) => run_demo(a),
+        Command::Tradeoff(a) => run_tradeoff(a),
     }
 }
 
@@ -704,6 +741,44 @@ fn open_window(
 #[cfg(not(feature = "window"))]
 fn open_window(_: &str, _: u32, _: u32) -> std::result::Result<Box<dyn Presenter>, String> {
     Err("this stripmask was built without the `window` feature".into())
+}
+
+fn run_tradeoff(a: TradeoffArgs) -> Result<()> {
+    let flight = match a.flight.as_deref() {
+        None => None,
+        Some(name) => {
+            let reader = ArchiveReader::open(source::open(&a.source)?)?;
+            let terrain = TerrainFrame::new(reader.header());
+            Some(match name {
+                "overview" => Flight::builtin(Builtin::Overview, &terrain),
+                "diagonal" => Flight::builtin(Builtin::Diagonal, &terrain),
+                "low" => Flight::builtin(Builtin::Low, &terrain),
+                path => Flight::from_toml(std::path::Path::new(path))?,
+            })
+        }
+    };
+    let options = stripmask::tradeoff::TradeoffOptions {
+        source: a.source,
+        out: a.out.clone(),
+        flight,
+        flight_views: a.flight_views,
+        builtin_views: a.views,
+        size: a.size,
+        repeats: a.repeats,
+        threshold: a.threshold,
+        knobs: a.knobs,
+        progress: !a.quiet,
+    };
+    let report = stripmask::tradeoff::run(&options)?;
+    let front = report.rows.iter().filter(|r| r.pareto).count();
+    println!(
+        "{} settings over {} views, {} on the Pareto front -> {}",
+        report.rows.len(),
+        report.views.len(),
+        front,
+        a.out.join("tradeoff.md").display()
+    );
+    Ok(())
 }
 
 fn run_build(a: BuildArgs) -> Result<()> {

@@ -354,6 +354,18 @@ impl Engine {
         });
     }
 
+    /// Sets the next frame's budget to `triangles`, where it stays until a recorded frame moves
+    /// it: measurements at a fixed budget (the tradeoff report) bypass the frame-rate controller.
+    pub fn hold_budget(&mut self, triangles: usize) {
+        let settings = *self.budget.settings();
+        self.budget = BudgetController::new(BudgetSettings {
+            initial_budget: triangles,
+            min_budget: settings.min_budget.min(triangles),
+            max_budget: settings.max_budget.max(triangles),
+            ..settings
+        });
+    }
+
     /// Feeds the time a frame took (as the target device would have spent it) to the budget
     /// controller; returns the next frame's budget.
     pub fn record_frame(&mut self, seconds: f64, triangles: usize) -> usize {
@@ -361,13 +373,15 @@ impl Engine {
     }
 
     /// Near plane from the height above the ground (depth precision where it matters), far
-    /// plane at the farthest loaded tile (nothing beyond it can be drawn).
+    /// plane at the farthest loaded tile (nothing beyond it can be drawn). The near plane stays
+    /// below the eye's height, or the ground under the lower screen edge would be clipped away
+    /// (down to a millimetre: an eye a centimetre above the ground still sees the ground).
     fn fit_depth_range(&self, camera: &mut Camera) {
         let ground = self
             .ground(camera.position)
             .unwrap_or(self.terrain.heights.0 + self.terrain.origin.y);
         let height = (camera.position.y - ground).max(0.0);
-        camera.near = (0.25 * height).clamp(0.5, 1000.0);
+        camera.near = (0.25 * height).clamp(1e-3, 1000.0);
         let far = self
             .pager
             .tiles()

@@ -52,6 +52,7 @@ pub mod terrain;
 pub mod texture_gen;
 pub mod tile;
 pub mod tiling;
+pub mod tradeoff;
 pub mod viewer;
 
 pub use error::{Error, Result};

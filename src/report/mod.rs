@@ -135,12 +135,19 @@ fn per_second(time: &[f64], cumulative: &[f64]) -> Vec<(f64, f64)> {
     points
 }
 
-fn plot(path: &Path, title: &str, unit: &str, lines: &[Series]) -> Result<()> {
+/// Registers the embedded font with plotters (once) and returns its family name, for every
+/// plot the crate draws.
+pub(crate) fn font_family() -> &'static str {
     static FONT_ONCE: Once = Once::new();
     FONT_ONCE.call_once(|| {
         let parsed = register_font(FAMILY, FontStyle::Normal, FONT).is_ok();
         assert!(parsed, "the embedded font parses");
     });
+    FAMILY
+}
+
+fn plot(path: &Path, title: &str, unit: &str, lines: &[Series]) -> Result<()> {
+    font_family();
     let name = path.display().to_string();
     let fail = |e: &dyn std::fmt::Display| Error::invalid(&name, format!("plotting failed: {e}"));
     let (w, h) = PLOT_SIZE;

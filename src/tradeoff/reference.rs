@@ -1,0 +1,56 @@
+//! The images settings are measured against. A reference renders the same view from the same
+//! engine (tiles, masks, textures, camera); the report measures every setting against each
+//! reference it is given, so a second one (a GPU render of the same draw list) plugs in beside
+//! the CPU float render without touching the sweep.
+
+use image::RgbaImage;
+use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer, Perspective, Precision, Sampler};
+
+use crate::camera::Camera;
+use crate::engine::Engine;
+use crate::error::{Error, Result};
+
+/// A renderer of reference images.
+pub trait Reference {
+    /// Short name for tables and CSV columns, e.g. `cpu-float`.
+    fn name(&self) -> String;
+    /// Renders `camera`'s view of `engine`'s terrain at `size`, with the engine's rendering
+    /// features (lighting, fog, depth test, sky) as they are set. The engine's render settings
+    /// and pinned levels may be changed; the caller sets its own before the next frame.
+    fn render(
+        &mut self,
+        engine: &mut Engine,
+        camera: &Camera,
+        size: (u32, u32),
+    ) -> Result<RgbaImage>;
+}
+
+/// The most accurate render this engine can make: every tile at full resolution, the f32
+/// pipeline, exact perspective, bilinear mipmapped texels, 32-bit depth, 8-bit colour.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct CpuFloat;
+
+impl Reference for CpuFloat {
+    fn name(&self) -> String {
+        "cpu-float".into()
+    }
+
+    fn render(
+        &mut self,
+        engine: &mut Engine,
+        camera: &Camera,
+        size: (u32, u32),
+    ) -> Result<RgbaImage> {
+        let render = engine.render_settings_mut();
+        render.precision = Precision::Float;
+        render.perspective = Perspective::Exact;
+        if render.sampler.is_some() {
+            render.sampler = Some(Sampler::BILINEAR_MIPMAP);
+        }
+        engine.force_levels(Some(Box::new(|_| 0)));
+        let mut fb = Framebuffer::new(size.0, size.1, ColorFormat::Rgba8888, DepthFormat::D32)
+            .map_err(|e| Error::Usage(format!("reference frame {}x{}: {e}", size.0, size.1)))?;
+        engine.render(camera, &mut fb)?;
+        Ok(fb.to_rgba_image())
+    }
+}

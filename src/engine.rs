@@ -333,6 +333,21 @@ impl Engine {
         })
     }
 
+    /// Switches the crack mode between frames. Loaded tiles are refit in place (skirt vertices
+    /// added or dropped; no fetch) and re-accounted, evicting the farthest tiles if the new mode
+    /// holds more than the memory limit allows ([`Pager::refit`]); fetches in flight are refit
+    /// when they arrive. The next frame draws exactly what an engine started in `mode` would
+    /// draw with the same tiles loaded.
+    pub fn set_cracks(&mut self, mode: CrackMode) {
+        if mode == self.settings.cracks {
+            return;
+        }
+        self.settings.cracks = mode;
+        self.pager.loader().set_cracks(mode);
+        self.pager.refit();
+        self.cracks = TileIndices::new(mode, self.terrain.tile_size);
+    }
+
     /// Changes the frame rate the budget aims at (a lower target allows more triangles).
     pub fn set_target_fps(&mut self, fps: f64) {
         let mut settings = *self.budget.settings();

@@ -11,7 +11,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use glam::DVec3;
-use stripmask_raster::{DrawStats, Framebuffer, Rasterizer};
+use stripmask_raster::{DrawStats, Framebuffer, LineStats, Rasterizer};
 
 use crate::archive::ArchiveReader;
 use crate::belts::{Grid, TileId};
@@ -95,6 +95,8 @@ pub struct FrameReport {
     pub rendered: Vec<RenderedTile>,
     /// What the rasterizer did.
     pub draw: DrawStats,
+    /// What the wireframe's lines did (zero when it is off).
+    pub wireframe: LineStats,
     /// Seconds spent on culling, importance, budget and masks.
     pub bookkeeping_seconds: f64,
     /// Seconds spent drawing.
@@ -307,7 +309,7 @@ impl Engine {
         let bookkeeping_seconds = started.elapsed().as_secs_f64();
 
         let drawing = Instant::now();
-        let draw = draw_tiles(
+        let drawn = draw_tiles(
             fb,
             &mut self.rasterizer,
             &camera,
@@ -326,7 +328,8 @@ impl Engine {
             triangles,
             rendered_tiles: draws.len(),
             rendered,
-            draw,
+            draw: drawn.triangles,
+            wireframe: drawn.lines,
             bookkeeping_seconds,
             draw_seconds: drawing.elapsed().as_secs_f64(),
             pager: self.pager.stats(),

@@ -145,7 +145,11 @@ pub fn run(presenter: &mut dyn Presenter, o: &ViewerOptions) -> Result<ViewerSum
                     let next = engine.settings().cracks.next();
                     engine.set_cracks(next);
                 }
-                Command::Wireframe | Command::Hud | Command::Importance => {}
+                Command::Wireframe => {
+                    let r = engine.render_settings_mut();
+                    r.wireframe = r.wireframe.next();
+                }
+                Command::Hud | Command::Importance => {}
             }
         }
         let dt = last.elapsed().as_secs_f64();

@@ -12,8 +12,8 @@
 //! of the line at `cx` (an exact integer division); steeper lines the same with rows. One pixel
 //! per column (or row), no gaps, the same pixels whichever way the segment is given, and no
 //! float anywhere: the same bytes on every machine. Depth is affine in screen space, so it is
-//! interpolated exactly the same way; [`LineDepth::Biased`] pulls it towards the eye so that
-//! lines on a surface are not hidden by the surface itself.
+//! interpolated exactly the same way; [`LineDepth::Biased`] compares it with the surface beside
+//! the line as well, so that lines on a surface are not hidden by the surface itself.
 
 use crate::RasterError;
 use crate::clip::{ClipVertex, PLANES};
@@ -34,15 +34,19 @@ pub enum LineDepth {
     /// Drawn over everything; the depth buffer is not read.
     Always,
     /// Drawn where the line's depth, less this bias (0.32 depth units, as in the buffer's top
-    /// bits), is not behind the stored depth: lines on a surface show, lines behind it do not.
+    /// bits), is not behind the stored depth plus the surface's slope there: the larger depth
+    /// change from the pixel to the two pixels beside it across the line. The line's depth is
+    /// taken on the exact line, the surface's at the pixel centre up to half a pixel away, so
+    /// on a steep surface or in a valley's crease the two differ by up to half a pixel's slope.
+    /// Lines on a surface show whatever its slope; lines behind it by more than a pixel's worth
+    /// of its slope do not.
     Biased(u32),
 }
 
 impl LineDepth {
-    /// A bias of 8 steps of a 16-bit depth buffer: enough for the edges of a mesh drawn with
-    /// [`crate::DepthMode::LESS_WRITE`] to show over it (the line's depth is taken on the exact
-    /// edge, the surface's at the pixel centre up to half a pixel away).
-    pub const ON_SURFACE: Self = Self::Biased(8 << 16);
+    /// A bias of 2 steps of a 16-bit depth buffer, for the rounding of both depths: the edges
+    /// of a mesh drawn with [`crate::DepthMode::LESS_WRITE`] show over it.
+    pub const ON_SURFACE: Self = Self::Biased(2 << 16);
 }
 
 /// Everything a line draw needs besides geometry and transform.
@@ -250,15 +254,34 @@ fn draw_all<P: PixelFormat, D: DepthFormat>(
     r: Rect,
     rgb: [u8; 3],
     bias: i64,
-) -> u64 {
+) -> u64
+where
+    D::Value: Into<u64>,
+{
     let pixel = P::pack(rgb);
+    let height = if D::ENABLED { depth.len() / width } else { 0 };
     let mut fragments = 0;
     for &[a, b] in segments {
-        walk(a, b, r, |x, y, z| {
+        walk(a, b, r, |x, y, z, x_major| {
             let i = y as usize * width + x as usize;
             if D::ENABLED {
+                // The pixels beside this one across the line, where they exist.
+                let (before, after, step) = if x_major {
+                    (y > 0, (y as usize) + 1 < height, width)
+                } else {
+                    (x > 0, (x as usize) + 1 < width, 1)
+                };
+                // The surface's depth change to the pixels beside, one pixel's worth of slope.
+                let here: u64 = depth[i].into();
+                let mut slope = 0;
+                if before {
+                    slope = slope.max(here.abs_diff(depth[i - step].into()));
+                }
+                if after {
+                    slope = slope.max(here.abs_diff(depth[i + step].into()));
+                }
                 let pulled = (z - bias).clamp(0, u32::MAX as i64) as u32;
-                if D::quantise(pulled) > depth[i] {
+                if D::quantise(pulled).into() > here + slope {
                     return;
                 }
             }
@@ -269,8 +292,9 @@ fn draw_all<P: PixelFormat, D: DepthFormat>(
     fragments
 }
 
-/// Calls `plot(x, y, depth)` for every pixel of segment `a b` inside `r` (see the module doc).
-fn walk(a: Endpoint, b: Endpoint, r: Rect, mut plot: impl FnMut(i64, i64, i64)) {
+/// Calls `plot(x, y, depth, x_major)` for every pixel of segment `a b` inside `r` (see the
+/// module doc); `x_major` tells whether the line steps along x.
+fn walk(a: Endpoint, b: Endpoint, r: Rect, mut plot: impl FnMut(i64, i64, i64, bool)) {
     let (dx, dy) = (b.xy[0] - a.xy[0], b.xy[1] - a.xy[1]);
     // The major axis, then the other one.
     let (major, minor) = if dx.abs() >= dy.abs() { (0, 1) } else { (1, 0) };
@@ -308,9 +332,9 @@ fn walk(a: Endpoint, b: Endpoint, r: Rect, mut plot: impl FnMut(i64, i64, i64)) 
         }
         let z = a.depth + floor_div(t * deep, along);
         if major == 0 {
-            plot(p, q, z);
+            plot(p, q, z, true);
         } else {
-            plot(q, p, z);
+            plot(q, p, z, false);
         }
     }
 }
@@ -334,7 +358,7 @@ mod tests {
             y1: 16,
         };
         let mut out = Vec::new();
-        walk(a, b, r, |x, y, _| out.push((x, y)));
+        walk(a, b, r, |x, y, _, _| out.push((x, y)));
         out.sort_unstable();
         out
     }
@@ -377,7 +401,7 @@ mod tests {
             y1: 16,
         };
         let mut z = Vec::new();
-        walk(a, b, r, |_, _, d| z.push(d));
+        walk(a, b, r, |_, _, d, _| z.push(d));
         assert_eq!(z, [1000, 2000, 3000, 4000]);
     }
 }

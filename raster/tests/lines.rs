@@ -392,3 +392,45 @@ fn finite_matrix() -> impl Strategy<Value = DMat4> {
     )
     .prop_map(|v| DMat4::from_cols_slice(&v))
 }
+
+#[test]
+fn a_line_in_a_valley_crease_shows_though_the_pixel_centres_beside_it_are_nearer() {
+    let m = pixels_transform(32, 24);
+    // A V-shaped valley: depth 0.25 at the left and right edges, 0.75 along the crease x = 16.
+    let v: Vec<Vertex> = [(0.0, 256), (16.0, 768), (32.0, 256)]
+        .iter()
+        .flat_map(|&(x, z)| [quarter(x, 0.0, z), quarter(x, 24.0, z)])
+        .collect();
+    let mesh = Mesh {
+        vertices: &v,
+        indices: Indices::U16(&[0, 1, 2, 3, 4, 5]),
+        topology: Topology::TriangleStrip,
+    };
+    for depth in [DepthFormat::D16, DepthFormat::D32] {
+        let mut fb = Framebuffer::new(32, 24, ColorFormat::Rgb565, depth).unwrap();
+        fb.clear(BLACK);
+        let state = RenderState {
+            cull: CullMode::None,
+            ..RenderState::default()
+        };
+        let mut r = Rasterizer::new();
+        assert_eq!(
+            r.draw(&mut fb, &mesh, &m, &state).unwrap().fragments,
+            32 * 24
+        );
+        let crease = [quarter(16.0, 0.0, 768), quarter(16.0, 24.0, 768)];
+        let s = r
+            .draw_lines(&mut fb, &crease, &[[0, 1]], &m, &red(LineDepth::ON_SURFACE))
+            .unwrap();
+        assert_eq!(s.fragments, 24, "{depth:?}: the whole crease");
+        // Four pixels' worth of slope behind the crease: hidden.
+        let deeper = [
+            quarter(16.0, 0.0, 768 + 128),
+            quarter(16.0, 24.0, 768 + 128),
+        ];
+        let s = r
+            .draw_lines(&mut fb, &deeper, &[[0, 1]], &m, &red(LineDepth::ON_SURFACE))
+            .unwrap();
+        assert_eq!(s.fragments, 0, "{depth:?}: behind the valley floor");
+    }
+}

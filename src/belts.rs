@@ -422,6 +422,55 @@ impl Ledger {
         bytes
     }
 
+    /// A resident copy now holds `bytes`, more or fewer than before (the loader's settings
+    /// changed, see `Pager::refit`). Fails (and changes nothing) when that would take the
+    /// accounted bytes over the limit.
+    pub fn resize_held(&mut self, id: TileId, bytes: usize) -> Result<()> {
+        let Some(held) = self.records.get(&id).and_then(|r| r.held) else {
+            return Err(Error::invalid(
+                id.to_string(),
+                "it was resized but is not resident",
+            ));
+        };
+        self.resize(id, held.bytes, bytes, "resident copy")?;
+        if let Some(h) = self.records.get_mut(&id).and_then(|r| r.held.as_mut()) {
+            h.bytes = bytes;
+        }
+        Ok(())
+    }
+
+    /// The fetch of `id` in flight will hold `bytes` instead of what was reserved. Fails (and
+    /// changes nothing) when that would take the accounted bytes over the limit.
+    pub fn resize_reservation(&mut self, id: TileId, bytes: usize) -> Result<()> {
+        let Some(fetch) = self.records.get(&id).and_then(|r| r.fetch) else {
+            return Err(Error::invalid(
+                id.to_string(),
+                "it has no fetch in flight to resize",
+            ));
+        };
+        self.resize(id, fetch.bytes, bytes, "reservation")?;
+        if let Some(f) = self.records.get_mut(&id).and_then(|r| r.fetch.as_mut()) {
+            f.bytes = bytes;
+        }
+        Ok(())
+    }
+
+    fn resize(&mut self, id: TileId, old: usize, new: usize, what: &str) -> Result<()> {
+        let memory = self.memory - old + new;
+        if memory > self.limit {
+            return Err(Error::invalid(
+                id.to_string(),
+                format!(
+                    "its {what} cannot grow from {old} to {new} bytes ({} of {} bytes accounted)",
+                    self.memory, self.limit
+                ),
+            ));
+        }
+        self.memory = memory;
+        self.peak = self.peak.max(memory);
+        Ok(())
+    }
+
     /// A resident copy now serves `ring` and holds `bytes` (after the loader shrank it). Fails
     /// (and changes nothing) when it would hold more than before.
     pub fn shrink(&mut self, id: TileId, bytes: usize, ring: u32) -> Result<()> {

@@ -191,6 +191,9 @@ struct FbArgs {
     /// Fit a frame that differs from the screen: centre it, or scale it to fill.
     #[arg(long, value_enum, default_value_t = FitArg::Center)]
     fit: FitArg,
+    /// An evdev keyboard (e.g. /dev/input/event0) to fly with the viewer's keys.
+    #[arg(long)]
+    input: Option<PathBuf>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -623,6 +626,11 @@ fn run_fb(a: FbArgs) -> Result<()> {
     };
     let mut screen = stripmask_platform::FbPresenter::open(&a.device, fit)
         .map_err(|e| Error::Usage(e.to_string()))?;
+    if let Some(path) = &a.input {
+        let keyboard =
+            stripmask_platform::EvdevInput::open(path).map_err(|e| Error::Usage(e.to_string()))?;
+        screen = screen.with_input(keyboard);
+    }
     report_view(viewer::run(&mut screen, &options)?);
     Ok(())
 }

@@ -11,7 +11,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use glam::DVec3;
-use stripmask_raster::{DrawStats, Framebuffer, Rasterizer};
+use stripmask_raster::{DrawStats, Framebuffer, LineStats, Rasterizer};
 
 use crate::archive::ArchiveReader;
 use crate::belts::{Grid, TileId};
@@ -99,6 +99,8 @@ pub struct FrameReport {
     pub rendered: Vec<RenderedTile>,
     /// What the rasterizer did.
     pub draw: DrawStats,
+    /// What the wireframe's lines did (zero when it is off).
+    pub wireframe: LineStats,
     /// Seconds spent on culling, importance, budget and masks.
     pub bookkeeping_seconds: f64,
     /// Seconds spent drawing.
@@ -315,7 +317,7 @@ impl Engine {
         let bookkeeping_seconds = started.elapsed().as_secs_f64();
 
         let drawing = Instant::now();
-        let draw = draw_tiles(
+        let drawn = draw_tiles(
             fb,
             &mut self.rasterizer,
             &camera,
@@ -335,11 +337,27 @@ impl Engine {
             triangles,
             rendered_tiles: draws.len(),
             rendered,
-            draw,
+            draw: drawn.triangles,
+            wireframe: drawn.lines,
             bookkeeping_seconds,
             draw_seconds: drawing.elapsed().as_secs_f64(),
             pager: self.pager.stats(),
         })
+    }
+
+    /// Switches the crack mode between frames. Loaded tiles are refit in place (skirt vertices
+    /// added or dropped; no fetch) and re-accounted, evicting the farthest tiles if the new mode
+    /// holds more than the memory limit allows ([`Pager::refit`]); fetches in flight are refit
+    /// when they arrive. The next frame draws exactly what an engine started in `mode` would
+    /// draw with the same tiles loaded.
+    pub fn set_cracks(&mut self, mode: CrackMode) {
+        if mode == self.settings.cracks {
+            return;
+        }
+        self.settings.cracks = mode;
+        self.pager.loader().set_cracks(mode);
+        self.pager.refit();
+        self.cracks = TileIndices::new(mode, self.terrain.tile_size);
     }
 
     /// Changes the frame rate the budget aims at (a lower target allows more triangles).

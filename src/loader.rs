@@ -13,6 +13,8 @@
 //! fit the budget. It is decided once, before anything is fetched, so the pager's accounting
 //! stays exact.
 
+use std::sync::atomic::{AtomicU8, AtomicUsize, Ordering};
+
 use crate::archive::ArchiveReader;
 use crate::belts::TileId;
 use crate::cracks::CrackMode;
@@ -23,12 +25,19 @@ use crate::rgb565::mip_count;
 use crate::source::TileSource;
 
 /// Loads resident tiles from an archive.
+///
+/// The crack mode and the texture bias can change while the fetch thread loads tiles
+/// ([`ArchiveLoader::set_cracks`]), so they are atomics; a tile loaded under the old ones is
+/// brought up to date by [`TileLoader::refit`] when it arrives.
 pub struct ArchiveLoader {
     reader: ArchiveReader<Box<dyn TileSource>>,
     light: Light,
     focal_px: f64,
-    cracks: CrackMode,
-    bias: usize,
+    /// Index into [`CrackMode::ALL`].
+    cracks: AtomicU8,
+    bias: AtomicUsize,
+    /// The memory limit and texture budget the bias was fitted to, if any.
+    texture_fit: Option<(usize, usize)>,
 }
 
 impl ArchiveLoader {
@@ -45,8 +54,9 @@ impl ArchiveLoader {
             reader,
             light,
             focal_px: focal_px.max(1.0),
-            cracks,
-            bias: 0,
+            cracks: AtomicU8::new(mode_index(cracks)),
+            bias: AtomicUsize::new(0),
+            texture_fit: None,
         }
     }
 
@@ -55,17 +65,42 @@ impl ArchiveLoader {
     /// the bias chosen. The square is counted whole (8 d tiles in belt d), as it is away from
     /// the terrain's borders.
     pub fn fit_texture_budget(&mut self, memory_limit: usize, texture_budget: usize) -> usize {
+        self.texture_fit = Some((memory_limit, texture_budget));
+        let bias = self.fitted_bias(self.cracks(), memory_limit, texture_budget);
+        self.bias.store(bias, Ordering::Relaxed);
+        bias
+    }
+
+    /// The crack mode tiles are loaded for.
+    pub fn cracks(&self) -> CrackMode {
+        CrackMode::ALL[usize::from(self.cracks.load(Ordering::Relaxed))]
+    }
+
+    /// Loads tiles for crack mode `cracks` from now on (and refits the texture bias to the
+    /// budget, whose share of memory depends on the mode's geometry). Tiles already loaded are
+    /// brought to the new mode by [`TileLoader::refit`].
+    pub fn set_cracks(&self, cracks: CrackMode) {
+        self.cracks.store(mode_index(cracks), Ordering::Relaxed);
+        if let Some((memory_limit, texture_budget)) = self.texture_fit {
+            let bias = self.fitted_bias(cracks, memory_limit, texture_budget);
+            self.bias.store(bias, Ordering::Relaxed);
+        }
+    }
+
+    /// The smallest bias with which the textures of the largest square of belts fit the budget.
+    fn fitted_bias(&self, cracks: CrackMode, memory_limit: usize, texture_budget: usize) -> usize {
         let h = self.reader.header();
         let (s, t) = (h.tile_size as usize, h.texture_size as usize);
         let max_ring = h.tiles_x.max(h.tiles_y);
         // A tile's bytes without any texture: its bytes with only the 1 x 1 RGB565 mip, less it.
-        let geometry = predicted_bytes(s, t, usize::MAX, self.cracks) - 2;
+        let geometry = predicted_bytes(s, t, usize::MAX, cracks) - 2;
+        let mut chosen = 0;
         for bias in 0..mip_count(t) {
-            self.bias = bias;
+            chosen = bias;
             let (mut memory, mut texture) = (0usize, 0usize);
             for ring in 0..=max_ring {
                 let tiles = if ring == 0 { 1 } else { 8 * ring as usize };
-                let tile = predicted_bytes(s, t, self.texture_base(ring), self.cracks);
+                let tile = predicted_bytes(s, t, self.texture_base_with(ring, bias), cracks);
                 if memory + tiles * tile > memory_limit {
                     break;
                 }
@@ -76,7 +111,7 @@ impl ArchiveLoader {
                 break;
             }
         }
-        self.bias
+        chosen
     }
 
     /// The archive.
@@ -86,10 +121,21 @@ impl ArchiveLoader {
 
     /// The finest texture mip worth holding for a tile `ring` belts away.
     pub fn texture_base(&self, ring: u32) -> usize {
+        self.texture_base_with(ring, self.bias.load(Ordering::Relaxed))
+    }
+
+    fn texture_base_with(&self, ring: u32, bias: usize) -> usize {
         let t = self.reader.header().texture_size as f64;
         let needed = (t * f64::from(ring.max(1)) / self.focal_px).log2().floor();
-        (needed.max(0.0) as usize + self.bias).min(mip_count(t as usize) - 1)
+        (needed.max(0.0) as usize + bias).min(mip_count(t as usize) - 1)
     }
+}
+
+fn mode_index(cracks: CrackMode) -> u8 {
+    CrackMode::ALL
+        .iter()
+        .position(|&m| m == cracks)
+        .expect("ALL lists every mode") as u8
 }
 
 impl TileLoader for ArchiveLoader {
@@ -101,7 +147,7 @@ impl TileLoader for ArchiveLoader {
             h.tile_size as usize,
             h.texture_size as usize,
             self.texture_base(ring),
-            self.cracks,
+            self.cracks(),
         )
     }
 
@@ -117,7 +163,7 @@ impl TileLoader for ArchiveLoader {
                 self.texture_base(ring),
                 spacing,
                 &self.light,
-                self.cracks,
+                self.cracks(),
             ),
             downloaded,
         ))
@@ -128,6 +174,11 @@ impl TileLoader for ArchiveLoader {
     }
 
     fn shrink(&self, tile: &mut ResidentTile, ring: u32) -> usize {
+        tile.coarsen_texture(self.texture_base(ring))
+    }
+
+    fn refit(&self, tile: &mut ResidentTile, ring: u32) -> usize {
+        tile.set_cracks(self.cracks(), self.reader.header().height_quantum);
         tile.coarsen_texture(self.texture_base(ring))
     }
 }

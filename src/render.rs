@@ -9,8 +9,9 @@
 
 use glam::{DMat4, DVec3};
 use stripmask_raster::{
-    CullMode, DepthMode, DrawStats, Fog, Framebuffer, Indices, Mesh, Perspective, Precision,
-    RasterError, Rasterizer, RenderState, Sampler, Shading, TextureBinding, Topology, Transform,
+    CullMode, DepthMode, DrawStats, Fog, Framebuffer, Indices, LineDepth, LineState, LineStats,
+    Mesh, Perspective, Precision, RasterError, Rasterizer, RenderState, Sampler, Shading,
+    TextureBinding, Topology, Transform,
 };
 
 use crate::camera::Camera;
@@ -19,6 +20,55 @@ use crate::geomorph::{self, Morpher};
 use crate::masks::{FRONT_FACE, MaskSet};
 use crate::resident::ResidentTile;
 use crate::terrain::TerrainFrame;
+
+/// Whether the tiles' triangle edges are drawn (the viewer's L key cycles through these).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Wireframe {
+    /// Shaded terrain only: no line is drawn and nothing is paid.
+    #[default]
+    Off,
+    /// The edges in [`Wireframe::OVER_COLOR`] over the shaded terrain.
+    Over,
+    /// The edges in [`Wireframe::ONLY_COLOR`] over the terrain filled in white (untextured,
+    /// unlit, no fog): a hidden-line drawing of the triangles alone.
+    Only,
+}
+
+impl Wireframe {
+    /// Line colour over the shaded terrain.
+    pub const OVER_COLOR: [u8; 3] = [255, 255, 255];
+    /// Line colour over the white terrain.
+    pub const ONLY_COLOR: [u8; 3] = [24, 24, 48];
+
+    /// The next mode: off, over, only, off.
+    pub fn next(self) -> Wireframe {
+        match self {
+            Wireframe::Off => Wireframe::Over,
+            Wireframe::Over => Wireframe::Only,
+            Wireframe::Only => Wireframe::Off,
+        }
+    }
+
+    /// The lines' state, `None` when off.
+    fn lines(self, depth_test: bool) -> Option<LineState> {
+        let color = match self {
+            Wireframe::Off => return None,
+            Wireframe::Over => Wireframe::OVER_COLOR,
+            Wireframe::Only => Wireframe::ONLY_COLOR,
+        };
+        Some(LineState {
+            color,
+            // In painter's order each tile's edges are drawn right after it, and nearer tiles
+            // drawn later cover them: no depth test needed (the depth buffer is not written).
+            depth: if depth_test {
+                LineDepth::ON_SURFACE
+            } else {
+                LineDepth::Always
+            },
+            scissor: None,
+        })
+    }
+}
 
 /// The rendering knobs a user trades speed for accuracy with.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -39,6 +89,8 @@ pub struct RenderSettings {
     pub fog_start: f64,
     /// Background and fog colour.
     pub sky: [u8; 3],
+    /// The tiles' triangle edges over (or instead of) the shaded terrain.
+    pub wireframe: Wireframe,
 }
 
 impl Default for RenderSettings {
@@ -52,6 +104,7 @@ impl Default for RenderSettings {
             fog: true,
             fog_start: 0.6,
             sky: [150, 180, 215],
+            wireframe: Wireframe::Off,
         }
     }
 }
@@ -136,7 +189,17 @@ pub struct TileMeshes<'m> {
     pub morph: Option<&'m mut Morpher>,
 }
 
-/// Clears `fb` to the sky and draws `tiles` (reordered for the depth mode).
+/// What drawing a frame's tiles did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TilesDrawn {
+    /// The triangles: tiles and the crack mode's geometry.
+    pub triangles: DrawStats,
+    /// The wireframe's lines (zero when it is off).
+    pub lines: LineStats,
+}
+
+/// Clears `fb` to the sky and draws `tiles` (reordered for the depth mode), each followed by
+/// its wireframe when that is on.
 pub fn draw_tiles(
     fb: &mut Framebuffer,
     rasterizer: &mut Rasterizer,
@@ -145,7 +208,7 @@ pub fn draw_tiles(
     tiles: &mut [TileDraw<'_>],
     meshes: TileMeshes<'_>,
     settings: &RenderSettings,
-) -> Result<DrawStats, RasterError> {
+) -> Result<TilesDrawn, RasterError> {
     fb.clear(settings.sky);
     let aspect = f64::from(fb.width()) / f64::from(fb.height());
     let transform = FrameTransform::new(camera, terrain, aspect)?;
@@ -160,7 +223,22 @@ pub fn draw_tiles(
         end: camera.far,
     });
     let shadows = meshes.cracks.mode() == CrackMode::Shadow;
+    let wire = settings.wireframe.lines(settings.depth_test);
+    let surface = match settings.wireframe {
+        Wireframe::Only => RenderSettings {
+            sampler: None,
+            lighting: false,
+            fog: false,
+            ..*settings
+        },
+        Wireframe::Off | Wireframe::Over => *settings,
+    };
+    let (settings, fog) = match settings.wireframe {
+        Wireframe::Only => (&surface, None),
+        Wireframe::Off | Wireframe::Over => (settings, fog),
+    };
     let mut stats = DrawStats::default();
+    let mut lines = LineStats::default();
     if shadows && !settings.depth_test {
         stats += draw_shadows(
             fb, rasterizer, camera, terrain, tiles, aspect, settings, fog,
@@ -189,13 +267,19 @@ pub fn draw_tiles(
             topology,
         };
         stats += rasterizer.draw(fb, &mesh, &tile_transform, &tile_state(settings, fog, t))?;
+        if let Some(wire) = &wire {
+            lines += rasterizer.draw_edges(fb, &mesh, &tile_transform, wire)?;
+        }
     }
     if shadows && settings.depth_test {
         stats += draw_shadows(
             fb, rasterizer, camera, terrain, tiles, aspect, settings, fog,
         )?;
     }
-    Ok(stats)
+    Ok(TilesDrawn {
+        triangles: stats,
+        lines,
+    })
 }
 
 /// Draws the shadow quad of every tile in `tiles` ([`crate::cracks::shadow`]), in their order,

@@ -118,6 +118,23 @@ impl ResidentTile {
         archive_mip.saturating_sub(self.texture_base).min(held) as u8
     }
 
+    /// Adds or removes the skirt vertices so that the tile draws in crack mode `cracks` (heights
+    /// in archive quanta of `quantum` metres), exactly as if it had been loaded in that mode:
+    /// switching modes needs no fetch. Returns the bytes the tile holds now.
+    pub fn set_cracks(&mut self, cracks: CrackMode, quantum: f32) -> usize {
+        let grid = self.normals.len();
+        let s = grid.isqrt();
+        if self.vertices.len() != grid + cracks.extra_vertices(s) {
+            self.vertices.truncate(grid);
+            if cracks == CrackMode::Skirts {
+                let depth = skirts::depth_quanta(&self.level_errors, quantum);
+                skirts::append_vertices(&mut self.vertices, s, depth);
+            }
+            self.vertices.shrink_to_fit();
+        }
+        self.bytes()
+    }
+
     /// Drops texture mips finer than `base` (no-op when already coarser); returns the new bytes.
     pub fn coarsen_texture(&mut self, base: usize) -> usize {
         let drop = base.saturating_sub(self.texture_base);
@@ -242,17 +259,24 @@ mod tests {
     fn accounted_bytes_are_known_before_loading_and_shrink_with_the_texture() {
         let tile = sloped_tile();
         for base in 0..5 {
-            for cracks in [
-                CrackMode::None,
-                CrackMode::Shadow,
-                CrackMode::Skirts,
-                CrackMode::Stitch,
-            ] {
+            for cracks in CrackMode::ALL {
                 let r = ResidentTile::new(&tile, base, 2.0, &Light::default(), cracks);
                 assert_eq!(r.bytes(), predicted_bytes(9, 8, base, cracks), "{cracks:?}");
             }
         }
         let skirted = ResidentTile::new(&tile, 0, 2.0, &Light::default(), CrackMode::Skirts);
+        for from in CrackMode::ALL {
+            for to in CrackMode::ALL {
+                let mut r = ResidentTile::new(&tile, 1, 2.0, &Light::default(), from);
+                let fresh = ResidentTile::new(&tile, 1, 2.0, &Light::default(), to);
+                assert_eq!(
+                    r.set_cracks(to, tile.quantum),
+                    fresh.bytes(),
+                    "{from:?} -> {to:?}"
+                );
+                assert_eq!(r.vertices, fresh.vertices, "{from:?} -> {to:?}");
+            }
+        }
         assert_eq!(skirted.vertices.len(), 81 + 36);
         let mut r = ResidentTile::new(&tile, 0, 2.0, &Light::default(), CrackMode::None);
         let full = r.bytes();

@@ -141,8 +141,15 @@ pub fn run(presenter: &mut dyn Presenter, o: &ViewerOptions) -> Result<ViewerSum
                     let fps = engine.settings().budget.target_fps * 1.25;
                     engine.set_target_fps(fps);
                 }
-                // Crack modes and wireframe belong to later work (issue 5, raster lines).
-                Command::CrackMode | Command::Wireframe | Command::Hud | Command::Importance => {}
+                Command::CrackMode => {
+                    let next = engine.settings().cracks.next();
+                    engine.set_cracks(next);
+                }
+                Command::Wireframe => {
+                    let r = engine.render_settings_mut();
+                    r.wireframe = r.wireframe.next();
+                }
+                Command::Hud | Command::Importance => {}
             }
         }
         let dt = last.elapsed().as_secs_f64();

@@ -37,7 +37,7 @@ fn settle(engine: &mut Engine, eye: DVec3, target: DVec3, fb: &mut Framebuffer) 
 #[test]
 fn fly_writes_one_stats_row_per_frame_and_keeps_every_kth_frame() {
     let dir = tempfile::tempdir().unwrap();
-    let path = archive(dir.path());
+    let path = archive(dir.path(), 33);
     let engine = stepped(2_000_000);
     let reader =
         stripmask::archive::ArchiveReader::open(source::open(path.to_str().unwrap()).unwrap())
@@ -95,7 +95,7 @@ fn fly_writes_one_stats_row_per_frame_and_keeps_every_kth_frame() {
 #[test]
 fn a_terrain_far_from_the_origin_renders_the_same_picture() {
     let dir = tempfile::tempdir().unwrap();
-    let path = archive(dir.path());
+    let path = archive(dir.path(), 33);
     // Dyadic positions, so that adding 10^7 or 10^8 m is exact and any difference is the engine's.
     let eye = DVec3::new(1200.5, 1500.25, 3900.75);
     let target = DVec3::new(4000.0, 300.0, 2000.0);
@@ -124,7 +124,7 @@ fn a_terrain_far_from_the_origin_renders_the_same_picture() {
 #[test]
 fn neighbouring_tiles_at_the_same_level_leave_no_crack() {
     let dir = tempfile::tempdir().unwrap();
-    let path = archive(dir.path());
+    let path = archive(dir.path(), 33);
     let mut settings = stepped(64 << 20);
     settings.budget.initial_budget = 1 << 20;
     settings.budget.min_budget = 1 << 20;
@@ -159,7 +159,7 @@ fn neighbouring_tiles_at_the_same_level_leave_no_crack() {
 #[test]
 fn a_texture_budget_coarsens_the_textures_of_the_square_to_fit() {
     let dir = tempfile::tempdir().unwrap();
-    let path = archive(dir.path());
+    let path = archive(dir.path(), 33);
     // Viewer over the centre tile; the limit holds the 5 x 5 square around it.
     let eye = DVec3::new(4.5 * 960.0, 1500.0, 4.5 * 960.0);
     let target = eye + DVec3::new(10.0, -30.0, 0.0);

@@ -382,11 +382,12 @@ fn draw_as_is(
         TileMeshes {
             masks: engine.masks(),
             cracks: &mut cracks,
+            morph: None,
         },
         &settings,
     )
     .unwrap();
-    (fb, stats)
+    (fb, stats.triangles)
 }
 
 #[test]

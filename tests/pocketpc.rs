@@ -69,7 +69,7 @@ fn fly_as(p: &DeviceProfile, archive: &Path, out: &Path, frames: u64) -> FlySumm
 #[test]
 fn the_simulated_clock_gives_the_same_stats_csv_twice() {
     let dir = tempfile::tempdir().unwrap();
-    let path = archive(dir.path());
+    let path = archive(dir.path(), 33);
     let p = DeviceProfile::pocketpc();
     let (a, b) = (dir.path().join("a"), dir.path().join("b"));
     let first = fly_as(&p, &path, &a, 60);
@@ -85,7 +85,7 @@ fn the_simulated_clock_gives_the_same_stats_csv_twice() {
 #[test]
 fn a_jittery_simulated_link_repeats_byte_for_byte_and_changes_the_arrivals() {
     let dir = tempfile::tempdir().unwrap();
-    let path = archive(dir.path());
+    let path = archive(dir.path(), 33);
     let steady = DeviceProfile::pocketpc();
     let mut jittery = steady.clone();
     jittery.link.jitter_ms = 40.0;
@@ -107,7 +107,7 @@ fn a_jittery_simulated_link_repeats_byte_for_byte_and_changes_the_arrivals() {
 #[test]
 fn a_simulated_pocketpc_flight_holds_its_target_fps_within_40_frames_and_its_memory_limit() {
     let dir = tempfile::tempdir().unwrap();
-    let path = archive(dir.path());
+    let path = archive(dir.path(), 33);
     // A limit the hills' 64 tiles do not fit in, so that the pager must choose.
     let p = DeviceProfile {
         memory_mb: 1.0,
@@ -249,7 +249,7 @@ impl Rig {
 #[test]
 fn a_simulated_flight_downloads_each_tile_at_most_once_per_visit() {
     let dir = tempfile::tempdir().unwrap();
-    let path = archive(dir.path());
+    let path = archive(dir.path(), 33);
     let p = DeviceProfile {
         memory_mb: 1.0,
         ..DeviceProfile::pocketpc()
@@ -296,7 +296,7 @@ fn a_simulated_flight_downloads_each_tile_at_most_once_per_visit() {
 #[test]
 fn a_flight_over_a_link_dropping_10_percent_completes_with_every_visited_tile_loaded() {
     let dir = tempfile::tempdir().unwrap();
-    let path = archive(dir.path());
+    let path = archive(dir.path(), 33);
     let p = DeviceProfile::pocketpc();
     let mut rig = Rig::new(&path, &p, 0.1);
     let mut visited = std::collections::BTreeSet::new();

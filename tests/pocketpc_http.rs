@@ -2,7 +2,6 @@
 //! hands out on 127.0.0.1 through a throttled link (bandwidth, latency with jitter, drops).
 
 use std::collections::BTreeSet;
-use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -19,13 +18,6 @@ use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
 #[path = "support/hills.rs"]
 mod hills;
-
-/// Hills of 257 x 257 samples in 4 x 4 tiles of 65: few requests, so that the time a request
-/// costs whatever its size (latency, and a loaded machine's scheduling) stays small beside the
-/// time the bandwidth takes.
-fn archive(dir: &Path) -> PathBuf {
-    hills::archive_tiled(dir, 65)
-}
 
 /// What the client saw of each request.
 #[derive(Default)]
@@ -65,7 +57,9 @@ impl<S: TileSource> TileSource for Timed<S> {
 #[test]
 fn a_flight_over_a_throttled_lossy_http_link_loads_every_visited_tile_at_the_links_rate() {
     let dir = tempfile::tempdir().unwrap();
-    let path = archive(dir.path());
+    // Hills in 4 x 4 tiles of 65: few requests, so that the time a request costs whatever its
+    // size (latency, and a loaded machine's scheduling) stays small beside the bandwidth's.
+    let path = hills::archive(dir.path(), 65);
     let archive_bytes = std::fs::metadata(&path).unwrap().len();
     let link = LinkProfile {
         bandwidth_kbps: Some(BANDWIDTH_KBPS),

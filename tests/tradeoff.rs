@@ -23,7 +23,7 @@ fn options(source: String, out: std::path::PathBuf, knobs: &[&str]) -> TradeoffO
 #[test]
 fn a_tiny_sweep_writes_its_table_csv_plot_and_references_and_ranks_the_budgets() {
     let dir = tempfile::tempdir().unwrap();
-    let archive = hills::archive(dir.path()).display().to_string();
+    let archive = hills::archive(dir.path(), 33).display().to_string();
     let out = dir.path().join("report");
     let report = run(&options(archive, out.clone(), &["budget", "precision"])).unwrap();
 
@@ -73,7 +73,7 @@ fn a_tiny_sweep_writes_its_table_csv_plot_and_references_and_ranks_the_budgets()
 #[test]
 fn an_unknown_knob_is_refused_with_the_list_of_knobs() {
     let dir = tempfile::tempdir().unwrap();
-    let archive = hills::archive(dir.path()).display().to_string();
+    let archive = hills::archive(dir.path(), 33).display().to_string();
     let e = run(&options(archive, dir.path().join("r"), &["geomorphs"]))
         .unwrap_err()
         .to_string();

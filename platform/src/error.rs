@@ -62,6 +62,22 @@ pub enum PlatformError {
         /// What exactly.
         detail: String,
     },
+    /// The input device could not be opened.
+    #[error("{path}: cannot open the input device: {source}")]
+    InputOpen {
+        /// The device path.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// Reading the input device failed (for example, it was unplugged).
+    #[error("{path}: cannot read input events: {source}")]
+    InputRead {
+        /// The device path.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
     /// Mapping the device's memory failed.
     #[error("{device}: cannot map {len} bytes of screen memory: {source}")]
     Map {

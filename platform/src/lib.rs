@@ -29,7 +29,7 @@ mod window;
 pub use compose::compose_rgba;
 pub use error::PlatformError;
 #[cfg(all(feature = "fbdev", target_os = "linux"))]
-pub use fbdev::{Bitfield, FbPresenter, ScreenInfo};
+pub use fbdev::{Bitfield, EvdevInput, FbPresenter, ScreenInfo};
 #[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
 pub use fit::Fit;
 pub use hud::{Hud, HudInfo, Minimap, Overlay, PanelRect, TileState};

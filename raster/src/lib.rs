@@ -37,6 +37,7 @@ mod edge;
 mod error;
 pub mod fixed_point;
 mod framebuffer;
+mod lines;
 mod matrix;
 mod pipeline;
 mod pixel;
@@ -48,6 +49,7 @@ mod vertex;
 pub use draw::{DrawStats, Rasterizer};
 pub use error::RasterError;
 pub use framebuffer::{ColorBuffer, ColorFormat, DepthBuffer, DepthFormat, Framebuffer};
+pub use lines::{LineDepth, LineState, LineStats};
 pub use matrix::{FixedMat4, MAX_ORIGIN, Transform};
 pub use pixel::{rgb_to_rgb565, rgb565_to_rgb};
 pub use state::{

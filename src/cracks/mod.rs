@@ -56,6 +56,20 @@ pub enum Side {
 }
 
 impl CrackMode {
+    /// Every mode, in the order the viewer's K key cycles through them.
+    pub const ALL: [CrackMode; 4] = [
+        CrackMode::None,
+        CrackMode::Shadow,
+        CrackMode::Skirts,
+        CrackMode::Stitch,
+    ];
+
+    /// The mode after this one in [`CrackMode::ALL`], wrapping around.
+    pub fn next(self) -> CrackMode {
+        let k = CrackMode::ALL.iter().position(|&m| m == self).unwrap_or(0);
+        CrackMode::ALL[(k + 1) % CrackMode::ALL.len()]
+    }
+
     /// Vertices a tile of `tile_size` samples per side holds beyond its grid in this mode.
     pub fn extra_vertices(self, tile_size: usize) -> usize {
         match self {

@@ -38,6 +38,14 @@ pub trait TileLoader: Send + Sync + 'static {
     /// Drops detail a tile no longer needs at the larger belt distance `ring` (for example its
     /// finest texture mips); returns the bytes it holds now, never more than before.
     fn shrink(&self, tile: &mut Self::Loaded, ring: u32) -> usize;
+    /// Brings a tile loaded (or fetched) under earlier settings of this loader to its current
+    /// ones, for belt distance `ring`; returns the bytes it holds now, which may be more than
+    /// before (see [`Pager::refit`]). A loader whose settings never change keeps the default,
+    /// which changes nothing.
+    fn refit(&self, tile: &mut Self::Loaded, ring: u32) -> usize {
+        let _ = ring;
+        self.held_bytes(tile)
+    }
 }
 
 /// How fetches run.
@@ -268,6 +276,61 @@ impl<L: TileLoader> Pager<L> {
         });
     }
 
+    /// After the loader's settings changed (for example the crack mode): refits every loaded
+    /// tile ([`TileLoader::refit`]) and accounts what it holds now, evicting the tiles farthest
+    /// from the current one while the total would exceed the limit, then re-reserves every
+    /// fetch in flight at the new prediction where that fits. A fetch whose grown reservation
+    /// does not fit keeps its old one: its tile, refit on arrival, holds more than reserved and
+    /// is refused and fetched again later, so the accounted bytes never exceed the limit.
+    /// Tiles loaded under the old settings that arrive later are refit on arrival.
+    pub fn refit(&mut self) {
+        let mut resized = Vec::new();
+        for (&id, tile) in &mut self.tiles {
+            let held = self.ledger.record(id).held.expect("a loaded tile is held");
+            resized.push((id, held.bytes, self.loader.refit(tile, held.ring)));
+        }
+        let center = self.center;
+        resized
+            .sort_by_key(|&(id, _, _)| std::cmp::Reverse(center.map_or(0, |c| Grid::ring(c, id))));
+        let grown: usize = resized
+            .iter()
+            .map(|&(_, old, new)| new.saturating_sub(old))
+            .sum();
+        let shrunk: usize = resized
+            .iter()
+            .map(|&(_, old, new)| old.saturating_sub(new))
+            .sum();
+        let mut total = self.ledger.memory() + grown - shrunk;
+        let mut kept = Vec::new();
+        for (id, old, new) in resized {
+            if total > self.config.memory_limit_bytes {
+                total -= new;
+                self.ledger.evict(id);
+                self.tiles.remove(&id);
+                self.evictions += 1;
+            } else {
+                kept.push((id, old, new));
+            }
+        }
+        kept.sort_by_key(|&(_, old, new)| new > old);
+        for (id, _, new) in kept {
+            if let Err(e) = self.ledger.resize_held(id, new) {
+                self.record_error(e.to_string());
+            }
+        }
+        let fetching: Vec<(TileId, u32)> = self
+            .ledger
+            .records()
+            .filter_map(|(id, r)| r.fetch.map(|f| (id, f.ring)))
+            .collect();
+        for (id, ring) in fetching {
+            // Too large to fit: keeps the old reservation, as documented above.
+            let _ = self
+                .ledger
+                .resize_reservation(id, self.loader.predicted_bytes(id, ring));
+        }
+    }
+
     /// The tile under the viewpoint at the last update (the nearest one when off the terrain
     /// and `nearest_when_off`).
     pub fn current_tile(&self) -> Option<TileId> {
@@ -457,9 +520,10 @@ impl<L: TileLoader> Pager<L> {
 
     fn integrate(&mut self, id: TileId, result: Result<(L::Loaded, u64)>) {
         match result {
-            Ok((tile, downloaded)) => {
+            Ok((mut tile, downloaded)) => {
                 self.downloaded_bytes += downloaded;
-                let held = self.loader.held_bytes(&tile);
+                let ring = self.ledger.record(id).fetch.map_or(0, |f| f.ring);
+                let held = self.loader.refit(&mut tile, ring);
                 match self.ledger.arrive(id, held, self.now) {
                     Ok(()) => {
                         self.tiles.insert(id, tile);

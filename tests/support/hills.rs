@@ -5,13 +5,9 @@ use std::path::{Path, PathBuf};
 use stripmask::builder::{BuildOptions, build};
 use stripmask::dem::{MemoryReader, NodataFill};
 
-/// A 257 x 257 DEM of hills, cut into 8 x 8 tiles of 33 samples, 30 m apart, written into `dir`.
-pub fn archive(dir: &Path) -> PathBuf {
-    archive_tiled(dir, 33)
-}
-
-/// The same hills cut into tiles of `tile_size` samples.
-pub fn archive_tiled(dir: &Path, tile_size: usize) -> PathBuf {
+/// A 257 x 257 DEM of hills, 30 m apart, cut into tiles of `tile_size` samples (33: 8 x 8 tiles),
+/// written into `dir`.
+pub fn archive(dir: &Path, tile_size: usize) -> PathBuf {
     let n = 257;
     let samples = (0..n * n)
         .map(|k| {

@@ -2,12 +2,14 @@
 //! in whatever pixel format the screen has.
 
 mod console;
+mod evdev;
 mod ioctl;
 mod mapping;
 mod pixel_layout;
 mod screen_info;
 mod sigint;
 
+pub use evdev::EvdevInput;
 pub use screen_info::{Bitfield, ScreenInfo};
 
 use std::fs::File;
@@ -40,6 +42,8 @@ pub struct FbPresenter {
     row: Vec<u8>,
     console: Option<Console>,
     sigint: Option<SigintGuard>,
+    /// A keyboard, if one was given.
+    input: Option<EvdevInput>,
 }
 
 impl FbPresenter {
@@ -120,6 +124,7 @@ impl FbPresenter {
             row: Vec::new(),
             console: None,
             sigint: None,
+            input: None,
         })
     }
 
@@ -181,6 +186,14 @@ fn open_device(device: &Path) -> Result<File, PlatformError> {
         })
 }
 
+impl FbPresenter {
+    /// Reads keys from `input` (an evdev keyboard): the viewer's key table, as in the window.
+    pub fn with_input(mut self, input: EvdevInput) -> Self {
+        self.input = Some(input);
+        self
+    }
+}
+
 impl Presenter for FbPresenter {
     fn present(&mut self, frame: &Framebuffer, hud: Option<&Overlay>) -> Result<(), PlatformError> {
         let size = (frame.width(), frame.height());
@@ -213,9 +226,17 @@ impl Presenter for FbPresenter {
     }
 
     fn poll_input(&mut self) -> Input {
-        Input {
-            quit: self.sigint.is_some() && sigint::interrupted(),
-            ..Input::default()
-        }
+        let mut input = match self.input.as_mut().map(EvdevInput::poll) {
+            Some(Ok(input)) => input,
+            Some(Err(e)) => {
+                // An unplugged keyboard ends keyboard input, not the flight.
+                eprintln!("{e}; keyboard input stops");
+                self.input = None;
+                Input::default()
+            }
+            None => Input::default(),
+        };
+        input.quit |= self.sigint.is_some() && sigint::interrupted();
+        input
     }
 }

@@ -118,6 +118,13 @@ pub(crate) struct FixedScreen {
     fog: i64,
 }
 
+impl FixedScreen {
+    /// Depth, 0.32 (for the line path, which shares this projection).
+    pub(crate) fn depth(&self) -> i64 {
+        self.depth
+    }
+}
+
 /// Fog distances on the clip `w` scale.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct FixedFog {

@@ -1,0 +1,193 @@
+//! Switching the crack mode between frames (`Engine::set_cracks`, the viewer's K key): the next
+//! frame is byte for byte the frame of an engine started in that mode, and the pager's
+//! accounting stays exact (what it counts is what the tiles hold, never over the limit), also
+//! when the new mode does not fit the limit and when tiles are still in flight.
+
+use std::sync::OnceLock;
+
+use stripmask::cracks::CrackMode;
+use stripmask::cracks::metric::{CrackScene, TILE_SIZE};
+use stripmask::engine::Engine;
+use stripmask::pager::PagerMode;
+use stripmask::resident::predicted_bytes;
+use stripmask::source;
+use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
+
+const SIZE: (u32, u32) = (160, 120);
+
+fn scene() -> &'static CrackScene {
+    static SCENE: OnceLock<(tempfile::TempDir, CrackScene)> = OnceLock::new();
+    &SCENE
+        .get_or_init(|| {
+            let dir = tempfile::tempdir().unwrap();
+            let scene = CrackScene::build(dir.path()).unwrap();
+            (dir, scene)
+        })
+        .1
+}
+
+fn frame() -> Framebuffer {
+    Framebuffer::new(SIZE.0, SIZE.1, ColorFormat::Rgb565, DepthFormat::D16).unwrap()
+}
+
+fn render(engine: &mut Engine, view: usize) -> Vec<u8> {
+    let mut fb = frame();
+    scene().render(engine, view, &mut fb).unwrap();
+    fb.to_rgba_image().into_raw()
+}
+
+/// The pager counts exactly the bytes its tiles hold (no fetch in flight), within the limit,
+/// and every tile holds the vertices of `mode`.
+fn assert_exact_accounting(engine: &Engine, mode: CrackMode) {
+    let pager = engine.pager();
+    let stats = pager.stats();
+    assert_eq!(stats.fetching, 0, "{mode:?}: nothing in flight");
+    let held: usize = pager.tiles().map(|(_, t)| t.bytes()).sum();
+    assert_eq!(stats.memory_bytes, held, "{mode:?}: accounted = held");
+    assert!(stats.memory_bytes <= stats.memory_limit_bytes, "{mode:?}");
+    let grid = TILE_SIZE * TILE_SIZE;
+    for (id, tile) in pager.tiles() {
+        assert_eq!(
+            tile.vertices.len(),
+            grid + mode.extra_vertices(TILE_SIZE),
+            "{mode:?}: {id}"
+        );
+        let ring = pager.ledger().record(id).held.unwrap().ring;
+        assert_eq!(
+            Some(tile.bytes()),
+            pager.ledger().record(id).held.map(|h| h.bytes),
+            "{mode:?}: {id} at ring {ring}"
+        );
+    }
+}
+
+#[test]
+fn every_switch_draws_what_a_fresh_engine_in_that_mode_draws() {
+    let scene = scene();
+    let mut switched = scene.engine(CrackMode::None, SIZE).unwrap();
+    let view = 9;
+    // Every mode after every other one: None -> Shadow -> Skirts -> Stitch -> None -> Skirts
+    // -> Shadow -> Stitch -> Skirts -> None -> Stitch -> Shadow -> None.
+    let order = [
+        CrackMode::Shadow,
+        CrackMode::Skirts,
+        CrackMode::Stitch,
+        CrackMode::None,
+        CrackMode::Skirts,
+        CrackMode::Shadow,
+        CrackMode::Stitch,
+        CrackMode::Skirts,
+        CrackMode::None,
+        CrackMode::Stitch,
+        CrackMode::Shadow,
+        CrackMode::None,
+    ];
+    let mut fresh_frames = std::collections::HashMap::new();
+    let mut previous = render(&mut switched, view);
+    for mode in order {
+        switched.set_cracks(mode);
+        assert_eq!(switched.settings().cracks, mode);
+        assert_exact_accounting(&switched, mode);
+        let picture = render(&mut switched, view);
+        let fresh = fresh_frames.entry(mode).or_insert_with(|| {
+            let mut engine = scene.engine(mode, SIZE).unwrap();
+            render(&mut engine, view)
+        });
+        assert!(
+            picture == *fresh,
+            "{mode:?}: switched frame differs from a fresh engine"
+        );
+        assert!(
+            picture != previous,
+            "{mode:?}: the switch changed the picture"
+        );
+        assert_exact_accounting(&switched, mode);
+        previous = picture;
+    }
+}
+
+#[test]
+fn a_mode_that_holds_more_than_the_limit_evicts_the_farthest_tiles() {
+    let scene = scene();
+    let tile_bytes = |mode| predicted_bytes(TILE_SIZE, 32, 0, mode);
+    // Room for 50 tiles without skirts, a square of 7 x 7 belts; with skirts it does not fit.
+    let plain = tile_bytes(CrackMode::None);
+    assert!(tile_bytes(CrackMode::Skirts) > plain);
+    let mut settings = CrackScene::settings(CrackMode::None);
+    settings.memory_limit_bytes = 50 * plain;
+    let source = source::open(&scene.archive.display().to_string()).unwrap();
+    let mut engine = Engine::new(source, settings, SIZE.1).unwrap();
+    let mut fb = frame();
+    for _ in 0..3 {
+        scene.render(&mut engine, 9, &mut fb).unwrap();
+    }
+    let before = engine.pager().stats();
+    assert!(before.memory_bound, "the limit binds");
+    assert_eq!(before.loaded_tiles, 49);
+    let evictions = before.evictions;
+    let center = engine.pager().current_tile().unwrap();
+    let farthest = |engine: &Engine| {
+        engine
+            .pager()
+            .tiles()
+            .map(|(id, _)| stripmask::belts::Grid::ring(center, id))
+            .max()
+            .unwrap()
+    };
+    let reach = farthest(&engine);
+
+    engine.set_cracks(CrackMode::Skirts);
+    let after = engine.pager().stats();
+    assert_exact_accounting(&engine, CrackMode::Skirts);
+    assert!(
+        after.evictions > evictions,
+        "skirts do not fit: tiles evicted"
+    );
+    assert!(after.loaded_tiles < before.loaded_tiles);
+    assert!(farthest(&engine) <= reach);
+    assert!(
+        engine.pager().get(center).is_some(),
+        "the current tile stays"
+    );
+
+    // Frames go on within the limit, and back without skirts everything fits again.
+    for _ in 0..3 {
+        scene.render(&mut engine, 9, &mut fb).unwrap();
+        assert_exact_accounting(&engine, CrackMode::Skirts);
+    }
+    engine.set_cracks(CrackMode::Stitch);
+    assert_exact_accounting(&engine, CrackMode::Stitch);
+    assert_eq!(
+        engine.pager().stats().errors,
+        0,
+        "{:?}",
+        engine.pager().last_error()
+    );
+}
+
+#[test]
+fn tiles_in_flight_during_a_switch_arrive_in_the_new_mode() {
+    let scene = scene();
+    let mut settings = CrackScene::settings(CrackMode::None);
+    settings.pager_mode = PagerMode::Simulated { queue_depth: 8 };
+    let source = source::open(&scene.archive.display().to_string()).unwrap();
+    let mut engine = Engine::new(source, settings, SIZE.1).unwrap();
+    let mut fb = frame();
+    scene.render(&mut engine, 9, &mut fb).unwrap();
+    assert!(engine.pager().stats().fetching > 0, "fetches in flight");
+    engine.set_cracks(CrackMode::Skirts);
+    let mut frames = 0;
+    while engine.pager().stats().fetching > 0 || frames < 2 {
+        engine.set_time(f64::from(frames));
+        scene.render(&mut engine, 9, &mut fb).unwrap();
+        frames += 1;
+        assert!(frames < 200, "the pager settles");
+    }
+    assert_exact_accounting(&engine, CrackMode::Skirts);
+    assert_eq!(
+        engine.pager().stats().errors,
+        0,
+        "{:?}",
+        engine.pager().last_error()
+    );
+}

@@ -185,16 +185,16 @@ impl Coverage {
             edges.map(|(e, bias)| (e.dx * (yc - e.ay) - e.dy * (xc - e.ax) + bias) as i32);
         let step_x = edges.map(|(e, _)| (-e.dy * SUBPIXEL_ONE) as i32);
         let step_y = edges.map(|(e, _)| (e.dx * SUBPIXEL_ONE) as i32);
-        let columns = (1u32 << (cols.1 - cols.0)) - 1;
+        let width = cols.1 - cols.0;
+        let columns = (1u32 << width) - 1;
+        // Terrain triangles are a few pixels wide: half the lanes do for most of them.
+        let half = width <= SMALL / 2;
         for y in start..end {
-            // One bit per pixel inside all three edges; the set bits are contiguous because the
-            // triangle is convex.
-            let mut inside = 0u32;
-            for i in 0..SMALL as i32 {
-                let lane = |k: usize| row[k] + i * step_x[k] > 0;
-                inside |= ((lane(0) & lane(1) & lane(2)) as u32) << i;
-            }
-            inside &= columns;
+            let inside = if half {
+                inside_lanes::<{ SMALL as usize / 2 }>(&row, &step_x)
+            } else {
+                inside_lanes::<{ SMALL as usize }>(&row, &step_x)
+            } & columns;
             if inside != 0 {
                 let x0 = cols.0 + inside.trailing_zeros() as i64;
                 let x1 = cols.0 + (32 - inside.leading_zeros()) as i64;
@@ -249,6 +249,19 @@ impl Coverage {
 /// Triangles whose bounding box spans fewer than this many pixels each way are walked by edge
 /// functions instead of DDAs.
 const SMALL: i64 = 16;
+
+/// One bit per pixel of a row's first `N` columns that lies inside all three edges (`row`: edge
+/// values at the first pixel, `step`: per pixel). The set bits are contiguous because the triangle
+/// is convex.
+#[inline]
+fn inside_lanes<const N: usize>(row: &[i32; 3], step: &[i32; 3]) -> u32 {
+    let mut inside = 0u32;
+    for i in 0..N as i32 {
+        let lane = |k: usize| row[k] + i * step[k] > 0;
+        inside |= ((lane(0) & lane(1) & lane(2)) as u32) << i;
+    }
+    inside
+}
 
 #[cfg(test)]
 mod tests {

@@ -171,8 +171,9 @@ impl FixedScreen {
     }
 }
 
-/// An attribute as a plane over the triangle: value at the origin vertex and per-pixel gradients,
-/// all with `ATTR_FRAC_BITS` extra fraction.
+/// An attribute as a plane over the triangle: per-pixel gradients and a base, all with
+/// `ATTR_FRAC_BITS` extra fraction. The base is the value at the origin vertex, or, once the plane
+/// is moved onto the pixel grid (`on_grid`), the value at the centre of pixel `(0, 0)`.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct AttrPlane {
     base: i64,
@@ -180,14 +181,45 @@ pub(crate) struct AttrPlane {
     dy: i64,
 }
 
+/// Gradients below this keep every product of the fast path inside i64 (offsets stay below 2^26
+/// inside the guard band, the base below 2^61).
+const NARROW_GRADIENT: u64 = 1 << 36;
+
 impl AttrPlane {
+    /// True when the plane's gradients are small enough for i64 evaluation.
+    #[inline]
+    fn narrow(&self) -> bool {
+        (self.dx.unsigned_abs() | self.dy.unsigned_abs()) < NARROW_GRADIENT
+    }
+
+    /// Moves a narrow plane's base from the origin vertex at `origin` (sub-pixels) to pixel
+    /// `(0, 0)`. At pixel `(x, y)` the offset is `(256 x + 128 - ox, 256 y + 128 - oy)`, so the
+    /// rounded product `(dx * off_x + dy * off_y + 128) >> 8` of `at` splits exactly into
+    /// `dx * x + dy * y` plus the same expression at pixel `(0, 0)`: a row start then costs two
+    /// multiplications and no rounding (`at_pixel`).
+    fn on_grid(self, origin: [i64; 2]) -> Self {
+        debug_assert!(self.narrow());
+        let half = 1 << (SUBPIXEL_BITS - 1);
+        let (ox, oy) = (SUBPIXEL_HALF - origin[0], SUBPIXEL_HALF - origin[1]);
+        Self {
+            base: self.base + ((self.dx * ox + self.dy * oy + half) >> SUBPIXEL_BITS),
+            ..self
+        }
+    }
+
+    /// Value at the centre of pixel `(x, y)` of a plane `on_grid`, equal to `at` there.
+    #[inline]
+    fn at_pixel(&self, x: i64, y: i64) -> i64 {
+        self.base + self.dx * x + self.dy * y
+    }
+
     /// Value at the sub-pixel offset `(ox, oy)` from the origin vertex.
     #[inline]
     fn at(&self, ox: i64, oy: i64) -> i64 {
         // Offsets stay below 2^26 inside the guard band, so gradients below 2^36 keep both
         // products and their sum inside i64, and the base (below 2^61) cannot overflow either:
         // the common case needs no 128-bit arithmetic. Same rounding as the wide path.
-        if (self.dx.unsigned_abs() | self.dy.unsigned_abs()) < 1 << 36 {
+        if self.narrow() {
             let half = 1 << (SUBPIXEL_BITS - 1);
             return self.base + ((self.dx * ox + self.dy * oy + half) >> SUBPIXEL_BITS);
         }
@@ -233,12 +265,13 @@ impl Geometry {
             shift_round(ny * inv, self.shift),
         );
         let base = a[0] << ATTR_FRAC_BITS;
-        match (i64::try_from(dx), i64::try_from(dy)) {
-            (Ok(dx), Ok(dy)) => AttrPlane { base, dx, dy },
+        let (dx, dy) = match (i64::try_from(dx), i64::try_from(dy)) {
+            (Ok(dx), Ok(dy)) => (dx, dy),
             // A gradient beyond i64 means the triangle is thinner than 2^-15 pixel across this
             // attribute's range: it can own at most isolated pixels, which take vertex 0's value.
-            _ => AttrPlane { base, dx: 0, dy: 0 },
-        }
+            _ => (0, 0),
+        };
+        AttrPlane { base, dx, dy }
     }
 }
 
@@ -255,6 +288,11 @@ pub(crate) struct FixedTriangle {
     /// This triangle's texture interpolation (see `Attributes::tex_mode_for`).
     tex_mode: TexMode,
     level: u8,
+    /// The three colour planes are one (grey vertices): rows step one channel.
+    grey: bool,
+    /// Every plane is narrow and on the pixel grid: rows start from `AttrPlane::at_pixel`
+    /// (otherwise from `AttrPlane::at`).
+    narrow: bool,
 }
 
 impl FixedTriangle {
@@ -272,17 +310,20 @@ impl FixedTriangle {
                 tex,
                 tex_mode: TexMode::Off,
                 level: 0,
+                grey: true,
+                narrow: true,
             };
         }
         let g = Geometry::new(&v, area2);
         let pick = |f: fn(&FixedScreen) -> i64| g.plane([f(v[0]), f(v[1]), f(v[2])]);
         let depth = if a.depth { pick(|s| s.depth) } else { empty };
+        // Terrain lighting is grey (r = g = b at every vertex): one plane serves all three.
+        let grey = v
+            .iter()
+            .all(|s| s.color[1] == s.color[0] && s.color[2] == s.color[0]);
         let color = if a.shade {
             let red = pick(|s| s.color[0]);
-            // Terrain lighting is grey (r = g = b at every vertex): one plane serves all three.
-            if v.iter()
-                .all(|s| s.color[1] == s.color[0] && s.color[2] == s.color[0])
-            {
+            if grey {
                 [red; 3]
             } else {
                 [red, pick(|s| s.color[1]), pick(|s| s.color[2])]
@@ -310,15 +351,42 @@ impl FixedTriangle {
                 ([st(0), st(1), g.plane(q)], a.level(texel_area(&v), area2))
             }
         };
+        let origin = v[0].xy;
+        // Unused planes are empty, so narrow; they are left as they are.
+        let narrow = depth.narrow()
+            && color.iter().all(AttrPlane::narrow)
+            && fog.narrow()
+            && tex.iter().all(AttrPlane::narrow);
+        let (mut depth, mut color, mut fog, mut tex) = (depth, color, fog, tex);
+        if narrow {
+            let grid = |p: &mut AttrPlane, used: bool| {
+                if used {
+                    *p = p.on_grid(origin);
+                }
+            };
+            grid(&mut depth, a.depth);
+            grid(&mut color[0], a.shade);
+            grid(&mut color[1], a.shade && !grey);
+            grid(&mut color[2], a.shade && !grey);
+            if a.shade && grey {
+                color = [color[0]; 3];
+            }
+            grid(&mut fog, a.fog);
+            grid(&mut tex[0], tex_mode != TexMode::Off);
+            grid(&mut tex[1], tex_mode != TexMode::Off);
+            grid(&mut tex[2], matches!(tex_mode, TexMode::Perspective(_)));
+        }
         Self {
             coverage,
-            origin: v[0].xy,
+            origin,
             depth,
             color,
             fog,
             tex,
             tex_mode,
             level,
+            grey,
+            narrow,
         }
     }
 }
@@ -384,23 +452,62 @@ pub(crate) fn shade_row<
     x0: i64,
     x1: i64,
 ) -> u64 {
+    if !tri.narrow {
+        shade_span::<P, D, T, SHADE, false, FOG, false>(tri, row, view, a, y, x0, x1)
+    } else if SHADE && tri.grey {
+        shade_span::<P, D, T, true, true, FOG, true>(tri, row, view, a, y, x0, x1)
+    } else {
+        shade_span::<P, D, T, SHADE, false, FOG, true>(tri, row, view, a, y, x0, x1)
+    }
+}
+
+/// `shade_row` for one variant of the triangle: `GREY` steps one colour channel for all three,
+/// `NARROW` starts the row from `AttrPlane::at_pixel` (see `FixedTriangle::narrow`).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn shade_span<
+    P: PixelFormat,
+    D: DepthFormat,
+    T: Filtering,
+    const SHADE: bool,
+    const GREY: bool,
+    const FOG: bool,
+    const NARROW: bool,
+>(
+    tri: &FixedTriangle,
+    row: &mut RowTarget<'_, P, D>,
+    view: Option<&LevelView<'_, T::Texel>>,
+    a: &Attributes,
+    y: i64,
+    x0: i64,
+    x1: i64,
+) -> u64 {
+    let channels = if GREY { 1 } else { 3 };
+    let perspective = matches!(tri.tex_mode, TexMode::Perspective(_));
     let ox = x0 * SUBPIXEL_ONE + SUBPIXEL_HALF - tri.origin[0];
     let oy = y * SUBPIXEL_ONE + SUBPIXEL_HALF - tri.origin[1];
+    let start = |p: &AttrPlane| {
+        if NARROW {
+            p.at_pixel(x0, y)
+        } else {
+            p.at(ox, oy)
+        }
+    };
     let (mut z, dz) = if D::ENABLED {
-        (tri.depth.at(ox, oy), tri.depth.dx)
+        (start(&tri.depth), tri.depth.dx)
     } else {
         (0, 0)
     };
     let mut c = [0i64; 3];
     let mut dc = [0i64; 3];
     if SHADE {
-        for k in 0..3 {
-            c[k] = tri.color[k].at(ox, oy);
+        for k in 0..channels {
+            c[k] = start(&tri.color[k]);
             dc[k] = tri.color[k].dx;
         }
     }
     let (mut f, df) = if FOG {
-        (tri.fog.at(ox, oy), tri.fog.dx)
+        (start(&tri.fog), tri.fog.dx)
     } else {
         (0, 0)
     };
@@ -412,17 +519,18 @@ pub(crate) fn shade_row<
         _ => i64::MAX,
     };
     if T::ENABLED {
-        for k in 0..3 {
-            acc[k] = tri.tex[k].at(ox, oy);
+        for k in 0..if perspective { 3 } else { 2 } {
+            acc[k] = start(&tri.tex[k]);
             dacc[k] = tri.tex[k].dx;
         }
     }
     // (u, v) in 16.32 at the current pixel and its per-pixel step within the chunk.
     let (mut u, mut v) = (0i64, 0i64);
     if T::ENABLED {
-        (u, v) = match tri.tex_mode {
-            TexMode::Perspective(_) => divide(acc[0], acc[1], acc[2]),
-            _ => (acc[0], acc[1]),
+        (u, v) = if perspective {
+            divide(acc[0], acc[1], acc[2])
+        } else {
+            (acc[0], acc[1])
         };
     }
     let mut passed = 0;
@@ -432,16 +540,15 @@ pub(crate) fn shade_row<
         let (mut du, mut dv) = (0i64, 0i64);
         let mut chunk_end = (0i64, 0i64);
         if T::ENABLED {
-            match tri.tex_mode {
-                TexMode::Perspective(_) => {
-                    for k in 0..3 {
-                        acc[k] = acc[k].saturating_add(dacc[k].saturating_mul(n));
-                    }
-                    chunk_end = divide(acc[0], acc[1], acc[2]);
-                    du = div_small(chunk_end.0 - u, n);
-                    dv = div_small(chunk_end.1 - v, n);
+            if perspective {
+                for k in 0..3 {
+                    acc[k] = acc[k].saturating_add(dacc[k].saturating_mul(n));
                 }
-                _ => (du, dv) = (dacc[0], dacc[1]),
+                chunk_end = divide(acc[0], acc[1], acc[2]);
+                du = div_small(chunk_end.0 - u, n);
+                dv = div_small(chunk_end.1 - v, n);
+            } else {
+                (du, dv) = (dacc[0], dacc[1]);
             }
         }
         let (mut cu, mut cv) = (u, v);
@@ -463,7 +570,9 @@ pub(crate) fn shade_row<
                 true
             };
             if visible {
-                let mut rgb = if SHADE {
+                let mut rgb = if GREY {
+                    [(c[0] >> ATTR_FRAC_BITS).clamp(0, 255) as u8; 3]
+                } else if SHADE {
                     c.map(|ch| (ch >> ATTR_FRAC_BITS).clamp(0, 255) as u8)
                 } else {
                     a.flat
@@ -482,7 +591,7 @@ pub(crate) fn shade_row<
                 z = z.wrapping_add(dz);
             }
             if SHADE {
-                for k in 0..3 {
+                for k in 0..channels {
                     c[k] = c[k].wrapping_add(dc[k]);
                 }
             }
@@ -492,11 +601,33 @@ pub(crate) fn shade_row<
             cu = cu.wrapping_add(du);
             cv = cv.wrapping_add(dv);
         }
-        (u, v) = match tri.tex_mode {
-            TexMode::Perspective(_) => chunk_end,
-            _ => (cu, cv),
-        };
+        (u, v) = if perspective { chunk_end } else { (cu, cv) };
         x += n;
     }
     passed
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    proptest::proptest! {
+        /// Rows of narrow triangles start from the plane moved onto the pixel grid: it must give
+        /// the very value `at` gives from the origin vertex, at every pixel centre.
+        #[test]
+        fn a_plane_on_the_pixel_grid_equals_the_plane_at_every_pixel(
+            base in -(1i64 << 60)..1 << 60,
+            dx in -(1i64 << 36) + 1..1 << 36,
+            dy in -(1i64 << 36) + 1..1 << 36,
+            origin in (-(1i64 << 23)..1 << 23, -(1i64 << 23)..1 << 23),
+            pixel in (0i64..8192, 0i64..8192),
+        ) {
+            let plane = AttrPlane { base, dx, dy };
+            let origin = [origin.0, origin.1];
+            let (x, y) = pixel;
+            let ox = x * SUBPIXEL_ONE + SUBPIXEL_HALF - origin[0];
+            let oy = y * SUBPIXEL_ONE + SUBPIXEL_HALF - origin[1];
+            proptest::prop_assert_eq!(plane.on_grid(origin).at_pixel(x, y), plane.at(ox, oy));
+        }
+    }
 }

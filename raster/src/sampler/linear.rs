@@ -20,12 +20,7 @@ impl<T: ViewOf> Filtering for Bilinear<T> {
         let (x, y) = (tu >> 16, tv >> 16);
         let fx = ((tu >> 8) & 255) as u32;
         let fy = ((tv >> 8) & 255) as u32;
-        let (x0, x1, y0, y1) = (
-            view.column(x),
-            view.column(x + 1),
-            view.row(y),
-            view.row(y + 1),
-        );
+        let ((x0, x1), (y0, y1)) = (view.column_pair(x), view.row_pair(y));
         let t = [
             view.texel(x0, y0),
             view.texel(x1, y0),
@@ -72,5 +67,27 @@ mod tests {
             [255; 3]
         );
         assert_eq!(super::super::Nearest::<u16>::sample(&c, 5 << 14, 0), [0; 3]);
+    }
+
+    #[test]
+    fn wrapped_pairs_equal_wrapping_each_coordinate() {
+        let t = [0u16; 16 * 4];
+        for wrap in [Wrap::Clamp, Wrap::Repeat] {
+            let v = LevelView {
+                texels: &t,
+                width: 16,
+                height: 4,
+                width_shift: 4,
+                wrap,
+            };
+            for k in -40..40 {
+                assert_eq!(
+                    v.column_pair(k),
+                    (v.column(k), v.column(k + 1)),
+                    "{wrap:?} {k}"
+                );
+                assert_eq!(v.row_pair(k), (v.row(k), v.row(k + 1)), "{wrap:?} {k}");
+            }
+        }
     }
 }

@@ -98,6 +98,32 @@ impl<'a, T: Texel> LevelView<'a, T> {
         }
     }
 
+    /// Columns `x` and `x + 1` wrapped into the level. Under clamping the second is the first
+    /// plus one exactly when `x` lies in `0..width - 1`: one comparison instead of a second clamp.
+    #[inline]
+    pub fn column_pair(&self, x: i64) -> (i64, i64) {
+        match self.wrap {
+            Wrap::Repeat => (x & (self.width - 1), (x + 1) & (self.width - 1)),
+            Wrap::Clamp => {
+                // max/min rather than clamp: no check that the level is not empty per texel.
+                let c = x.max(0).min(self.width - 1);
+                (c, c + ((x as u64) < (self.width - 1) as u64) as i64)
+            }
+        }
+    }
+
+    /// Rows `y` and `y + 1` wrapped into the level, as `column_pair`.
+    #[inline]
+    pub fn row_pair(&self, y: i64) -> (i64, i64) {
+        match self.wrap {
+            Wrap::Repeat => (y & (self.height - 1), (y + 1) & (self.height - 1)),
+            Wrap::Clamp => {
+                let r = y.max(0).min(self.height - 1);
+                (r, r + ((y as u64) < (self.height - 1) as u64) as i64)
+            }
+        }
+    }
+
     /// The texel at an already wrapped column and row.
     #[inline]
     pub fn texel(&self, column: i64, row: i64) -> T {

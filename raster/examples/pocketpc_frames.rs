@@ -1,0 +1,59 @@
+//! Draws the benchmark's PocketPC frame (320x240 RGB565 + 16-bit depth, 10,082 textured,
+//! shaded, depth-tested strip triangles, one thread) a number of times and prints the median
+//! frame time and a checksum of the pixels: a small, steady driver for instruction counts, where
+//! the shared machine makes wall-clock medians noisy, and a quick check that a change kept every
+//! pixel.
+//!
+//! ```sh
+//! cargo build --release -p stripmask-raster --example pocketpc_frames
+//! valgrind --tool=callgrind target/release/examples/pocketpc_frames 10
+//! target/release/examples/pocketpc_frames 2000
+//! ```
+
+#[path = "../../tests/support/scene.rs"]
+mod scene;
+
+use stripmask_raster::*;
+
+fn main() {
+    let frames: u32 = match std::env::args().nth(1).map(|a| a.parse()) {
+        None => 10,
+        Some(Ok(n)) => n,
+        Some(Err(e)) => {
+            eprintln!("pocketpc_frames: the frame count must be a number: {e}");
+            std::process::exit(2);
+        }
+    };
+    let s = scene::terrain(72, 320, 240);
+    let mut fb = Framebuffer::new(320, 240, ColorFormat::Rgb565, DepthFormat::D16)
+        .expect("a 320x240 target is valid");
+    let mut r = Rasterizer::with_threads(1);
+    let state = s.state();
+    let mut stats = DrawStats::default();
+    let mut times = Vec::with_capacity(frames as usize);
+    for _ in 0..frames {
+        let t = std::time::Instant::now();
+        fb.clear([150, 180, 220]);
+        stats = r
+            .draw(&mut fb, &s.mesh(), &s.transform, &state)
+            .expect("the scene is valid");
+        times.push(t.elapsed());
+    }
+    times.sort();
+    let median = times.get(times.len() / 2).copied().unwrap_or_default();
+    // FNV-1a over the colour buffer: equal pictures print equal sums.
+    let image = fb.to_rgba_image();
+    let sum = image
+        .as_raw()
+        .iter()
+        .fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
+            (h ^ b as u64).wrapping_mul(0x100_0000_01b3)
+        });
+    println!(
+        "{frames} frames, median {:.3} ms, {} triangles, {} rasterized, {} fragments, picture {sum:016x}",
+        median.as_secs_f64() * 1e3,
+        stats.triangles,
+        stats.rasterized,
+        stats.fragments
+    );
+}

@@ -9,8 +9,8 @@
 
 use glam::{DMat4, DVec3};
 use stripmask_raster::{
-    CullMode, DepthMode, DrawStats, Fog, Framebuffer, Indices, Mesh, Perspective, Precision,
-    RasterError, Rasterizer, RenderState, Sampler, Shading, TextureBinding, Topology, Transform,
+    CullMode, DepthMode, DrawStats, DrawTarget, Fog, Indices, Mesh, Perspective, Precision,
+    RasterError, RenderState, Sampler, Shading, TextureBinding, Topology, Transform,
 };
 
 use crate::camera::Camera;
@@ -132,18 +132,19 @@ pub struct TileMeshes<'m> {
     pub cracks: &'m mut TileIndices,
 }
 
-/// Clears `fb` to the sky and draws `tiles` (reordered for the depth mode).
-pub fn draw_tiles(
-    fb: &mut Framebuffer,
-    rasterizer: &mut Rasterizer,
+/// Clears `target` to the sky and draws `tiles` (reordered for the depth mode) into it: the CPU
+/// rasterizer's framebuffer or any other [`DrawTarget`], with the same draws.
+pub fn draw_tiles<T: DrawTarget>(
+    target: &mut T,
     camera: &Camera,
     terrain: &TerrainFrame,
     tiles: &mut [TileDraw<'_>],
     meshes: TileMeshes<'_>,
     settings: &RenderSettings,
-) -> Result<DrawStats, RasterError> {
-    fb.clear(settings.sky);
-    let aspect = f64::from(fb.width()) / f64::from(fb.height());
+) -> Result<DrawStats, T::Error> {
+    target.clear(settings.sky);
+    let (width, height) = target.size();
+    let aspect = f64::from(width) / f64::from(height);
     let transform = FrameTransform::new(camera, terrain, aspect)?;
     if settings.depth_test {
         tiles.sort_by(|a, b| a.distance.total_cmp(&b.distance));
@@ -158,9 +159,7 @@ pub fn draw_tiles(
     let shadows = meshes.cracks.mode() == CrackMode::Shadow;
     let mut stats = DrawStats::default();
     if shadows && !settings.depth_test {
-        stats += draw_shadows(
-            fb, rasterizer, camera, terrain, tiles, aspect, settings, fog,
-        )?;
+        stats += draw_shadows(target, camera, terrain, tiles, aspect, settings, fog)?;
     }
     for t in tiles.iter() {
         let (indices, topology) = meshes.cracks.tile(meshes.masks, t.level, t.neighbours);
@@ -169,17 +168,14 @@ pub fn draw_tiles(
             indices,
             topology,
         };
-        stats += rasterizer.draw(
-            fb,
+        stats += target.draw(
             &mesh,
             &transform.tile(t.x, t.y)?,
             &tile_state(settings, fog, t.tile),
         )?;
     }
     if shadows && settings.depth_test {
-        stats += draw_shadows(
-            fb, rasterizer, camera, terrain, tiles, aspect, settings, fog,
-        )?;
+        stats += draw_shadows(target, camera, terrain, tiles, aspect, settings, fog)?;
     }
     Ok(stats)
 }
@@ -187,17 +183,15 @@ pub fn draw_tiles(
 /// Draws the shadow quad of every tile in `tiles` ([`crate::cracks::shadow`]), in their order,
 /// with each tile's render state; a quad that grazes or lies beyond the subdivided transform's
 /// reach is skipped.
-#[allow(clippy::too_many_arguments)]
-fn draw_shadows(
-    fb: &mut Framebuffer,
-    rasterizer: &mut Rasterizer,
+fn draw_shadows<T: DrawTarget>(
+    target: &mut T,
     camera: &Camera,
     terrain: &TerrainFrame,
     tiles: &[TileDraw<'_>],
     aspect: f64,
     settings: &RenderSettings,
     fog: Option<Fog>,
-) -> Result<DrawStats, RasterError> {
+) -> Result<DrawStats, T::Error> {
     let fine = FrameTransform::subdivided(camera, terrain, aspect, shadow::SUBDIVISION)?;
     let mut stats = DrawStats::default();
     for t in tiles {
@@ -215,7 +209,7 @@ fn draw_shadows(
             indices: Indices::U16(&shadow::QUAD_STRIP),
             topology: Topology::TriangleStrip,
         };
-        stats += rasterizer.draw(fb, &mesh, &transform, &tile_state(settings, fog, t.tile))?;
+        stats += target.draw(&mesh, &transform, &tile_state(settings, fog, t.tile))?;
     }
     Ok(stats)
 }

@@ -11,7 +11,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use glam::DVec3;
-use stripmask_raster::{DrawStats, Framebuffer, LineStats, Rasterizer};
+use stripmask_raster::{DrawStats, DrawTarget, Framebuffer, LineStats, RasterTarget, Rasterizer};
 
 use crate::archive::ArchiveReader;
 use crate::belts::{Grid, TileId};
@@ -250,12 +250,29 @@ impl Engine {
 
     /// Renders one frame into `fb` from `camera` (its near and far planes are set here).
     pub fn render(&mut self, camera: &Camera, fb: &mut Framebuffer) -> Result<FrameReport> {
+        // The engine's rasterizer is lent to the frame's target: moving it out (no allocation)
+        // lets `render_to` borrow the whole engine.
+        let mut rasterizer = std::mem::take(&mut self.rasterizer);
+        let report = self.render_to(camera, &mut RasterTarget::new(fb, &mut rasterizer));
+        self.rasterizer = rasterizer;
+        report
+    }
+
+    /// Renders one frame from `camera` into any [`DrawTarget`]: the same draw list goes to the
+    /// CPU rasterizer ([`Engine::render`]) or to another backend, such as the wgpu comparison
+    /// target of `stripmask-platform`.
+    pub fn render_to<T: DrawTarget>(
+        &mut self,
+        camera: &Camera,
+        target: &mut T,
+    ) -> Result<FrameReport> {
         let started = Instant::now();
         self.pager
             .update(self.terrain.tile_position(camera.position));
         let mut camera = *camera;
         self.fit_depth_range(&mut camera);
-        let aspect = f64::from(fb.width()) / f64::from(fb.height());
+        let (width, height) = target.size();
+        let aspect = f64::from(width) / f64::from(height);
         let frustum = Frustum::from_view_projection(&camera.view_projection(aspect));
 
         let mut visible = Vec::new();
@@ -318,8 +335,7 @@ impl Engine {
 
         let drawing = Instant::now();
         let drawn = draw_tiles(
-            fb,
-            &mut self.rasterizer,
+            target,
             &camera,
             &self.terrain,
             &mut draws,

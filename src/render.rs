@@ -9,9 +9,9 @@
 
 use glam::{DMat4, DVec3};
 use stripmask_raster::{
-    CullMode, DepthMode, DrawStats, Fog, Framebuffer, Indices, LineDepth, LineState, LineStats,
-    Mesh, Perspective, Precision, RasterError, Rasterizer, RenderState, Sampler, Shading,
-    TextureBinding, Topology, Transform,
+    CullMode, DepthMode, DrawStats, DrawTarget, Fog, Indices, LineDepth, LineState, LineStats,
+    Mesh, Perspective, Precision, RasterError, RenderState, Sampler, Shading, TextureBinding,
+    Topology, Transform,
 };
 
 use crate::camera::Camera;
@@ -198,19 +198,20 @@ pub struct TilesDrawn {
     pub lines: LineStats,
 }
 
-/// Clears `fb` to the sky and draws `tiles` (reordered for the depth mode), each followed by
-/// its wireframe when that is on.
-pub fn draw_tiles(
-    fb: &mut Framebuffer,
-    rasterizer: &mut Rasterizer,
+/// Clears `target` to the sky and draws `tiles` (reordered for the depth mode) into it, each
+/// followed by its wireframe when that is on: the CPU rasterizer's framebuffer or any other
+/// [`DrawTarget`], with the same draws.
+pub fn draw_tiles<T: DrawTarget>(
+    target: &mut T,
     camera: &Camera,
     terrain: &TerrainFrame,
     tiles: &mut [TileDraw<'_>],
     meshes: TileMeshes<'_>,
     settings: &RenderSettings,
-) -> Result<TilesDrawn, RasterError> {
-    fb.clear(settings.sky);
-    let aspect = f64::from(fb.width()) / f64::from(fb.height());
+) -> Result<TilesDrawn, T::Error> {
+    target.clear(settings.sky);
+    let (width, height) = target.size();
+    let aspect = f64::from(width) / f64::from(height);
     let transform = FrameTransform::new(camera, terrain, aspect)?;
     if settings.depth_test {
         tiles.sort_by(|a, b| a.distance.total_cmp(&b.distance));
@@ -240,13 +241,11 @@ pub fn draw_tiles(
     let mut stats = DrawStats::default();
     let mut lines = LineStats::default();
     if shadows && !settings.depth_test {
-        stats += draw_shadows(
-            fb, rasterizer, camera, terrain, tiles, aspect, settings, fog,
-        )?;
+        stats += draw_shadows(target, camera, terrain, tiles, aspect, settings, fog)?;
     }
     let mut morph = match meshes.morph {
         Some(morpher) => Some((
-            morpher.view(camera, terrain, fb.height()),
+            morpher.view(camera, terrain, height),
             FrameTransform::subdivided(camera, terrain, aspect, geomorph::SUBDIVISION)?,
             morpher,
         )),
@@ -266,15 +265,13 @@ pub fn draw_tiles(
             indices,
             topology,
         };
-        stats += rasterizer.draw(fb, &mesh, &tile_transform, &tile_state(settings, fog, t))?;
+        stats += target.draw(&mesh, &tile_transform, &tile_state(settings, fog, t))?;
         if let Some(wire) = &wire {
-            lines += rasterizer.draw_edges(fb, &mesh, &tile_transform, wire)?;
+            lines += target.draw_edges(&mesh, &tile_transform, wire)?;
         }
     }
     if shadows && settings.depth_test {
-        stats += draw_shadows(
-            fb, rasterizer, camera, terrain, tiles, aspect, settings, fog,
-        )?;
+        stats += draw_shadows(target, camera, terrain, tiles, aspect, settings, fog)?;
     }
     Ok(TilesDrawn {
         triangles: stats,
@@ -285,17 +282,15 @@ pub fn draw_tiles(
 /// Draws the shadow quad of every tile in `tiles` ([`crate::cracks::shadow`]), in their order,
 /// with each tile's render state; a quad that grazes or lies beyond the subdivided transform's
 /// reach is skipped.
-#[allow(clippy::too_many_arguments)]
-fn draw_shadows(
-    fb: &mut Framebuffer,
-    rasterizer: &mut Rasterizer,
+fn draw_shadows<T: DrawTarget>(
+    target: &mut T,
     camera: &Camera,
     terrain: &TerrainFrame,
     tiles: &[TileDraw<'_>],
     aspect: f64,
     settings: &RenderSettings,
     fog: Option<Fog>,
-) -> Result<DrawStats, RasterError> {
+) -> Result<DrawStats, T::Error> {
     let fine = FrameTransform::subdivided(camera, terrain, aspect, shadow::SUBDIVISION)?;
     let mut stats = DrawStats::default();
     for t in tiles {
@@ -313,7 +308,7 @@ fn draw_shadows(
             indices: Indices::U16(&shadow::QUAD_STRIP),
             topology: Topology::TriangleStrip,
         };
-        stats += rasterizer.draw(fb, &mesh, &transform, &tile_state(settings, fog, t))?;
+        stats += target.draw(&mesh, &transform, &tile_state(settings, fog, t))?;
     }
     Ok(stats)
 }

@@ -23,7 +23,9 @@ use stripmask::pager::PagerMode;
 use stripmask::render::{RenderSettings, TileDraw, TileMeshes, draw_tiles};
 use stripmask::source;
 use stripmask::tradeoff::metrics::{compare, psnr};
-use stripmask_raster::{ColorFormat, DepthFormat, DrawStats, Framebuffer, Precision, Rasterizer};
+use stripmask_raster::{
+    ColorFormat, DepthFormat, DrawStats, Framebuffer, Precision, RasterTarget, Rasterizer,
+};
 
 /// How far the fixed-point path may stray from the f32 path on the same frame: at most this
 /// fraction of pixels may differ by more than [`OFF`] in a channel, and PSNR stays at or above
@@ -374,8 +376,7 @@ fn draw_as_is(
     let mut cracks = TileIndices::new(CrackMode::None, terrain.tile_size);
     let mut fb = Framebuffer::new(size.0, size.1, ColorFormat::Rgba8888, depth).unwrap();
     let stats = draw_tiles(
-        &mut fb,
-        &mut Rasterizer::with_threads(1),
+        &mut RasterTarget::new(&mut fb, &mut Rasterizer::with_threads(1)),
         camera,
         terrain,
         &mut tiles,

@@ -88,4 +88,26 @@ pub enum PlatformError {
         /// Why.
         source: std::io::Error,
     },
+    /// The rasterizer's inputs were refused (the GPU target checks them as the CPU does).
+    #[error(transparent)]
+    Raster(#[from] stripmask_raster::RasterError),
+    /// No GPU adapter, not even a software one.
+    #[cfg(feature = "wgpu")]
+    #[error(
+        "no GPU adapter: {detail} (without a GPU, install Mesa's Vulkan rasterizer: \
+         apt-get install mesa-vulkan-drivers libvulkan1)"
+    )]
+    NoGpuAdapter {
+        /// What wgpu said.
+        detail: String,
+    },
+    /// The GPU refused a resource or a command, or lost the device.
+    #[cfg(feature = "wgpu")]
+    #[error("GPU adapter {adapter}: {message}")]
+    Gpu {
+        /// The adapter, as `GpuTarget::adapter_name` gives it.
+        adapter: String,
+        /// What went wrong.
+        message: String,
+    },
 }

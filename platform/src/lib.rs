@@ -6,6 +6,9 @@
 //! - `WindowPresenter` (cargo feature `window`): a desktop window through minifb's X11 backend.
 //! - `FbPresenter` (cargo feature `fbdev`, Linux): the Linux framebuffer device, `/dev/fb0`.
 //!
+//! Beside them, `GpuTarget` (cargo feature `wgpu`, off by default) takes the same draws as the CPU
+//! rasterizer through wgpu, as a reference for accuracy and a peer for speed.
+//!
 //! The [`Hud`] draws statistics and a minimap of the belts with tiny-skia into an [`Overlay`],
 //! which a presenter composites over the frame while it converts pixels; when the HUD is off there
 //! is no overlay and the conversion is the plain one. Frames are never scaled or converted twice:
@@ -20,6 +23,8 @@ mod error;
 mod fbdev;
 #[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
 mod fit;
+#[cfg(feature = "wgpu")]
+mod gpu;
 mod hud;
 mod input;
 mod png;
@@ -32,6 +37,8 @@ pub use error::PlatformError;
 pub use fbdev::{Bitfield, EvdevInput, FbPresenter, ScreenInfo};
 #[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
 pub use fit::Fit;
+#[cfg(feature = "wgpu")]
+pub use gpu::GpuTarget;
 pub use hud::{Hud, HudInfo, Minimap, Overlay, PanelRect, TileState};
 pub use input::{Command, Input, Motion};
 pub use png::PngFrames;

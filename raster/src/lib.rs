@@ -43,6 +43,7 @@ mod pipeline;
 mod pixel;
 mod sampler;
 mod state;
+mod target;
 mod texture;
 mod vertex;
 
@@ -56,6 +57,7 @@ pub use state::{
     Compare, CullMode, DepthMode, Fog, FrontFace, Perspective, Precision, Rect, RenderState,
     Shading, TextureBinding,
 };
+pub use target::{DrawTarget, RasterTarget, count_triangles};
 pub use texture::{
     Filter, MipFilter, MipLevel, Sampler, Texels, Texture, TextureFormat, Wrap, box_mip_chain,
 };

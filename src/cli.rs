@@ -777,7 +777,7 @@ fn run_tradeoff(a: TradeoffArgs) -> Result<()> {
         knobs: a.knobs,
         progress: !a.quiet,
     };
-    let report = stripmask::tradeoff::run(&options)?;
+    let report = stripmask::tradeoff::run_with(&options, tradeoff_references(a.size))?;
     let front = report.rows.iter().filter(|r| r.pareto).count();
     println!(
         "{} settings over {} views, {} on the Pareto front -> {}",
@@ -787,6 +787,26 @@ fn run_tradeoff(a: TradeoffArgs) -> Result<()> {
         a.out.join("tradeoff.md").display()
     );
     Ok(())
+}
+
+/// The CPU float reference, and with the `wgpu` feature the GPU one where an adapter exists
+/// (where none does, the report says why and goes on with the CPU reference).
+#[cfg_attr(not(feature = "wgpu"), allow(unused_variables))]
+fn tradeoff_references(
+    size: (u32, u32),
+) -> Vec<Box<dyn stripmask::tradeoff::reference::Reference>> {
+    #[cfg_attr(not(feature = "wgpu"), allow(unused_mut))]
+    let mut references: Vec<Box<dyn stripmask::tradeoff::reference::Reference>> =
+        vec![Box::new(stripmask::tradeoff::reference::CpuFloat)];
+    #[cfg(feature = "wgpu")]
+    match stripmask::tradeoff::reference::Gpu::new(size) {
+        Ok(gpu) => {
+            eprintln!("wgpu reference on {}", gpu.adapter());
+            references.push(Box::new(gpu));
+        }
+        Err(e) => eprintln!("wgpu reference skipped: {e}"),
+    }
+    references
 }
 
 fn run_build(a: BuildArgs) -> Result<()> {

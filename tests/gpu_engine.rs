@@ -73,3 +73,54 @@ fn an_engine_frame_on_the_gpu_matches_the_cpu_frame() {
     // Measured on llvmpipe: 36.4 dB, 0.02 % of pixels off.
     assert!(psnr > 32.0 && off < 0.003, "PSNR {psnr} dB, {off} off");
 }
+
+#[test]
+fn the_tradeoff_report_measures_every_setting_against_the_gpu_reference_too() {
+    use stripmask::tradeoff::reference::{CpuFloat, Gpu, Reference};
+    use stripmask::tradeoff::{TradeoffOptions, run_with};
+    let size = (64, 48);
+    let gpu = match Gpu::new(size) {
+        Ok(gpu) => gpu,
+        Err(e @ PlatformError::NoGpuAdapter { .. }) => {
+            let _ = writeln!(std::io::stderr(), "gpu_engine: skipped, {e}");
+            return;
+        }
+        Err(e) => panic!("GPU reference: {e}"),
+    };
+    let _ = writeln!(std::io::stderr(), "gpu_engine: adapter {}", gpu.adapter());
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("report");
+    let options = TradeoffOptions {
+        source: hills::archive(dir.path(), 33).display().to_string(),
+        out: out.clone(),
+        flight: None,
+        flight_views: 0,
+        builtin_views: Some(2),
+        size,
+        repeats: 1,
+        threshold: 16,
+        knobs: Some(vec!["budget".into()]),
+        progress: false,
+    };
+    let references: Vec<Box<dyn Reference>> = vec![Box::new(CpuFloat), Box::new(gpu)];
+    let report = run_with(&options, references).unwrap();
+    for row in &report.rows {
+        assert_eq!(row.measurement.errors.len(), 2, "{}", row.entry.name);
+    }
+    let full = report
+        .rows
+        .iter()
+        .find(|r| r.entry.name == "budget=full")
+        .unwrap();
+    let coarse = report
+        .rows
+        .iter()
+        .find(|r| r.entry.name == "budget=3000")
+        .unwrap();
+    // The GPU reference ranks the budgets as the CPU one does.
+    let gpu_error = |r: &stripmask::tradeoff::Row| r.measurement.errors[1].ssim;
+    assert!(gpu_error(full) > gpu_error(coarse));
+    let csv = std::fs::read_to_string(out.join("tradeoff.csv")).unwrap();
+    assert!(csv.lines().next().unwrap().contains("wgpu_ssim"));
+    assert!(out.join("reference-wgpu-0-overview.png").exists());
+}

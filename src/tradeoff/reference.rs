@@ -54,3 +54,59 @@ impl Reference for CpuFloat {
         Ok(fb.to_rgba_image())
     }
 }
+
+/// The same reference draw list rendered by wgpu (lavapipe's llvmpipe without a GPU): a
+/// conformant rasterizer to measure the CPU pipelines against, independent of their rounding.
+#[cfg(feature = "wgpu")]
+pub struct Gpu {
+    target: stripmask_platform::GpuTarget,
+}
+
+#[cfg(feature = "wgpu")]
+impl Gpu {
+    /// A wgpu target of `size`, or the reason there is none (no adapter: the error says which
+    /// packages provide one).
+    pub fn new(size: (u32, u32)) -> std::result::Result<Gpu, stripmask_platform::PlatformError> {
+        let target = stripmask_platform::GpuTarget::new(
+            size.0,
+            size.1,
+            ColorFormat::Rgba8888,
+            DepthFormat::D32,
+        )?;
+        Ok(Gpu { target })
+    }
+
+    /// The adapter that renders, as wgpu names it.
+    pub fn adapter(&self) -> &str {
+        self.target.adapter_name()
+    }
+}
+
+#[cfg(feature = "wgpu")]
+impl Reference for Gpu {
+    fn name(&self) -> String {
+        "wgpu".into()
+    }
+
+    fn render(
+        &mut self,
+        engine: &mut Engine,
+        camera: &Camera,
+        size: (u32, u32),
+    ) -> Result<RgbaImage> {
+        use stripmask_raster::DrawTarget;
+        if self.target.size() != size {
+            *self = Gpu::new(size).map_err(|e| Error::Usage(format!("wgpu reference: {e}")))?;
+        }
+        let render = engine.render_settings_mut();
+        render.perspective = Perspective::Exact;
+        if render.sampler.is_some() {
+            render.sampler = Some(Sampler::BILINEAR_MIPMAP);
+        }
+        engine.force_levels(Some(Box::new(|_| 0)));
+        engine.render_to(camera, &mut self.target)?;
+        self.target
+            .read_image()
+            .map_err(|e| Error::Usage(format!("wgpu reference: {e}")))
+    }
+}

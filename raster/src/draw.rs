@@ -102,28 +102,7 @@ impl Rasterizer {
         transform: &Transform,
         state: &RenderState,
     ) -> Result<DrawStats, RasterError> {
-        let (width, height) = (fb.width(), fb.height());
-        let scissor = state.scissor.unwrap_or(Rect {
-            x0: 0,
-            y0: 0,
-            x1: width,
-            y1: height,
-        });
-        if scissor.x0 > scissor.x1
-            || scissor.y0 > scissor.y1
-            || scissor.x1 > width
-            || scissor.y1 > height
-        {
-            let Rect { x0, y0, x1, y1 } = scissor;
-            return Err(RasterError::Scissor {
-                x0,
-                y0,
-                x1,
-                y1,
-                width,
-                height,
-            });
-        }
+        let scissor = Rect::scissor_on(state.scissor, fb.width(), fb.height())?;
         self.gather(mesh)?;
         let mut stats = DrawStats {
             triangles: self.triangles.len() as u64,
@@ -132,7 +111,10 @@ impl Rasterizer {
         if self.triangles.is_empty() || scissor.x0 == scissor.x1 || scissor.y0 == scissor.y1 {
             return Ok(stats);
         }
-        let vp = Viewport { width, height };
+        let vp = Viewport {
+            width: fb.width(),
+            height: fb.height(),
+        };
         let has_depth = !matches!(fb.depth(), DepthBuffer::None);
         let attrs = Attributes::new(state, has_depth);
         let job = Job {

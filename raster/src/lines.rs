@@ -108,7 +108,7 @@ impl Rasterizer {
         transform: &Transform,
         state: &LineState,
     ) -> Result<LineStats, RasterError> {
-        let scissor = checked_scissor(fb, state.scissor)?;
+        let scissor = Rect::scissor_on(state.scissor, fb.width(), fb.height())?;
         for (k, line) in lines.iter().enumerate() {
             if let Some(&v) = line.iter().find(|&&v| v as usize >= vertices.len()) {
                 return Err(RasterError::IndexOutOfRange {
@@ -170,27 +170,6 @@ impl Rasterizer {
 }
 
 /// The scissor rectangle of a draw, checked against the framebuffer.
-fn checked_scissor(fb: &Framebuffer, scissor: Option<Rect>) -> Result<Rect, RasterError> {
-    let (width, height) = (fb.width(), fb.height());
-    let r = scissor.unwrap_or(Rect {
-        x0: 0,
-        y0: 0,
-        x1: width,
-        y1: height,
-    });
-    if r.x0 > r.x1 || r.y0 > r.y1 || r.x1 > width || r.y1 > height {
-        return Err(RasterError::Scissor {
-            x0: r.x0,
-            y0: r.y0,
-            x1: r.x1,
-            y1: r.y1,
-            width,
-            height,
-        });
-    }
-    Ok(r)
-}
-
 /// Clips segment `a b` against every plane either endpoint is outside of, cutting from the
 /// inside endpoint as the triangle clipper does; `None` when nothing is left.
 fn clip_segment(a: FixedClip, b: FixedClip, space: &FixedSpace) -> Option<[FixedClip; 2]> {

@@ -1,6 +1,7 @@
 //! Render state as small `Copy` types with named constants: a draw names what it needs, and the
 //! pipeline picks a specialised inner loop for exactly that set.
 
+use crate::RasterError;
 use crate::texture::{Sampler, Texture};
 
 /// Which arithmetic runs the pipeline.
@@ -167,6 +168,30 @@ pub struct Rect {
     pub x1: u32,
     /// Bottom, exclusive.
     pub y1: u32,
+}
+
+impl Rect {
+    /// The pixels a draw with `scissor` may touch on a `width x height` target: the whole target
+    /// without one, or the scissor if it lies inside the target. Every backend checks it alike.
+    pub fn scissor_on(scissor: Option<Rect>, width: u32, height: u32) -> Result<Rect, RasterError> {
+        let r = scissor.unwrap_or(Rect {
+            x0: 0,
+            y0: 0,
+            x1: width,
+            y1: height,
+        });
+        if r.x0 > r.x1 || r.y0 > r.y1 || r.x1 > width || r.y1 > height {
+            return Err(RasterError::Scissor {
+                x0: r.x0,
+                y0: r.y0,
+                x1: r.x1,
+                y1: r.y1,
+                width,
+                height,
+            });
+        }
+        Ok(r)
+    }
 }
 
 /// Everything a draw needs besides geometry and transform.

@@ -356,28 +356,7 @@ impl DrawTarget for GpuTarget {
         transform: &Transform,
         state: &RenderState,
     ) -> Result<DrawStats, PlatformError> {
-        let scissor = state.scissor.unwrap_or(Rect {
-            x0: 0,
-            y0: 0,
-            x1: self.width,
-            y1: self.height,
-        });
-        if scissor.x0 > scissor.x1
-            || scissor.y0 > scissor.y1
-            || scissor.x1 > self.width
-            || scissor.y1 > self.height
-        {
-            let Rect { x0, y0, x1, y1 } = scissor;
-            return Err(RasterError::Scissor {
-                x0,
-                y0,
-                x1,
-                y1,
-                width: self.width,
-                height: self.height,
-            }
-            .into());
-        }
+        let scissor = Rect::scissor_on(state.scissor, self.width, self.height)?;
         let triangles = count_triangles(mesh)?;
         let stats = DrawStats {
             triangles,

@@ -82,3 +82,21 @@ fn an_unknown_knob_is_refused_with_the_list_of_knobs() {
         "{e}"
     );
 }
+
+#[test]
+fn the_geomorph_knob_builds_morphing_engines_and_changes_the_picture() {
+    let dir = tempfile::tempdir().unwrap();
+    let archive = hills::archive(dir.path(), 33).display().to_string();
+    let report = run(&options(archive, dir.path().join("r"), &["geomorph"])).unwrap();
+    let names: Vec<&str> = report.rows.iter().map(|r| r.entry.name.as_str()).collect();
+    assert_eq!(
+        names,
+        ["defaults", "geomorph=distance4", "geomorph=distance16"]
+    );
+    let mse = |k: usize| report.rows[k].measurement.errors[0].mse;
+    assert_ne!(
+        mse(0),
+        mse(2),
+        "a 16 px morph moves vertices in these views"
+    );
+}

@@ -7,6 +7,7 @@
 use stripmask_raster::{ColorFormat, DepthFormat, Perspective, Precision, Sampler};
 
 use crate::cracks::CrackMode;
+use crate::geomorph::Geomorph;
 use crate::render::RenderSettings;
 
 /// The PocketPC's triangle budget in the paper's flyover: the smallest budget swept.
@@ -34,6 +35,8 @@ pub struct Setting {
     pub depth: DepthFormat,
     /// How cracks between levels are hidden.
     pub cracks: CrackMode,
+    /// Whether vertices that coarser levels drop glide onto the coarser surface.
+    pub geomorph: Geomorph,
     /// Rasterizer threads.
     pub threads: usize,
 }
@@ -49,6 +52,7 @@ impl Default for Setting {
             color: ColorFormat::Rgb565,
             depth: DepthFormat::D16,
             cracks: CrackMode::Stitch,
+            geomorph: Geomorph::Off,
             threads: 1,
         }
     }
@@ -170,6 +174,17 @@ pub fn knobs() -> Vec<Knob> {
                 value!("shadow", |s| s.cracks = CrackMode::Shadow),
                 value!("skirts", |s| s.cracks = CrackMode::Skirts),
                 value!("stitch", |s| s.cracks = CrackMode::Stitch),
+            ],
+        ),
+        knob(
+            "geomorph",
+            false,
+            vec![
+                value!("off", |s| s.geomorph = Geomorph::Off),
+                value!("distance4", |s| s.geomorph =
+                    Geomorph::Distance { pixels: 4.0 }),
+                value!("distance16", |s| s.geomorph =
+                    Geomorph::Distance { pixels: 16.0 }),
             ],
         ),
         knob(

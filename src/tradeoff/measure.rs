@@ -20,6 +20,7 @@ use crate::cracks::CrackMode;
 use crate::engine::{Engine, EngineSettings, FrameReport};
 use crate::error::{Error, Result};
 use crate::frustum::Aabb;
+use crate::geomorph::Geomorph;
 use crate::pager::PagerMode;
 use crate::source;
 
@@ -42,12 +43,12 @@ pub struct Measurement {
     pub geometric_mean_px: f64,
 }
 
-/// Engines with every tile of the archive loaded, one per crack mode and thread count (the
+/// Engines with every tile of the archive loaded, one per crack mode, geomorph and thread count (the
 /// settings an engine is built with); everything else changes between frames.
 pub struct Bench {
     source: String,
     size: (u32, u32),
-    engines: Vec<((CrackMode, usize), Engine)>,
+    engines: Vec<((CrackMode, Geomorph, usize), Engine)>,
     framebuffers: HashMap<(ColorFormat, DepthFormat), Framebuffer>,
     views: Vec<View>,
     cameras: Vec<Camera>,
@@ -67,7 +68,7 @@ impl Bench {
         // Cameras from an engine with every tile loaded, so that views following the ground
         // know where it is.
         let views = bench.views.clone();
-        let engine = bench.engine(CrackMode::default(), 1)?;
+        let engine = bench.engine(CrackMode::default(), Geomorph::Off, 1)?;
         let mut fb =
             Framebuffer::new(1, 1, ColorFormat::Rgba8888, DepthFormat::D16).expect("a 1 x 1 frame");
         for v in &views {
@@ -103,7 +104,11 @@ impl Bench {
         let repeats = repeats.max(1);
         let views = self.cameras.len().max(1) as f64;
         for entry in entries {
-            self.engine(entry.setting.cracks, entry.setting.threads)?;
+            self.engine(
+                entry.setting.cracks,
+                entry.setting.geomorph,
+                entry.setting.threads,
+            )?;
         }
         let mut cpu = vec![vec![0.0; repeats]; entries.len()];
         let mut wall = vec![vec![0.0; repeats]; entries.len()];
@@ -113,7 +118,7 @@ impl Bench {
             progress(&self.views[v]);
             self.settle(v)?;
             let (size, camera) = (self.size, self.cameras[v]);
-            let engine = self.engine(CrackMode::default(), 1)?;
+            let engine = self.engine(CrackMode::default(), Geomorph::Off, 1)?;
             let mut images = Vec::new();
             for (reference, kept) in references.iter_mut().zip(&mut pictures) {
                 apply(engine, &Setting::default());
@@ -193,7 +198,7 @@ impl Bench {
             None => Framebuffer::new(w, h, key.0, key.1)
                 .map_err(|e| Error::Usage(format!("frame {w}x{h}: {e}")))?,
         };
-        let engine = self.engine(setting.cracks, setting.threads)?;
+        let engine = self.engine(setting.cracks, setting.geomorph, setting.threads)?;
         apply(engine, setting);
         let (cpu, wall) = (ProcessTime::now(), Instant::now());
         let report = engine.render(&camera, &mut fb);
@@ -228,14 +233,21 @@ impl Bench {
             .fold(0.0, f64::max)
     }
 
-    /// The engine for `cracks` and `threads`, built and filled with every tile on first use.
-    fn engine(&mut self, cracks: CrackMode, threads: usize) -> Result<&mut Engine> {
-        let key = (cracks, threads);
+    /// The engine for `cracks`, `geomorph` and `threads` (settings an engine is built with),
+    /// built and filled with every tile on first use.
+    fn engine(
+        &mut self,
+        cracks: CrackMode,
+        geomorph: Geomorph,
+        threads: usize,
+    ) -> Result<&mut Engine> {
+        let key = (cracks, geomorph, threads);
         if let Some(k) = self.engines.iter().position(|(k, _)| *k == key) {
             return Ok(&mut self.engines[k].1);
         }
         let settings = EngineSettings {
             cracks,
+            geomorph,
             threads,
             memory_limit_bytes: 1 << 30,
             pager_mode: PagerMode::Stepped {

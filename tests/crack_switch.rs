@@ -3,8 +3,10 @@
 //! accounting stays exact (what it counts is what the tiles hold, never over the limit), also
 //! when the new mode does not fit the limit and when tiles are still in flight.
 
-use std::sync::OnceLock;
+#[path = "support/crack_scene.rs"]
+mod crack_scene;
 
+use crack_scene::scene;
 use stripmask::cracks::CrackMode;
 use stripmask::cracks::metric::{CrackScene, TILE_SIZE};
 use stripmask::engine::Engine;
@@ -14,17 +16,6 @@ use stripmask::source;
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
 const SIZE: (u32, u32) = (160, 120);
-
-fn scene() -> &'static CrackScene {
-    static SCENE: OnceLock<(tempfile::TempDir, CrackScene)> = OnceLock::new();
-    &SCENE
-        .get_or_init(|| {
-            let dir = tempfile::tempdir().unwrap();
-            let scene = CrackScene::build(dir.path()).unwrap();
-            (dir, scene)
-        })
-        .1
-}
 
 fn frame() -> Framebuffer {
     Framebuffer::new(SIZE.0, SIZE.1, ColorFormat::Rgb565, DepthFormat::D16).unwrap()

@@ -4,11 +4,14 @@
 
 mod support;
 
-use std::collections::BTreeSet;
-use std::sync::OnceLock;
+#[path = "support/crack_scene.rs"]
+mod crack_scene;
 
+use std::collections::BTreeSet;
+
+use crack_scene::scene;
 use stripmask::cracks::CrackMode;
-use stripmask::cracks::metric::{BACKGROUND, CrackScene, TILE_SIZE};
+use stripmask::cracks::metric::{BACKGROUND, TILE_SIZE};
 use stripmask::engine::{Engine, FrameReport};
 use stripmask::mask_level::kept_indices;
 use stripmask::render::Wireframe;
@@ -17,17 +20,6 @@ use support::golden::check;
 
 const SIZE: (u32, u32) = (320, 240);
 const VIEW: usize = 9;
-
-fn scene() -> &'static CrackScene {
-    static SCENE: OnceLock<(tempfile::TempDir, CrackScene)> = OnceLock::new();
-    &SCENE
-        .get_or_init(|| {
-            let dir = tempfile::tempdir().unwrap();
-            let scene = CrackScene::build(dir.path()).unwrap();
-            (dir, scene)
-        })
-        .1
-}
 
 fn render(engine: &mut Engine, wireframe: Wireframe) -> (Framebuffer, FrameReport) {
     engine.render_settings_mut().wireframe = wireframe;

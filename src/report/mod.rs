@@ -146,40 +146,60 @@ pub(crate) fn font_family() -> &'static str {
     FAMILY
 }
 
-fn plot(path: &Path, title: &str, unit: &str, lines: &[Series]) -> Result<()> {
+/// A drawing failure, from any plotters back end.
+pub(crate) type PlotError = Box<dyn std::error::Error>;
+
+/// Draws a `size` plot with `draw` on a white bitmap (the embedded font registered) and saves
+/// it as the PNG `path`; errors name the file.
+pub(crate) fn save_plot(
+    path: &Path,
+    size: (u32, u32),
+    draw: impl FnOnce(
+        &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
+    ) -> std::result::Result<(), PlotError>,
+) -> Result<()> {
     font_family();
     let name = path.display().to_string();
-    let fail = |e: &dyn std::fmt::Display| Error::invalid(&name, format!("plotting failed: {e}"));
-    let (w, h) = PLOT_SIZE;
+    let (w, h) = size;
     let mut pixels = vec![255u8; (w * h * 3) as usize];
     {
-        let root = BitMapBackend::with_buffer(&mut pixels, (w, h)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| fail(&e))?;
+        let root = BitMapBackend::with_buffer(&mut pixels, size).into_drawing_area();
+        root.fill(&WHITE)
+            .map_err(PlotError::from)
+            .and_then(|()| draw(&root))
+            .and_then(|()| root.present().map_err(PlotError::from))
+            .map_err(|e| Error::invalid(&name, format!("plotting failed: {e}")))?;
+    }
+    let image = image::RgbImage::from_raw(w, h, pixels).expect("the buffer is w x h x 3");
+    image
+        .save(path)
+        .map_err(|e| Error::invalid(&name, format!("writing the plot failed: {e}")))
+}
+
+fn plot(path: &Path, title: &str, unit: &str, lines: &[Series]) -> Result<()> {
+    save_plot(path, PLOT_SIZE, |root| {
         let points = || lines.iter().flat_map(|s| s.points.iter());
         let x_max = points().map(|p| p.0).fold(0.0, f64::max).max(1.0);
         let y_max = points().map(|p| p.1).fold(0.0, f64::max).max(1.0) * 1.1;
-        let mut chart = ChartBuilder::on(&root)
+        let mut chart = ChartBuilder::on(root)
             .caption(title, (FAMILY, 22))
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(70)
-            .build_cartesian_2d(0.0..x_max, 0.0..y_max)
-            .map_err(|e| fail(&e))?;
+            .build_cartesian_2d(0.0..x_max, 0.0..y_max)?;
         chart
             .configure_mesh()
             .x_desc("flight time, s")
             .y_desc(unit)
             .label_style((FAMILY, 14))
-            .draw()
-            .map_err(|e| fail(&e))?;
+            .draw()?;
         for s in lines {
             let color = s.color;
             chart
                 .draw_series(LineSeries::new(
                     s.points.iter().copied(),
                     color.stroke_width(2),
-                ))
-                .map_err(|e| fail(&e))?
+                ))?
                 .label(s.label)
                 .legend(move |(x, y)| {
                     PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2))
@@ -190,14 +210,9 @@ fn plot(path: &Path, title: &str, unit: &str, lines: &[Series]) -> Result<()> {
             .background_style(WHITE.mix(0.8))
             .border_style(BLACK)
             .label_font((FAMILY, 14))
-            .draw()
-            .map_err(|e| fail(&e))?;
-        root.present().map_err(|e| fail(&e))?;
-    }
-    let image = image::RgbImage::from_raw(w, h, pixels).expect("the buffer is w x h x 3");
-    image
-        .save(path)
-        .map_err(|e| Error::invalid(&name, format!("writing the plot failed: {e}")))
+            .draw()?;
+        Ok(())
+    })
 }
 
 #[cfg(test)]

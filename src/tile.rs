@@ -19,16 +19,49 @@
 //! without a crack. A decoded height is within `quantum / 2` of the true one; a tile's relief must
 //! fit 65535 quanta. The payload size is fixed by `s` and `t`, which the archive header carries.
 
+use std::ops::Range;
+
 use crate::error::{Error, Result};
 use crate::level_error::level_errors;
 use crate::mask_level::level_count;
 use crate::rgb565::{mip_chain, mip_chain_texels, mip_count};
 
-/// One decoded tile.
+/// The progressive levels of a tile of `tile_size = 2^n + 1` samples per side: `n + 1`. Level
+/// `g` is the grid of `2^g + 1` samples per side that keeps every `2^(n - g)`-th sample; level 0
+/// is the four corners, level `n` the whole tile. Each level adds only the samples the coarser
+/// ones lack, so a tile holding levels `0..k` is a usable coarser tile.
+pub fn progressive_levels(tile_size: usize) -> usize {
+    (tile_size.max(2) - 1).ilog2() as usize + 1
+}
+
+/// Samples per side of progressive level `level`'s grid: `2^level + 1`.
+pub fn level_side(level: usize) -> usize {
+    (1 << level) + 1
+}
+
+/// The texture mips (indices into the archive's chain, 0 the finest) that progressive level
+/// `level` carries: the mip a tile drawn at that level's sample spacing reads (mip `n - level`,
+/// clamped to the chain), and for level 0 every coarser one too. Levels whose mip a coarser level
+/// already carries carry none; every mip is carried by exactly one level.
+pub fn level_mips(level: usize, tile_size: usize, texture_size: usize) -> Range<usize> {
+    let n = progressive_levels(tile_size) - 1;
+    let last = mip_count(texture_size) - 1;
+    let shown = |g: usize| (n - g).min(last);
+    if level == 0 {
+        shown(0)..last + 1
+    } else {
+        shown(level)..shown(level - 1)
+    }
+}
+
+/// One decoded tile, or the coarser tile that a prefix of its progressive levels makes.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Tile {
-    /// Samples per side.
+    /// Samples per side of the whole tile.
     pub tile_size: usize,
+    /// Progressive levels held, `1 ..= progressive_levels(tile_size)`: the held grid is
+    /// [`Tile::side`] samples per side, every [`Tile::stride`]-th sample of the whole tile.
+    pub levels: usize,
     /// Lowest height in metres.
     pub min: f32,
     /// Highest height in metres.
@@ -39,11 +72,13 @@ pub struct Tile {
     pub quantum: f32,
     /// Maximum geometric error of each mask level against the full tile, metres, level 0 first.
     pub level_errors: Vec<f32>,
-    /// Quantised heights, `tile_size^2`, row-major from the north-west.
+    /// Quantised heights of the held grid, `side^2`, row-major from the north-west.
     pub heights: Vec<u16>,
-    /// Texture side in texels (finest mip).
+    /// Texture side in texels of the archive's finest mip.
     pub texture_size: usize,
-    /// RGB565 mip chain, finest first, down to 1 x 1.
+    /// Which mip of the archive's chain `texture_mips[0]` is (0 for a whole tile).
+    pub first_mip: usize,
+    /// RGB565 mip chain from mip `first_mip`, finest first, down to 1 x 1.
     pub texture_mips: Vec<Vec<u16>>,
 }
 
@@ -92,6 +127,7 @@ impl Tile {
             .collect();
         Ok(Tile {
             tile_size,
+            levels: progressive_levels(tile_size),
             min,
             max,
             base,
@@ -99,16 +135,61 @@ impl Tile {
             level_errors: level_errors(heights, tile_size),
             heights: quantised,
             texture_size,
+            first_mip: 0,
             texture_mips: mip_chain(texture, texture_size),
         })
     }
 
-    /// The archive-wide integer height of sample `(i, j)`, in quanta.
-    pub fn quanta(&self, i: usize, j: usize) -> i32 {
-        self.base + i32::from(self.heights[j * self.tile_size + i])
+    /// Samples per side of the held grid: `2^(levels - 1) + 1`.
+    pub fn side(&self) -> usize {
+        level_side(self.levels - 1)
     }
 
-    /// The height in metres of sample `(i, j)`.
+    /// Whole-tile samples between neighbouring samples of the held grid.
+    pub fn stride(&self) -> usize {
+        (self.tile_size - 1) / (self.side() - 1)
+    }
+
+    /// Whether every progressive level is held.
+    pub fn is_complete(&self) -> bool {
+        self.levels == progressive_levels(self.tile_size)
+    }
+
+    /// The finest strip-mask level the held samples can draw: a mask keeping every
+    /// `stride`-th sample.
+    pub fn finest_mask_level(&self) -> usize {
+        self.stride() - 1
+    }
+
+    /// The coarser tile that the first `levels` progressive levels make (clamped to
+    /// `1 ..= self.levels`): every `2^k`-th held sample and the texture mips those levels carry.
+    pub fn truncated(&self, levels: usize) -> Tile {
+        let levels = levels.clamp(1, self.levels);
+        let step = 1 << (self.levels - levels);
+        let side = level_side(levels - 1);
+        let heights = (0..side * side)
+            .map(|k| self.heights[(k / side) * step * self.side() + (k % side) * step])
+            .collect();
+        let first_mip = level_mips(levels - 1, self.tile_size, self.texture_size)
+            .start
+            .max(self.first_mip);
+        Tile {
+            levels,
+            heights,
+            first_mip,
+            texture_mips: self.texture_mips[first_mip - self.first_mip..].to_vec(),
+            level_errors: self.level_errors.clone(),
+            ..*self
+        }
+    }
+
+    /// The archive-wide integer height of held-grid sample `(i, j)`, in quanta (whole-tile
+    /// sample `(i * stride, j * stride)`).
+    pub fn quanta(&self, i: usize, j: usize) -> i32 {
+        self.base + i32::from(self.heights[j * self.side() + i])
+    }
+
+    /// The height in metres of held-grid sample `(i, j)`.
     pub fn height(&self, i: usize, j: usize) -> f32 {
         (f64::from(self.quanta(i, j)) * f64::from(self.quantum)) as f32
     }
@@ -183,6 +264,7 @@ impl Tile {
             .collect();
         Ok(Tile {
             tile_size,
+            levels: progressive_levels(tile_size),
             min,
             max,
             base,
@@ -190,6 +272,7 @@ impl Tile {
             level_errors,
             heights,
             texture_size,
+            first_mip: 0,
             texture_mips,
         })
     }
@@ -217,6 +300,37 @@ mod tests {
             }
         }
         assert!(Tile::decode(&bytes[1..], s, 8, "t").is_err());
+    }
+
+    #[test]
+    fn levels_nest_and_carry_every_mip_once() {
+        assert_eq!(progressive_levels(3), 2);
+        assert_eq!(progressive_levels(65), 7);
+        assert_eq!(level_side(0), 2);
+        assert_eq!(level_side(6), 65);
+        // s = 9 (levels 0..=3) with a 32-texel chain (mips 0..=5): level 0 carries 5, 4, 3.
+        let carried: Vec<_> = (0..4).map(|g| level_mips(g, 9, 32)).collect();
+        assert_eq!(carried, [3..6, 2..3, 1..2, 0..1]);
+        // s = 65 (levels 0..=6) with a 16-texel chain (mips 0..=4): levels 1 and 2 carry none.
+        let carried: Vec<_> = (0..7).map(|g| level_mips(g, 65, 16)).collect();
+        assert_eq!(carried, [4..5, 4..4, 4..4, 3..4, 2..3, 1..2, 0..1]);
+    }
+
+    #[test]
+    fn a_truncated_tile_keeps_the_coarser_grid_and_mips() {
+        let s = 9;
+        let heights: Vec<f32> = (0..s * s).map(|k| k as f32).collect();
+        let tile = Tile::new(&heights, s, 1.0, &vec![[1, 2, 3]; 64], 8).unwrap();
+        assert_eq!((tile.side(), tile.stride(), tile.levels), (9, 1, 4));
+        let coarse = tile.truncated(2);
+        assert_eq!((coarse.side(), coarse.stride()), (3, 4));
+        assert_eq!(coarse.finest_mask_level(), 3);
+        assert_eq!(coarse.quanta(1, 2), tile.quanta(4, 8));
+        assert_eq!(coarse.first_mip, 2);
+        assert_eq!(coarse.texture_mips[..], tile.texture_mips[2..]);
+        assert_eq!(coarse.truncated(1), tile.truncated(1));
+        assert_eq!(tile.truncated(1).heights.len(), 4);
+        assert!(!coarse.is_complete() && tile.is_complete());
     }
 
     #[test]

@@ -178,6 +178,9 @@ pub struct Reservation {
     pub bytes: usize,
     /// The belt distance the tile is fetched for.
     pub ring: u32,
+    /// Whether the fetch adds to the resident copy (a finer progressive level) instead of
+    /// replacing it: `bytes` is then the growth, not the whole.
+    pub adds: bool,
 }
 
 /// Why a tile is not fetched although it is missing.
@@ -318,6 +321,23 @@ impl Ledger {
     /// Accounts a planned fetch. Fails (and changes nothing) if the tile already has a fetch in
     /// flight or the reservation would exceed the limit.
     pub fn reserve(&mut self, fetch: Fetch) -> Result<()> {
+        self.reserve_as(fetch, false)
+    }
+
+    /// Accounts a fetch that adds `fetch.bytes` to the tile's resident copy (a refinement: the
+    /// copy stays and grows when it arrives). Fails like [`Ledger::reserve`], and when the tile
+    /// holds no copy.
+    pub fn reserve_addition(&mut self, fetch: Fetch) -> Result<()> {
+        if self.record(fetch.id).held.is_none() {
+            return Err(Error::invalid(
+                fetch.id.to_string(),
+                "cannot refine it: it holds no resident copy",
+            ));
+        }
+        self.reserve_as(fetch, true)
+    }
+
+    fn reserve_as(&mut self, fetch: Fetch, adds: bool) -> Result<()> {
         let record = self.record(fetch.id);
         let memory = self
             .memory
@@ -338,15 +358,18 @@ impl Ledger {
         self.records.entry(fetch.id).or_default().fetch = Some(Reservation {
             bytes: fetch.bytes,
             ring: fetch.ring,
+            adds,
         });
         self.memory = memory;
         self.peak = self.peak.max(memory);
         Ok(())
     }
 
-    /// A fetch arrived holding `bytes`: it replaces the tile's old copy, if any. Fails (and
-    /// releases the reservation, counting a failure) when the tile holds more than was reserved,
-    /// since accounting it could overspend the limit; the caller drops the new copy then.
+    /// A fetch arrived and the tile now holds `bytes`: the new copy replaces the old one, if
+    /// any (or, for a [`Ledger::reserve_addition`], the grown copy does). Fails (and releases
+    /// the reservation, counting a failure) when the tile holds more than was reserved (plus
+    /// the old copy, for an addition), since accounting it could overspend the limit; the
+    /// caller drops the new copy then.
     pub fn arrive(&mut self, id: TileId, bytes: usize, now: u64) -> Result<()> {
         let record = self.record(id);
         let Some(reservation) = record.fetch else {
@@ -355,17 +378,18 @@ impl Ledger {
                 "it arrived without a fetch in flight",
             ));
         };
-        if bytes > reservation.bytes {
+        let old = record.held.map_or(0, |h| h.bytes);
+        let allowed = reservation.bytes + if reservation.adds { old } else { 0 };
+        if bytes > allowed {
             self.fail(id, now);
             return Err(Error::invalid(
                 id.to_string(),
                 format!(
-                    "the loader holds {bytes} bytes, {} were predicted for ring {}",
-                    reservation.bytes, reservation.ring
+                    "the loader holds {bytes} bytes, {allowed} were predicted for ring {}",
+                    reservation.ring
                 ),
             ));
         }
-        let old = record.held.map_or(0, |h| h.bytes);
         self.memory = self.memory - reservation.bytes - old + bytes;
         let entry = self.records.entry(id).or_default();
         entry.fetch = None;

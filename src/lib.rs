@@ -48,6 +48,7 @@ pub mod serve;
 pub mod simclock;
 pub mod source;
 pub mod stats;
+pub mod stream;
 pub mod terrain;
 pub mod texture_gen;
 pub mod tile;

@@ -12,7 +12,7 @@
 //! included, never exceeds the limit.
 
 mod meminfo;
-mod worker;
+pub mod worker;
 
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
@@ -21,7 +21,7 @@ pub use meminfo::{memory_limit_from_available, parse_mem_available};
 
 use crate::belts::{self, Failure, Fetch, Grid, Ledger, Plan, RetryPolicy, TileId};
 use crate::error::{Error, Result};
-use worker::{Arrival, Worker};
+use worker::{Arrival, Worker, load_job};
 
 /// What the engine gives the pager: costs known before fetching, fetching itself, and shrinking.
 pub trait TileLoader: Send + Sync + 'static {
@@ -164,7 +164,7 @@ pub struct Pager<L: TileLoader> {
     config: PagerConfig,
     ledger: Ledger,
     tiles: BTreeMap<TileId, L::Loaded>,
-    worker: Option<Worker<L::Loaded>>,
+    worker: Option<Worker<Fetch, L::Loaded>>,
     transfer_clock: Option<Arc<dyn TransferClock>>,
     pending: VecDeque<Pending<L::Loaded>>,
     time: f64,
@@ -190,7 +190,7 @@ impl<L: TileLoader> Pager<L> {
                     "a threaded or simulated pager needs a queue depth of at least 1".into(),
                 ));
             }
-            PagerMode::Threaded { .. } => Some(Worker::spawn(Arc::clone(&loader))?),
+            PagerMode::Threaded { .. } => Some(Worker::spawn(load_job(Arc::clone(&loader)))?),
             PagerMode::Stepped { .. } | PagerMode::Simulated { .. } => None,
         };
         Ok(Pager {
@@ -255,7 +255,7 @@ impl<L: TileLoader> Pager<L> {
                         break;
                     };
                     if self.reserve(fetch) {
-                        let result = worker::load(&*self.loader, fetch);
+                        let result = self.load_now(fetch);
                         self.integrate(fetch.id, result);
                     }
                 }
@@ -462,7 +462,7 @@ impl<L: TileLoader> Pager<L> {
                 .map_or(0.0, |c| c.busy_seconds())
         };
         let before = busy();
-        let result = worker::load(&*self.loader, fetch);
+        let result = self.load_now(fetch);
         let took = (busy() - before).max(0.0);
         let due = self.link_free.max(self.time) + took;
         self.link_free = due;
@@ -494,8 +494,8 @@ impl<L: TileLoader> Pager<L> {
                 }
             }
         }
-        for Arrival { id, result } in arrivals {
-            self.integrate(id, result);
+        for Arrival { request, result } in arrivals {
+            self.integrate(request.id, result);
         }
         if let Some(e) = stopped {
             self.record_error(e.to_string());
@@ -508,7 +508,7 @@ impl<L: TileLoader> Pager<L> {
             for id in in_flight {
                 self.ledger.fail(id, self.now);
             }
-            self.worker = match Worker::spawn(Arc::clone(&self.loader)) {
+            self.worker = match Worker::spawn(load_job(Arc::clone(&self.loader))) {
                 Ok(worker) => Some(worker),
                 Err(e) => {
                     self.record_error(e.to_string());
@@ -569,6 +569,11 @@ impl<L: TileLoader> Pager<L> {
                 self.evictions += 1;
             }
         }
+    }
+
+    /// Runs a fetch on this thread (stepped and simulated modes).
+    fn load_now(&self, fetch: Fetch) -> Result<(L::Loaded, u64)> {
+        worker::run(&|f: Fetch| self.loader.load(f.id, f.ring), fetch)
     }
 
     fn record_error(&mut self, message: String) {

@@ -1,0 +1,282 @@
+//! The stream pager with a synthetic loader: coarse levels fill the belts first, finer levels
+//! follow importance, the bounded queue cancels what no longer matters, the memory limit holds
+//! through any flight, and cancelling never loses a tile.
+
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use proptest::prelude::*;
+use stripmask::belts::{Grid, TileId};
+use stripmask::error::{Error, Result};
+use stripmask::pager::PagerMode;
+use stripmask::stream::{LevelLoader, StreamConfig, StreamPager, Want};
+
+/// Levels per tile and the bytes a tile holding `k` of them takes: 100 * 4^(k-1).
+const LEVELS: usize = 5;
+
+fn bytes_at(levels: usize) -> usize {
+    100 * 4usize.pow(levels as u32 - 1)
+}
+
+/// A tile holding `levels` levels.
+#[derive(Debug)]
+struct Held {
+    id: TileId,
+    levels: usize,
+}
+
+/// Loads nothing but keeps the contract: levels arrive in order, bytes as predicted.
+#[derive(Default)]
+struct Synthetic {
+    fetched: AtomicU64,
+    /// Tiles whose fetches fail.
+    broken: Mutex<Vec<TileId>>,
+}
+
+impl LevelLoader for Synthetic {
+    type Loaded = Held;
+    type Piece = (TileId, usize, usize);
+
+    fn levels(&self) -> usize {
+        LEVELS
+    }
+
+    fn predicted_bytes(&self, levels: usize) -> usize {
+        bytes_at(levels)
+    }
+
+    fn fetch(&self, id: TileId, have: usize, want: usize) -> Result<(Self::Piece, u64)> {
+        if self.broken.lock().unwrap().contains(&id) {
+            return Err(Error::invalid(id.to_string(), "broken on purpose"));
+        }
+        self.fetched.fetch_add(1, Ordering::Relaxed);
+        let bytes = (bytes_at(want) - if have == 0 { 0 } else { bytes_at(have) }) as u64;
+        Ok(((id, have, want), bytes))
+    }
+
+    fn merge(&self, id: TileId, held: Option<&Held>, piece: Self::Piece) -> Result<Held> {
+        let (piece_id, have, want) = piece;
+        assert_eq!(piece_id, id);
+        assert_eq!(held.map_or(0, |h| h.levels), have, "levels arrive in order");
+        Ok(Held { id, levels: want })
+    }
+
+    fn held_levels(&self, tile: &Held) -> usize {
+        tile.levels
+    }
+
+    fn held_bytes(&self, tile: &Held) -> usize {
+        bytes_at(tile.levels)
+    }
+
+    fn drop_levels(&self, tile: &mut Held, levels: usize) -> usize {
+        tile.levels = tile.levels.min(levels.max(1));
+        bytes_at(tile.levels)
+    }
+}
+
+fn pager(limit: usize, tiles: u32, fetches_per_update: usize) -> StreamPager<Synthetic> {
+    StreamPager::new(
+        Synthetic::default(),
+        Grid::new(tiles, tiles).unwrap(),
+        StreamConfig::new(limit, PagerMode::Stepped { fetches_per_update }),
+    )
+    .unwrap()
+}
+
+fn want(x: u32, y: u32, levels: usize, priority: f64) -> Want {
+    Want {
+        id: TileId::new(x, y),
+        levels,
+        priority,
+        predicted: false,
+    }
+}
+
+/// Accounted bytes equal what the tiles hold when nothing is in flight.
+fn check_accounting(p: &StreamPager<Synthetic>) {
+    let stats = p.stats();
+    assert!(stats.memory_bytes <= stats.memory_limit_bytes, "{stats:?}");
+    assert!(
+        stats.memory_peak_bytes <= stats.memory_limit_bytes,
+        "{stats:?}"
+    );
+    if stats.fetching == 0 {
+        let held: usize = p.tiles().map(|(_, t)| bytes_at(t.levels)).sum();
+        assert_eq!(held, stats.memory_bytes);
+    }
+    for (id, t) in p.tiles() {
+        assert_eq!(id, t.id);
+    }
+}
+
+#[test]
+fn belts_fill_at_the_coarsest_level_before_anything_is_refined() {
+    let mut p = pager(1 << 20, 7, 2);
+    let center = (3.5, 3.5);
+    let mut order = Vec::new();
+    for _ in 0..40 {
+        p.update(center);
+        let before: Vec<(TileId, usize)> = p.tiles().map(|(id, t)| (id, t.levels)).collect();
+        p.request(&[want(3, 3, LEVELS, 0.9)]);
+        for (id, t) in p.tiles() {
+            if !before.contains(&(id, t.levels)) {
+                order.push((id, t.levels));
+            }
+        }
+        check_accounting(&p);
+    }
+    // The 49 coarse levels all come before the first refinement.
+    let first_refinement = order.iter().position(|&(_, l)| l > 1).unwrap();
+    assert_eq!(first_refinement, 49, "{order:?}");
+    assert_eq!(p.stats().complete_belts, Some(3));
+    assert_eq!(p.held_levels(TileId::new(3, 3)), LEVELS);
+    assert!(
+        p.tiles()
+            .all(|(id, t)| t.levels == 1 || id == TileId::new(3, 3))
+    );
+}
+
+#[test]
+fn refinements_follow_importance_and_stop_at_what_is_asked() {
+    let mut p = pager(1 << 20, 3, 1);
+    let wants = [want(0, 0, 3, 0.2), want(2, 2, 4, 0.7), want(1, 1, 2, 0.1)];
+    let mut refined = Vec::new();
+    for _ in 0..40 {
+        p.update((1.5, 1.5));
+        let before: Vec<(TileId, usize)> = p.tiles().map(|(id, t)| (id, t.levels)).collect();
+        p.request(&wants);
+        for (id, t) in p.tiles() {
+            if t.levels > 1 && !before.contains(&(id, t.levels)) {
+                refined.push((id.x, t.levels));
+            }
+        }
+    }
+    // One level per tile per request: the most important tile's next level always goes first.
+    assert_eq!(refined, [(2, 2), (2, 3), (2, 4), (0, 2), (0, 3), (1, 2)]);
+    assert_eq!(p.held_levels(TileId::new(2, 2)), 4);
+    assert_eq!(p.stream_stats().requests, 9 + 6);
+}
+
+#[test]
+fn a_request_that_stops_mattering_is_cancelled_before_it_is_sent() {
+    // The link is paused (no fetch per update): requests only wait in the queue.
+    let mut p = pager(1 << 20, 4, 0);
+    p.update((0.5, 0.5));
+    p.request(&[]);
+    assert_eq!(p.queue().waiting().len(), 1, "belt 0 at the coarse level");
+    p.request(&[]);
+    assert_eq!(p.stream_stats().cancelled, 0, "still wanted: still waiting");
+    // The viewer jumps to the far corner: the old belt 0 is no longer needed.
+    p.update((3.5, 3.5));
+    p.request(&[]);
+    assert_eq!(p.stream_stats().cancelled, 1);
+    assert_eq!(p.queue().waiting()[0].id, TileId::new(3, 3));
+
+    // A refinement the view asked for (it waits: no memory for it yet), then turned away from.
+    let mut q = pager(250, 1, 1);
+    q.update((0.5, 0.5));
+    q.request(&[]);
+    assert_eq!(q.held_levels(TileId::new(0, 0)), 1);
+    q.request(&[want(0, 0, 3, 0.5)]);
+    assert_eq!(q.queue().waiting().len(), 1);
+    assert!(q.stats().memory_bound);
+    q.request(&[]);
+    assert_eq!(q.stream_stats().cancelled, 1);
+    assert!(q.queue().waiting().is_empty());
+    assert_eq!(
+        q.loader().fetched.load(Ordering::Relaxed),
+        1,
+        "only the coarse level"
+    );
+}
+
+#[test]
+fn under_pressure_fine_levels_of_far_tiles_go_before_whole_tiles() {
+    // Room for the 9 coarse tiles (900) and one tile at level 4 (6,400 - 100) plus a little.
+    let limit = 900 + 6_300 + 1_000;
+    let mut p = pager(limit, 3, 4);
+    for _ in 0..10 {
+        p.update((0.5, 0.5));
+        p.request(&[want(2, 2, 4, 0.5)]);
+        check_accounting(&p);
+    }
+    assert_eq!(p.held_levels(TileId::new(2, 2)), 4);
+    // The viewer now cares about the opposite corner more: (2, 2) gives its fine levels back.
+    for _ in 0..10 {
+        p.update((0.5, 0.5));
+        p.request(&[want(0, 0, 4, 0.9), want(2, 2, 4, 0.1)]);
+        check_accounting(&p);
+    }
+    assert_eq!(p.held_levels(TileId::new(0, 0)), 4);
+    assert!(p.held_levels(TileId::new(2, 2)) < 4);
+    assert_eq!(p.tiles().count(), 9, "no whole tile was evicted");
+    assert!(p.stream_stats().dropped_levels > 0);
+    assert!(p.stats().memory_bound);
+}
+
+#[test]
+fn a_broken_tile_is_retried_then_given_up_without_stopping_the_square() {
+    let loader = Synthetic::default();
+    loader.broken.lock().unwrap().push(TileId::new(1, 0));
+    let mut p = StreamPager::new(
+        loader,
+        Grid::new(3, 3).unwrap(),
+        StreamConfig::new(
+            1 << 20,
+            PagerMode::Stepped {
+                fetches_per_update: 4,
+            },
+        ),
+    )
+    .unwrap();
+    for _ in 0..200 {
+        p.update((1.5, 1.5));
+        p.request(&[]);
+    }
+    assert_eq!(p.stats().complete_belts, Some(1));
+    assert_eq!(p.stats().failed_tiles, 1);
+    assert!(p.last_error().unwrap().contains("broken on purpose"));
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+
+    /// Random flights with random wishes under a tight limit: the accounting always holds, and
+    /// once the viewer stops, every tile it asks for reaches the level it asks for.
+    #[test]
+    fn cancelling_and_reprioritising_never_lose_a_tile(
+        path in prop::collection::vec((0.0f64..6.0, 0.0f64..6.0), 1..12),
+        wishes in prop::collection::vec(
+            prop::collection::vec((0u32..6, 0u32..6, 1usize..=LEVELS, 0.0f64..1.0), 0..8),
+            1..12),
+        rest in prop::collection::vec((0u32..6, 0u32..6, 1usize..=LEVELS), 1..4),
+        capacity in 1usize..6,
+    ) {
+        let limit = 36 * bytes_at(1) + rest.len() * bytes_at(LEVELS);
+        let mut config = StreamConfig::new(limit, PagerMode::Stepped { fetches_per_update: 2 });
+        config.queue_capacity = capacity;
+        let mut p = StreamPager::new(Synthetic::default(), Grid::new(6, 6).unwrap(), config)
+            .unwrap();
+        for (k, &viewer) in path.iter().enumerate() {
+            p.update(viewer);
+            let wants: Vec<Want> = wishes[k % wishes.len()]
+                .iter()
+                .map(|&(x, y, l, pr)| want(x, y, l, pr))
+                .collect();
+            p.request(&wants);
+            check_accounting(&p);
+        }
+        let last = *path.last().unwrap();
+        let wants: Vec<Want> = rest.iter().map(|&(x, y, l)| want(x, y, l, 0.5)).collect();
+        for _ in 0..400 {
+            p.update(last);
+            p.request(&wants);
+            check_accounting(&p);
+        }
+        for w in &wants {
+            prop_assert!(p.held_levels(w.id) >= w.levels, "{:?} holds {}", w, p.held_levels(w.id));
+        }
+        prop_assert_eq!(p.stats().errors, 0);
+    }
+}

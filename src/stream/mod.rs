@@ -41,6 +41,37 @@ use crate::error::{Error, Result};
 use crate::pager::worker::{self, Arrival, Job, Request, Worker};
 use crate::pager::{PagerMode, PagerStats, TileState, TransferClock};
 
+/// How tiles come in.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Streaming {
+    /// The paper's way: whole tiles, belt by belt (`crate::pager`).
+    #[default]
+    Belts,
+    /// Progressive levels by importance ([`StreamPager`]).
+    Progressive(StreamSettings),
+}
+
+/// The settings of progressive streaming an engine is built with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StreamSettings {
+    /// Requests waiting to be sent, at most.
+    pub queue_capacity: usize,
+    /// The most of the memory limit the coarse square may take.
+    pub square_share: f64,
+    /// Prefetching for the predicted view, or none.
+    pub prediction: Option<PredictionSettings>,
+}
+
+impl Default for StreamSettings {
+    fn default() -> Self {
+        StreamSettings {
+            queue_capacity: 32,
+            square_share: 0.5,
+            prediction: Some(PredictionSettings::default()),
+        }
+    }
+}
+
 /// Priority of a coarsest-level request: above every refinement (importance is at most 1).
 const COARSE_PRIORITY: f64 = 2.0;
 

@@ -171,6 +171,20 @@ impl Tile {
             ));
         }
         let (s, t) = (self.tile_size, self.texture_size);
+        let held_mips = level_mips(level - 1, s, t).start;
+        if self.heights.len() != self.side().pow(2) || self.first_mip != held_mips {
+            return Err(Error::invalid(
+                name,
+                format!(
+                    "the tile was changed after decoding ({} heights, texture from mip {}): \
+                     refining needs the {} heights and mips from {held_mips} that its {level} \
+                     levels decode to",
+                    self.heights.len(),
+                    self.first_mip,
+                    self.side().pow(2)
+                ),
+            ));
+        }
         let expected = level_payload_size(level, s, t);
         if chunk.len() != expected {
             return Err(Error::invalid(
@@ -370,5 +384,10 @@ mod tests {
         let before = coarse.clone();
         assert!(coarse.refine(&chunks[1][..3], "f").is_err());
         assert_eq!(coarse, before, "a failed refine leaves the tile unchanged");
+        // A tile whose texture was coarsened after decoding cannot take finer levels.
+        coarse.texture_mips.remove(0);
+        coarse.first_mip += 1;
+        let e = coarse.refine(&chunks[1], "f").unwrap_err().to_string();
+        assert!(e.contains("changed after decoding"), "{e}");
     }
 }

@@ -130,7 +130,7 @@ pub fn build<R: DemReader>(
     let mut done = 0;
     while let Some(band) = bands.next_band()? {
         let ty = band.tile_row;
-        let encoded: Vec<(Vec<u8>, usize, f32, f32)> = (0..grid.tiles_x)
+        let encoded: Vec<(Vec<Vec<u8>>, usize, f32, f32)> = (0..grid.tiles_x)
             .into_par_iter()
             .map(|tx| -> Result<_> {
                 let heights = band.tile_heights(tx);
@@ -142,14 +142,19 @@ pub fn build<R: DemReader>(
                     .map_err(|problem| {
                     Error::invalid(&info.name, format!("tile ({tx}, {ty}): {problem}"))
                 })?;
-                let raw = tile.encode();
-                Ok((compress(&raw, options.codec), raw.len(), tile.min, tile.max))
+                let (mut stored, mut raw_len) = (Vec::with_capacity(tile.levels), 0);
+                for g in 0..tile.levels {
+                    let raw = tile.encode_level(g);
+                    raw_len += raw.len();
+                    stored.push(compress(&raw, options.codec));
+                }
+                Ok((stored, raw_len, tile.min, tile.max))
             })
             .collect::<Result<_>>()?;
         for (tx, (stored, raw_len, min, max)) in encoded.into_iter().enumerate() {
             writer.write_tile(ty * grid.tiles_x + tx, &stored)?;
             raw_bytes += raw_len as u64;
-            stored_bytes += stored.len() as u64;
+            stored_bytes += stored.iter().map(|c| c.len() as u64).sum::<u64>();
             lo = lo.min(min);
             hi = hi.max(max);
         }

@@ -888,10 +888,12 @@ struct InfoReport {
     file_bytes: u64,
     main_bytes: u64,
     raw_tile_bytes: usize,
-    stored_tile_bytes_min: u32,
+    stored_tile_bytes_min: u64,
     stored_tile_bytes_mean: f64,
-    stored_tile_bytes_max: u32,
-    stored_tile_bytes: Vec<u32>,
+    stored_tile_bytes_max: u64,
+    stored_tile_bytes: Vec<u64>,
+    raw_level_bytes: Vec<usize>,
+    stored_level_bytes_mean: Vec<f64>,
     check: Option<CheckReport>,
 }
 
@@ -909,14 +911,20 @@ fn run_info(a: InfoArgs) -> Result<()> {
     let file_bytes = source.size()?;
     let reader = ArchiveReader::open(source)?;
     let h = reader.header().clone();
-    let lengths: Vec<u32> = reader.index().iter().map(|e| e.length).collect();
+    let lengths: Vec<u64> = reader.index().iter().map(|e| e.stored_len()).collect();
+    let stored_level_bytes_mean = (0..h.levels())
+        .map(|g| {
+            let sum: u64 = reader.index().iter().map(|e| e.range(g..g + 1).1).sum();
+            sum as f64 / lengths.len().max(1) as f64
+        })
+        .collect();
     let check = if a.check {
         let started = Instant::now();
         let mut bytes = 0;
         for ty in 0..h.tiles_y as usize {
             for tx in 0..h.tiles_x as usize {
                 reader.tile(tx, ty)?;
-                bytes += u64::from(lengths[ty * h.tiles_x as usize + tx]);
+                bytes += lengths[ty * h.tiles_x as usize + tx];
             }
         }
         let seconds = started.elapsed().as_secs_f64().max(1e-9);
@@ -938,10 +946,12 @@ fn run_info(a: InfoArgs) -> Result<()> {
         main_bytes: (HEADER_LEN + h.index_len()) as u64,
         raw_tile_bytes: h.payload_size(),
         stored_tile_bytes_min: lengths.iter().copied().min().unwrap_or(0),
-        stored_tile_bytes_mean: lengths.iter().map(|&l| f64::from(l)).sum::<f64>()
+        stored_tile_bytes_mean: lengths.iter().map(|&l| l as f64).sum::<f64>()
             / lengths.len().max(1) as f64,
         stored_tile_bytes_max: lengths.iter().copied().max().unwrap_or(0),
         stored_tile_bytes: lengths,
+        raw_level_bytes: (0..h.levels()).map(|g| h.level_payload_size(g)).collect(),
+        stored_level_bytes_mean,
         header: h,
         check,
     };
@@ -986,6 +996,17 @@ fn run_info(a: InfoArgs) -> Result<()> {
         report.stored_tile_bytes_min,
         report.stored_tile_bytes_mean,
         report.stored_tile_bytes_max
+    ));
+    let levels: Vec<String> = report
+        .raw_level_bytes
+        .iter()
+        .zip(&report.stored_level_bytes_mean)
+        .map(|(raw, stored)| format!("{raw} -> {stored:.0}"))
+        .collect();
+    line(format!(
+        "levels      {} progressive, bytes per tile raw -> stored (mean), coarse first: {}",
+        levels.len(),
+        levels.join(", ")
     ));
     if let Some(c) = &report.check {
         line(format!(

@@ -22,15 +22,17 @@ pub enum Error {
         /// What is wrong, in words.
         problem: String,
     },
-    /// A tile's payload does not match the checksum in the index, after all retries.
+    /// A tile's progressive chunk does not match the checksum in the index, after all retries.
     #[error(
-        "{name}: tile {tile} failed its checksum (expected crc32 {expected:08x}, got {actual:08x}) after {attempts} attempt(s)"
+        "{name}: tile {tile} level {level} failed its checksum (expected crc32 {expected:08x}, got {actual:08x}) after {attempts} attempt(s)"
     )]
     Checksum {
         /// The archive file or URL.
         name: String,
         /// The tile's index in the archive.
         tile: usize,
+        /// The progressive level whose chunk failed (the first that did).
+        level: usize,
         /// The crc32 stored in the index.
         expected: u32,
         /// The crc32 of the bytes received last.

@@ -153,9 +153,9 @@ impl TileLoader for ArchiveLoader {
 
     fn load(&self, id: TileId, ring: u32) -> Result<(ResidentTile, u64)> {
         let (x, y) = (id.x as usize, id.y as usize);
-        let tile = self.reader.tile(x, y)?;
-        let index = y * self.reader.header().tiles_x as usize + x;
-        let downloaded = u64::from(self.reader.index()[index].length);
+        let (tile, downloaded) = self
+            .reader
+            .tile_levels(x, y, self.reader.header().levels())?;
         let spacing = self.reader.header().spacing;
         Ok((
             ResidentTile::new(

@@ -1,30 +1,21 @@
-//! The tile payload: what the runtime needs for one tile and nothing more.
-//!
-//! Layout before compression (all little-endian), for a tile of `s` samples per side, `L = s - 1`
-//! mask levels and a texture of side `t` with `M = log2(t) + 1` mip levels:
-//!
-//! | bytes | field |
-//! | --- | --- |
-//! | 4 | `min` f32, lowest height (metres) |
-//! | 4 | `max` f32, highest height (metres) |
-//! | 4 | `base` i32, the tile's quantum 0 in archive quanta |
-//! | 4 | `quantum` f32, metres per quantum (the archive's, the same in every tile) |
-//! | 4 L | `level_errors` f32, level 0 first (see [`crate::level_error`]) |
-//! | 2 s² | heights `q` u16, row-major, each row delta-coded: `q[0]`, then `q[i] - q[i-1]` wrapping |
-//! | 2 (t² + (t/2)² + … + 1) | texture RGB565 u16, finest mip first, each row-major |
+//! One tile: what the runtime needs for it and nothing more, whole or as the coarser tile that
+//! a prefix of its progressive levels makes. The stored form is in [`payload`]: one chunk per
+//! progressive level, coarse first.
 //!
 //! Quantisation is global: every tile of an archive counts heights in the same `quantum`, and a
 //! sample's archive-wide integer height is `base + q`. The same DEM sample therefore gets the same
 //! integer in both tiles that share it, which is what lets the engine draw neighbouring tiles
 //! without a crack. A decoded height is within `quantum / 2` of the true one; a tile's relief must
-//! fit 65535 quanta. The payload size is fixed by `s` and `t`, which the archive header carries.
+//! fit 65535 quanta.
+
+mod payload;
+
+pub use payload::level_payload_size;
 
 use std::ops::Range;
 
-use crate::error::{Error, Result};
 use crate::level_error::level_errors;
-use crate::mask_level::level_count;
-use crate::rgb565::{mip_chain, mip_chain_texels, mip_count};
+use crate::rgb565::{mip_chain, mip_count};
 
 /// The progressive levels of a tile of `tile_size = 2^n + 1` samples per side: `n + 1`. Level
 /// `g` is the grid of `2^g + 1` samples per side that keeps every `2^(n - g)`-th sample; level 0
@@ -80,11 +71,6 @@ pub struct Tile {
     pub first_mip: usize,
     /// RGB565 mip chain from mip `first_mip`, finest first, down to 1 x 1.
     pub texture_mips: Vec<Vec<u16>>,
-}
-
-/// The uncompressed payload size of a tile with `tile_size` samples and a `texture_size` texture.
-pub fn payload_size(tile_size: usize, texture_size: usize) -> usize {
-    16 + 4 * level_count(tile_size) + 2 * tile_size * tile_size + 2 * mip_chain_texels(texture_size)
 }
 
 impl Tile {
@@ -193,114 +179,11 @@ impl Tile {
     pub fn height(&self, i: usize, j: usize) -> f32 {
         (f64::from(self.quanta(i, j)) * f64::from(self.quantum)) as f32
     }
-
-    /// The uncompressed payload bytes.
-    pub fn encode(&self) -> Vec<u8> {
-        let s = self.tile_size;
-        let mut out = Vec::with_capacity(payload_size(s, self.texture_size));
-        out.extend_from_slice(&self.min.to_le_bytes());
-        out.extend_from_slice(&self.max.to_le_bytes());
-        out.extend_from_slice(&self.base.to_le_bytes());
-        out.extend_from_slice(&self.quantum.to_le_bytes());
-        for e in &self.level_errors {
-            out.extend_from_slice(&e.to_le_bytes());
-        }
-        for row in self.heights.chunks_exact(s) {
-            let mut prev = 0u16;
-            for &q in row {
-                out.extend_from_slice(&q.wrapping_sub(prev).to_le_bytes());
-                prev = q;
-            }
-        }
-        for mip in &self.texture_mips {
-            for t in mip {
-                out.extend_from_slice(&t.to_le_bytes());
-            }
-        }
-        out
-    }
-
-    /// Decodes an uncompressed payload; `name` labels errors.
-    pub fn decode(bytes: &[u8], tile_size: usize, texture_size: usize, name: &str) -> Result<Tile> {
-        let expected = payload_size(tile_size, texture_size);
-        if bytes.len() != expected {
-            return Err(Error::invalid(
-                name,
-                format!("tile payload is {} bytes, {expected} expected", bytes.len()),
-            ));
-        }
-        let f32_at =
-            |k: usize| f32::from_le_bytes(bytes[4 * k..4 * k + 4].try_into().expect("4 bytes"));
-        let (min, max, quantum) = (f32_at(0), f32_at(1), f32_at(3));
-        let base = i32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
-        let levels = level_count(tile_size);
-        let level_errors: Vec<f32> = (0..levels).map(|l| f32_at(4 + l)).collect();
-        if ![min, max, quantum]
-            .iter()
-            .chain(&level_errors)
-            .all(|v| v.is_finite())
-            || quantum <= 0.0
-            || min > max
-            || i64::from(base) + i64::from(u16::MAX) > i64::from(i32::MAX)
-        {
-            return Err(Error::invalid(
-                name,
-                "tile header holds a non-finite or inconsistent height",
-            ));
-        }
-        let mut words = bytes[16 + 4 * levels..]
-            .chunks_exact(2)
-            .map(|b| u16::from_le_bytes([b[0], b[1]]));
-        let mut heights = Vec::with_capacity(tile_size * tile_size);
-        for _ in 0..tile_size {
-            let mut prev = 0u16;
-            for _ in 0..tile_size {
-                prev = prev.wrapping_add(words.next().expect("length checked"));
-                heights.push(prev);
-            }
-        }
-        let texture_mips = (0..mip_count(texture_size))
-            .map(|l| words.by_ref().take((texture_size >> l).pow(2)).collect())
-            .collect();
-        Ok(Tile {
-            tile_size,
-            levels: progressive_levels(tile_size),
-            min,
-            max,
-            base,
-            quantum,
-            level_errors,
-            heights,
-            texture_size,
-            first_mip: 0,
-            texture_mips,
-        })
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn encode_decode_round_trip_within_half_a_quantum() {
-        let s = 9;
-        let heights: Vec<f32> = (0..s * s)
-            .map(|k| (k as f32 * 0.37).sin() * 500.0)
-            .collect();
-        let texture = vec![[10, 200, 30]; 64];
-        let tile = Tile::new(&heights, s, 0.0625, &texture, 8).unwrap();
-        let bytes = tile.encode();
-        assert_eq!(bytes.len(), payload_size(s, 8));
-        let back = Tile::decode(&bytes, s, 8, "t").unwrap();
-        assert_eq!(back, tile);
-        for j in 0..s {
-            for i in 0..s {
-                assert!((back.height(i, j) - heights[j * s + i]).abs() <= 0.0625 * 0.5 + 1e-3);
-            }
-        }
-        assert!(Tile::decode(&bytes[1..], s, 8, "t").is_err());
-    }
 
     #[test]
     fn levels_nest_and_carry_every_mip_once() {

@@ -50,6 +50,15 @@ fn bad_magic_wrong_version_and_corrupt_header_are_named() {
     let e = open_err(&path);
     assert!(e.contains(&name) && e.contains("version 9"), "{e}");
 
+    // A version 2 archive (whole-tile payloads) is refused with what to do about it.
+    std::fs::write(&path, &good).unwrap();
+    rewrite(&path, |b| b[8] = 2);
+    let e = open_err(&path);
+    assert!(
+        e.contains(&name) && e.contains("archive version 2") && e.contains("stripmask build"),
+        "{e}"
+    );
+
     std::fs::write(&path, &good).unwrap();
     rewrite(&path, |b| b[20] ^= 1);
     let e = open_err(&path);
@@ -86,22 +95,33 @@ fn a_tile_whose_bytes_changed_fails_its_checksum_and_others_still_read() {
     let dir = tempfile::tempdir().unwrap();
     let path = small_archive(dir.path());
     let reader = ArchiveReader::open(FileSource::open(&path).unwrap()).unwrap();
-    let e = reader.index()[1];
+    // A byte of tile 1's level-2 chunk.
+    let (offset, _) = reader.level_range(1, 0, 2..3);
     drop(reader);
-    rewrite(&path, |b| b[e.offset as usize + 5] ^= 0xff);
+    rewrite(&path, |b| b[offset as usize + 1] ^= 0xff);
     let reader = ArchiveReader::open(FileSource::open(&path).unwrap()).unwrap();
     match reader.tile(1, 0) {
-        Err(Error::Checksum { tile, attempts, .. }) => {
-            assert_eq!(tile, 1);
+        Err(Error::Checksum {
+            tile,
+            level,
+            attempts,
+            ..
+        }) => {
+            assert_eq!((tile, level), (1, 2));
             assert_eq!(attempts, 4);
         }
         other => panic!("expected a checksum error, got {other:?}"),
     }
     let msg = reader.tile(1, 0).unwrap_err().to_string();
     assert!(
-        msg.contains(&path.display().to_string()) && msg.contains("tile 1"),
+        msg.contains(&path.display().to_string()) && msg.contains("tile 1 level 2"),
         "{msg}"
     );
+    // The levels before the corrupt chunk still read: a coarser tile 1 is still there.
+    let (coarse, _) = reader.tile_levels(1, 0, 2).unwrap();
+    assert_eq!(coarse.levels, 2);
+    assert!(reader.read_levels(1, 0, 3..5).is_ok());
+    assert!(reader.read_levels(1, 0, 1..3).is_err());
     for (tx, ty) in [(0, 0), (0, 1), (1, 1)] {
         reader.tile(tx, ty).unwrap();
     }

@@ -1,5 +1,6 @@
-//! Property-based fuzzing of the archive reader: random and mutated headers, indexes and tile
-//! payloads must give `Err`, never a panic. `PROPTEST_CASES=100000` runs a long campaign.
+//! Property-based fuzzing of the archive reader: random and mutated headers, indexes and
+//! progressive tile chunks must give `Err` naming the file, never a panic.
+//! `PROPTEST_CASES=100000` runs a long campaign.
 
 use std::path::PathBuf;
 use std::sync::OnceLock;
@@ -9,7 +10,7 @@ use stripmask::archive::{ArchiveReader, HEADER_LEN, Header, decompress, parse_in
 use stripmask::builder::{BuildOptions, build};
 use stripmask::dem::{MemoryReader, NodataFill};
 use stripmask::source::file::FileSource;
-use stripmask::tile::Tile;
+use stripmask::tile::{Tile, progressive_levels};
 
 fn cases() -> u32 {
     std::env::var("PROPTEST_CASES")
@@ -18,7 +19,7 @@ fn cases() -> u32 {
         .unwrap_or(64)
 }
 
-/// A valid 3 x 2-tile archive, built once.
+/// A valid 4 x 2-tile archive, built once.
 fn valid() -> &'static (tempfile::TempDir, PathBuf, Vec<u8>) {
     static VALID: OnceLock<(tempfile::TempDir, PathBuf, Vec<u8>)> = OnceLock::new();
     VALID.get_or_init(|| {
@@ -65,9 +66,10 @@ fn fix_checksums(b: &mut [u8]) {
     }
     let crc = crc32fast::hash(&b[..HEADER_LEN - 4]);
     b[HEADER_LEN - 4..HEADER_LEN].copy_from_slice(&crc.to_le_bytes());
-    let tiles = u32::from_le_bytes(b[16..20].try_into().unwrap()) as usize
-        * u32::from_le_bytes(b[20..24].try_into().unwrap()) as usize;
-    let end = HEADER_LEN + tiles.min(1 << 20) * 16;
+    let field = |k: usize| u32::from_le_bytes(b[k..k + 4].try_into().unwrap()) as usize;
+    let tiles = field(16) * field(20);
+    let entry_len = 8 + 8 * progressive_levels(field(24).min(1 << 20));
+    let end = HEADER_LEN + tiles.min(1 << 20) * entry_len;
     if end + 4 <= b.len() {
         let crc = crc32fast::hash(&b[HEADER_LEN..end]);
         b[end..end + 4].copy_from_slice(&crc.to_le_bytes());
@@ -83,6 +85,8 @@ fn read_everything(bytes: &[u8]) {
         for ty in 0..h.tiles_y as usize {
             for tx in 0..h.tiles_x as usize {
                 let _ = reader.tile(tx, ty);
+                let _ = reader.tile_levels(tx, ty, 1);
+                let _ = reader.read_levels(tx, ty, 1..h.levels());
             }
         }
     }
@@ -110,7 +114,8 @@ proptest! {
     #[test]
     fn mutated_headers_and_indexes_parse_or_fail_cleanly((edits, cut) in mutations()) {
         let (_, _, good) = valid();
-        let header_and_index = &good[..HEADER_LEN + 6 * 16 + 4];
+        // 9-sample tiles: 4 levels, 40-byte entries.
+        let header_and_index = &good[..HEADER_LEN + 8 * 40 + 4];
         let mut bytes = mutate(header_and_index, &edits, cut);
         fix_checksums(&mut bytes);
         if let Ok(h) = Header::parse(&bytes, "m") {
@@ -119,17 +124,60 @@ proptest! {
     }
 
     #[test]
-    fn mutated_tile_payloads_decode_or_fail_cleanly((edits, cut) in mutations(), index in 0usize..6) {
+    fn mutated_chunks_decode_or_fail_cleanly(
+        (edits, cut) in mutations(),
+        index in 0usize..6,
+        level in 0usize..4,
+    ) {
         let (_, path, _) = valid();
         let reader = ArchiveReader::open(FileSource::open(path).unwrap()).unwrap();
+        let h = reader.header().clone();
+        let (s, t) = (h.tile_size as usize, h.texture_size as usize);
+        let (x, y) = (index % h.tiles_x as usize, index / h.tiles_x as usize);
+        let good = reader.read_levels(x, y, 0..h.levels()).unwrap().chunks;
+        // Stored bytes mutated, then decompressed.
         let stored = reader.tile_bytes(index).unwrap();
-        let bytes = mutate(&stored, &edits, cut);
-        let h = reader.header();
-        if let Ok(raw) = decompress(&bytes, h, "m") {
-            let _ = Tile::decode(&raw, h.tile_size as usize, h.texture_size as usize, "m");
+        let (offset, len) = reader.level_range(x, y, level..level + 1);
+        let at = (offset - reader.level_range(x, y, 0..0).0) as usize;
+        let chunk = mutate(&stored[at..at + len as usize], &edits, cut);
+        if let Ok(raw) = decompress(&chunk, h.codec, h.level_payload_size(level), "m") {
+            check_decodes(&good, level, &raw, s, t);
         }
-        let raw = decompress(&stored, h, "m").unwrap();
-        let raw = mutate(&raw, &edits, cut);
-        let _ = Tile::decode(&raw, h.tile_size as usize, h.texture_size as usize, "m");
+        // Raw chunk bytes mutated.
+        check_decodes(&good, level, &mutate(&good[level], &edits, cut), s, t);
+    }
+
+    #[test]
+    fn arbitrary_chunks_never_panic_and_errors_name_the_file(
+        chunks in proptest::collection::vec(proptest::collection::vec(any::<u8>(), 0..600), 0..5),
+        size in prop_oneof![Just((3usize, 1usize)), Just((5, 2)), Just((9, 8)), Just((9, 16))],
+    ) {
+        let (s, t) = size;
+        let refs: Vec<&[u8]> = chunks.iter().map(Vec::as_slice).collect();
+        if let Err(e) = Tile::from_levels(&refs, s, t, "arbitrary.smdb tile 7") {
+            prop_assert!(e.to_string().starts_with("arbitrary.smdb tile 7: "), "{}", e);
+        }
+    }
+}
+
+/// Decodes the good chunks with chunk `level` replaced by `raw`, both at once and by
+/// refinement; either succeeds or fails with an error naming the file, and both agree.
+fn check_decodes(good: &[Vec<u8>], level: usize, raw: &[u8], s: usize, t: usize) {
+    let mut chunks: Vec<&[u8]> = good.iter().map(Vec::as_slice).collect();
+    chunks[level] = raw;
+    let whole = Tile::from_levels(&chunks, s, t, "m tile");
+    let refined = Tile::from_levels(&chunks[..1], s, t, "m tile").and_then(|mut tile| {
+        for chunk in &chunks[1..] {
+            tile.refine(chunk, "m tile")?;
+        }
+        Ok(tile)
+    });
+    match (whole, refined) {
+        (Ok(a), Ok(b)) => assert_eq!(a, b),
+        (Err(a), Err(b)) => {
+            assert!(a.to_string().starts_with("m tile: "), "{a}");
+            assert_eq!(a.to_string(), b.to_string());
+        }
+        (a, b) => panic!("from_levels {a:?} but refine {b:?}"),
     }
 }

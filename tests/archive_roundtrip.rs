@@ -84,11 +84,12 @@ fn the_index_finds_tiles_in_o1_and_the_main_file_is_header_plus_index() {
     let (path, _) = build_synthetic(dir.path(), Codec::Lz4);
     let reader = ArchiveReader::open(FileSource::open(&path).unwrap()).unwrap();
     let h = reader.header();
-    assert_eq!(h.payload_start(), (HEADER_LEN + 15 * 16 + 4) as u64);
+    // 17-sample tiles have 5 progressive levels: an entry is 8 + 5 * 8 bytes.
+    assert_eq!(h.payload_start(), (HEADER_LEN + 15 * 48 + 4) as u64);
     let mut next = h.payload_start();
     for e in reader.index() {
         assert_eq!(e.offset, next, "payloads are contiguous in tile order");
-        next += u64::from(e.length);
+        next += e.stored_len();
     }
     assert_eq!(next, std::fs::metadata(&path).unwrap().len());
     assert!(!dir.path().join("synthetic.smdb.partial").exists());

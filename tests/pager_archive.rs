@@ -66,7 +66,7 @@ impl TileLoader for ArchiveLoader {
         let mut tile = self.reader.tile(id.x as usize, id.y as usize)?;
         tile.texture_mips.drain(..self.first_mip(ring));
         let i = (id.y * self.reader.header().tiles_x + id.x) as usize;
-        Ok((tile, u64::from(self.reader.index()[i].length)))
+        Ok((tile, self.reader.index()[i].stored_len()))
     }
 
     fn held_bytes(&self, tile: &Tile) -> usize {
@@ -145,7 +145,7 @@ fn a_stepped_pager_fills_the_largest_square_that_fits_from_an_archive() {
             tile.texture_mips[..],
             truth.texture_mips[ring.saturating_sub(1) as usize..]
         );
-        downloaded += u64::from(check.reader.index()[(id.y * 8 + id.x) as usize].length);
+        downloaded += check.reader.index()[(id.y * 8 + id.x) as usize].stored_len();
     }
     assert_eq!(s.downloaded_bytes, downloaded);
     // One tile west: belt 2 around (2, 3) misses the column x = 0; tiles leaving belt 1 shrink.

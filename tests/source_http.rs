@@ -162,7 +162,8 @@ fn a_corrupt_tile_on_the_server_fails_its_checksum_by_url() {
     let path = archive(dir.path());
     let entry = ArchiveReader::open(FileSource::open(&path).unwrap())
         .unwrap()
-        .index()[2];
+        .index()[2]
+        .clone();
     let mut bytes = std::fs::read(&path).unwrap();
     bytes[entry.offset as usize] ^= 0x55;
     std::fs::write(&path, bytes).unwrap();

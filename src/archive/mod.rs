@@ -5,35 +5,39 @@
 //!
 //! * header, [`HEADER_LEN`] bytes: magic, version, grid (tiles across/down, tile size, texture
 //!   size), payload codec, source dimensions, spacing, vertical scale, origin, height range, crc32;
-//! * index, 16 bytes per tile in row-major tile order (offset u64, length u32, crc32 u32 of the
-//!   stored bytes), then the crc32 of the index;
-//! * the payloads ([`crate::tile`]), compressed as the header's codec says.
+//! * index, one entry per tile in row-major tile order: offset u64, then per progressive level
+//!   the end u32 of its chunk (stored bytes from the tile's offset) and the crc32 u32 of the
+//!   chunk's stored bytes; then the crc32 of the index;
+//! * the payloads: each tile's progressive chunks ([`crate::tile`]), coarse first, each
+//!   compressed on its own as the header's codec says, so any one range decodes alone.
 //!
 //! A client reads the header and the index (the paper's "main file") in two range requests, then
-//! any tile in one more: tile `(tx, ty)` is entry `ty * tiles_x + tx`.
+//! any range of levels of any tile in one more: tile `(tx, ty)` is entry `ty * tiles_x + tx`.
 
 mod reader;
 mod writer;
 
+use std::ops::Range;
+
 use serde::Serialize;
 
 use crate::error::{Error, Result};
-use crate::tile::payload_size;
+use crate::tile::{level_payload_size, progressive_levels};
 use crate::tiling::is_valid_tile_size;
 
-pub use reader::{ArchiveReader, DEFAULT_ATTEMPTS};
+pub use reader::{ArchiveReader, DEFAULT_ATTEMPTS, LevelBytes};
 pub use writer::ArchiveWriter;
 
 /// The first 8 bytes of every archive.
 pub const MAGIC: [u8; 8] = *b"SMDB\r\n\x1a\n";
 /// The format version this crate writes and reads.
-pub const VERSION: u32 = 2;
+pub const VERSION: u32 = 3;
 /// Bytes in the header.
 pub const HEADER_LEN: usize = 96;
-/// Bytes per index entry.
-pub const INDEX_ENTRY_LEN: usize = 16;
-/// The most tiles an archive may hold (bounds the index a reader allocates: 256 MiB).
+/// The most tiles an archive may hold.
 pub const MAX_TILES: usize = 1 << 24;
+/// The largest index a reader accepts (bounds what it allocates: 256 MiB).
+pub const MAX_INDEX_LEN: usize = 1 << 28;
 /// The largest texture side.
 pub const MAX_TEXTURE_SIZE: usize = 4096;
 
@@ -43,9 +47,10 @@ pub const MAX_TEXTURE_SIZE: usize = 4096;
 pub enum Codec {
     /// Uncompressed.
     None,
-    /// One LZ4 block (no frame, no size prefix; the size follows from the header).
+    /// One LZ4 block per chunk (no frame, no size prefix; the size follows from the header).
     Lz4,
-    /// One raw DEFLATE stream (RFC 1951, no zlib header), level 6: smaller, slower to decode.
+    /// One raw DEFLATE stream per chunk (RFC 1951, no zlib header), level 6: smaller, slower
+    /// to decode.
     Deflate,
 }
 
@@ -107,9 +112,19 @@ impl Header {
         self.tiles_x as usize * self.tiles_y as usize
     }
 
+    /// Progressive levels (payload chunks) of every tile.
+    pub fn levels(&self) -> usize {
+        progressive_levels(self.tile_size as usize)
+    }
+
+    /// Bytes per index entry: the offset, then an end and a crc32 per level.
+    pub fn index_entry_len(&self) -> usize {
+        8 + 8 * self.levels()
+    }
+
     /// Bytes of the index including its trailing crc32.
     pub fn index_len(&self) -> usize {
-        self.tile_count() * INDEX_ENTRY_LEN + 4
+        self.tile_count() * self.index_entry_len() + 4
     }
 
     /// Offset of the first payload byte.
@@ -117,9 +132,14 @@ impl Header {
         (HEADER_LEN + self.index_len()) as u64
     }
 
-    /// Uncompressed payload bytes of every tile.
+    /// Uncompressed bytes of progressive chunk `level` of every tile.
+    pub fn level_payload_size(&self, level: usize) -> usize {
+        level_payload_size(level, self.tile_size as usize, self.texture_size as usize)
+    }
+
+    /// Uncompressed payload bytes of every whole tile (all its chunks).
     pub fn payload_size(&self) -> usize {
-        payload_size(self.tile_size as usize, self.texture_size as usize)
+        (0..self.levels()).map(|g| self.level_payload_size(g)).sum()
     }
 
     /// Serialises the header.
@@ -173,6 +193,12 @@ impl Header {
         let f = |k: usize| f64::from_le_bytes(bytes[k..k + 8].try_into().expect("8 bytes"));
         let g = |k: usize| f32::from_le_bytes(bytes[k..k + 4].try_into().expect("4 bytes"));
         let version = u(8);
+        if version == 2 {
+            return Err(bad(format!(
+                "archive version 2 stores whole-tile payloads; this build reads version \
+                 {VERSION} (progressive levels): rebuild it with `stripmask build`"
+            )));
+        }
         if version != VERSION {
             return Err(bad(format!(
                 "archive version {version}, this build reads version {VERSION}"
@@ -213,6 +239,14 @@ impl Header {
         if !is_valid_tile_size(h.tile_size as usize) {
             return Err(bad(format!("tile size {} is not 2^n + 1", h.tile_size)));
         }
+        if h.index_len() > MAX_INDEX_LEN {
+            return Err(bad(format!(
+                "the index of {} x {} tiles would take {} bytes, more than {MAX_INDEX_LEN}",
+                h.tiles_x,
+                h.tiles_y,
+                h.index_len()
+            )));
+        }
         let t = h.texture_size as usize;
         if !t.is_power_of_two() || t > MAX_TEXTURE_SIZE {
             return Err(bad(format!(
@@ -234,24 +268,58 @@ impl Header {
     }
 }
 
-/// Where one tile's stored bytes are.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+/// Where one tile's stored chunks are: chunk `g` is bytes `[end(g - 1), end(g))` after the
+/// tile's offset, so the bytes of any range of levels are one contiguous range.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
 pub struct IndexEntry {
-    /// Offset from the start of the file.
+    /// Offset of chunk 0 from the start of the file.
     pub offset: u64,
-    /// Stored (possibly compressed) length.
-    pub length: u32,
-    /// crc32 (IEEE) of the stored bytes.
+    /// One entry per progressive level, coarse first.
+    pub levels: Vec<LevelEntry>,
+}
+
+/// Where one progressive chunk of a tile ends, and its checksum.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct LevelEntry {
+    /// Stored bytes from the tile's offset through this chunk.
+    pub end: u32,
+    /// crc32 (IEEE) of this chunk's stored bytes.
     pub crc32: u32,
+}
+
+impl IndexEntry {
+    /// Stored bytes of the whole tile.
+    pub fn stored_len(&self) -> u64 {
+        self.levels.last().map_or(0, |l| u64::from(l.end))
+    }
+
+    /// The byte range (file offset, length) of the chunks of `levels`. Panics unless `levels`
+    /// lies within the tile's levels.
+    pub fn range(&self, levels: Range<usize>) -> (u64, u64) {
+        let start = self.start_of(levels.start);
+        let end = self.start_of(levels.end);
+        assert!(start <= end, "level range {levels:?} is reversed");
+        (self.offset + start, end - start)
+    }
+
+    /// Stored bytes before chunk `level` (`level` may be one past the last).
+    fn start_of(&self, level: usize) -> u64 {
+        match level {
+            0 => 0,
+            g => u64::from(self.levels[g - 1].end),
+        }
+    }
 }
 
 /// Serialises the index with its trailing crc32.
 pub fn index_to_bytes(entries: &[IndexEntry]) -> Vec<u8> {
-    let mut b = Vec::with_capacity(entries.len() * INDEX_ENTRY_LEN + 4);
+    let mut b = Vec::new();
     for e in entries {
         b.extend_from_slice(&e.offset.to_le_bytes());
-        b.extend_from_slice(&e.length.to_le_bytes());
-        b.extend_from_slice(&e.crc32.to_le_bytes());
+        for l in &e.levels {
+            b.extend_from_slice(&l.end.to_le_bytes());
+            b.extend_from_slice(&l.crc32.to_le_bytes());
+        }
     }
     let crc = crc32fast::hash(&b);
     b.extend_from_slice(&crc.to_le_bytes());
@@ -265,7 +333,7 @@ pub fn parse_index(
     file_len: Option<u64>,
     name: &str,
 ) -> Result<Vec<IndexEntry>> {
-    let n = header.tile_count();
+    let (n, entry_len) = (header.tile_count(), header.index_entry_len());
     if bytes.len() < header.index_len() {
         return Err(Error::invalid(
             name,
@@ -276,50 +344,69 @@ pub fn parse_index(
             ),
         ));
     }
-    let body = &bytes[..n * INDEX_ENTRY_LEN];
-    let stored = u32::from_le_bytes(bytes[n * INDEX_ENTRY_LEN..][..4].try_into().expect("4"));
+    let body = &bytes[..n * entry_len];
+    let stored = u32::from_le_bytes(bytes[n * entry_len..][..4].try_into().expect("4"));
     if crc32fast::hash(body) != stored {
         return Err(Error::invalid(
             name,
             "index checksum mismatch (corrupt index)",
         ));
     }
-    let max_stored = stored_bound(header);
-    body.chunks_exact(INDEX_ENTRY_LEN)
+    let bounds: Vec<u64> = (0..header.levels())
+        .map(|g| stored_bound(header.codec, header.level_payload_size(g)) as u64)
+        .collect();
+    let u32_at = |e: &[u8], k: usize| u32::from_le_bytes(e[k..k + 4].try_into().expect("4"));
+    body.chunks_exact(entry_len)
         .enumerate()
         .map(|(i, e)| {
             let entry = IndexEntry {
                 offset: u64::from_le_bytes(e[..8].try_into().expect("8")),
-                length: u32::from_le_bytes(e[8..12].try_into().expect("4")),
-                crc32: u32::from_le_bytes(e[12..16].try_into().expect("4")),
+                levels: (0..header.levels())
+                    .map(|g| LevelEntry {
+                        end: u32_at(e, 8 + 8 * g),
+                        crc32: u32_at(e, 12 + 8 * g),
+                    })
+                    .collect(),
             };
-            let end = entry.offset.checked_add(u64::from(entry.length));
-            let in_file = match (end, file_len) {
-                (Some(end), Some(len)) => end <= len,
-                (Some(_), None) => true,
-                (None, _) => false,
-            };
-            if entry.offset < header.payload_start()
-                || !in_file
-                || entry.length as usize > max_stored
-            {
-                return Err(Error::invalid(
+            let outside = |problem: String| {
+                Error::invalid(
                     name,
                     format!(
-                        "index entry {i} (offset {}, length {}) points outside the payloads",
-                        entry.offset, entry.length
+                        "index entry {i} (offset {}) points outside the payloads: {problem}",
+                        entry.offset
                     ),
-                ));
+                )
+            };
+            if entry.offset < header.payload_start() {
+                return Err(outside("it starts inside the index".into()));
             }
-            Ok(entry)
+            let mut start = 0u64;
+            for (g, level) in entry.levels.iter().enumerate() {
+                let end = u64::from(level.end);
+                if end <= start || end - start > bounds[g] {
+                    return Err(outside(format!(
+                        "level {g} ends at {end} after starting at {start}, more than the \
+                         codec's {} bytes or nothing",
+                        bounds[g]
+                    )));
+                }
+                start = end;
+            }
+            let end = entry.offset.checked_add(entry.stored_len());
+            match (end, file_len) {
+                (Some(end), Some(len)) if end > len => Err(outside(format!(
+                    "it ends at byte {end} of a {len}-byte file"
+                ))),
+                (None, _) => Err(outside("its end overflows".into())),
+                _ => Ok(entry),
+            }
         })
         .collect()
 }
 
-/// The most bytes a stored payload may take (the codec's worst case over the raw size).
-fn stored_bound(header: &Header) -> usize {
-    let raw = header.payload_size();
-    match header.codec {
+/// The most bytes a stored chunk of `raw` bytes may take (the codec's worst case).
+fn stored_bound(codec: Codec, raw: usize) -> usize {
+    match codec {
         Codec::None => raw,
         Codec::Lz4 => lz4_flex::block::get_maximum_output_size(raw),
         // Stored blocks add 5 bytes per 64 KiB block at worst.
@@ -327,7 +414,7 @@ fn stored_bound(header: &Header) -> usize {
     }
 }
 
-/// Compresses an encoded tile payload with `codec`.
+/// Compresses one raw progressive chunk with `codec`.
 pub fn compress(raw: &[u8], codec: Codec) -> Vec<u8> {
     match codec {
         Codec::None => raw.to_vec(),
@@ -336,29 +423,29 @@ pub fn compress(raw: &[u8], codec: Codec) -> Vec<u8> {
     }
 }
 
-/// Decompresses stored bytes into the raw payload of `header`'s size.
-pub fn decompress(stored: &[u8], header: &Header, name: &str) -> Result<Vec<u8>> {
-    let size = header.payload_size();
-    match header.codec {
-        Codec::None => Ok(stored.to_vec()),
+/// Decompresses the stored bytes of one chunk into its `size` raw bytes; `name` labels errors.
+pub fn decompress(stored: &[u8], codec: Codec, size: usize, name: &str) -> Result<Vec<u8>> {
+    let wrong = |n: usize| {
+        Error::invalid(
+            name,
+            format!("chunk decompresses to {n} bytes, {size} expected"),
+        )
+    };
+    match codec {
+        Codec::None if stored.len() == size => Ok(stored.to_vec()),
+        Codec::None => Err(wrong(stored.len())),
         Codec::Lz4 => {
             let mut out = vec![0; size];
             match lz4_flex::block::decompress_into(stored, &mut out) {
                 Ok(n) if n == size => Ok(out),
-                Ok(n) => Err(Error::invalid(
-                    name,
-                    format!("tile decompresses to {n} bytes, {size} expected"),
-                )),
-                Err(e) => Err(Error::invalid(name, format!("corrupt LZ4 tile: {e}"))),
+                Ok(n) => Err(wrong(n)),
+                Err(e) => Err(Error::invalid(name, format!("corrupt LZ4 chunk: {e}"))),
             }
         }
         Codec::Deflate => match miniz_oxide::inflate::decompress_to_vec_with_limit(stored, size) {
             Ok(out) if out.len() == size => Ok(out),
-            Ok(out) => Err(Error::invalid(
-                name,
-                format!("tile decompresses to {} bytes, {size} expected", out.len()),
-            )),
-            Err(e) => Err(Error::invalid(name, format!("corrupt DEFLATE tile: {e}"))),
+            Ok(out) => Err(wrong(out.len())),
+            Err(e) => Err(Error::invalid(name, format!("corrupt DEFLATE chunk: {e}"))),
         },
     }
 }

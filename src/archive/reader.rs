@@ -1,12 +1,15 @@
 //! Reading an archive through any [`TileSource`], with checksums and retries.
 
+use std::ops::Range;
+
 use super::{HEADER_LEN, Header, IndexEntry, decompress, parse_index};
 use crate::error::{Error, Result};
 use crate::source::TileSource;
 use crate::tile::Tile;
 
-/// Reads an archive through a [`TileSource`]: header and index once, then tiles on demand, each
-/// checked against its crc32 and fetched again (up to `attempts` times) when it fails.
+/// Reads an archive through a [`TileSource`]: header and index once, then ranges of tile levels
+/// on demand, each in one source read, every chunk checked against its crc32 and the range
+/// fetched again (up to `attempts` times) when one fails.
 pub struct ArchiveReader<S> {
     source: S,
     header: Header,
@@ -14,8 +17,17 @@ pub struct ArchiveReader<S> {
     attempts: u32,
 }
 
-/// How many times a reader fetches a piece (header, index, tile) before giving up.
+/// How many times a reader fetches a piece (header, index, tile levels) before giving up.
 pub const DEFAULT_ATTEMPTS: u32 = 4;
+
+/// The decompressed chunks of a range of one tile's progressive levels.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LevelBytes {
+    /// The raw chunks, coarse first, one per level of the range.
+    pub chunks: Vec<Vec<u8>>,
+    /// Stored (compressed) bytes read from the source for them.
+    pub stored_bytes: u64,
+}
 
 impl<S: TileSource> ArchiveReader<S> {
     /// Fetches and validates the header and the index.
@@ -68,57 +80,79 @@ impl<S: TileSource> ArchiveReader<S> {
         self.source.name()
     }
 
-    /// The stored bytes of tile `i` (row-major), verified against the index checksum.
-    pub fn tile_bytes(&self, i: usize) -> Result<Vec<u8>> {
-        let name = self.source.name();
-        let entry = *self.index.get(i).ok_or_else(|| {
-            Error::invalid(
-                name,
-                format!("tile {i} does not exist ({} tiles)", self.index.len()),
-            )
-        })?;
-        let mut last = None;
-        for attempt in 1..=self.attempts {
-            match self
-                .source
-                .read_range(entry.offset, u64::from(entry.length))
-            {
-                Ok(bytes) => {
-                    let actual = crc32fast::hash(&bytes);
-                    if actual == entry.crc32 && bytes.len() == entry.length as usize {
-                        return Ok(bytes);
-                    }
-                    last = Some(Error::Checksum {
-                        name: name.to_string(),
-                        tile: i,
-                        expected: entry.crc32,
-                        actual,
-                        attempts: attempt,
-                    });
-                }
-                Err(e) => last = Some(e),
-            }
-        }
-        Err(last.expect("at least one attempt"))
+    /// The byte range (file offset, length) holding `levels` of tile `(x, y)`: what one HTTP
+    /// Range request for them asks, found in O(1). Panics when the tile is outside the grid or
+    /// the levels outside `0..header().levels()`.
+    pub fn level_range(&self, x: usize, y: usize, levels: Range<usize>) -> (u64, u64) {
+        let (tiles_x, tiles_y) = (self.header.tiles_x as usize, self.header.tiles_y as usize);
+        assert!(
+            x < tiles_x && y < tiles_y,
+            "tile ({x}, {y}) is outside the {tiles_x} x {tiles_y} grid"
+        );
+        self.index[y * tiles_x + x].range(levels)
     }
 
-    /// Tile `(tx, ty)`, fetched, verified and decoded.
-    pub fn tile(&self, tx: usize, ty: usize) -> Result<Tile> {
+    /// The stored bytes of tile `i` (row-major), every chunk verified against its checksum.
+    pub fn tile_bytes(&self, i: usize) -> Result<Vec<u8>> {
         let name = self.source.name();
-        if tx >= self.header.tiles_x as usize || ty >= self.header.tiles_y as usize {
+        if i >= self.index.len() {
             return Err(Error::invalid(
                 name,
-                format!(
-                    "tile ({tx}, {ty}) is outside the {} x {} grid",
-                    self.header.tiles_x, self.header.tiles_y
-                ),
+                format!("tile {i} does not exist ({} tiles)", self.index.len()),
             ));
         }
-        let i = ty * self.header.tiles_x as usize + tx;
-        let label = format!("{name} tile {i}");
-        let raw = decompress(&self.tile_bytes(i)?, &self.header, &label)?;
-        let tile = Tile::decode(
-            &raw,
+        self.fetch(i, 0..self.header.levels())
+    }
+
+    /// The raw chunks of `levels` of tile `(x, y)`, fetched with one source read (one HTTP
+    /// Range request), each chunk checked against its crc32 and decompressed on its own.
+    pub fn read_levels(&self, x: usize, y: usize, levels: Range<usize>) -> Result<LevelBytes> {
+        let i = self.tile_number(x, y)?;
+        let all = self.header.levels();
+        if levels.start > levels.end || levels.end > all {
+            return Err(Error::invalid(
+                self.name(),
+                format!("levels {levels:?} of tile ({x}, {y}) are outside 0..{all}"),
+            ));
+        }
+        let stored = self.fetch(i, levels.clone())?;
+        let entry = &self.index[i];
+        let base = entry.range(levels.start..levels.start).0;
+        let chunks = levels
+            .map(|g| {
+                let (offset, len) = entry.range(g..g + 1);
+                let at = (offset - base) as usize;
+                let label = format!("{} tile {i} level {g}", self.name());
+                let size = self.header.level_payload_size(g);
+                decompress(
+                    &stored[at..at + len as usize],
+                    self.header.codec,
+                    size,
+                    &label,
+                )
+            })
+            .collect::<Result<_>>()?;
+        Ok(LevelBytes {
+            chunks,
+            stored_bytes: stored.len() as u64,
+        })
+    }
+
+    /// The coarser tile made of the first `levels` progressive levels of tile `(x, y)` (the
+    /// whole tile for `header().levels()`), and the stored bytes read for it.
+    pub fn tile_levels(&self, x: usize, y: usize, levels: usize) -> Result<(Tile, u64)> {
+        let i = self.tile_number(x, y)?;
+        if levels == 0 {
+            return Err(Error::invalid(
+                self.name(),
+                format!("tile ({x}, {y}) asked for with no levels"),
+            ));
+        }
+        let read = self.read_levels(x, y, 0..levels)?;
+        let label = format!("{} tile {i}", self.name());
+        let chunks: Vec<&[u8]> = read.chunks.iter().map(Vec::as_slice).collect();
+        let tile = Tile::from_levels(
+            &chunks,
             self.header.tile_size as usize,
             self.header.texture_size as usize,
             &label,
@@ -132,7 +166,68 @@ impl<S: TileSource> ArchiveReader<S> {
                 ),
             ));
         }
-        Ok(tile)
+        Ok((tile, read.stored_bytes))
+    }
+
+    /// Tile `(x, y)` whole, fetched in one source read, verified and decoded.
+    pub fn tile(&self, x: usize, y: usize) -> Result<Tile> {
+        Ok(self.tile_levels(x, y, self.header.levels())?.0)
+    }
+
+    /// The row-major number of tile `(x, y)`, or an error naming the grid.
+    fn tile_number(&self, x: usize, y: usize) -> Result<usize> {
+        let (tiles_x, tiles_y) = (self.header.tiles_x as usize, self.header.tiles_y as usize);
+        if x >= tiles_x || y >= tiles_y {
+            return Err(Error::invalid(
+                self.name(),
+                format!("tile ({x}, {y}) is outside the {tiles_x} x {tiles_y} grid"),
+            ));
+        }
+        Ok(y * tiles_x + x)
+    }
+
+    /// The stored bytes of `levels` of tile `i` in one source read per attempt, returned once
+    /// every chunk matches its crc32.
+    fn fetch(&self, i: usize, levels: Range<usize>) -> Result<Vec<u8>> {
+        let name = self.source.name();
+        let entry = &self.index[i];
+        let (offset, length) = entry.range(levels.clone());
+        let mut last = None;
+        for attempt in 1..=self.attempts {
+            match self.source.read_range(offset, length) {
+                Ok(bytes) if bytes.len() as u64 != length => {
+                    last = Some(Error::invalid(
+                        name,
+                        format!(
+                            "tile {i}: read {} bytes at offset {offset}, {length} expected",
+                            bytes.len()
+                        ),
+                    ));
+                }
+                Ok(bytes) => {
+                    let failed = levels.clone().find_map(|g| {
+                        let (at, len) = entry.range(g..g + 1);
+                        let at = (at - offset) as usize;
+                        let actual = crc32fast::hash(&bytes[at..at + len as usize]);
+                        let expected = entry.levels[g].crc32;
+                        (actual != expected).then_some((g, expected, actual))
+                    });
+                    let Some((level, expected, actual)) = failed else {
+                        return Ok(bytes);
+                    };
+                    last = Some(Error::Checksum {
+                        name: name.to_string(),
+                        tile: i,
+                        level,
+                        expected,
+                        actual,
+                        attempts: attempt,
+                    });
+                }
+                Err(e) => last = Some(e),
+            }
+        }
+        Err(last.expect("at least one attempt"))
     }
 }
 

@@ -4,10 +4,11 @@ use std::fs::File;
 use std::io::{BufWriter, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
-use super::{Header, IndexEntry, index_to_bytes};
+use super::{Header, IndexEntry, LevelEntry, index_to_bytes};
 use crate::error::{Error, Result};
 
-/// Writes an archive: header and index placeholders first, then payloads in any order, then the
+/// Writes an archive: header and index placeholders first, then tiles in any order (each its
+/// progressive chunks, coarse first, contiguous), then the
 /// real index and header. The file appears under its final name only when [`finish`] succeeds.
 ///
 /// [`finish`]: ArchiveWriter::finish
@@ -44,17 +45,38 @@ impl ArchiveWriter {
         })
     }
 
-    /// Appends the stored bytes of tile `index`.
-    pub fn write_tile(&mut self, index: usize, stored: &[u8]) -> Result<()> {
+    /// Appends the stored (compressed) chunks of tile `index`, one per progressive level,
+    /// coarse first.
+    pub fn write_tile(&mut self, index: usize, chunks: &[Vec<u8>]) -> Result<()> {
         let name = self.partial.display().to_string();
+        if chunks.len() != self.header.levels() {
+            return Err(Error::invalid(
+                &name,
+                format!(
+                    "tile {index} has {} chunks, the archive {} levels",
+                    chunks.len(),
+                    self.header.levels()
+                ),
+            ));
+        }
         let file = self.file.as_mut().expect("writer not finished");
-        file.write_all(stored).map_err(|e| Error::io(&name, e))?;
+        let mut end = 0u64;
+        let mut levels = Vec::with_capacity(chunks.len());
+        for chunk in chunks {
+            file.write_all(chunk).map_err(|e| Error::io(&name, e))?;
+            end += chunk.len() as u64;
+            levels.push(LevelEntry {
+                end: u32::try_from(end).map_err(|_| {
+                    Error::invalid(&name, format!("tile {index} is over 4 GiB stored"))
+                })?,
+                crc32: crc32fast::hash(chunk),
+            });
+        }
         self.entries[index] = Some(IndexEntry {
             offset: self.position,
-            length: stored.len() as u32,
-            crc32: crc32fast::hash(stored),
+            levels,
         });
-        self.position += stored.len() as u64;
+        self.position += end;
         Ok(())
     }
 
@@ -64,10 +86,11 @@ impl ArchiveWriter {
         let name = self.partial.display().to_string();
         let entries: Vec<IndexEntry> = self
             .entries
-            .iter()
+            .iter_mut()
             .enumerate()
             .map(|(i, e)| {
-                e.ok_or_else(|| Error::invalid(&name, format!("tile {i} was never written")))
+                e.take()
+                    .ok_or_else(|| Error::invalid(&name, format!("tile {i} was never written")))
             })
             .collect::<Result<_>>()?;
         self.header.min_height = min_height;

@@ -15,12 +15,13 @@ use stripmask_raster::{DrawStats, DrawTarget, Framebuffer, LineStats, RasterTarg
 
 use crate::archive::ArchiveReader;
 use crate::belts::{Grid, TileId};
-use crate::budget::{BudgetController, BudgetSettings, allocate};
+use crate::budget::{BudgetController, BudgetSettings, allocate_held, drawable_level};
 use crate::camera::Camera;
 use crate::cracks::{CrackMode, TileIndices, neighbours::neighbour_levels};
 use crate::error::{Error, Result};
 use crate::frustum::{Aabb, Frustum};
 use crate::geomorph::{Geomorph, Morpher, SUBDIVISION};
+use crate::held_meshes::HeldSideMeshes;
 use crate::importance::{TileMeasure, Weights, visual_importance};
 use crate::loader::ArchiveLoader;
 use crate::masks::{LevelSet, MaskSet};
@@ -125,7 +126,12 @@ pub struct Engine {
     terrain: TerrainFrame,
     pager: Pager<ArchiveLoader>,
     masks: MaskSet,
+    /// The powers-of-two masks the budget chooses from while partial tiles are drawn, built
+    /// the first time one is (the same set as `masks` when the settings ask for it).
+    power_of_two: Option<MaskSet>,
     cracks: TileIndices,
+    /// The masks and crack pieces of partial tiles, built per held side on first use.
+    held: HeldSideMeshes,
     /// The geomorph state, `None` when geomorphing is off.
     morpher: Option<Morpher>,
     /// Levels pinned per tile instead of the budget's choice (for measurements).
@@ -160,8 +166,10 @@ impl Engine {
             terrain,
             pager,
             masks: MaskSet::new(header.tile_size as usize, settings.level_set),
+            power_of_two: None,
             cracks: TileIndices::new(settings.cracks, header.tile_size as usize),
             morpher: Morpher::new(settings.geomorph, header.tile_size as usize),
+            held: HeldSideMeshes::new(),
             forced_levels: None,
             budget: BudgetController::new(settings.budget),
             settings,
@@ -201,7 +209,8 @@ impl Engine {
 
     /// Pins every drawn tile's mask level to `level_of(tile)` instead of the budget's choice
     /// (`None` gives the choice back to the budget): views with known level pairs, for
-    /// measuring cracks.
+    /// measuring cracks. A partial tile draws no finer than it holds, and while any drawn tile
+    /// is partial the pinned levels snap to powers of two ([`drawable_level`]).
     pub fn force_levels(&mut self, level_of: Option<Box<dyn Fn(TileId) -> usize + Send>>) {
         self.forced_levels = level_of;
     }
@@ -293,10 +302,30 @@ impl Engine {
         }
         let importance = visual_importance(&measures, self.settings.weights);
         let budget = self.budget.budget();
-        let mut allocation = allocate(budget, &importance, &self.masks);
+        // Partial tiles draw powers-of-two levels only: a level whose `l + 1` is not a multiple
+        // of a drawn neighbour's stride needs border samples that neighbour lacks.
+        let partial = visible.iter().find(|(_, tile, _)| !tile.is_complete());
+        if let (Some((id, tile, _)), Some(_)) = (partial, &self.morpher) {
+            return Err(Error::Usage(format!(
+                "tile ({}, {}) holds {} of its progressive levels and geomorphing draws whole \
+                 tiles only: turn geomorphing off to stream progressive tiles",
+                id.x, id.y, tile.levels
+            )));
+        }
+        let masks = match partial {
+            Some(_) if self.masks.level_set() != LevelSet::PowerOfTwo => &*self
+                .power_of_two
+                .get_or_insert_with(|| MaskSet::new(self.terrain.tile_size, LevelSet::PowerOfTwo)),
+            _ => &self.masks,
+        };
+        let finest: Vec<usize> = visible
+            .iter()
+            .map(|(_, tile, _)| tile.finest_mask_level())
+            .collect();
+        let mut allocation = allocate_held(budget, &importance, masks, &finest);
         if let Some(level_of) = &self.forced_levels {
-            for (a, &(id, _, _)) in allocation.iter_mut().zip(&visible) {
-                a.level = level_of(id);
+            for (a, &(id, tile, _)) in allocation.iter_mut().zip(&visible) {
+                a.level = drawable_level(level_of(id), tile.finest_mask_level(), partial.is_some());
                 a.triangles = self.masks.triangle_count(a.level);
             }
         }
@@ -342,6 +371,7 @@ impl Engine {
             TileMeshes {
                 masks: &self.masks,
                 cracks: &mut self.cracks,
+                held: Some(&mut self.held),
                 morph: self.morpher.as_mut(),
             },
             &self.settings.render,

@@ -27,9 +27,10 @@ use crate::loader::ArchiveLoader;
 use crate::masks::{LevelSet, MaskSet};
 use crate::pager::{Pager, PagerConfig, PagerMode, PagerStats, TransferClock};
 use crate::render::{RenderSettings, TileDraw, TileMeshes, draw_tiles};
-use crate::resident::Light;
+use crate::resident::{Light, ResidentTile};
 use crate::source::TileSource;
 use crate::terrain::TerrainFrame;
+use crate::tile::progressive_levels;
 
 /// Everything a run can set.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -305,12 +306,8 @@ impl Engine {
         // Partial tiles draw powers-of-two levels only: a level whose `l + 1` is not a multiple
         // of a drawn neighbour's stride needs border samples that neighbour lacks.
         let partial = visible.iter().find(|(_, tile, _)| !tile.is_complete());
-        if let (Some((id, tile, _)), Some(_)) = (partial, &self.morpher) {
-            return Err(Error::Usage(format!(
-                "tile ({}, {}) holds {} of its progressive levels and geomorphing draws whole \
-                 tiles only: turn geomorphing off to stream progressive tiles",
-                id.x, id.y, tile.levels
-            )));
+        if self.morpher.is_some() {
+            refuse_partial_tiles(partial.map(|&(id, tile, _)| (id, tile)))?;
         }
         let masks = match partial {
             Some(_) if self.masks.level_set() != LevelSet::PowerOfTwo => &*self
@@ -463,6 +460,22 @@ impl Engine {
     }
 }
 
+/// Geomorphing morphs whole tiles only (its hierarchy is the whole tile's): refuses a frame
+/// with a partial tile while it is on, naming the tile.
+fn refuse_partial_tiles(partial: Option<(TileId, &ResidentTile)>) -> Result<()> {
+    match partial {
+        Some((id, tile)) => Err(Error::Usage(format!(
+            "tile ({}, {}) holds {} of its {} progressive levels, and geomorphing draws whole \
+             tiles only: turn geomorphing off to stream progressive tiles",
+            id.x,
+            id.y,
+            tile.levels,
+            progressive_levels(tile.tile_size)
+        ))),
+        None => Ok(()),
+    }
+}
+
 /// Morphed heights count 1/[`SUBDIVISION`] quanta in an i32: refuses an archive whose heights
 /// would not fit when geomorphing is on.
 fn check_morph_range(settings: &EngineSettings, terrain: &TerrainFrame, name: &str) -> Result<()> {
@@ -478,4 +491,23 @@ fn check_morph_range(settings: &EngineSettings, terrain: &TerrainFrame, name: &s
         ));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tile::Tile;
+
+    #[test]
+    fn geomorphing_refuses_a_partial_tile_by_name() {
+        let heights: Vec<f32> = (0..81).map(|k| k as f32).collect();
+        let tile = Tile::new(&heights, 9, 0.5, &[[1, 2, 3]; 64], 8).unwrap();
+        let light = Light::default();
+        let partial = ResidentTile::new(&tile.truncated(2), 0, 1.0, &light, CrackMode::Stitch);
+        let err = refuse_partial_tiles(Some((TileId::new(3, 4), &partial))).unwrap_err();
+        let text = err.to_string();
+        assert!(text.contains("tile (3, 4) holds 2 of its 4"), "{text}");
+        assert!(text.contains("turn geomorphing off"), "{text}");
+        assert!(refuse_partial_tiles(None).is_ok());
+    }
 }

@@ -320,7 +320,7 @@ mod tests {
     fn a_truncated_tile_keeps_the_coarser_grid_and_mips() {
         let s = 9;
         let heights: Vec<f32> = (0..s * s).map(|k| k as f32).collect();
-        let tile = Tile::new(&heights, s, 1.0, &vec![[1, 2, 3]; 64], 8).unwrap();
+        let tile = Tile::new(&heights, s, 1.0, &[[1, 2, 3]; 64], 8).unwrap();
         assert_eq!((tile.side(), tile.stride(), tile.levels), (9, 1, 4));
         let coarse = tile.truncated(2);
         assert_eq!((coarse.side(), coarse.stride()), (3, 4));

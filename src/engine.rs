@@ -303,12 +303,12 @@ impl Engine {
         }
         let importance = visual_importance(&measures, self.settings.weights);
         let budget = self.budget.budget();
-        // Partial tiles draw powers-of-two levels only: a level whose `l + 1` is not a multiple
-        // of a drawn neighbour's stride needs border samples that neighbour lacks.
         let partial = visible.iter().find(|(_, tile, _)| !tile.is_complete());
         if self.morpher.is_some() {
             refuse_partial_tiles(partial.map(|&(id, tile, _)| (id, tile)))?;
         }
+        // Partial tiles draw powers-of-two levels only: a level whose `l + 1` is not a multiple
+        // of a drawn neighbour's stride needs border samples that neighbour lacks.
         let masks = match partial {
             Some(_) if self.masks.level_set() != LevelSet::PowerOfTwo => &*self
                 .power_of_two

@@ -217,6 +217,22 @@ pub struct TileAllocation {
 /// leaves in the pool is spent in a second pass, again in importance order and under the same
 /// rule, so a budget covering every tile's finest mask gives every tile level 0.
 pub fn allocate(budget: usize, importance: &Importance, masks: &MaskSet) -> Vec<TileAllocation> {
+    allocate_held(budget, importance, masks, &vec![0; importance.order.len()])
+}
+
+/// [`allocate`] for tiles that cannot all draw every level: tile `t` never gets a level finer
+/// than `finest[t]` (a partial tile's [`crate::resident::ResidentTile::finest_mask_level`], a
+/// level of `masks`' set). The triangles a capped tile cannot use stay in the pool for the next
+/// tiles, like any leftover; the no-outbidding rule compares the levels the tiles could buy, so
+/// a less important tile may draw finer than a more important one only because that one holds
+/// too little.
+pub fn allocate_held(
+    budget: usize,
+    importance: &Importance,
+    masks: &MaskSet,
+    finest: &[usize],
+) -> Vec<TileAllocation> {
+    debug_assert_eq!(finest.len(), importance.values.len());
     let coarsest = masks.coarsest_level();
     let floor = masks.triangle_count(coarsest);
     let n = importance.order.len();
@@ -230,6 +246,8 @@ pub fn allocate(budget: usize, importance: &Importance, masks: &MaskSet) -> Vec<
     let mut pool = budget.saturating_sub(n * floor);
     let mut remaining: f64 = importance.values.iter().sum();
 
+    // The level each tile could buy, before its cap: what the no-outbidding rule compares.
+    let mut bought = vec![coarsest; n];
     let mut cap = 0;
     for (rank, &t) in importance.order.iter().enumerate() {
         let imp = importance.values[t];
@@ -239,23 +257,43 @@ pub fn allocate(budget: usize, importance: &Importance, masks: &MaskSet) -> Vec<
             pool / (n - rank)
         };
         remaining -= imp;
-        let level = masks.finest_level_for(floor + share.min(pool)).max(cap);
+        bought[t] = masks.finest_level_for(floor + share.min(pool)).max(cap);
+        let level = bought[t].max(finest[t]);
         let triangles = masks.triangle_count(level);
         pool -= triangles - floor;
         tiles[t] = TileAllocation { level, triangles };
-        cap = level;
+        cap = bought[t];
     }
 
+    // Never coarser than the first pass bought: a capped tile cannot spend the pool, and must
+    // not hold the next tiles back by more than it did.
     let mut cap = 0;
     for &t in &importance.order {
         let current = tiles[t];
-        let level = masks.finest_level_for(current.triangles + pool).max(cap);
+        bought[t] = masks
+            .finest_level_for(current.triangles + pool)
+            .max(cap)
+            .min(bought[t]);
+        let level = bought[t].max(finest[t]);
         let triangles = masks.triangle_count(level);
         pool -= triangles - current.triangles;
         tiles[t] = TileAllocation { level, triangles };
-        cap = level;
+        cap = bought[t];
     }
     tiles
+}
+
+/// The level a tile holding samples down to mask level `finest` draws when `level` is asked
+/// for (a pinned level, see `crate::engine::Engine::force_levels`): never finer than it holds,
+/// and with `powers_of_two` (partial tiles in the frame) the coarser level whose `l + 1` is a
+/// power of two, so that every tile's border keeps samples every drawn neighbour holds.
+pub fn drawable_level(level: usize, finest: usize, powers_of_two: bool) -> usize {
+    let level = level.max(finest);
+    if powers_of_two {
+        (level + 1).next_power_of_two() - 1
+    } else {
+        level
+    }
 }
 
 #[cfg(test)]
@@ -544,6 +582,31 @@ mod tests {
         assert!(a.iter().all(|t| t.level == 15 && t.triangles == 2));
     }
 
+    #[test]
+    fn a_tile_capped_by_what_it_holds_leaves_its_triangles_to_the_next() {
+        // 9 x 9 powers of two: levels 0, 1, 3, 7 with 128, 32, 8, 2 triangles.
+        let masks = MaskSet::new(9, LevelSet::PowerOfTwo);
+        let imp = Importance {
+            values: vec![0.9, 0.1],
+            order: vec![0, 1],
+        };
+        let whole = allocate(170, &imp, &masks);
+        assert_eq!((whole[0].level, whole[1].level), (0, 1));
+        let held = allocate_held(170, &imp, &masks, &[3, 0]);
+        assert_eq!(held[0].level, 3, "never finer than it holds");
+        assert_eq!(held[1].level, 0, "its triangles go to the next tile");
+        assert_eq!(allocate_held(170, &imp, &masks, &[0, 0]), whole);
+    }
+
+    #[test]
+    fn pinned_levels_snap_to_what_a_tile_can_draw() {
+        assert_eq!(drawable_level(2, 0, false), 2);
+        assert_eq!(drawable_level(2, 0, true), 3);
+        assert_eq!(drawable_level(0, 3, false), 3);
+        assert_eq!(drawable_level(4, 3, true), 7);
+        assert_eq!(drawable_level(7, 1, true), 7);
+    }
+
     fn frame() -> impl Strategy<Value = (usize, LevelSet, Vec<(f64, f64)>)> {
         (
             prop::sample::select(vec![2usize, 3, 6, 9, 17, 33, 65]),
@@ -594,6 +657,38 @@ mod tests {
                         "tile {} could move to level {} with {} left: {:?}", t, finer, left, a
                     );
                 }
+            }
+        }
+
+        #[test]
+        fn held_allocations_respect_the_budget_and_the_caps(
+            (s, _, measures) in frame(),
+            fraction in 0.0..1.3f64,
+            held in prop::collection::vec(0u32..8, 60),
+        ) {
+            let masks = MaskSet::new(s, LevelSet::PowerOfTwo);
+            let tiles: Vec<TileMeasure> = measures
+                .iter()
+                .map(|&(distance, height)| TileMeasure { distance, height })
+                .collect();
+            let imp = visual_importance(&tiles, Weights::default());
+            let levels = masks.levels();
+            let finest: Vec<usize> = (0..tiles.len())
+                .map(|t| levels[held[t] as usize % levels.len()])
+                .collect();
+            let all = tiles.len() * masks.triangle_count(0);
+            let budget = (all as f64 * fraction) as usize;
+            let a = allocate_held(budget, &imp, &masks, &finest);
+            let total: usize = a.iter().map(|t| t.triangles).sum();
+            let floor = masks.triangle_count(masks.coarsest_level());
+            prop_assert!(total <= budget || a.iter().all(|t| t.triangles == floor));
+            for (t, alloc) in a.iter().enumerate() {
+                prop_assert!(levels.contains(&alloc.level));
+                prop_assert!(alloc.level >= finest[t]);
+                prop_assert_eq!(alloc.triangles, masks.triangle_count(alloc.level));
+            }
+            if budget >= all {
+                prop_assert!(a.iter().zip(&finest).all(|(t, &f)| t.level == f));
             }
         }
     }

@@ -15,20 +15,22 @@ use stripmask_raster::{DrawStats, DrawTarget, Framebuffer, LineStats, RasterTarg
 
 use crate::archive::ArchiveReader;
 use crate::belts::{Grid, TileId};
-use crate::budget::{BudgetController, BudgetSettings, allocate};
+use crate::budget::{BudgetController, BudgetSettings, allocate_held, drawable_level};
 use crate::camera::Camera;
 use crate::cracks::{CrackMode, TileIndices, neighbours::neighbour_levels};
 use crate::error::{Error, Result};
 use crate::frustum::{Aabb, Frustum};
 use crate::geomorph::{Geomorph, Morpher, SUBDIVISION};
+use crate::held_meshes::HeldSideMeshes;
 use crate::importance::{TileMeasure, Weights, visual_importance};
 use crate::loader::ArchiveLoader;
 use crate::masks::{LevelSet, MaskSet};
 use crate::pager::{Pager, PagerConfig, PagerMode, PagerStats, TransferClock};
 use crate::render::{RenderSettings, TileDraw, TileMeshes, draw_tiles};
-use crate::resident::Light;
+use crate::resident::{Light, ResidentTile};
 use crate::source::TileSource;
 use crate::terrain::TerrainFrame;
+use crate::tile::progressive_levels;
 
 /// Everything a run can set.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -125,7 +127,12 @@ pub struct Engine {
     terrain: TerrainFrame,
     pager: Pager<ArchiveLoader>,
     masks: MaskSet,
+    /// The powers-of-two masks the budget chooses from while partial tiles are drawn, built
+    /// the first time one is (the same set as `masks` when the settings ask for it).
+    power_of_two: Option<MaskSet>,
     cracks: TileIndices,
+    /// The masks and crack pieces of partial tiles, built per held side on first use.
+    held: HeldSideMeshes,
     /// The geomorph state, `None` when geomorphing is off.
     morpher: Option<Morpher>,
     /// Levels pinned per tile instead of the budget's choice (for measurements).
@@ -160,8 +167,10 @@ impl Engine {
             terrain,
             pager,
             masks: MaskSet::new(header.tile_size as usize, settings.level_set),
+            power_of_two: None,
             cracks: TileIndices::new(settings.cracks, header.tile_size as usize),
             morpher: Morpher::new(settings.geomorph, header.tile_size as usize),
+            held: HeldSideMeshes::new(),
             forced_levels: None,
             budget: BudgetController::new(settings.budget),
             settings,
@@ -201,7 +210,8 @@ impl Engine {
 
     /// Pins every drawn tile's mask level to `level_of(tile)` instead of the budget's choice
     /// (`None` gives the choice back to the budget): views with known level pairs, for
-    /// measuring cracks.
+    /// measuring cracks. A partial tile draws no finer than it holds, and while any drawn tile
+    /// is partial the pinned levels snap to powers of two ([`drawable_level`]).
     pub fn force_levels(&mut self, level_of: Option<Box<dyn Fn(TileId) -> usize + Send>>) {
         self.forced_levels = level_of;
     }
@@ -293,10 +303,26 @@ impl Engine {
         }
         let importance = visual_importance(&measures, self.settings.weights);
         let budget = self.budget.budget();
-        let mut allocation = allocate(budget, &importance, &self.masks);
+        let partial = visible.iter().find(|(_, tile, _)| !tile.is_complete());
+        if self.morpher.is_some() {
+            refuse_partial_tiles(partial.map(|&(id, tile, _)| (id, tile)))?;
+        }
+        // Partial tiles draw powers-of-two levels only: a level whose `l + 1` is not a multiple
+        // of a drawn neighbour's stride needs border samples that neighbour lacks.
+        let masks = match partial {
+            Some(_) if self.masks.level_set() != LevelSet::PowerOfTwo => &*self
+                .power_of_two
+                .get_or_insert_with(|| MaskSet::new(self.terrain.tile_size, LevelSet::PowerOfTwo)),
+            _ => &self.masks,
+        };
+        let finest: Vec<usize> = visible
+            .iter()
+            .map(|(_, tile, _)| tile.finest_mask_level())
+            .collect();
+        let mut allocation = allocate_held(budget, &importance, masks, &finest);
         if let Some(level_of) = &self.forced_levels {
-            for (a, &(id, _, _)) in allocation.iter_mut().zip(&visible) {
-                a.level = level_of(id);
+            for (a, &(id, tile, _)) in allocation.iter_mut().zip(&visible) {
+                a.level = drawable_level(level_of(id), tile.finest_mask_level(), partial.is_some());
                 a.triangles = self.masks.triangle_count(a.level);
             }
         }
@@ -342,6 +368,7 @@ impl Engine {
             TileMeshes {
                 masks: &self.masks,
                 cracks: &mut self.cracks,
+                held: Some(&mut self.held),
                 morph: self.morpher.as_mut(),
             },
             &self.settings.render,
@@ -433,6 +460,22 @@ impl Engine {
     }
 }
 
+/// Geomorphing morphs whole tiles only (its hierarchy is the whole tile's): refuses a frame
+/// with a partial tile while it is on, naming the tile.
+fn refuse_partial_tiles(partial: Option<(TileId, &ResidentTile)>) -> Result<()> {
+    match partial {
+        Some((id, tile)) => Err(Error::Usage(format!(
+            "tile ({}, {}) holds {} of its {} progressive levels, and geomorphing draws whole \
+             tiles only: turn geomorphing off to stream progressive tiles",
+            id.x,
+            id.y,
+            tile.levels,
+            progressive_levels(tile.tile_size)
+        ))),
+        None => Ok(()),
+    }
+}
+
 /// Morphed heights count 1/[`SUBDIVISION`] quanta in an i32: refuses an archive whose heights
 /// would not fit when geomorphing is on.
 fn check_morph_range(settings: &EngineSettings, terrain: &TerrainFrame, name: &str) -> Result<()> {
@@ -448,4 +491,23 @@ fn check_morph_range(settings: &EngineSettings, terrain: &TerrainFrame, name: &s
         ));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tile::Tile;
+
+    #[test]
+    fn geomorphing_refuses_a_partial_tile_by_name() {
+        let heights: Vec<f32> = (0..81).map(|k| k as f32).collect();
+        let tile = Tile::new(&heights, 9, 0.5, &[[1, 2, 3]; 64], 8).unwrap();
+        let light = Light::default();
+        let partial = ResidentTile::new(&tile.truncated(2), 0, 1.0, &light, CrackMode::Stitch);
+        let err = refuse_partial_tiles(Some((TileId::new(3, 4), &partial))).unwrap_err();
+        let text = err.to_string();
+        assert!(text.contains("tile (3, 4) holds 2 of its 4"), "{text}");
+        assert!(text.contains("turn geomorphing off"), "{text}");
+        assert!(refuse_partial_tiles(None).is_ok());
+    }
 }

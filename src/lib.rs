@@ -32,6 +32,7 @@ pub mod flight;
 pub mod fly;
 pub mod frustum;
 pub mod geomorph;
+pub mod held_meshes;
 pub mod importance;
 pub mod level_error;
 pub mod loader;

@@ -23,6 +23,7 @@ use crate::pager::TileLoader;
 use crate::resident::{Light, ResidentTile, predicted_bytes};
 use crate::rgb565::mip_count;
 use crate::source::TileSource;
+use crate::tile::progressive_levels;
 
 /// Loads resident tiles from an archive.
 ///
@@ -93,14 +94,20 @@ impl ArchiveLoader {
         let (s, t) = (h.tile_size as usize, h.texture_size as usize);
         let max_ring = h.tiles_x.max(h.tiles_y);
         // A tile's bytes without any texture: its bytes with only the 1 x 1 RGB565 mip, less it.
-        let geometry = predicted_bytes(s, t, usize::MAX, cracks) - 2;
+        let geometry = predicted_bytes(s, t, usize::MAX, progressive_levels(s), cracks) - 2;
         let mut chosen = 0;
         for bias in 0..mip_count(t) {
             chosen = bias;
             let (mut memory, mut texture) = (0usize, 0usize);
             for ring in 0..=max_ring {
                 let tiles = if ring == 0 { 1 } else { 8 * ring as usize };
-                let tile = predicted_bytes(s, t, self.texture_base_with(ring, bias), cracks);
+                let tile = predicted_bytes(
+                    s,
+                    t,
+                    self.texture_base_with(ring, bias),
+                    progressive_levels(s),
+                    cracks,
+                );
                 if memory + tiles * tile > memory_limit {
                     break;
                 }
@@ -147,6 +154,7 @@ impl TileLoader for ArchiveLoader {
             h.tile_size as usize,
             h.texture_size as usize,
             self.texture_base(ring),
+            progressive_levels(h.tile_size as usize),
             self.cracks(),
         )
     }

@@ -17,6 +17,7 @@ use stripmask_raster::{
 use crate::camera::Camera;
 use crate::cracks::{CrackMode, TileIndices, shadow};
 use crate::geomorph::{self, Morpher};
+use crate::held_meshes::{HeldSideMeshes, held_level};
 use crate::masks::{FRONT_FACE, MaskSet};
 use crate::resident::ResidentTile;
 use crate::terrain::TerrainFrame;
@@ -118,9 +119,10 @@ pub struct TileDraw<'a> {
     pub y: u32,
     /// Its resident data.
     pub tile: &'a ResidentTile,
-    /// The strip-mask level chosen for it.
+    /// The strip-mask level chosen for it, a whole-tile level (see [`crate::held_meshes`] for
+    /// how a partial tile draws it; `level + 1` must then be a multiple of its stride).
     pub level: usize,
-    /// The levels of its neighbours this frame (`crate::cracks::Side::ALL` order).
+    /// The whole-tile levels of its neighbours this frame (`crate::cracks::Side::ALL` order).
     pub neighbours: [usize; 4],
     /// Eye distance to its bounding box, metres: the draw order key.
     pub distance: f64,
@@ -180,12 +182,16 @@ impl FrameTransform {
 
 /// The indices every tile is drawn with: the shared strip masks, and the crack mode's pieces.
 pub struct TileMeshes<'m> {
-    /// The strip masks.
+    /// The strip masks of whole tiles.
     pub masks: &'m MaskSet,
-    /// The crack mode's index buffers.
+    /// The crack mode's index buffers for whole tiles.
     pub cracks: &'m mut TileIndices,
-    /// The geomorph state when geomorphing is on: tiles are then drawn morphed, in
-    /// [`geomorph::SUBDIVISION`] units.
+    /// The masks and crack pieces of partial tiles, kept between frames; `None` builds them for
+    /// this frame only when a partial tile is drawn.
+    pub held: Option<&'m mut HeldSideMeshes>,
+    /// The geomorph state when geomorphing is on: whole tiles are then drawn morphed, in
+    /// [`geomorph::SUBDIVISION`] units. Partial tiles are drawn unmorphed (the engine refuses
+    /// partial tiles with geomorphing on, see `crate::engine`).
     pub morph: Option<&'m mut Morpher>,
 }
 
@@ -251,14 +257,24 @@ pub fn draw_tiles<T: DrawTarget>(
         )),
         None => None,
     };
+    let mode = meshes.cracks.mode();
+    let mut frame_held = HeldSideMeshes::new();
+    let held = meshes.held.unwrap_or(&mut frame_held);
     for t in tiles.iter() {
-        let (indices, topology) = meshes.cracks.tile(meshes.masks, t.level, t.neighbours);
+        let stride = t.tile.stride();
+        let (indices, topology) = if stride == 1 {
+            meshes.cracks.tile(meshes.masks, t.level, t.neighbours)
+        } else {
+            let (masks, cracks) = held.get(mode, t.tile.side());
+            let neighbours = t.neighbours.map(|n| held_level(n, stride));
+            cracks.tile(masks, held_level(t.level, stride), neighbours)
+        };
         let (vertices, tile_transform) = match &mut morph {
-            Some((view, fine, morpher)) => (
+            Some((view, fine, morpher)) if stride == 1 => (
                 morpher.tile(view, &t.tile.vertices, (t.x, t.y)),
                 fine.tile(t.x, t.y)?,
             ),
-            None => (&t.tile.vertices[..], transform.tile(t.x, t.y)?),
+            _ => (&t.tile.vertices[..], transform.tile(t.x, t.y)?),
         };
         let mesh = Mesh {
             vertices,
@@ -297,10 +313,8 @@ fn draw_shadows<T: DrawTarget>(
         let origin = terrain.tile_origin(t.x, t.y);
         let eye = (camera.position - origin)
             / DVec3::new(terrain.spacing, terrain.quantum, terrain.spacing);
-        let (Some(vertices), Ok(transform)) = (
-            shadow::quad(t.tile, terrain.tile_size, eye),
-            fine.tile(t.x, t.y),
-        ) else {
+        let (Some(vertices), Ok(transform)) = (shadow::quad(t.tile, eye), fine.tile(t.x, t.y))
+        else {
             continue;
         };
         let mesh = Mesh {

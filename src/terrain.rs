@@ -79,8 +79,9 @@ impl TerrainFrame {
         )
     }
 
-    /// The terrain height under world position `(x, z)` in a tile's samples, bilinear, or `None`
-    /// when the point is not over that tile.
+    /// The terrain height under world position `(x, z)` in a tile's samples, bilinear over the
+    /// grid it holds (a partial tile's coarser grid), or `None` when the point is not over that
+    /// tile.
     pub fn ground_in(&self, tile: &ResidentTile, tx: u32, ty: u32, world: DVec3) -> Option<f64> {
         let o = self.tile_origin(tx, ty);
         let (u, v) = (
@@ -91,15 +92,73 @@ impl TerrainFrame {
         if !(0.0..=last).contains(&u) || !(0.0..=last).contains(&v) {
             return None;
         }
-        let (i, j) = (
-            (u as usize).min(self.tile_size - 2),
-            (v as usize).min(self.tile_size - 2),
-        );
+        let (s, stride) = (tile.side(), tile.stride() as f64);
+        let (u, v) = (u / stride, v / stride);
+        let (i, j) = ((u as usize).min(s - 2), (v as usize).min(s - 2));
         let (fu, fv) = (u - i as f64, v - j as f64);
-        let s = self.tile_size;
         let h = |a: usize, b: usize| f64::from(tile.vertices[b * s + a].position[1]) * self.quantum;
         let top = h(i, j) * (1.0 - fu) + h(i + 1, j) * fu;
         let bottom = h(i, j + 1) * (1.0 - fu) + h(i + 1, j + 1) * fu;
         Some(o.y + top * (1.0 - fv) + bottom * fv)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cracks::CrackMode;
+    use crate::resident::Light;
+    use crate::tile::Tile;
+
+    #[test]
+    fn ground_under_a_partial_tile_is_the_bilinear_height_of_its_held_grid() {
+        let s = 9;
+        let heights: Vec<f32> = (0..s * s)
+            .map(|k| 40.0 * ((k % s) as f32 * 1.7).sin() + 9.0 * (k / s) as f32)
+            .collect();
+        let whole = Tile::new(&heights, s, 0.25, &[[9, 9, 9]; 16], 4).unwrap();
+        let frame = TerrainFrame {
+            tiles_x: 3,
+            tiles_y: 2,
+            tile_size: s,
+            spacing: 5.0,
+            quantum: 0.25,
+            heights: (-40.0, 120.0),
+            origin: DVec3::new(1000.0, 7.0, -500.0),
+        };
+        for levels in 1..=whole.levels {
+            let tile = whole.truncated(levels);
+            let r = ResidentTile::new(&tile, 0, 5.0, &Light::default(), CrackMode::Skirts);
+            let step = 5.0 * tile.stride() as f64;
+            let o = frame.tile_origin(2, 1);
+            for (x, z) in [
+                (0.0, 0.0),
+                (13.0, 27.5),
+                (39.9, 1.0),
+                (40.0, 40.0),
+                (21.0, 40.0),
+            ] {
+                let (u, v) = (x / step, z / step);
+                let last = tile.side() - 2;
+                let (i, j) = ((u as usize).min(last), (v as usize).min(last));
+                let (fu, fv) = (u - i as f64, v - j as f64);
+                let h = |a: usize, b: usize| f64::from(tile.quanta(a, b)) * 0.25;
+                let expected = o.y
+                    + (h(i, j) * (1.0 - fu) + h(i + 1, j) * fu) * (1.0 - fv)
+                    + (h(i, j + 1) * (1.0 - fu) + h(i + 1, j + 1) * fu) * fv;
+                let got = frame
+                    .ground_in(&r, 2, 1, o + DVec3::new(x, 0.0, z))
+                    .unwrap();
+                assert!(
+                    (got - expected).abs() < 1e-9,
+                    "{levels} levels at ({x}, {z})"
+                );
+            }
+            assert!(
+                frame
+                    .ground_in(&r, 2, 1, o + DVec3::new(40.5, 0.0, 3.0))
+                    .is_none()
+            );
+        }
     }
 }

@@ -13,6 +13,7 @@ use stripmask::engine::Engine;
 use stripmask::pager::PagerMode;
 use stripmask::resident::predicted_bytes;
 use stripmask::source;
+use stripmask::tile::progressive_levels;
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
 const SIZE: (u32, u32) = (160, 120);
@@ -100,7 +101,7 @@ fn every_switch_draws_what_a_fresh_engine_in_that_mode_draws() {
 #[test]
 fn a_mode_that_holds_more_than_the_limit_evicts_the_farthest_tiles() {
     let scene = scene();
-    let tile_bytes = |mode| predicted_bytes(TILE_SIZE, 32, 0, mode);
+    let tile_bytes = |mode| predicted_bytes(TILE_SIZE, 32, 0, progressive_levels(TILE_SIZE), mode);
     // Room for 50 tiles without skirts, a square of 7 x 7 belts; with skirts it does not fit.
     let plain = tile_bytes(CrackMode::None);
     assert!(tile_bytes(CrackMode::Skirts) > plain);

@@ -383,6 +383,7 @@ fn draw_as_is(
         TileMeshes {
             masks: engine.masks(),
             cracks: &mut cracks,
+            held: None,
             morph: None,
         },
         &settings,

@@ -32,11 +32,12 @@ pub const MAX_STRETCH: f64 = 64.0;
 /// How far below the tile's lowest sample the shadow plane lies, in quanta.
 const DEPTH_QUANTA: f64 = 1.0;
 
-/// The shadow quad of `tile` (`s` samples per side) seen from `eye`, given in the tile's grid
-/// units (`(i, quanta, j)` with the tile's north-west sample at height 0 as origin), as
-/// vertices in [`SUBDIVISION`] units: north-west, north-east, south-west, south-east. `None` at
-/// grazing angles (see the module documentation).
-pub fn quad(tile: &ResidentTile, s: usize, eye: DVec3) -> Option<[Vertex; 4]> {
+/// The shadow quad of `tile` (whole or partial: its corners are held at every level) seen from
+/// `eye`, given in whole-tile grid units (`(i, quanta, j)` with the tile's north-west sample at
+/// height 0 as origin), as vertices in [`SUBDIVISION`] units: north-west, north-east,
+/// south-west, south-east. `None` at grazing angles (see the module documentation).
+pub fn quad(tile: &ResidentTile, eye: DVec3) -> Option<[Vertex; 4]> {
+    let s = tile.side();
     let plane = f64::from(
         tile.vertices[..s * s]
             .iter()
@@ -81,7 +82,7 @@ mod tests {
     fn corners_go_along_their_eye_ray_onto_the_plane_below_the_tile() {
         let tile = tile();
         let eye = DVec3::new(1.0, 400.0, 9.0);
-        let q = quad(&tile, 5, eye).unwrap();
+        let q = quad(&tile, eye).unwrap();
         let low = tile.vertices.iter().map(|v| v.position[1]).min().unwrap();
         let sub = f64::from(SUBDIVISION);
         for (v, k) in q.iter().zip([0, 4, 20, 24]) {
@@ -102,9 +103,9 @@ mod tests {
     fn no_quad_when_the_eye_is_not_above_every_corner_or_the_view_grazes() {
         let tile = tile();
         let top = f64::from(tile.vertices.iter().map(|v| v.position[1]).max().unwrap());
-        assert!(quad(&tile, 5, DVec3::new(2.0, top, 2.0)).is_none());
-        assert!(quad(&tile, 5, DVec3::new(2.0, top - 10.0, 2.0)).is_none());
-        assert!(quad(&tile, 5, DVec3::new(2.0, top + 0.01, 2.0)).is_none());
-        assert!(quad(&tile, 5, DVec3::new(2.0, top + 100.0, 2.0)).is_some());
+        assert!(quad(&tile, DVec3::new(2.0, top, 2.0)).is_none());
+        assert!(quad(&tile, DVec3::new(2.0, top - 10.0, 2.0)).is_none());
+        assert!(quad(&tile, DVec3::new(2.0, top + 0.01, 2.0)).is_none());
+        assert!(quad(&tile, DVec3::new(2.0, top + 100.0, 2.0)).is_some());
     }
 }

@@ -27,6 +27,7 @@ use stripmask::profile::{DeviceProfile, Overrides, depth_format};
 use stripmask::serve::Server;
 use stripmask::simclock::{Clock, CostModel};
 use stripmask::source::{self, throttle::LinkProfile};
+use stripmask::stream::{PredictionSettings, StreamSettings, Streaming};
 use stripmask::terrain::TerrainFrame;
 #[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
 use stripmask::viewer::{self, ViewerOptions, ViewerSummary};
@@ -61,6 +62,78 @@ enum Command {
     Demo(DemoArgs),
     /// Measure every speed-for-accuracy knob: frame time against error, table, CSV and plot.
     Tradeoff(TradeoffArgs),
+    /// Whole-tile belts against progressive tiles on the built-in flights over three links.
+    StreamCompare(StreamCompareArgs),
+}
+
+/// How tiles come in, and its settings: what `fly`, `view`, `fb` and `demo` share.
+#[derive(Args, Debug)]
+struct StreamingArgs {
+    /// belts: whole tiles, belt by belt (the paper); progressive: tile levels by importance
+    /// (docs/streaming.md).
+    #[arg(long, value_enum, default_value_t = StreamingArg::Belts)]
+    streaming: StreamingArg,
+    /// With --streaming progressive: (tile, level) requests waiting to be sent, at most.
+    #[arg(long, default_value_t = 32)]
+    queue: usize,
+    /// With --streaming progressive: no viewpoint prediction.
+    #[arg(long)]
+    no_prediction: bool,
+    /// With --streaming progressive: seconds ahead the viewpoint is predicted.
+    #[arg(long, default_value_t = 1.0)]
+    predict_seconds: f64,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum StreamingArg {
+    Belts,
+    Progressive,
+}
+
+impl StreamingArgs {
+    fn resolve(&self) -> Result<Streaming> {
+        if self.streaming == StreamingArg::Belts {
+            return Ok(Streaming::Belts);
+        }
+        if self.queue == 0 {
+            return Err(Error::Usage("--queue must be at least 1".into()));
+        }
+        if !(self.predict_seconds > 0.0 && self.predict_seconds.is_finite()) {
+            return Err(Error::Usage(format!(
+                "--predict-seconds {} must be a positive number",
+                self.predict_seconds
+            )));
+        }
+        Ok(Streaming::Progressive(StreamSettings {
+            queue_capacity: self.queue,
+            prediction: (!self.no_prediction).then_some(PredictionSettings {
+                horizon: self.predict_seconds,
+                ..PredictionSettings::default()
+            }),
+            ..StreamSettings::default()
+        }))
+    }
+}
+
+#[derive(Args, Debug)]
+struct StreamCompareArgs {
+    /// An archive file or http:// URL.
+    source: String,
+    /// Output folder: stream-compare.md and stream-compare.csv.
+    #[arg(long, default_value = "stripmask-stream")]
+    out: PathBuf,
+    /// The flights, comma-separated (default: every built-in one).
+    #[arg(long, value_enum, value_delimiter = ',')]
+    flights: Option<Vec<Builtin>>,
+    /// Seconds of each flight (default: all of it).
+    #[arg(long)]
+    seconds: Option<f64>,
+    /// Device profile: pocketpc, workstation or native (its link is replaced by each link).
+    #[arg(long, default_value = "pocketpc")]
+    profile: String,
+    /// No progress bar.
+    #[arg(short, long)]
+    quiet: bool,
 }
 
 #[derive(Args, Debug)]
@@ -132,6 +205,8 @@ struct DemoArgs {
     /// Also show the flight live in a window, at the device's pace (Esc ends it early).
     #[arg(long)]
     window: bool,
+    #[command(flatten)]
+    streaming: StreamingArgs,
     /// No progress bar.
     #[arg(short, long)]
     quiet: bool,
@@ -235,6 +310,8 @@ struct SceneArgs {
     /// fully morphed, those spanning twice as many not at all.
     #[arg(long, default_value_t = Geomorph::DEFAULT_PIXELS)]
     geomorph_pixels: f64,
+    #[command(flatten)]
+    streaming: StreamingArgs,
 }
 
 /// A scene resolved from its arguments: the flight, the engine settings, the framebuffer, the
@@ -316,6 +393,7 @@ impl SceneArgs {
         if self.float {
             engine.render.precision = Precision::Float;
         }
+        engine.streaming = self.streaming.resolve()?;
         let clock = match self.device.clock {
             ClockArg::Wall => Clock::Wall {
                 slowdown: device.cpu_slowdown,
@@ -569,6 +647,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Report(a) => run_report(a),
         Command::Demo(a) => run_demo(a),
         Command::Tradeoff(a) => run_tradeoff(a),
+        Command::StreamCompare(a) => run_stream_compare(a),
     }
 }
 
@@ -707,6 +786,7 @@ fn run_demo(a: DemoArgs) -> Result<()> {
         },
         every: a.every,
         progress: !a.quiet,
+        streaming: a.streaming.resolve()?,
     };
     if !a.window {
         println!("{}", stripmask::demo::run(&options)?);
@@ -749,6 +829,29 @@ fn open_window(
 #[cfg(not(feature = "window"))]
 fn open_window(_: &str, _: u32, _: u32) -> std::result::Result<Box<dyn Presenter>, String> {
     Err("this stripmask was built without the `window` feature".into())
+}
+
+fn run_stream_compare(a: StreamCompareArgs) -> Result<()> {
+    use stripmask::stream::compare::{self, CompareOptions, LINKS};
+    if let Some(s) = a.seconds.filter(|s| !(*s > 0.0 && s.is_finite())) {
+        return Err(Error::Usage(format!(
+            "--seconds {s} must be a positive number"
+        )));
+    }
+    let options = CompareOptions {
+        source: a.source,
+        flights: a
+            .flights
+            .unwrap_or_else(|| vec![Builtin::Overview, Builtin::Diagonal, Builtin::Low]),
+        links: LINKS.to_vec(),
+        seconds: a.seconds,
+        profile: DeviceProfile::resolve(&a.profile, None, &Overrides::default())?,
+        out: a.out.clone(),
+        progress: !a.quiet,
+    };
+    let results = compare::compare(&options)?;
+    println!("{}", compare::write(&a.out, &results, &options)?);
+    Ok(())
 }
 
 fn run_tradeoff(a: TradeoffArgs) -> Result<()> {

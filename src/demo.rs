@@ -20,6 +20,7 @@ use crate::fly::{FlyOptions, FlySummary, Length, LiveView, fly_live};
 use crate::profile::DeviceProfile;
 use crate::simclock::{Clock, CostModel};
 use crate::source::{self, file::FileSource};
+use crate::stream::Streaming;
 use crate::terrain::TerrainFrame;
 
 /// The elevation model, relative to the repository root.
@@ -50,6 +51,8 @@ pub struct DemoOptions {
     pub every: u64,
     /// Show progress.
     pub progress: bool,
+    /// Whole-tile belts (the paper, the default) or progressive tiles.
+    pub streaming: Streaming,
 }
 
 impl Default for DemoOptions {
@@ -62,6 +65,7 @@ impl Default for DemoOptions {
             length: None,
             every: 10,
             progress: true,
+            streaming: Streaming::Belts,
         }
     }
 }
@@ -191,6 +195,7 @@ pub fn run_live(o: &DemoOptions, live: Option<LiveView<'_>>) -> Result<DemoSumma
     let mut engine = EngineSettings {
         memory_limit_bytes: p.memory_limit_bytes(),
         threads: p.threads,
+        streaming: o.streaming,
         ..EngineSettings::default()
     };
     engine.budget.target_fps = p.target_fps;

@@ -15,7 +15,7 @@ use stripmask_raster::{DrawStats, DrawTarget, Framebuffer, LineStats, RasterTarg
 
 use crate::archive::ArchiveReader;
 use crate::belts::{Grid, TileId};
-use crate::budget::{BudgetController, BudgetSettings, allocate_held, drawable_level};
+use crate::budget::{BudgetController, BudgetSettings, allocate, allocate_held, drawable_level};
 use crate::camera::Camera;
 use crate::cracks::{CrackMode, TileIndices, neighbours::neighbour_levels};
 use crate::error::{Error, Result};
@@ -26,9 +26,11 @@ use crate::importance::{TileMeasure, Weights, visual_importance};
 use crate::loader::ArchiveLoader;
 use crate::masks::{LevelSet, MaskSet};
 use crate::pager::{Pager, PagerConfig, PagerMode, PagerStats, TransferClock};
+use crate::paging::Paging;
 use crate::render::{RenderSettings, TileDraw, TileMeshes, draw_tiles};
 use crate::resident::{Light, ResidentTile};
 use crate::source::TileSource;
+use crate::stream::{PredictedView, Predictor, StreamConfig, StreamPager, Streaming, Want};
 use crate::terrain::TerrainFrame;
 use crate::tile::progressive_levels;
 
@@ -63,6 +65,8 @@ pub struct EngineSettings {
     pub clearance: f64,
     /// Rasterizer threads (0: all cores).
     pub threads: usize,
+    /// Whole tiles in belts (the paper) or progressive levels by importance.
+    pub streaming: Streaming,
 }
 
 impl Default for EngineSettings {
@@ -82,6 +86,7 @@ impl Default for EngineSettings {
             fov_y: 60f64.to_radians(),
             clearance: 20.0,
             threads: 0,
+            streaming: Streaming::Belts,
         }
     }
 }
@@ -120,12 +125,20 @@ pub struct RenderedTile {
     pub importance: f64,
     /// The strip-mask level it was drawn at.
     pub level: usize,
+    /// Its level's geometric error on screen: the height error (metres, from the archive)
+    /// times pixels per metre at its bounding box's distance from the eye.
+    pub error_px: f64,
+    /// Whether it drew coarser than the budget offered because it holds too few levels.
+    pub capped: bool,
 }
 
 /// The engine: an archive, its pager, the shared strip masks and the budget controller.
 pub struct Engine {
     terrain: TerrainFrame,
-    pager: Pager<ArchiveLoader>,
+    pager: Paging,
+    grid: Grid,
+    /// The viewpoint predictor when streaming progressively with prediction.
+    predictor: Option<Predictor>,
     masks: MaskSet,
     /// The powers-of-two masks the budget chooses from while partial tiles are drawn, built
     /// the first time one is (the same set as `masks` when the settings ask for it).
@@ -144,7 +157,11 @@ pub struct Engine {
 
 impl Engine {
     /// Opens `source` for a screen `height` pixels tall.
-    pub fn new(source: Box<dyn TileSource>, settings: EngineSettings, height: u32) -> Result<Self> {
+    pub fn new(
+        source: Box<dyn TileSource>,
+        mut settings: EngineSettings,
+        height: u32,
+    ) -> Result<Self> {
         let reader = ArchiveReader::open(source)?;
         let header = reader.header().clone();
         let terrain = TerrainFrame::new(&header);
@@ -155,9 +172,28 @@ impl Engine {
             loader.fit_texture_budget(settings.memory_limit_bytes, budget);
         }
         let grid = Grid::new(header.tiles_x, header.tiles_y)?;
-        let mut config = PagerConfig::new(settings.memory_limit_bytes, settings.pager_mode);
-        config.nearest_when_off = settings.nearest_when_off;
-        let pager = Pager::new(loader, grid, config)?;
+        let (pager, predictor) = match settings.streaming {
+            Streaming::Belts => {
+                let mut config = PagerConfig::new(settings.memory_limit_bytes, settings.pager_mode);
+                config.nearest_when_off = settings.nearest_when_off;
+                (Paging::Belts(Pager::new(loader, grid, config)?), None)
+            }
+            Streaming::Progressive(stream) => {
+                check_progressive(&settings)?;
+                // Partial tiles draw powers-of-two masks only (see `render_to`): every frame
+                // does, so a view does not change set when its last tile completes.
+                settings.level_set = LevelSet::PowerOfTwo;
+                let mut config =
+                    StreamConfig::new(settings.memory_limit_bytes, settings.pager_mode);
+                config.queue_capacity = stream.queue_capacity;
+                config.square_share = stream.square_share;
+                config.nearest_when_off = settings.nearest_when_off;
+                (
+                    Paging::Stream(Box::new(StreamPager::new(loader, grid, config)?)),
+                    stream.prediction.map(Predictor::new),
+                )
+            }
+        };
         let rasterizer = if settings.threads == 0 {
             Rasterizer::new()
         } else {
@@ -166,6 +202,8 @@ impl Engine {
         Ok(Engine {
             terrain,
             pager,
+            grid,
+            predictor,
             masks: MaskSet::new(header.tile_size as usize, settings.level_set),
             power_of_two: None,
             cracks: TileIndices::new(settings.cracks, header.tile_size as usize),
@@ -189,7 +227,7 @@ impl Engine {
     }
 
     /// The pager, for its tile states and counters.
-    pub fn pager(&self) -> &Pager<ArchiveLoader> {
+    pub fn pager(&self) -> &Paging {
         &self.pager
     }
 
@@ -280,27 +318,10 @@ impl Engine {
         self.pager
             .update(self.terrain.tile_position(camera.position));
         let mut camera = *camera;
-        self.fit_depth_range(&mut camera);
+        let above_ground = self.fit_depth_range(&mut camera);
         let (width, height) = target.size();
         let aspect = f64::from(width) / f64::from(height);
-        let frustum = Frustum::from_view_projection(&camera.view_projection(aspect));
-
-        let mut visible = Vec::new();
-        let mut measures = Vec::new();
-        for (id, tile) in self.pager.tiles() {
-            let (lo, hi) =
-                self.terrain
-                    .tile_box(id.x, id.y, f64::from(tile.min), f64::from(tile.max));
-            let aabb = Aabb::new(lo - camera.position, hi - camera.position);
-            if frustum.intersects(&aabb) {
-                let distance = aabb.distance(DVec3::ZERO);
-                visible.push((id, tile, distance));
-                measures.push(TileMeasure {
-                    distance,
-                    height: f64::from(tile.max - tile.min),
-                });
-            }
-        }
+        let (visible, measures) = cull(&self.pager, &self.terrain, &camera, aspect);
         let importance = visual_importance(&measures, self.settings.weights);
         let budget = self.budget.budget();
         let partial = visible.iter().find(|(_, tile, _)| !tile.is_complete());
@@ -320,10 +341,63 @@ impl Engine {
             .map(|(_, tile, _)| tile.finest_mask_level())
             .collect();
         let mut allocation = allocate_held(budget, &importance, masks, &finest);
+        // What each tile would draw if it held every level: a tile drawn coarser is capped,
+        // and streaming asks for the levels it lacks.
+        let mut offered = if partial.is_some() {
+            allocate(budget, &importance, masks)
+        } else {
+            allocation.clone()
+        };
         if let Some(level_of) = &self.forced_levels {
-            for (a, &(id, tile, _)) in allocation.iter_mut().zip(&visible) {
-                a.level = drawable_level(level_of(id), tile.finest_mask_level(), partial.is_some());
+            for ((a, o), &(id, tile, _)) in allocation.iter_mut().zip(&mut offered).zip(&visible) {
+                let pinned = level_of(id);
+                o.level = drawable_level(pinned, 0, partial.is_some());
+                a.level = drawable_level(pinned, tile.finest_mask_level(), partial.is_some());
                 a.triangles = self.masks.triangle_count(a.level);
+            }
+        }
+        let mut wants = Vec::new();
+        if matches!(self.pager, Paging::Stream(_)) {
+            let levels = progressive_levels(self.terrain.tile_size);
+            wants.extend(visible.iter().zip(&offered).zip(&importance.values).map(
+                |((&(id, _, _), o), &priority)| Want {
+                    id,
+                    levels: levels_for_mask(o.level, levels),
+                    priority,
+                    predicted: false,
+                },
+            ));
+            wants.extend(absent_wants(
+                &self.pager,
+                self.grid,
+                &self.terrain,
+                &camera,
+                aspect,
+                false,
+            ));
+            if let Some(predictor) = &mut self.predictor {
+                predictor.observe(self.pager.time(), camera);
+                if let Some(view) = predictor.predict() {
+                    wants.extend(absent_wants(
+                        &self.pager,
+                        self.grid,
+                        &self.terrain,
+                        &view.cull,
+                        aspect,
+                        true,
+                    ));
+                    wants.extend(predicted_wants(
+                        &self.pager,
+                        &self.terrain,
+                        &view,
+                        aspect,
+                        PredictedBudget {
+                            budget,
+                            weights: self.settings.weights,
+                            masks,
+                        },
+                    ));
+                }
             }
         }
         let levels: Vec<(TileId, usize)> = visible
@@ -347,15 +421,23 @@ impl Engine {
             )
             .collect();
         let triangles = allocation.iter().map(|a| a.triangles).sum();
-        let rendered = visible
+        let rendered: Vec<RenderedTile> = visible
             .iter()
-            .zip(&allocation)
+            .zip(allocation.iter().zip(&offered))
             .zip(&importance.values)
-            .map(|((&(id, _, _), a), &importance)| RenderedTile {
-                id,
-                importance,
-                level: a.level,
-            })
+            .map(
+                |((&(id, tile, distance), (a, o)), &importance)| RenderedTile {
+                    id,
+                    importance,
+                    level: a.level,
+                    // A tile whose box holds the eye (distance 0) is counted at the eye's height
+                    // above the ground under it, where its surface is seen from.
+                    error_px: tile.level_errors.get(a.level).map_or(0.0, |&e| {
+                        f64::from(e) * camera.pixels_per_metre(distance.max(above_ground), height)
+                    }),
+                    capped: a.level > o.level,
+                },
+            )
             .collect();
         let bookkeeping_seconds = started.elapsed().as_secs_f64();
 
@@ -374,11 +456,21 @@ impl Engine {
             &self.settings.render,
         )
         .map_err(|e| Error::Usage(format!("rendering failed: {e}")))?;
+        let rendered_tiles = draws.len();
+        drop(draws);
+        drop(visible);
+        self.pager.request(&wants);
+        let levels = progressive_levels(self.terrain.tile_size);
+        self.pager.drawn(
+            rendered
+                .iter()
+                .map(|r| (r.id, levels_for_mask(r.level, levels))),
+        );
         Ok(FrameReport {
             camera,
             budget,
             triangles,
-            rendered_tiles: draws.len(),
+            rendered_tiles,
             rendered,
             draw: drawn.triangles,
             wireframe: drawn.lines,
@@ -437,7 +529,8 @@ impl Engine {
     /// plane at the farthest loaded tile (nothing beyond it can be drawn). The near plane stays
     /// below the eye's height, or the ground under the lower screen edge would be clipped away
     /// (down to a millimetre: an eye a centimetre above the ground still sees the ground).
-    fn fit_depth_range(&self, camera: &mut Camera) {
+    /// Returns the eye's height above the ground under it.
+    fn fit_depth_range(&self, camera: &mut Camera) -> f64 {
         let ground = self
             .ground(camera.position)
             .unwrap_or(self.terrain.heights.0 + self.terrain.origin.y);
@@ -457,6 +550,7 @@ impl Engine {
             })
             .fold(0.0f64, f64::max);
         camera.far = far.max(camera.near * 4.0);
+        height
     }
 }
 
@@ -474,6 +568,134 @@ fn refuse_partial_tiles(partial: Option<(TileId, &ResidentTile)>) -> Result<()> 
         ))),
         None => Ok(()),
     }
+}
+
+/// The resident tiles whose boxes meet the view of `camera` at `aspect`, each with its
+/// distance from the eye, and their importance measures.
+fn cull<'p>(
+    pager: &'p Paging,
+    terrain: &TerrainFrame,
+    camera: &Camera,
+    aspect: f64,
+) -> (Vec<(TileId, &'p ResidentTile, f64)>, Vec<TileMeasure>) {
+    let frustum = Frustum::from_view_projection(&camera.view_projection(aspect));
+    let mut visible = Vec::new();
+    let mut measures = Vec::new();
+    for (id, tile) in pager.tiles() {
+        let (lo, hi) = terrain.tile_box(id.x, id.y, f64::from(tile.min), f64::from(tile.max));
+        let aabb = Aabb::new(lo - camera.position, hi - camera.position);
+        if frustum.intersects(&aabb) {
+            let distance = aabb.distance(DVec3::ZERO);
+            visible.push((id, tile, distance));
+            measures.push(TileMeasure {
+                distance,
+                height: f64::from(tile.max - tile.min),
+            });
+        }
+    }
+    (visible, measures)
+}
+
+/// The progressive levels (of `levels` in all) a tile needs to draw mask `level`: a mask keeping
+/// every `l + 1`-th sample needs the grid whose spacing divides `l + 1`.
+pub fn levels_for_mask(level: usize, levels: usize) -> usize {
+    let spacing_log2 = (level + 1).trailing_zeros() as usize;
+    levels - spacing_log2.min(levels - 1)
+}
+
+/// Wishes for the coarsest level of the tiles a view needs but nobody holds: those of the belts
+/// up to the one being filled whose boxes, at the archive's height range, meet the frustum.
+fn absent_wants(
+    pager: &Paging,
+    grid: Grid,
+    terrain: &TerrainFrame,
+    camera: &Camera,
+    aspect: f64,
+    predicted: bool,
+) -> Vec<Want> {
+    let Some(center) = pager.current_tile() else {
+        return Vec::new();
+    };
+    let reach = pager.stats().complete_belts.map_or(0, |d| d + 1);
+    let frustum = Frustum::from_view_projection(&camera.view_projection(aspect));
+    let (lo_h, hi_h) = terrain.heights;
+    (0..=reach.min(grid.max_ring(center)))
+        .flat_map(|d| grid.belt(center, d))
+        .filter(|&id| pager.get(id).is_none())
+        .filter(|id| {
+            let (lo, hi) = terrain.tile_box(id.x, id.y, lo_h, hi_h);
+            frustum.intersects(&Aabb::new(lo - camera.position, hi - camera.position))
+        })
+        .map(|id| Want {
+            id,
+            levels: 1,
+            priority: 1.0,
+            predicted,
+        })
+        .collect()
+}
+
+/// What the predicted view's budget is shared with.
+struct PredictedBudget<'m> {
+    budget: usize,
+    weights: Weights,
+    masks: &'m MaskSet,
+}
+
+/// The predicted view's wishes: the resident tiles its (pulled-back) frustum meets, weighed
+/// from the predicted eye, given the levels this frame's budget would buy them there, at half
+/// their importance (a guess counts less than what is on screen).
+fn predicted_wants(
+    pager: &Paging,
+    terrain: &TerrainFrame,
+    view: &PredictedView,
+    aspect: f64,
+    shared: PredictedBudget<'_>,
+) -> Vec<Want> {
+    let (seen, _) = cull(pager, terrain, &view.cull, aspect);
+    let measures: Vec<TileMeasure> = seen
+        .iter()
+        .map(|&(id, tile, _)| {
+            let (lo, hi) = terrain.tile_box(id.x, id.y, f64::from(tile.min), f64::from(tile.max));
+            TileMeasure {
+                distance: Aabb::new(lo - view.camera.position, hi - view.camera.position)
+                    .distance(DVec3::ZERO),
+                height: f64::from(tile.max - tile.min),
+            }
+        })
+        .collect();
+    let importance = visual_importance(&measures, shared.weights);
+    let offered = allocate(shared.budget, &importance, shared.masks);
+    let levels = progressive_levels(terrain.tile_size);
+    seen.iter()
+        .zip(&offered)
+        .zip(&importance.values)
+        .map(|((&(id, _, _), o), &priority)| Want {
+            id,
+            levels: levels_for_mask(o.level, levels),
+            priority: 0.5 * priority,
+            predicted: true,
+        })
+        .collect()
+}
+
+/// Progressive streaming draws partial tiles, which geomorphing cannot, and its textures follow
+/// the levels importance asks for, which a separate texture budget would contradict.
+fn check_progressive(settings: &EngineSettings) -> Result<()> {
+    if settings.geomorph != Geomorph::Off {
+        return Err(Error::Usage(
+            "progressive streaming draws partial tiles, which geomorphing cannot: turn one off"
+                .into(),
+        ));
+    }
+    if settings.texture_budget_bytes.is_some() {
+        return Err(Error::Usage(
+            "progressive streaming holds exactly the texture mips of the levels it holds: a \
+             separate texture budget does not apply (drop --texture-mb)"
+                .into(),
+        ));
+    }
+    Ok(())
 }
 
 /// Morphed heights count 1/[`SUBDIVISION`] quanta in an i32: refuses an archive whose heights

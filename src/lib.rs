@@ -39,6 +39,7 @@ pub mod loader;
 pub mod mask_level;
 pub mod masks;
 pub mod pager;
+pub mod paging;
 pub mod popping;
 pub mod profile;
 pub mod render;

@@ -18,11 +18,13 @@ use std::sync::atomic::{AtomicU8, AtomicUsize, Ordering};
 use crate::archive::ArchiveReader;
 use crate::belts::TileId;
 use crate::cracks::CrackMode;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::pager::TileLoader;
 use crate::resident::{Light, ResidentTile, predicted_bytes};
 use crate::rgb565::mip_count;
 use crate::source::TileSource;
+use crate::stream::LevelLoader;
+use crate::tile::Tile;
 use crate::tile::progressive_levels;
 
 /// Loads resident tiles from an archive.
@@ -188,5 +190,120 @@ impl TileLoader for ArchiveLoader {
     fn refit(&self, tile: &mut ResidentTile, ring: u32) -> usize {
         tile.set_cracks(self.cracks(), self.reader.header().height_quantum);
         tile.coarsen_texture(self.texture_base(ring))
+    }
+}
+
+/// Levels of one tile fetched by the stream pager and not yet merged: their raw chunks.
+pub struct LevelPiece {
+    /// The levels the tile held when they were asked for.
+    have: usize,
+    /// The raw chunks of levels `have..`, in order.
+    chunks: Vec<Vec<u8>>,
+}
+
+/// Progressive streaming: a tile's levels come one range request at a time and merge into the
+/// resident tile; its texture is exactly the mips its levels carry (texture detail follows the
+/// levels importance asked for, so the belt-distance rule and the texture budget do not apply).
+impl LevelLoader for ArchiveLoader {
+    type Loaded = ResidentTile;
+    type Piece = LevelPiece;
+
+    fn levels(&self) -> usize {
+        self.reader.header().levels()
+    }
+
+    fn predicted_bytes(&self, levels: usize) -> usize {
+        let h = self.reader.header();
+        predicted_bytes(
+            h.tile_size as usize,
+            h.texture_size as usize,
+            0,
+            levels,
+            self.cracks(),
+        )
+    }
+
+    fn fetch(&self, id: TileId, have: usize, want: usize) -> Result<(LevelPiece, u64)> {
+        let read = self
+            .reader
+            .read_levels(id.x as usize, id.y as usize, have..want)?;
+        Ok((
+            LevelPiece {
+                have,
+                chunks: read.chunks,
+            },
+            read.stored_bytes,
+        ))
+    }
+
+    fn merge(
+        &self,
+        id: TileId,
+        held: Option<&ResidentTile>,
+        piece: LevelPiece,
+    ) -> Result<ResidentTile> {
+        let h = self.reader.header();
+        let name = format!("{} tile {id}", self.reader.name());
+        let held_levels = held.map_or(0, |t| t.levels);
+        if held_levels != piece.have {
+            return Err(Error::invalid(
+                &name,
+                format!(
+                    "levels from {} arrived for a tile holding {held_levels}",
+                    piece.have
+                ),
+            ));
+        }
+        let tile = match held {
+            None => {
+                let chunks: Vec<&[u8]> = piece.chunks.iter().map(Vec::as_slice).collect();
+                let tile = Tile::from_levels(
+                    &chunks,
+                    h.tile_size as usize,
+                    h.texture_size as usize,
+                    &name,
+                )?;
+                if tile.quantum != h.height_quantum {
+                    return Err(Error::invalid(
+                        &name,
+                        format!(
+                            "height quantum {} differs from the archive's {}",
+                            tile.quantum, h.height_quantum
+                        ),
+                    ));
+                }
+                tile
+            }
+            Some(resident) => {
+                let mut tile = resident.to_tile();
+                for chunk in &piece.chunks {
+                    tile.refine(chunk, &name)?;
+                }
+                tile
+            }
+        };
+        Ok(ResidentTile::new(
+            &tile,
+            0,
+            h.spacing,
+            &self.light,
+            self.cracks(),
+        ))
+    }
+
+    fn held_levels(&self, tile: &ResidentTile) -> usize {
+        tile.levels
+    }
+
+    fn held_bytes(&self, tile: &ResidentTile) -> usize {
+        tile.bytes()
+    }
+
+    fn drop_levels(&self, tile: &mut ResidentTile, levels: usize) -> usize {
+        tile.drop_levels(levels)
+    }
+
+    fn refit(&self, tile: &mut ResidentTile) -> usize {
+        tile.set_cracks(self.cracks(), self.reader.header().height_quantum)
     }
 }

@@ -1,5 +1,5 @@
-//! The stream pager with a synthetic loader: coarse levels fill the belts first, finer levels
-//! follow importance, the bounded queue cancels what no longer matters, the memory limit holds
+//! The stream pager with a synthetic loader: what the view needs comes coarse first, finer levels
+//! follow importance, the belts fill at the coarsest level, the bounded queue cancels what no longer matters, the memory limit holds
 //! through any flight, and cancelling never loses a tile.
 
 use std::sync::Mutex;
@@ -111,7 +111,7 @@ fn check_accounting(p: &StreamPager<Synthetic>) {
 }
 
 #[test]
-fn belts_fill_at_the_coarsest_level_before_anything_is_refined() {
+fn what_the_view_needs_comes_first_and_belts_fill_at_the_coarsest_level() {
     let mut p = pager(1 << 20, 7, 2);
     let center = (3.5, 3.5);
     let mut order = Vec::new();
@@ -126,9 +126,19 @@ fn belts_fill_at_the_coarsest_level_before_anything_is_refined() {
         }
         check_accounting(&p);
     }
-    // The 49 coarse levels all come before the first refinement.
-    let first_refinement = order.iter().position(|&(_, l)| l > 1).unwrap();
-    assert_eq!(first_refinement, 49, "{order:?}");
+    // The wanted tile's coarse level first, its refinement before the belts beyond the first.
+    assert_eq!(order[0], (TileId::new(3, 3), 1), "{order:?}");
+    let refined = order.iter().position(|&(_, l)| l > 1).unwrap();
+    let ring = |id: TileId| id.x.abs_diff(3).max(id.y.abs_diff(3));
+    assert!(
+        order[..refined].iter().all(|&(id, _)| ring(id) <= 1),
+        "{order:?}"
+    );
+    assert_eq!(
+        order.len(),
+        50,
+        "49 coarse levels and one refinement: {order:?}"
+    );
     assert_eq!(p.stats().complete_belts, Some(3));
     assert_eq!(p.held_levels(TileId::new(3, 3)), LEVELS);
     assert!(
@@ -152,10 +162,10 @@ fn refinements_follow_importance_and_stop_at_what_is_asked() {
             }
         }
     }
-    // One level per tile per request: the most important tile's next level always goes first.
-    assert_eq!(refined, [(2, 2), (2, 3), (2, 4), (0, 2), (0, 3), (1, 2)]);
+    // One range request brings a tile to what it asks for; the most important tile goes first.
+    assert_eq!(refined, [(2, 4), (0, 3), (1, 2)]);
     assert_eq!(p.held_levels(TileId::new(2, 2)), 4);
-    assert_eq!(p.stream_stats().requests, 9 + 6);
+    assert_eq!(p.stream_stats().requests, 9 + 3);
 }
 
 #[test]

@@ -342,6 +342,11 @@ impl<L: TileLoader> Pager<L> {
         self.tiles.iter().map(|(id, t)| (*id, t))
     }
 
+    /// The loaded copies by tile.
+    pub fn resident(&self) -> &BTreeMap<TileId, L::Loaded> {
+        &self.tiles
+    }
+
     /// The loaded copy of `id`, if any.
     pub fn get(&self, id: TileId) -> Option<&L::Loaded> {
         self.tiles.get(&id)

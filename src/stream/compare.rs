@@ -147,6 +147,10 @@ pub struct RunResult {
     pub mean_error_px: f64,
     /// Received bytes drawn within a second (progressive only).
     pub rendered_share: Option<f64>,
+    /// The same for the bytes the current view asked for.
+    pub view_rendered_share: Option<f64>,
+    /// Bytes of the coarse belt fill, which no view asked for (progressive only).
+    pub belt_bytes: Option<u64>,
     /// Predicted levels drawn in time (with prediction only).
     pub hit_rate: Option<f64>,
     /// Requests sent (progressive) or tiles fetched (belts).
@@ -291,6 +295,8 @@ impl Run<'_> {
             full_budget_share: full as f64 / frames.max(1) as f64,
             mean_error_px: error_sum / frames.max(1) as f64,
             rendered_share: stream.and_then(|s| s.rendered_share()),
+            view_rendered_share: stream.and_then(|s| s.view_rendered_share()),
+            belt_bytes: stream.map(|s| s.belt_bytes),
             hit_rate: stream.and_then(|s| s.hit_rate()),
             requests: stream.map_or(pager.fetches, |s| s.requests),
             cancelled: stream.map_or(0, |s| s.cancelled),
@@ -337,14 +343,14 @@ pub fn write(out: &Path, results: &[RunResult], options: &CompareOptions) -> Res
     let csv_path = out.join("stream-compare.csv");
     let mut csv = String::from(
         "flight,link,strategy,frames,downloaded_bytes,first_frame_s,first_complete_s,\
-         full_budget_share,mean_error_px,rendered_share,hit_rate,requests,cancelled,\
-         peak_memory_bytes\n",
+         full_budget_share,mean_error_px,rendered_share,view_rendered_share,belt_bytes,\
+         hit_rate,requests,cancelled,peak_memory_bytes\n",
     );
     let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.4}"));
     for r in results {
         writeln!(
             csv,
-            "{:?},{},{},{},{},{},{},{:.4},{:.4},{},{},{},{},{}",
+            "{:?},{},{},{},{},{},{},{:.4},{:.4},{},{},{},{},{},{},{}",
             r.flight,
             r.link,
             r.strategy.name(),
@@ -355,6 +361,8 @@ pub fn write(out: &Path, results: &[RunResult], options: &CompareOptions) -> Res
             r.full_budget_share,
             r.mean_error_px,
             opt(r.rendered_share),
+            opt(r.view_rendered_share),
+            r.belt_bytes.map_or(String::new(), |b| b.to_string()),
             opt(r.hit_rate),
             r.requests,
             r.cancelled,
@@ -379,13 +387,14 @@ fn markdown(results: &[RunResult], o: &CompareOptions) -> String {
         let _ = write!(
             md,
             "\n**{flight:?}**\n\n| link | tiles | downloaded | first frame | first complete view | \
-             frames at full budget | mean screen error | bytes drawn within 1 s | prediction hits | \
-             requests (cancelled) |\n| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n"
+             frames at full budget | mean screen error | drawn within 1 s: all bytes (asked by the view) | \
+             belt fill | prediction hits | requests (cancelled) | peak memory |\n\
+             | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n"
         );
         for r in results.iter().filter(|r| r.flight == *flight) {
             let _ = writeln!(
                 md,
-                "| {} | {} | {:.2} MB | {} | {} | {:.1}% | {:.2} px | {} | {} | {} ({}) |",
+                "| {} | {} | {:.2} MB | {} | {} | {:.1}% | {:.2} px | {} ({}) | {} | {} | {} ({}) | {:.1} MB |",
                 r.link,
                 r.strategy.name(),
                 r.downloaded_bytes as f64 / 1e6,
@@ -394,9 +403,13 @@ fn markdown(results: &[RunResult], o: &CompareOptions) -> String {
                 100.0 * r.full_budget_share,
                 r.mean_error_px,
                 pct(r.rendered_share),
+                pct(r.view_rendered_share),
+                r.belt_bytes
+                    .map_or("–".into(), |b| format!("{:.2} MB", b as f64 / 1e6)),
                 pct(r.hit_rate),
                 r.requests,
-                r.cancelled
+                r.cancelled,
+                r.peak_memory_bytes as f64 / 1e6
             );
         }
     }

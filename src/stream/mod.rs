@@ -1,18 +1,23 @@
 //! Progressive streaming: the paper's future work ("fetch tile levels only when needed, load
 //! farther tiles at their lowest resolution") as its 2009 follow-up did it.
 //!
-//! The unit of work is a (tile, level) pair, not a whole tile: a request brings a tile from `k`
-//! to `k + 1` held progressive levels with one range request ([`crate::tile`] stores each level
-//! as a separate chunk, coarse first). Each frame:
+//! The unit of work is a (tile, level) pair, not a whole tile: a request brings a tile from the
+//! `k` progressive levels it holds to `m > k` with one range request ([`crate::tile`] stores
+//! each level as a separate chunk, coarse first, so levels `k..m` are contiguous bytes). The
+//! engine asks for levels: the coarsest first, then as many as the mask its importance buys
+//! needs. Each frame:
 //!
 //! 1. [`StreamPager::update`] takes in what arrived (merging a finer level into the resident
 //!    tile) and finds `d_c`, the complete square of belts held at the coarsest level at least;
-//! 2. the engine culls and weighs the held tiles, asks the budget which mask each would get
-//!    uncapped, and tells [`StreamPager::request`] how many levels each wants and how much it
-//!    matters (its visual importance; the predicted view's wishes count half);
-//! 3. the pager turns wishes into requests — the coarse level of every tile of belt `d_c + 1`
-//!    first (Algorithm 1 at the coarsest level, while the coarse square takes at most
-//!    [`StreamConfig::square_share`] of the memory), then each tile's next level by importance —
+//! 2. the engine culls and weighs the held tiles, asks the budget which mask each would get if
+//!    it held every level, and tells [`StreamPager::request`] how many levels each wants and how
+//!    much it matters (its visual importance; the predicted view's wishes count half), and which
+//!    absent tiles of the belts the view (or the predicted view) meets;
+//! 3. the pager turns wishes into requests — a tile the view needs and nobody holds comes at its
+//!    coarsest level first, above everything; a held tile comes up to the levels it is asked
+//!    for in one range request, by importance; and the coarse level of each tile of belt
+//!    `d_c + 1` (Algorithm 1 at the coarsest level, while the coarse square takes at most
+//!    [`StreamConfig::square_share`] of the memory) comes when nothing a view asks for waits —
 //!    re-prioritises its bounded [`RequestQueue`] with them, cancelling what fell out before it
 //!    was sent, and sends the best while the link has room;
 //! 4. [`StreamPager::drawn`] hears which levels the frame used, for the share of received
@@ -24,6 +29,7 @@
 //! then of tiles that matter less than the request, farthest first — and only then by evicting
 //! whole tiles from the cache outside the square.
 
+pub mod compare;
 mod predict;
 mod queue;
 mod stats;
@@ -33,7 +39,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 pub use predict::{PredictedView, PredictionSettings, Predictor};
-pub use queue::{LevelRequest, RequestQueue};
+pub use queue::{LevelRequest, Reason, RequestQueue};
 pub use stats::{Delivery, StreamStats};
 
 use crate::belts::{Failure, Fetch, Grid, Ledger, RetryPolicy, TileId};
@@ -72,8 +78,14 @@ impl Default for StreamSettings {
     }
 }
 
-/// Priority of a coarsest-level request: above every refinement (importance is at most 1).
+/// Priority of the coarsest level of a tile the view needs: above every refinement (importance
+/// is at most 1).
 const COARSE_PRIORITY: f64 = 2.0;
+
+/// Priority of the coarsest level of a belt tile no view needs yet, at ring 0 (divided by
+/// `1 + ring`): below any refinement a view asks for, so on a slow link the square grows while
+/// the link would otherwise idle, never instead of the detail on screen.
+const BELT_PRIORITY: f64 = 1e-3;
 
 /// What the engine gives the stream pager: level costs known before fetching, fetching a range
 /// of levels, and merging them into the resident tile.
@@ -110,7 +122,7 @@ pub trait LevelLoader: Send + Sync + 'static {
 }
 
 /// One tile's wish this frame: `levels` progressive levels, mattering `priority` (its visual
-/// importance, 0 ..= 1).
+/// importance, 0 ..= 1). A tile may have several (the current and the predicted view's).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Want {
     /// The tile.
@@ -184,8 +196,8 @@ pub struct StreamPager<L: LevelLoader> {
     ledger: Ledger,
     tiles: BTreeMap<TileId, L::Loaded>,
     queue: RequestQueue,
-    /// Whether each request in flight came from the predicted view only.
-    predicted: HashMap<TileId, bool>,
+    /// Why each request in flight was made.
+    reasons: HashMap<TileId, Reason>,
     worker: Option<Worker<LevelFetch, L::Piece>>,
     transfer_clock: Option<Arc<dyn TransferClock>>,
     pending: VecDeque<Pending<L::Piece>>,
@@ -228,7 +240,7 @@ impl<L: LevelLoader> StreamPager<L> {
             ledger: Ledger::new(grid, config.memory_limit_bytes, config.retry),
             tiles: BTreeMap::new(),
             queue: RequestQueue::new(config.queue_capacity),
-            predicted: HashMap::new(),
+            reasons: HashMap::new(),
             worker,
             transfer_clock: None,
             pending: VecDeque::new(),
@@ -287,7 +299,17 @@ impl<L: LevelLoader> StreamPager<L> {
         let candidates = self.candidates(wants);
         let cancelled = self.queue.reprioritise(candidates);
         self.stats.cancelled += cancelled.len() as u64;
-        let wanted: HashMap<TileId, Want> = wants.iter().map(|w| (w.id, *w)).collect();
+        // Each tile's strongest wish: the most levels and the highest priority asked.
+        let mut wanted: HashMap<TileId, Want> = HashMap::new();
+        for w in wants {
+            wanted
+                .entry(w.id)
+                .and_modify(|m| {
+                    m.levels = m.levels.max(w.levels);
+                    m.priority = m.priority.max(w.priority);
+                })
+                .or_insert(*w);
+        }
         match self.config.mode {
             PagerMode::Threaded { queue_depth } | PagerMode::Simulated { queue_depth } => {
                 while self.ledger.fetching() < queue_depth {
@@ -364,6 +386,11 @@ impl<L: LevelLoader> StreamPager<L> {
     /// The resident tiles, row-major.
     pub fn tiles(&self) -> impl Iterator<Item = (TileId, &L::Loaded)> {
         self.tiles.iter().map(|(id, t)| (*id, t))
+    }
+
+    /// The resident copies by tile.
+    pub fn resident(&self) -> &BTreeMap<TileId, L::Loaded> {
+        &self.tiles
     }
 
     /// The resident copy of `id`, if any.
@@ -482,8 +509,8 @@ impl<L: LevelLoader> StreamPager<L> {
                             out.push(LevelRequest {
                                 id,
                                 levels: 1,
-                                priority: COARSE_PRIORITY,
-                                predicted: false,
+                                priority: BELT_PRIORITY / f64::from(1 + next),
+                                reason: Reason::Belt,
                             });
                         }
                     }
@@ -492,18 +519,32 @@ impl<L: LevelLoader> StreamPager<L> {
                 }
             }
         }
+        // Levels the current view alone asks for: a request beyond them is the prediction's.
+        let mut now_levels: HashMap<TileId, usize> = HashMap::new();
+        for w in wants.iter().filter(|w| !w.predicted) {
+            let l = now_levels.entry(w.id).or_default();
+            *l = (*l).max(w.levels);
+        }
+        // A tile the view needs comes at its coarsest level first, then in one request up to
+        // the levels asked for (one range request: the levels are contiguous).
         for w in wants {
             let have = self.held_levels(w.id);
-            if have < w.levels.min(self.loader.levels()) && self.can_request(w.id) {
+            let asked = w.levels.min(self.loader.levels());
+            if have < asked && self.can_request(w.id) {
+                let (levels, priority) = if have == 0 {
+                    (1, COARSE_PRIORITY)
+                } else {
+                    (asked, w.priority)
+                };
                 out.push(LevelRequest {
                     id: w.id,
-                    levels: have + 1,
-                    priority: if have == 0 {
-                        COARSE_PRIORITY
+                    levels,
+                    priority,
+                    reason: if levels > now_levels.get(&w.id).copied().unwrap_or(0) {
+                        Reason::Predicted
                     } else {
-                        w.priority
+                        Reason::View
                     },
-                    predicted: w.predicted,
                 });
             }
         }
@@ -521,7 +562,7 @@ impl<L: LevelLoader> StreamPager<L> {
     fn send_next(&mut self, wanted: &HashMap<TileId, Want>) -> bool {
         while let Some(request) = self.queue.pop() {
             let have = self.held_levels(request.id);
-            if request.levels != have + 1 || !self.can_request(request.id) {
+            if request.levels <= have || !self.can_request(request.id) {
                 continue;
             }
             let bytes = self.loader.predicted_bytes(request.levels)
@@ -551,7 +592,7 @@ impl<L: LevelLoader> StreamPager<L> {
                 return false;
             }
             self.stats.requests += 1;
-            self.predicted.insert(request.id, request.predicted);
+            self.reasons.insert(request.id, request.reason);
             let level_fetch = LevelFetch {
                 id: request.id,
                 have,
@@ -740,7 +781,7 @@ impl<L: LevelLoader> StreamPager<L> {
 
     fn integrate(&mut self, fetch: LevelFetch, result: Result<(L::Piece, u64)>) {
         let id = fetch.id;
-        let predicted = self.predicted.remove(&id).unwrap_or(false);
+        let reason = self.reasons.remove(&id).unwrap_or_default();
         let merged = result.and_then(|(piece, downloaded)| {
             let mut tile = self.loader.merge(id, self.tiles.get(&id), piece)?;
             let levels = self.loader.held_levels(&tile);
@@ -764,7 +805,7 @@ impl<L: LevelLoader> StreamPager<L> {
                         levels: fetch.want,
                         bytes: downloaded,
                         at: now,
-                        predicted,
+                        reason,
                     });
                 }
                 Err(e) => self.record_error(e.to_string()),

@@ -9,7 +9,20 @@ use std::collections::HashSet;
 
 use crate::belts::TileId;
 
-/// One request: bring tile `id` to `levels` held progressive levels (from `levels - 1`).
+/// Why a request was made.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Reason {
+    /// The current view needs it.
+    #[default]
+    View,
+    /// Only the predicted view needs it.
+    Predicted,
+    /// No view needs it yet: the coarse square of belts grows.
+    Belt,
+}
+
+/// One request: bring tile `id` to `levels` held progressive levels, from the levels it holds,
+/// with one range request.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LevelRequest {
     /// The tile.
@@ -18,8 +31,8 @@ pub struct LevelRequest {
     pub levels: usize,
     /// Higher goes first: coarse belt fill above refinements, refinements by importance.
     pub priority: f64,
-    /// Whether only the predicted view asks for it (the current view does not).
-    pub predicted: bool,
+    /// Why it was made.
+    pub reason: Reason,
 }
 
 impl LevelRequest {
@@ -108,7 +121,7 @@ mod tests {
             id: TileId::new(x, 0),
             levels,
             priority,
-            predicted: false,
+            reason: Reason::View,
         }
     }
 

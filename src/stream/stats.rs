@@ -1,10 +1,12 @@
 //! What streaming measures: requests sent and cancelled, and whether the bytes that arrived
 //! were worth their transfer — the share rendered within a second of arriving (the 2009 system
-//! reports 99.5%) and, for levels only the predicted view asked for, the prediction's hit rate.
+//! reports 99.5%), of all bytes and of those the current view asked for (the rest are the
+//! prediction's, judged by its hit rate, and the coarse belt fill's, which no view asked for).
 
 use std::collections::VecDeque;
 
 use crate::belts::TileId;
+use crate::stream::Reason;
 
 /// Seconds after its arrival within which a delivery must be drawn to count as rendered.
 pub const RENDER_WINDOW: f64 = 1.0;
@@ -24,8 +26,8 @@ pub struct Delivery {
     pub bytes: u64,
     /// Seconds at arrival.
     pub at: f64,
-    /// Whether only the predicted view asked for it.
-    pub predicted: bool,
+    /// Why it was requested.
+    pub reason: Reason,
 }
 
 /// The counters of a stream pager.
@@ -39,10 +41,16 @@ pub struct StreamStats {
     pub dropped_levels: u64,
     /// Bytes received.
     pub received_bytes: u64,
+    /// Of those, bytes of the coarse belt fill (no view asked for them).
+    pub belt_bytes: u64,
     /// Bytes whose render window has passed.
     pub settled_bytes: u64,
     /// Of those, bytes drawn within [`RENDER_WINDOW`] of arriving.
     pub rendered_bytes: u64,
+    /// Settled bytes the current view asked for.
+    pub view_settled_bytes: u64,
+    /// Of those, bytes drawn within [`RENDER_WINDOW`] of arriving.
+    pub view_rendered_bytes: u64,
     /// Predicted deliveries whose hit window has passed.
     pub predicted_settled: u64,
     /// Of those, the ones drawn within [`HIT_WINDOW`].
@@ -58,6 +66,12 @@ impl StreamStats {
         (self.settled_bytes > 0).then(|| self.rendered_bytes as f64 / self.settled_bytes as f64)
     }
 
+    /// The same share for the bytes the current view asked for.
+    pub fn view_rendered_share(&self) -> Option<f64> {
+        (self.view_settled_bytes > 0)
+            .then(|| self.view_rendered_bytes as f64 / self.view_settled_bytes as f64)
+    }
+
     /// The share of settled predicted deliveries that were drawn in time (`None` before any).
     pub fn hit_rate(&self) -> Option<f64> {
         (self.predicted_settled > 0)
@@ -67,6 +81,9 @@ impl StreamStats {
     /// Counts a delivery.
     pub fn received(&mut self, delivery: Delivery) {
         self.received_bytes += delivery.bytes;
+        if delivery.reason == Reason::Belt {
+            self.belt_bytes += delivery.bytes;
+        }
         self.open.push_back((delivery, false));
     }
 
@@ -74,7 +91,7 @@ impl StreamStats {
     /// delivery of that tile up to that level was rendered.
     pub fn rendered(&mut self, id: TileId, levels: usize, now: f64) {
         for (d, drawn) in &mut self.open {
-            let window = if d.predicted {
+            let window = if d.reason == Reason::Predicted {
                 HIT_WINDOW
             } else {
                 RENDER_WINDOW
@@ -89,7 +106,7 @@ impl StreamStats {
     pub fn settle(&mut self, now: f64) {
         let mut still = VecDeque::with_capacity(self.open.len());
         for (d, drawn) in self.open.drain(..) {
-            let window = if d.predicted {
+            let window = if d.reason == Reason::Predicted {
                 HIT_WINDOW
             } else {
                 RENDER_WINDOW
@@ -102,9 +119,18 @@ impl StreamStats {
             if drawn {
                 self.rendered_bytes += d.bytes;
             }
-            if d.predicted {
-                self.predicted_settled += 1;
-                self.predicted_hits += u64::from(drawn);
+            match d.reason {
+                Reason::View => {
+                    self.view_settled_bytes += d.bytes;
+                    if drawn {
+                        self.view_rendered_bytes += d.bytes;
+                    }
+                }
+                Reason::Predicted => {
+                    self.predicted_settled += 1;
+                    self.predicted_hits += u64::from(drawn);
+                }
+                Reason::Belt => {}
             }
         }
         self.open = still;
@@ -116,12 +142,17 @@ mod tests {
     use super::*;
 
     fn delivery(x: u32, levels: usize, bytes: u64, at: f64, predicted: bool) -> Delivery {
+        let reason = if predicted {
+            Reason::Predicted
+        } else {
+            Reason::View
+        };
         Delivery {
             id: TileId::new(x, 0),
             levels,
             bytes,
             at,
-            predicted,
+            reason,
         }
     }
 

@@ -19,7 +19,6 @@ use crate::camera::Camera;
 use crate::cracks::CrackMode;
 use crate::engine::{Engine, EngineSettings, FrameReport};
 use crate::error::{Error, Result};
-use crate::frustum::Aabb;
 use crate::geomorph::Geomorph;
 use crate::pager::PagerMode;
 use crate::source;
@@ -136,7 +135,7 @@ impl Bench {
                             .iter()
                             .map(|reference| compare(&image, reference, threshold))
                             .collect();
-                        let geometric = self.geometric_error_px(&report);
+                        let geometric = geometric_error_px(&report);
                         scores[k].push((errors, geometric, report.triangles as f64));
                     }
                 }
@@ -208,31 +207,6 @@ impl Bench {
         Ok((elapsed, report?, image))
     }
 
-    /// The largest screen-space error of a drawn tile: its mask level's height error (from the
-    /// archive, metres) times pixels per metre at its bounding box's distance from the eye.
-    fn geometric_error_px(&self, report: &FrameReport) -> f64 {
-        // Any engine holds the same tiles; the first is the defaults'.
-        let engine = &self.engines[0].1;
-        let camera = &report.camera;
-        report
-            .rendered
-            .iter()
-            .filter_map(|t| {
-                let tile = engine.pager().get(t.id)?;
-                let (lo, hi) = engine.terrain().tile_box(
-                    t.id.x,
-                    t.id.y,
-                    f64::from(tile.min),
-                    f64::from(tile.max),
-                );
-                let distance = Aabb::new(lo - camera.position, hi - camera.position)
-                    .distance(glam::DVec3::ZERO);
-                let error = f64::from(*tile.level_errors.get(t.level)?);
-                Some(error * camera.pixels_per_metre(distance, self.size.1))
-            })
-            .fold(0.0, f64::max)
-    }
-
     /// The engine for `cracks`, `geomorph` and `threads` (settings an engine is built with),
     /// built and filled with every tile on first use.
     fn engine(
@@ -301,4 +275,14 @@ fn apply(engine: &mut Engine, setting: &Setting) {
             engine.hold_budget(n);
         }
     }
+}
+
+/// The largest screen-space error of a drawn tile: its mask level's height error (from the
+/// archive, metres) times pixels per metre at its bounding box's distance from the eye.
+fn geometric_error_px(report: &FrameReport) -> f64 {
+    report
+        .rendered
+        .iter()
+        .map(|t| t.error_px)
+        .fold(0.0, f64::max)
 }

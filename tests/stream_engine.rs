@@ -1,0 +1,214 @@
+//! Progressive streaming end to end on a synthetic archive: the memory limit holds through a
+//! flight, every tile the view needs ends up at the level it needs, settled partial tiles draw
+//! exactly what whole tiles draw, and over a slow link the first picture comes sooner for far
+//! fewer bytes.
+
+use glam::DVec3;
+use stripmask::engine::{Engine, EngineSettings, FrameReport};
+use stripmask::flight::{Builtin, Flight};
+use stripmask::masks::LevelSet;
+use stripmask::pager::PagerMode;
+use stripmask::profile::Link;
+use stripmask::simclock::{Clock, CostModel, connect};
+use stripmask::source;
+use stripmask::stream::{StreamSettings, Streaming};
+use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
+
+#[path = "support/hills.rs"]
+mod hills;
+use hills::archive;
+
+fn settings(memory_limit_bytes: usize, streaming: Streaming, mode: PagerMode) -> EngineSettings {
+    EngineSettings {
+        memory_limit_bytes,
+        pager_mode: mode,
+        threads: 1,
+        streaming,
+        ..EngineSettings::default()
+    }
+}
+
+fn progressive() -> Streaming {
+    Streaming::Progressive(StreamSettings::default())
+}
+
+fn open(path: &std::path::Path, settings: EngineSettings) -> Engine {
+    Engine::new(source::open(path.to_str().unwrap()).unwrap(), settings, 120).unwrap()
+}
+
+fn frame() -> Framebuffer {
+    Framebuffer::new(160, 120, ColorFormat::Rgb565, DepthFormat::D16).unwrap()
+}
+
+/// Accounted bytes never pass the limit and equal what the resident tiles hold.
+fn check_memory(engine: &Engine, report: &FrameReport) {
+    let stats = report.pager;
+    assert!(
+        stats.memory_peak_bytes <= stats.memory_limit_bytes,
+        "{stats:?}"
+    );
+    if stats.fetching == 0 {
+        let held: usize = engine.pager().tiles().map(|(_, t)| t.bytes()).sum();
+        assert_eq!(held, stats.memory_bytes);
+    }
+}
+
+#[test]
+fn a_progressive_flight_keeps_the_limit_and_ends_with_every_tile_at_its_level() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = archive(dir.path(), 33);
+    // Room for about a fifth of the 64 whole tiles: fine levels must come and go.
+    let limit = 600_000;
+    let mode = PagerMode::Stepped {
+        fetches_per_update: 3,
+    };
+    let mut engine = open(&path, settings(limit, progressive(), mode));
+    let flight = Flight::builtin(Builtin::Low, engine.terrain());
+    let mut fb = frame();
+    let (mut t, mut partial_frames) = (0.0, 0);
+    while t < flight.duration() {
+        let (eye, target) = flight.at(t);
+        let camera = engine.camera(eye, target, flight.above_ground);
+        engine.set_time(t);
+        let report = engine.render(&camera, &mut fb).unwrap();
+        check_memory(&engine, &report);
+        partial_frames += usize::from(engine.pager().tiles().any(|(_, t)| !t.is_complete()));
+        t += 0.5;
+    }
+    assert!(partial_frames > 0, "the flight drew partial tiles");
+    let stream = engine.pager().stream_stats().unwrap().clone();
+    assert!(stream.requests > 0);
+    // Hold still at the end: every tile drawn reaches the level its importance buys.
+    let (eye, target) = flight.at(flight.duration());
+    let mut last = None;
+    for k in 0..80 {
+        let camera = engine.camera(eye, target, flight.above_ground);
+        engine.set_time(t + f64::from(k) * 0.5);
+        let report = engine.render(&camera, &mut fb).unwrap();
+        check_memory(&engine, &report);
+        last = Some(report);
+    }
+    let last = last.unwrap();
+    assert!(last.rendered_tiles > 0);
+    assert!(
+        last.rendered.iter().all(|r| !r.capped),
+        "{:?}",
+        last.rendered
+    );
+    assert_eq!(
+        engine.pager().stats().errors,
+        0,
+        "{:?}",
+        engine.pager().last_error()
+    );
+}
+
+#[test]
+fn settled_partial_tiles_draw_exactly_what_whole_tiles_draw() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = archive(dir.path(), 33);
+    let mode = PagerMode::Stepped {
+        fetches_per_update: 64,
+    };
+    let unlit = |streaming| {
+        let mut s = settings(64 << 20, streaming, mode);
+        s.level_set = LevelSet::PowerOfTwo;
+        // Partial tiles light with normals of their held grid; without lighting the pictures
+        // must agree byte for byte.
+        s.render.lighting = false;
+        s
+    };
+    let mut whole = open(&path, unlit(Streaming::Belts));
+    let mut partial = open(&path, unlit(progressive()));
+    let (eye, target) = (
+        DVec3::new(900.0, 900.0, 7200.0),
+        DVec3::new(4000.0, 0.0, 3000.0),
+    );
+    let (mut a, mut b) = (frame(), frame());
+    for engine in [&mut whole, &mut partial] {
+        engine.hold_budget(6_000);
+    }
+    let (mut ra, mut rb) = (None, None);
+    for k in 0..40 {
+        for (engine, fb, report) in [
+            (&mut whole, &mut a, &mut ra),
+            (&mut partial, &mut b, &mut rb),
+        ] {
+            engine.set_time(f64::from(k));
+            let camera = engine.camera(eye, target, false);
+            *report = Some(engine.render(&camera, fb).unwrap());
+        }
+    }
+    let (ra, rb) = (ra.unwrap(), rb.unwrap());
+    assert!(rb.rendered.iter().all(|r| !r.capped));
+    assert!(
+        partial.pager().tiles().any(|(_, t)| !t.is_complete()),
+        "some tiles hold fewer levels than whole"
+    );
+    let levels = |r: &FrameReport| {
+        let mut l: Vec<_> = r.rendered.iter().map(|t| (t.id, t.level)).collect();
+        l.sort_by_key(|&(id, _)| id);
+        l
+    };
+    assert_eq!(levels(&ra), levels(&rb));
+    assert!(
+        a.to_rgba_image() == b.to_rgba_image(),
+        "the pictures differ"
+    );
+}
+
+/// Flies the first `seconds` of the diagonal over a 256 kbit/s, 20 ms link on the simulated
+/// clock; returns the last report, the engine and the flight time of the first drawn tile.
+fn slow_link_flight(path: &std::path::Path, streaming: Streaming) -> (Engine, Option<f64>) {
+    let clock = Clock::Simulated {
+        model: CostModel::HOST,
+        slowdown: 10.0,
+    };
+    let link = Link {
+        bandwidth_kbps: Some(256.0),
+        latency_ms: 20.0,
+        jitter_ms: 0.0,
+        drop_rate: 0.0,
+    };
+    let (source, meter) = connect(
+        source::open(path.to_str().unwrap()).unwrap(),
+        Some(link.to_link_profile(1)),
+        &clock,
+    );
+    let s = settings(4 << 20, streaming, PagerMode::Simulated { queue_depth: 4 });
+    let mut engine = Engine::new(source, s, 120).unwrap();
+    engine.set_transfer_clock(meter.unwrap());
+    let flight = Flight::builtin(Builtin::Diagonal, engine.terrain());
+    let mut fb = frame();
+    let (mut t, mut first) = (0.0, None);
+    while t < 15.0 {
+        let (eye, target) = flight.at(t);
+        let camera = engine.camera(eye, target, false);
+        engine.set_time(t);
+        let report = engine.render(&camera, &mut fb).unwrap();
+        check_memory(&engine, &report);
+        if report.rendered_tiles > 0 {
+            first = first.or(Some(t));
+        }
+        t += clock.frame_seconds(&report);
+        engine.record_frame(clock.frame_seconds(&report), report.draw.triangles as usize);
+    }
+    (engine, first)
+}
+
+#[test]
+fn over_a_slow_link_progressive_tiles_draw_sooner_for_fewer_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = archive(dir.path(), 33);
+    let (belts, belts_first) = slow_link_flight(&path, Streaming::Belts);
+    let (stream, stream_first) = slow_link_flight(&path, progressive());
+    let (bb, sb) = (
+        belts.pager().stats().downloaded_bytes,
+        stream.pager().stats().downloaded_bytes,
+    );
+    assert!(sb * 3 < bb, "progressive {sb} bytes, whole tiles {bb}");
+    assert!(stream_first.unwrap() < belts_first.unwrap());
+    let stats = stream.pager().stream_stats().unwrap();
+    assert!(stats.view_rendered_share().unwrap() > 0.5, "{stats:?}");
+    assert!(stats.received_bytes == sb);
+}

@@ -176,7 +176,10 @@ impl Engine {
             Streaming::Belts => {
                 let mut config = PagerConfig::new(settings.memory_limit_bytes, settings.pager_mode);
                 config.nearest_when_off = settings.nearest_when_off;
-                (Paging::Belts(Pager::new(loader, grid, config)?), None)
+                (
+                    Paging::Belts(Box::new(Pager::new(loader, grid, config)?)),
+                    None,
+                )
             }
             Streaming::Progressive(stream) => {
                 check_progressive(&settings)?;

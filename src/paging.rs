@@ -13,7 +13,7 @@ use crate::stream::{StreamPager, StreamStats, Want};
 /// Whole tiles in belts, or progressive levels.
 pub enum Paging {
     /// Algorithm 1 with whole tiles.
-    Belts(Pager<ArchiveLoader>),
+    Belts(Box<Pager<ArchiveLoader>>),
     /// (tile, level) requests by importance.
     Stream(Box<StreamPager<ArchiveLoader>>),
 }

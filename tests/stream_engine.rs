@@ -212,3 +212,33 @@ fn over_a_slow_link_progressive_tiles_draw_sooner_for_fewer_bytes() {
     assert!(stats.view_rendered_share().unwrap() > 0.5, "{stats:?}");
     assert!(stats.received_bytes == sb);
 }
+
+#[test]
+fn the_fetch_thread_streams_levels_too() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = archive(dir.path(), 33);
+    let mode = PagerMode::Threaded { queue_depth: 2 };
+    let mut engine = open(&path, settings(2 << 20, progressive(), mode));
+    let (eye, target) = (
+        DVec3::new(900.0, 900.0, 7200.0),
+        DVec3::new(4000.0, 0.0, 3000.0),
+    );
+    let mut fb = frame();
+    let started = std::time::Instant::now();
+    let settled = loop {
+        let camera = engine.camera(eye, target, false);
+        let report = engine.render(&camera, &mut fb).unwrap();
+        check_memory(&engine, &report);
+        if report.rendered_tiles > 0 && report.rendered.iter().all(|r| !r.capped) {
+            break true;
+        }
+        if started.elapsed().as_secs() > 30 {
+            break false;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    };
+    assert!(settled, "{:?}", engine.pager().stats());
+    let stats = engine.pager().stream_stats().unwrap();
+    assert!(stats.requests > 0 && stats.received_bytes > 0);
+    assert_eq!(engine.pager().stats().errors, 0);
+}

@@ -321,7 +321,7 @@ impl Engine {
         self.pager
             .update(self.terrain.tile_position(camera.position));
         let mut camera = *camera;
-        let above_ground = self.fit_depth_range(&mut camera);
+        self.fit_depth_range(&mut camera);
         let (width, height) = target.size();
         let aspect = f64::from(width) / f64::from(height);
         let (visible, measures) = cull(&self.pager, &self.terrain, &camera, aspect);
@@ -433,10 +433,11 @@ impl Engine {
                     id,
                     importance,
                     level: a.level,
-                    // A tile whose box holds the eye (distance 0) is counted at the eye's height
-                    // above the ground under it, where its surface is seen from.
+                    // No nearer than the clearance the eye keeps above the ground: a tile whose
+                    // box holds the eye (distance 0) is not seen from closer.
                     error_px: tile.level_errors.get(a.level).map_or(0.0, |&e| {
-                        f64::from(e) * camera.pixels_per_metre(distance.max(above_ground), height)
+                        let seen_from = distance.max(self.settings.clearance);
+                        f64::from(e) * camera.pixels_per_metre(seen_from, height)
                     }),
                     capped: a.level > o.level,
                 },
@@ -532,8 +533,7 @@ impl Engine {
     /// plane at the farthest loaded tile (nothing beyond it can be drawn). The near plane stays
     /// below the eye's height, or the ground under the lower screen edge would be clipped away
     /// (down to a millimetre: an eye a centimetre above the ground still sees the ground).
-    /// Returns the eye's height above the ground under it.
-    fn fit_depth_range(&self, camera: &mut Camera) -> f64 {
+    fn fit_depth_range(&self, camera: &mut Camera) {
         let ground = self
             .ground(camera.position)
             .unwrap_or(self.terrain.heights.0 + self.terrain.origin.y);
@@ -553,7 +553,6 @@ impl Engine {
             })
             .fold(0.0f64, f64::max);
         camera.far = far.max(camera.near * 4.0);
-        height
     }
 }
 

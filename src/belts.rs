@@ -419,6 +419,19 @@ impl Ledger {
         });
     }
 
+    /// Every fetch in flight failed (the fetch thread stopped with them).
+    pub fn fail_in_flight(&mut self, now: u64) {
+        let in_flight: Vec<TileId> = self
+            .records
+            .iter()
+            .filter(|(_, r)| r.fetch.is_some())
+            .map(|(&id, _)| id)
+            .collect();
+        for id in in_flight {
+            self.fail(id, now);
+        }
+    }
+
     /// Makes failed tiles whose wait is over eligible for a new attempt.
     pub fn tick(&mut self, now: u64) {
         for record in self.records.values_mut() {

@@ -32,6 +32,7 @@ use crate::resident::{Light, ResidentTile};
 use crate::source::TileSource;
 use crate::stream::{PredictedView, Predictor, StreamConfig, StreamPager, Streaming, Want};
 use crate::terrain::TerrainFrame;
+use crate::tile::HeldLevels;
 use crate::tile::progressive_levels;
 
 /// Everything a run can set.

@@ -21,6 +21,7 @@ use crate::held_meshes::{HeldSideMeshes, held_level};
 use crate::masks::{FRONT_FACE, MaskSet};
 use crate::resident::ResidentTile;
 use crate::terrain::TerrainFrame;
+use crate::tile::HeldLevels;
 
 /// Whether the tiles' triangle edges are drawn (the viewer's L key cycles through these).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]

@@ -12,7 +12,7 @@ use stripmask_raster::{Texels, Texture, Vertex};
 
 use crate::cracks::{CrackMode, skirts};
 use crate::rgb565::mip_count;
-use crate::tile::{Tile, level_mips, level_side, progressive_levels};
+use crate::tile::{HeldLevels, Tile, level_mips, level_side, progressive_levels};
 
 /// Light shared by every tile: a direction towards the light and an ambient floor.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -71,6 +71,16 @@ pub struct ResidentTile {
     pub light: Light,
 }
 
+impl HeldLevels for ResidentTile {
+    fn whole_size(&self) -> usize {
+        self.tile_size
+    }
+
+    fn held_levels(&self) -> usize {
+        self.levels
+    }
+}
+
 impl ResidentTile {
     /// Builds the resident form of `tile` (whole or partial), keeping texture mips from
     /// `texture_base` down (never finer than the tile holds, clamped to the chain), with
@@ -122,26 +132,6 @@ impl ResidentTile {
             spacing,
             light: *light,
         }
-    }
-
-    /// Samples per side of the held grid: `2^(levels - 1) + 1`.
-    pub fn side(&self) -> usize {
-        level_side(self.levels - 1)
-    }
-
-    /// Whole-tile samples between neighbouring held samples.
-    pub fn stride(&self) -> usize {
-        (self.tile_size - 1) / (self.side() - 1)
-    }
-
-    /// Whether every progressive level is held.
-    pub fn is_complete(&self) -> bool {
-        self.levels == progressive_levels(self.tile_size)
-    }
-
-    /// The finest whole-tile mask level the held samples can draw.
-    pub fn finest_mask_level(&self) -> usize {
-        self.stride() - 1
     }
 
     /// The tile this resident form was built from, as far as it holds it: the held heights

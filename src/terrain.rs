@@ -4,6 +4,7 @@ use glam::DVec3;
 
 use crate::archive::Header;
 use crate::resident::ResidentTile;
+use crate::tile::HeldLevels;
 
 /// The terrain's placement and grid, from an archive header.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -45,6 +45,46 @@ pub fn level_mips(level: usize, tile_size: usize, texture_size: usize) -> Range<
     }
 }
 
+/// What a tile holding a prefix of its progressive levels knows of the grid it holds: shared by
+/// the decoded [`Tile`] and the resident form.
+pub trait HeldLevels {
+    /// Samples per side of the whole tile.
+    fn whole_size(&self) -> usize;
+    /// Progressive levels held, at least 1.
+    fn held_levels(&self) -> usize;
+
+    /// Samples per side of the held grid: `2^(levels - 1) + 1`.
+    fn side(&self) -> usize {
+        level_side(self.held_levels() - 1)
+    }
+
+    /// Whole-tile samples between neighbouring samples of the held grid.
+    fn stride(&self) -> usize {
+        (self.whole_size() - 1) / (self.side() - 1)
+    }
+
+    /// Whether every progressive level is held.
+    fn is_complete(&self) -> bool {
+        self.held_levels() == progressive_levels(self.whole_size())
+    }
+
+    /// The finest strip-mask level the held samples can draw: a mask keeping every
+    /// `stride`-th sample.
+    fn finest_mask_level(&self) -> usize {
+        self.stride() - 1
+    }
+}
+
+impl HeldLevels for Tile {
+    fn whole_size(&self) -> usize {
+        self.tile_size
+    }
+
+    fn held_levels(&self) -> usize {
+        self.levels
+    }
+}
+
 /// One decoded tile, or the coarser tile that a prefix of its progressive levels makes.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Tile {
@@ -124,27 +164,6 @@ impl Tile {
             first_mip: 0,
             texture_mips: mip_chain(texture, texture_size),
         })
-    }
-
-    /// Samples per side of the held grid: `2^(levels - 1) + 1`.
-    pub fn side(&self) -> usize {
-        level_side(self.levels - 1)
-    }
-
-    /// Whole-tile samples between neighbouring samples of the held grid.
-    pub fn stride(&self) -> usize {
-        (self.tile_size - 1) / (self.side() - 1)
-    }
-
-    /// Whether every progressive level is held.
-    pub fn is_complete(&self) -> bool {
-        self.levels == progressive_levels(self.tile_size)
-    }
-
-    /// The finest strip-mask level the held samples can draw: a mask keeping every
-    /// `stride`-th sample.
-    pub fn finest_mask_level(&self) -> usize {
-        self.stride() - 1
     }
 
     /// The coarser tile that the first `levels` progressive levels make (clamped to

@@ -12,6 +12,7 @@ use stripmask::profile::Link;
 use stripmask::simclock::{Clock, CostModel, connect};
 use stripmask::source;
 use stripmask::stream::{StreamSettings, Streaming};
+use stripmask::tile::HeldLevels;
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
 #[path = "support/hills.rs"]

@@ -21,6 +21,7 @@ use glam::DVec3;
 use stripmask_raster::Vertex;
 
 use crate::resident::ResidentTile;
+use crate::tile::HeldLevels;
 
 /// Shadow vertices count positions in 1/256 of a grid step and of a height quantum.
 pub const SUBDIVISION: i32 = 256;

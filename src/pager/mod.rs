@@ -11,17 +11,19 @@
 //! [`TransferClock`]. Either way the accounted memory, reservations of fetches in flight
 //! included, never exceeds the limit.
 
+mod link;
 mod meminfo;
 pub mod worker;
 
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::BTreeMap;
 use std::sync::Arc;
 
 pub use meminfo::{memory_limit_from_available, parse_mem_available};
 
 use crate::belts::{self, Failure, Fetch, Grid, Ledger, Plan, RetryPolicy, TileId};
 use crate::error::{Error, Result};
-use worker::{Arrival, Worker, load_job};
+pub use link::{Link, Received};
+use worker::{Job, Request, load_job};
 
 /// What the engine gives the pager: costs known before fetching, fetching itself, and shrinking.
 pub trait TileLoader: Send + Sync + 'static {
@@ -72,18 +74,27 @@ pub enum PagerMode {
     },
 }
 
+impl PagerMode {
+    /// The link requests go over in this mode, running `job` for each; refuses a queue depth
+    /// of 0 in threaded and simulated modes.
+    pub fn link<R: Request, T: Send + 'static>(self, job: Job<R, T>) -> Result<Link<R, T>> {
+        match self {
+            PagerMode::Threaded { queue_depth: 0 } | PagerMode::Simulated { queue_depth: 0 } => {
+                Err(Error::Usage(
+                    "a threaded or simulated pager needs a queue depth of at least 1".into(),
+                ))
+            }
+            PagerMode::Threaded { .. } => Link::new(job, true),
+            PagerMode::Stepped { .. } | PagerMode::Simulated { .. } => Link::new(job, false),
+        }
+    }
+}
+
 /// The time a link spent on transfers, for [`PagerMode::Simulated`]: the pager reads it before
 /// and after each fetch, and the difference is that fetch's transfer time.
 pub trait TransferClock: Send + Sync {
     /// Seconds of transfers so far (never decreasing).
     fn busy_seconds(&self) -> f64;
-}
-
-/// A fetch done in [`PagerMode::Simulated`] whose transfer ends at `due` (simulated seconds).
-struct Pending<T> {
-    due: f64,
-    id: TileId,
-    result: Result<(T, u64)>,
 }
 
 /// Settings of a [`Pager`].
@@ -164,11 +175,8 @@ pub struct Pager<L: TileLoader> {
     config: PagerConfig,
     ledger: Ledger,
     tiles: BTreeMap<TileId, L::Loaded>,
-    worker: Option<Worker<Fetch, L::Loaded>>,
-    transfer_clock: Option<Arc<dyn TransferClock>>,
-    pending: VecDeque<Pending<L::Loaded>>,
+    link: Link<Fetch, L::Loaded>,
     time: f64,
-    link_free: f64,
     center: Option<TileId>,
     complete: Option<u32>,
     memory_bound: bool,
@@ -184,25 +192,14 @@ impl<L: TileLoader> Pager<L> {
     /// A pager for `grid` with nothing loaded; starts the fetch thread in threaded mode.
     pub fn new(loader: L, grid: Grid, config: PagerConfig) -> Result<Self> {
         let loader = Arc::new(loader);
-        let worker = match config.mode {
-            PagerMode::Threaded { queue_depth: 0 } | PagerMode::Simulated { queue_depth: 0 } => {
-                return Err(Error::Usage(
-                    "a threaded or simulated pager needs a queue depth of at least 1".into(),
-                ));
-            }
-            PagerMode::Threaded { .. } => Some(Worker::spawn(load_job(Arc::clone(&loader)))?),
-            PagerMode::Stepped { .. } | PagerMode::Simulated { .. } => None,
-        };
+        let link = config.mode.link(load_job(Arc::clone(&loader)))?;
         Ok(Pager {
             loader,
             config,
             ledger: Ledger::new(grid, config.memory_limit_bytes, config.retry),
             tiles: BTreeMap::new(),
-            worker,
-            transfer_clock: None,
-            pending: VecDeque::new(),
+            link,
             time: 0.0,
-            link_free: 0.0,
             center: None,
             complete: None,
             memory_bound: false,
@@ -223,7 +220,7 @@ impl<L: TileLoader> Pager<L> {
     /// Times transfers in [`PagerMode::Simulated`]; without one they take no time and a tile
     /// arrives at the update after its fetch.
     pub fn set_transfer_clock(&mut self, clock: Arc<dyn TransferClock>) {
-        self.transfer_clock = Some(clock);
+        self.link.set_transfer_clock(clock);
     }
 
     /// Once per frame, before drawing: `viewer` is the viewpoint in tile units (tile `(x, y)`
@@ -255,7 +252,7 @@ impl<L: TileLoader> Pager<L> {
                         break;
                     };
                     if self.reserve(fetch) {
-                        let result = self.load_now(fetch);
+                        let result = self.link.run_now(fetch);
                         self.integrate(fetch.id, result);
                     }
                 }
@@ -442,13 +439,7 @@ impl<L: TileLoader> Pager<L> {
         if !self.reserve(fetch) {
             return;
         }
-        let sent = match &self.worker {
-            Some(worker) => worker.send(fetch),
-            None => Err(Error::invalid(
-                fetch.id.to_string(),
-                "no fetch thread is running",
-            )),
-        };
+        let sent = self.link.send(fetch);
         if let Err(e) = sent {
             self.ledger.fail(fetch.id, self.now);
             self.record_error(e.to_string());
@@ -461,65 +452,18 @@ impl<L: TileLoader> Pager<L> {
         if !self.reserve(fetch) {
             return;
         }
-        let busy = || {
-            self.transfer_clock
-                .as_ref()
-                .map_or(0.0, |c| c.busy_seconds())
-        };
-        let before = busy();
-        let result = self.load_now(fetch);
-        let took = (busy() - before).max(0.0);
-        let due = self.link_free.max(self.time) + took;
-        self.link_free = due;
-        self.pending.push_back(Pending {
-            due,
-            id: fetch.id,
-            result,
-        });
+        self.link.schedule(fetch, self.time);
     }
 
     /// Takes in every result the fetch thread sent, or every simulated transfer that has ended.
     /// If the thread is gone, its fetches in flight fail and a new thread starts.
     fn receive(&mut self) {
-        while self.pending.front().is_some_and(|p| p.due <= self.time) {
-            let Pending { id, result, .. } = self.pending.pop_front().expect("checked");
-            self.integrate(id, result);
+        let received = self.link.receive(self.time, &mut self.ledger, self.now);
+        for (fetch, result) in received.arrivals {
+            self.integrate(fetch.id, result);
         }
-        let mut arrivals = Vec::new();
-        let mut stopped = None;
-        if let Some(worker) = &self.worker {
-            loop {
-                match worker.try_recv() {
-                    Ok(Some(arrival)) => arrivals.push(arrival),
-                    Ok(None) => break,
-                    Err(e) => {
-                        stopped = Some(e);
-                        break;
-                    }
-                }
-            }
-        }
-        for Arrival { request, result } in arrivals {
-            self.integrate(request.id, result);
-        }
-        if let Some(e) = stopped {
+        for e in received.errors {
             self.record_error(e.to_string());
-            let in_flight: Vec<TileId> = self
-                .ledger
-                .records()
-                .filter(|(_, r)| r.fetch.is_some())
-                .map(|(id, _)| id)
-                .collect();
-            for id in in_flight {
-                self.ledger.fail(id, self.now);
-            }
-            self.worker = match Worker::spawn(load_job(Arc::clone(&self.loader))) {
-                Ok(worker) => Some(worker),
-                Err(e) => {
-                    self.record_error(e.to_string());
-                    None
-                }
-            };
         }
     }
 
@@ -574,11 +518,6 @@ impl<L: TileLoader> Pager<L> {
                 self.evictions += 1;
             }
         }
-    }
-
-    /// Runs a fetch on this thread (stepped and simulated modes).
-    fn load_now(&self, fetch: Fetch) -> Result<(L::Loaded, u64)> {
-        worker::run(&|f: Fetch| self.loader.load(f.id, f.ring), fetch)
     }
 
     fn record_error(&mut self, message: String) {

@@ -34,7 +34,7 @@ mod predict;
 mod queue;
 mod stats;
 
-use std::collections::{BTreeMap, HashMap, VecDeque};
+use std::collections::{BTreeMap, HashMap};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -44,8 +44,8 @@ pub use stats::{Delivery, StreamStats};
 
 use crate::belts::{Failure, Fetch, Grid, Ledger, RetryPolicy, TileId};
 use crate::error::{Error, Result};
-use crate::pager::worker::{self, Arrival, Job, Request, Worker};
-use crate::pager::{PagerMode, PagerStats, TileState, TransferClock};
+use crate::pager::worker::{Job, Request};
+use crate::pager::{Link, PagerMode, PagerStats, TileState, TransferClock};
 
 /// How tiles come in.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -182,13 +182,6 @@ impl Request for LevelFetch {
     }
 }
 
-/// A fetch done in [`PagerMode::Simulated`] whose transfer ends at `due`.
-struct Pending<P> {
-    due: f64,
-    fetch: LevelFetch,
-    result: Result<(P, u64)>,
-}
-
 /// Streams tiles level by level around the viewpoint under a memory limit (see the module doc).
 pub struct StreamPager<L: LevelLoader> {
     loader: Arc<L>,
@@ -198,12 +191,9 @@ pub struct StreamPager<L: LevelLoader> {
     queue: RequestQueue,
     /// Why each request in flight was made.
     reasons: HashMap<TileId, Reason>,
-    worker: Option<Worker<LevelFetch, L::Piece>>,
-    transfer_clock: Option<Arc<dyn TransferClock>>,
-    pending: VecDeque<Pending<L::Piece>>,
+    link: Link<LevelFetch, L::Piece>,
     started: Instant,
     time: f64,
-    link_free: f64,
     center: Option<TileId>,
     complete: Option<u32>,
     memory_bound: bool,
@@ -219,15 +209,7 @@ impl<L: LevelLoader> StreamPager<L> {
     /// A pager for `grid` with nothing loaded; starts the fetch thread in threaded mode.
     pub fn new(loader: L, grid: Grid, config: StreamConfig) -> Result<Self> {
         let loader = Arc::new(loader);
-        let worker = match config.mode {
-            PagerMode::Threaded { queue_depth: 0 } | PagerMode::Simulated { queue_depth: 0 } => {
-                return Err(Error::Usage(
-                    "a threaded or simulated pager needs a queue depth of at least 1".into(),
-                ));
-            }
-            PagerMode::Threaded { .. } => Some(Worker::spawn(fetch_job(Arc::clone(&loader)))?),
-            PagerMode::Stepped { .. } | PagerMode::Simulated { .. } => None,
-        };
+        let link = config.mode.link(fetch_job(Arc::clone(&loader)))?;
         if !(config.square_share > 0.0 && config.square_share <= 1.0) {
             return Err(Error::Usage(format!(
                 "the coarse square's share of memory must be in (0, 1], not {}",
@@ -241,12 +223,9 @@ impl<L: LevelLoader> StreamPager<L> {
             tiles: BTreeMap::new(),
             queue: RequestQueue::new(config.queue_capacity),
             reasons: HashMap::new(),
-            worker,
-            transfer_clock: None,
-            pending: VecDeque::new(),
+            link,
             started: Instant::now(),
             time: 0.0,
-            link_free: 0.0,
             center: None,
             complete: None,
             memory_bound: false,
@@ -267,7 +246,7 @@ impl<L: LevelLoader> StreamPager<L> {
 
     /// Times transfers in [`PagerMode::Simulated`].
     pub fn set_transfer_clock(&mut self, clock: Arc<dyn TransferClock>) {
-        self.transfer_clock = Some(clock);
+        self.link.set_transfer_clock(clock);
     }
 
     /// Seconds since the pager started: the wall clock when threaded, else the time set.
@@ -599,10 +578,15 @@ impl<L: LevelLoader> StreamPager<L> {
                 want: request.levels,
             };
             match self.config.mode {
-                PagerMode::Threaded { .. } => self.dispatch(level_fetch),
-                PagerMode::Simulated { .. } => self.schedule(level_fetch),
+                PagerMode::Threaded { .. } => {
+                    if let Err(e) = self.link.send(level_fetch) {
+                        self.ledger.fail(level_fetch.id, self.now);
+                        self.record_error(e.to_string());
+                    }
+                }
+                PagerMode::Simulated { .. } => self.link.schedule(level_fetch, self.time),
                 PagerMode::Stepped { .. } => {
-                    let result = self.fetch_now(level_fetch);
+                    let result = self.link.run_now(level_fetch);
                     self.integrate(level_fetch, result);
                 }
             }
@@ -700,82 +684,14 @@ impl<L: LevelLoader> StreamPager<L> {
         true
     }
 
-    fn dispatch(&mut self, fetch: LevelFetch) {
-        let sent = match &self.worker {
-            Some(worker) => worker.send(fetch),
-            None => Err(Error::invalid(
-                fetch.id.to_string(),
-                "no fetch thread is running",
-            )),
-        };
-        if let Err(e) = sent {
-            self.ledger.fail(fetch.id, self.now);
-            self.record_error(e.to_string());
-        }
-    }
-
-    /// Runs a fetch now and queues its result until the end of its transfer (see the belt
-    /// pager's simulated mode).
-    fn schedule(&mut self, fetch: LevelFetch) {
-        let busy = |clock: &Option<Arc<dyn TransferClock>>| {
-            clock.as_ref().map_or(0.0, |c| c.busy_seconds())
-        };
-        let before = busy(&self.transfer_clock);
-        let result = self.fetch_now(fetch);
-        let took = (busy(&self.transfer_clock) - before).max(0.0);
-        let due = self.link_free.max(self.time) + took;
-        self.link_free = due;
-        self.pending.push_back(Pending { due, fetch, result });
-    }
-
-    fn fetch_now(&self, fetch: LevelFetch) -> Result<(L::Piece, u64)> {
-        worker::run(
-            &|f: LevelFetch| self.loader.fetch(f.id, f.have, f.want),
-            fetch,
-        )
-    }
-
     /// Takes in every result the fetch thread sent, or every simulated transfer that ended.
     fn receive(&mut self) {
-        while self.pending.front().is_some_and(|p| p.due <= self.time) {
-            let Pending { fetch, result, .. } = self.pending.pop_front().expect("checked");
+        let received = self.link.receive(self.time, &mut self.ledger, self.now);
+        for (fetch, result) in received.arrivals {
             self.integrate(fetch, result);
         }
-        let mut arrivals = Vec::new();
-        let mut stopped = None;
-        if let Some(worker) = &self.worker {
-            loop {
-                match worker.try_recv() {
-                    Ok(Some(arrival)) => arrivals.push(arrival),
-                    Ok(None) => break,
-                    Err(e) => {
-                        stopped = Some(e);
-                        break;
-                    }
-                }
-            }
-        }
-        for Arrival { request, result } in arrivals {
-            self.integrate(request, result);
-        }
-        if let Some(e) = stopped {
+        for e in received.errors {
             self.record_error(e.to_string());
-            let in_flight: Vec<TileId> = self
-                .ledger
-                .records()
-                .filter(|(_, r)| r.fetch.is_some())
-                .map(|(id, _)| id)
-                .collect();
-            for id in in_flight {
-                self.ledger.fail(id, self.now);
-            }
-            self.worker = match Worker::spawn(fetch_job(Arc::clone(&self.loader))) {
-                Ok(worker) => Some(worker),
-                Err(e) => {
-                    self.record_error(e.to_string());
-                    None
-                }
-            };
         }
     }
 

@@ -16,7 +16,7 @@
 //! Smooth terrain predicts well, so residuals are small numbers that compress far better than
 //! the heights themselves.
 
-use super::{Tile, level_mips, level_side, progressive_levels};
+use super::{HeldLevels, Tile, level_mips, level_side, progressive_levels};
 use crate::archive::MAX_TEXTURE_SIZE;
 use crate::error::{Error, Result};
 use crate::tiling::{MAX_TILE_SIZE, is_valid_tile_size};

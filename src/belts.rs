@@ -292,6 +292,14 @@ impl Ledger {
         self.records.values().filter(|r| r.fetch.is_some()).count()
     }
 
+    /// Tiles whose last fetch failed (waiting for a retry, or given up).
+    pub fn failed_tiles(&self) -> usize {
+        self.records
+            .values()
+            .filter(|r| r.failure.is_some())
+            .count()
+    }
+
     /// Tiles with a resident copy.
     pub fn resident(&self) -> usize {
         self.records.values().filter(|r| r.held.is_some()).count()

@@ -268,6 +268,17 @@ impl Engine {
         &mut self.settings.render
     }
 
+    /// The tiles within `radius` belts of the current one whose boxes, at the archive's height
+    /// range, meet the view of `camera` at `aspect` (held or not).
+    pub fn tiles_in_view(&self, camera: &Camera, aspect: f64, radius: u32) -> Vec<TileId> {
+        match self.pager.current_tile() {
+            Some(center) => {
+                view_tiles(self.grid, &self.terrain, center, radius, camera, aspect).collect()
+            }
+            None => Vec::new(),
+        }
+    }
+
     /// The ground height under `position` if its tile is loaded.
     pub fn ground(&self, position: DVec3) -> Option<f64> {
         let (px, py) = self.terrain.tile_position(position);
@@ -620,15 +631,8 @@ fn absent_wants(
         return Vec::new();
     };
     let reach = pager.stats().complete_belts.map_or(0, |d| d + 1);
-    let frustum = Frustum::from_view_projection(&camera.view_projection(aspect));
-    let (lo_h, hi_h) = terrain.heights;
-    (0..=reach.min(grid.max_ring(center)))
-        .flat_map(|d| grid.belt(center, d))
+    view_tiles(grid, terrain, center, reach, camera, aspect)
         .filter(|&id| pager.get(id).is_none())
-        .filter(|id| {
-            let (lo, hi) = terrain.tile_box(id.x, id.y, lo_h, hi_h);
-            frustum.intersects(&Aabb::new(lo - camera.position, hi - camera.position))
-        })
         .map(|id| Want {
             id,
             levels: 1,
@@ -636,6 +640,26 @@ fn absent_wants(
             predicted,
         })
         .collect()
+}
+
+/// The tiles within `radius` belts of `center` whose boxes, at the archive's height range, meet
+/// the view of `camera` at `aspect`: the tiles a view may need, held or not.
+fn view_tiles<'a>(
+    grid: Grid,
+    terrain: &'a TerrainFrame,
+    center: TileId,
+    radius: u32,
+    camera: &'a Camera,
+    aspect: f64,
+) -> impl Iterator<Item = TileId> + 'a {
+    let frustum = Frustum::from_view_projection(&camera.view_projection(aspect));
+    let (lo_h, hi_h) = terrain.heights;
+    (0..=radius.min(grid.max_ring(center)))
+        .flat_map(move |d| grid.belt(center, d))
+        .filter(move |id| {
+            let (lo, hi) = terrain.tile_box(id.x, id.y, lo_h, hi_h);
+            frustum.intersects(&Aabb::new(lo - camera.position, hi - camera.position))
+        })
 }
 
 /// What the predicted view's budget is shared with.

@@ -371,11 +371,6 @@ impl<L: TileLoader> Pager<L> {
 
     /// The counters.
     pub fn stats(&self) -> PagerStats {
-        let failed_tiles = self
-            .ledger
-            .records()
-            .filter(|(_, r)| r.failure.is_some())
-            .count();
         PagerStats {
             memory_bytes: self.ledger.memory(),
             memory_peak_bytes: self.ledger.peak(),
@@ -388,7 +383,7 @@ impl<L: TileLoader> Pager<L> {
             fetches: self.fetches,
             evictions: self.evictions,
             errors: self.errors,
-            failed_tiles,
+            failed_tiles: self.ledger.failed_tiles(),
         }
     }
 

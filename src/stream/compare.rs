@@ -16,12 +16,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 use stripmask_raster::Framebuffer;
 
 use crate::archive::ArchiveReader;
-use crate::belts::{Grid, TileId};
-use crate::camera::Camera;
 use crate::engine::{Engine, EngineSettings, FrameReport};
 use crate::error::{Error, Result};
 use crate::flight::{Builtin, Flight};
-use crate::frustum::{Aabb, Frustum};
 use crate::pager::PagerMode;
 use crate::profile::{DeviceProfile, Link};
 use crate::simclock::{Clock, CostModel, connect};
@@ -310,27 +307,14 @@ impl Run<'_> {
 /// holds, and every tile within `radius` belts of the current one whose box (at the archive's
 /// height range) meets the view frustum is held.
 fn complete(engine: &Engine, report: &FrameReport, radius: Option<u32>, aspect: f64) -> bool {
-    if report.rendered.iter().any(|r| r.capped) {
-        return false;
-    }
-    let (Some(center), Some(radius)) = (engine.pager().current_tile(), radius) else {
+    let Some(radius) = radius.filter(|_| engine.pager().current_tile().is_some()) else {
         return false;
     };
-    let terrain = engine.terrain();
-    let camera: &Camera = &report.camera;
-    let frustum = Frustum::from_view_projection(&camera.view_projection(aspect));
-    let grid = match Grid::new(terrain.tiles_x, terrain.tiles_y) {
-        Ok(grid) => grid,
-        Err(_) => return false,
-    };
-    let (lo_h, hi_h) = terrain.heights;
-    (0..=radius.min(grid.max_ring(center)))
-        .flat_map(|d| grid.belt(center, d))
-        .filter(|id: &TileId| {
-            let (lo, hi) = terrain.tile_box(id.x, id.y, lo_h, hi_h);
-            frustum.intersects(&Aabb::new(lo - camera.position, hi - camera.position))
-        })
-        .all(|id| engine.pager().get(id).is_some())
+    !report.rendered.iter().any(|r| r.capped)
+        && engine
+            .tiles_in_view(&report.camera, aspect, radius)
+            .into_iter()
+            .all(|id| engine.pager().get(id).is_some())
 }
 
 /// Writes `stream-compare.md` and `stream-compare.csv` into `out`; returns the Markdown.

@@ -269,7 +269,11 @@ impl<L: LevelLoader> StreamPager<L> {
         self.ledger.tick(self.now);
         let now = self.time();
         self.stats.settle(now);
-        self.complete = self.center.and_then(|c| self.coarse_square(c));
+        // `d_c` at the coarsest level: every tile of belts `0..=d_c` holds a level (or was
+        // given up). With one cost at every ring no held tile counts as needing an upgrade.
+        self.complete = self
+            .center
+            .and_then(|c| self.ledger.complete_belts(c, |_, _| 0));
     }
 
     /// Once per frame, after the engine weighed the held tiles: turns `wants` and the belt
@@ -416,11 +420,7 @@ impl<L: LevelLoader> StreamPager<L> {
             fetches: self.fetches,
             evictions: self.evictions,
             errors: self.errors,
-            failed_tiles: self
-                .ledger
-                .records()
-                .filter(|(_, r)| r.failure.is_some())
-                .count(),
+            failed_tiles: self.ledger.failed_tiles(),
         }
     }
 
@@ -450,24 +450,6 @@ impl<L: LevelLoader> StreamPager<L> {
         self.tiles
             .get(&id)
             .map_or(0, |t| self.loader.held_levels(t))
-    }
-
-    /// `d_c` at the coarsest level: the largest `d` such that every tile of belts `0..=d` holds
-    /// a level (or was given up).
-    fn coarse_square(&self, center: TileId) -> Option<u32> {
-        let grid = self.ledger.grid();
-        let mut complete = None;
-        for d in 0..=grid.max_ring(center) {
-            let done = grid.belt(center, d).iter().all(|&id| {
-                let r = self.ledger.record(id);
-                r.held.is_some() || r.failure == Some(Failure::GaveUp)
-            });
-            if !done {
-                break;
-            }
-            complete = Some(d);
-        }
-        complete
     }
 
     /// This frame's requests: the coarse level of belt `d_c + 1` while the coarse square fits

@@ -287,6 +287,6 @@ proptest! {
         for w in &wants {
             prop_assert!(p.held_levels(w.id) >= w.levels, "{:?} holds {}", w, p.held_levels(w.id));
         }
-        prop_assert_eq!(p.stats().errors, 0);
+        prop_assert_eq!(p.stats().errors, 0, "{:?}", p.last_error());
     }
 }

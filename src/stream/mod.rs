@@ -616,7 +616,14 @@ impl<L: LevelLoader> StreamPager<L> {
                 steps.push((class, priority, ring(id), id, level, saved));
             }
             if ring(id) > square && want.is_none() {
-                let saved = self.ledger.record(id).held.map_or(0, |h| h.bytes);
+                // Its finer levels are steps of their own (it is asked for none), so evicting
+                // it saves what is left once they are gone.
+                let fine = self.loader.predicted_bytes(held) - self.loader.predicted_bytes(1);
+                let saved = self
+                    .ledger
+                    .record(id)
+                    .held
+                    .map_or(0, |h| h.bytes.saturating_sub(fine));
                 steps.push((2, 0.0, ring(id), id, 1, saved));
             }
         }

@@ -12,10 +12,10 @@ use std::hint::black_box;
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::dcamera::rh::{proj::directx::perspective, view::look_at_mat4};
 use glam::{DMat4, DVec3};
-use stripmask::budget::{BudgetController, BudgetSettings, allocate};
-use stripmask::frustum::{Aabb, Frustum};
-use stripmask::importance::{TileMeasure, Weights, visual_importance};
-use stripmask::masks::{LevelSet, MaskSet};
+use stripmask::engine::budget::{BudgetController, BudgetSettings, allocate};
+use stripmask::engine::frustum::{Aabb, Frustum};
+use stripmask::engine::importance::{TileMeasure, Weights, visual_importance};
+use stripmask::engine::masks::{LevelSet, MaskSet};
 
 /// Tile side in metres: 64 cells of 10 m.
 const TILE: f64 = 640.0;

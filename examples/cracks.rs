@@ -8,8 +8,8 @@
 #[path = "support/args.rs"]
 mod args;
 
-use stripmask::cracks::CrackMode;
-use stripmask::cracks::metric::CrackScene;
+use stripmask::engine::cracks::CrackMode;
+use stripmask::sim::crack_metric::CrackScene;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (size, repeats) = args::size_and_repeats();

@@ -1,5 +1,5 @@
 //! Resident bytes of a tile by progressive levels held, as the memory limit accounts them
-//! (`stripmask::resident::predicted_bytes`, exact for every level count and crack mode); prints
+//! (`stripmask::engine::resident::predicted_bytes`, exact for every level count and crack mode); prints
 //! the table of the README's partial-tiles section.
 //!
 //! ```sh
@@ -7,9 +7,9 @@
 //! cargo run --release --example partial_bytes -- 129 128
 //! ```
 
-use stripmask::cracks::CrackMode;
-use stripmask::resident::predicted_bytes;
-use stripmask::tile::{level_side, progressive_levels};
+use stripmask::db::tile::{level_side, progressive_levels};
+use stripmask::engine::cracks::CrackMode;
+use stripmask::engine::resident::predicted_bytes;
 
 fn main() {
     let mut args = std::env::args().skip(1).map(|a| a.parse::<usize>());

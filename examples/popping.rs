@@ -9,11 +9,11 @@
 #[path = "support/args.rs"]
 mod args;
 
-use stripmask::cracks::CrackMode;
-use stripmask::cracks::metric::{CrackScene, TILE_SIZE, crack_pixels};
 use stripmask::engine::EngineSettings;
-use stripmask::geomorph::Geomorph;
-use stripmask::popping::{FrameChange, flight_popping, glide, switch_change};
+use stripmask::engine::cracks::CrackMode;
+use stripmask::engine::geomorph::Geomorph;
+use stripmask::sim::crack_metric::{CrackScene, TILE_SIZE, crack_pixels};
+use stripmask::sim::popping::{FrameChange, flight_popping, glide, switch_change};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer, Vertex};
 
 fn settings(geomorph: Geomorph) -> EngineSettings {

@@ -11,7 +11,7 @@
 use std::time::Instant;
 
 use glam::{DMat4, DVec3};
-use stripmask::texture_gen::ramp;
+use stripmask::db::texture_gen::ramp;
 use stripmask_raster::{
     ColorFormat, DepthFormat, Fog, Framebuffer, Indices, Mesh, Perspective, Precision, Rasterizer,
     RenderState, Sampler, Shading, Texture, TextureBinding, Topology, Transform, Vertex,

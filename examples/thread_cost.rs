@@ -18,14 +18,14 @@
 
 use std::time::Instant;
 
-use stripmask::archive::ArchiveReader;
+use stripmask::db::archive::ArchiveReader;
+use stripmask::db::source;
+use stripmask::engine::pager::PagerMode;
+use stripmask::engine::terrain::TerrainFrame;
 use stripmask::engine::{Engine, EngineSettings};
-use stripmask::flight::{Builtin, Flight};
-use stripmask::pager::PagerMode;
-use stripmask::profile::DeviceProfile;
-use stripmask::simclock::CostModel;
-use stripmask::source;
-use stripmask::terrain::TerrainFrame;
+use stripmask::sim::clock::CostModel;
+use stripmask::sim::device::DeviceProfile;
+use stripmask::sim::flight::{Builtin, Flight};
 use stripmask_raster::Framebuffer;
 
 fn median(v: &mut [f64]) -> f64 {

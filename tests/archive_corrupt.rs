@@ -3,10 +3,10 @@
 use std::path::{Path, PathBuf};
 
 use stripmask::Error;
-use stripmask::archive::{ArchiveReader, HEADER_LEN};
-use stripmask::builder::{BuildOptions, build};
-use stripmask::dem::{MemoryReader, NodataFill};
-use stripmask::source::file::FileSource;
+use stripmask::db::archive::{ArchiveReader, HEADER_LEN};
+use stripmask::db::builder::{BuildOptions, build};
+use stripmask::db::dem::{MemoryReader, NodataFill};
+use stripmask::db::source::file::FileSource;
 
 fn small_archive(dir: &Path) -> PathBuf {
     let (w, h) = (33, 33);

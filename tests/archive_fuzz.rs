@@ -6,11 +6,11 @@ use std::path::PathBuf;
 use std::sync::OnceLock;
 
 use proptest::prelude::*;
-use stripmask::archive::{ArchiveReader, HEADER_LEN, Header, decompress, parse_index};
-use stripmask::builder::{BuildOptions, build};
-use stripmask::dem::{MemoryReader, NodataFill};
-use stripmask::source::file::FileSource;
-use stripmask::tile::{Tile, progressive_levels};
+use stripmask::db::archive::{ArchiveReader, HEADER_LEN, Header, decompress, parse_index};
+use stripmask::db::builder::{BuildOptions, build};
+use stripmask::db::dem::{MemoryReader, NodataFill};
+use stripmask::db::source::file::FileSource;
+use stripmask::db::tile::{Tile, progressive_levels};
 
 fn cases() -> u32 {
     std::env::var("PROPTEST_CASES")

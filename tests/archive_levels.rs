@@ -6,12 +6,12 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use stripmask::Result;
-use stripmask::archive::{ArchiveReader, Codec};
-use stripmask::builder::{BuildOptions, build};
-use stripmask::dem::{MemoryReader, NodataFill};
-use stripmask::source::TileSource;
-use stripmask::source::file::FileSource;
-use stripmask::tile::Tile;
+use stripmask::db::archive::{ArchiveReader, Codec};
+use stripmask::db::builder::{BuildOptions, build};
+use stripmask::db::dem::{MemoryReader, NodataFill};
+use stripmask::db::source::TileSource;
+use stripmask::db::source::file::FileSource;
+use stripmask::db::tile::Tile;
 
 /// A source that counts its range reads and the bytes they return.
 struct Counting {

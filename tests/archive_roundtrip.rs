@@ -2,11 +2,11 @@
 
 use std::path::Path;
 
-use stripmask::archive::{ArchiveReader, Codec, HEADER_LEN};
-use stripmask::builder::{BuildOptions, build};
-use stripmask::dem::{MemoryReader, NodataFill};
-use stripmask::level_error::level_errors;
-use stripmask::source::file::FileSource;
+use stripmask::db::archive::{ArchiveReader, Codec, HEADER_LEN};
+use stripmask::db::builder::{BuildOptions, build};
+use stripmask::db::dem::{MemoryReader, NodataFill};
+use stripmask::db::level_error::level_errors;
+use stripmask::db::source::file::FileSource;
 
 /// A 70 x 45 DEM (not a multiple of the tile step, so the east and south edges are padded).
 fn synthetic(width: usize, height: usize) -> Vec<f32> {

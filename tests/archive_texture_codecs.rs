@@ -8,11 +8,11 @@ use std::time::Instant;
 
 use image::ImageEncoder;
 use image::codecs::jpeg::JpegEncoder;
-use stripmask::archive::{ArchiveReader, Codec};
-use stripmask::builder::{BuildOptions, build};
-use stripmask::dem::{self, OpenOptions};
-use stripmask::rgb565::mip_chain;
-use stripmask::source::file::FileSource;
+use stripmask::db::archive::{ArchiveReader, Codec};
+use stripmask::db::builder::{BuildOptions, build};
+use stripmask::db::dem::{self, OpenOptions};
+use stripmask::db::rgb565::mip_chain;
+use stripmask::db::source::file::FileSource;
 use stripmask_raster::rgb565_to_rgb as unpack;
 
 #[test]

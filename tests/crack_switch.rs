@@ -7,13 +7,13 @@
 mod crack_scene;
 
 use crack_scene::scene;
-use stripmask::cracks::CrackMode;
-use stripmask::cracks::metric::{CrackScene, TILE_SIZE};
+use stripmask::db::source;
+use stripmask::db::tile::progressive_levels;
 use stripmask::engine::Engine;
-use stripmask::pager::PagerMode;
-use stripmask::resident::predicted_bytes;
-use stripmask::source;
-use stripmask::tile::progressive_levels;
+use stripmask::engine::cracks::CrackMode;
+use stripmask::engine::pager::PagerMode;
+use stripmask::engine::resident::predicted_bytes;
+use stripmask::sim::crack_metric::{CrackScene, TILE_SIZE};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
 const SIZE: (u32, u32) = (160, 120);
@@ -122,7 +122,7 @@ fn a_mode_that_holds_more_than_the_limit_evicts_the_farthest_tiles() {
         engine
             .pager()
             .tiles()
-            .map(|(id, _)| stripmask::belts::Grid::ring(center, id))
+            .map(|(id, _)| stripmask::engine::belts::Grid::ring(center, id))
             .max()
             .unwrap()
     };

@@ -1,4 +1,4 @@
-//! Crack hiding on the crack scene (`stripmask::cracks::metric`): views with every pair of
+//! Crack hiding on the crack scene (`stripmask::sim::crack_metric`): views with every pair of
 //! levels side by side, the terrain covering the screen, magenta behind it. Golden images of
 //! one view per mode follow `tests/golden.rs` (re-bless with `STRIPMASK_BLESS=1`).
 
@@ -8,8 +8,8 @@ mod support;
 mod crack_scene;
 
 use crack_scene::scene;
-use stripmask::cracks::CrackMode;
-use stripmask::cracks::metric::{CrackMeasurement, CrackScene, TILE_SIZE, crack_pixels};
+use stripmask::engine::cracks::CrackMode;
+use stripmask::sim::crack_metric::{CrackMeasurement, CrackScene, TILE_SIZE, crack_pixels};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 use support::golden::check;
 

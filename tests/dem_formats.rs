@@ -2,10 +2,10 @@
 
 use std::path::{Path, PathBuf};
 
-use stripmask::archive::ArchiveReader;
-use stripmask::builder::{BuildOptions, build};
-use stripmask::dem::{self, DemFormat, OpenOptions, RawLayout, SampleType};
-use stripmask::source::file::FileSource;
+use stripmask::db::archive::ArchiveReader;
+use stripmask::db::builder::{BuildOptions, build};
+use stripmask::db::dem::{self, DemFormat, OpenOptions, RawLayout, SampleType};
+use stripmask::db::source::file::FileSource;
 
 const W: usize = 37;
 const H: usize = 29;

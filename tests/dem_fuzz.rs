@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use proptest::prelude::*;
-use stripmask::dem::{self, DemFormat, OpenOptions, RawLayout, SampleType};
+use stripmask::db::dem::{self, DemFormat, OpenOptions, RawLayout, SampleType};
 
 fn cases() -> u32 {
     std::env::var("PROPTEST_CASES")

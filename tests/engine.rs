@@ -2,13 +2,13 @@
 //! the origin, and watertight tiles.
 
 use glam::DVec3;
+use stripmask::db::source;
+use stripmask::engine::pager::PagerMode;
 use stripmask::engine::{Engine, EngineSettings};
-use stripmask::flight::{Builtin, Flight};
-use stripmask::fly::{FlyOptions, Length, fly};
-use stripmask::pager::PagerMode;
-use stripmask::simclock::Clock;
-use stripmask::source;
-use stripmask::stats::CSV_HEADER;
+use stripmask::sim::clock::Clock;
+use stripmask::sim::flight::{Builtin, Flight};
+use stripmask::sim::fly::{FlyOptions, Length, fly};
+use stripmask::sim::stats::CSV_HEADER;
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
 #[path = "support/hills.rs"]
@@ -40,9 +40,9 @@ fn fly_writes_one_stats_row_per_frame_and_keeps_every_kth_frame() {
     let path = archive(dir.path(), 33);
     let engine = stepped(2_000_000);
     let reader =
-        stripmask::archive::ArchiveReader::open(source::open(path.to_str().unwrap()).unwrap())
+        stripmask::db::archive::ArchiveReader::open(source::open(path.to_str().unwrap()).unwrap())
             .unwrap();
-    let terrain = stripmask::terrain::TerrainFrame::new(reader.header());
+    let terrain = stripmask::engine::terrain::TerrainFrame::new(reader.header());
     let out = dir.path().join("run");
     let summary = fly(&FlyOptions {
         source: path.display().to_string(),

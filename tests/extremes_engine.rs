@@ -14,15 +14,15 @@ use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 use image::RgbaImage;
-use stripmask::builder::{BuildOptions, build};
-use stripmask::camera::Camera;
-use stripmask::cracks::{CrackMode, TileIndices};
-use stripmask::dem::{MemoryReader, NodataFill};
+use stripmask::db::builder::{BuildOptions, build};
+use stripmask::db::dem::{MemoryReader, NodataFill};
+use stripmask::db::source;
+use stripmask::engine::camera::Camera;
+use stripmask::engine::cracks::{CrackMode, TileIndices};
+use stripmask::engine::pager::PagerMode;
+use stripmask::engine::render::{RenderSettings, TileDraw, TileMeshes, draw_tiles};
 use stripmask::engine::{Engine, EngineSettings, FrameReport};
-use stripmask::pager::PagerMode;
-use stripmask::render::{RenderSettings, TileDraw, TileMeshes, draw_tiles};
-use stripmask::source;
-use stripmask::tradeoff::metrics::{compare, psnr};
+use stripmask::sim::tradeoff::metrics::{compare, psnr};
 use stripmask_raster::{
     ColorFormat, DepthFormat, DrawStats, Framebuffer, Precision, RasterTarget, Rasterizer,
 };

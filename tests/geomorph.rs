@@ -1,4 +1,4 @@
-//! Geomorphing on the crack scene (`stripmask::cracks::metric`): stitched tiles stay
+//! Geomorphing on the crack scene (`stripmask::sim::crack_metric`): stitched tiles stay
 //! crack-free when morphed, a mask switch pops less, and a morph factor of 0 draws the plain
 //! tiles up to sub-pixel rounding. (Factor 1 giving exactly the coarse surface is checked on the mesh, in
 //! `src/geomorph.rs`.)
@@ -7,11 +7,11 @@
 mod crack_scene;
 
 use crack_scene::scene;
-use stripmask::cracks::CrackMode;
-use stripmask::cracks::metric::{CrackScene, TILE_SIZE};
 use stripmask::engine::EngineSettings;
-use stripmask::geomorph::Geomorph;
-use stripmask::popping::{FrameChange, flight_popping, glide, switch_change};
+use stripmask::engine::cracks::CrackMode;
+use stripmask::engine::geomorph::Geomorph;
+use stripmask::sim::crack_metric::{CrackScene, TILE_SIZE};
+use stripmask::sim::popping::{FrameChange, flight_popping, glide, switch_change};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
 const SIZE: (u32, u32) = (320, 240);

@@ -5,9 +5,9 @@
 use std::io::Write;
 
 use glam::DVec3;
+use stripmask::db::source;
+use stripmask::engine::pager::PagerMode;
 use stripmask::engine::{Engine, EngineSettings};
-use stripmask::pager::PagerMode;
-use stripmask::source;
 use stripmask_platform::{GpuTarget, PlatformError};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
@@ -76,8 +76,8 @@ fn an_engine_frame_on_the_gpu_matches_the_cpu_frame() {
 
 #[test]
 fn the_tradeoff_report_measures_every_setting_against_the_gpu_reference_too() {
-    use stripmask::tradeoff::reference::{CpuFloat, Gpu, Reference};
-    use stripmask::tradeoff::{TradeoffOptions, run_with};
+    use stripmask::sim::tradeoff::reference::{CpuFloat, Gpu, Reference};
+    use stripmask::sim::tradeoff::{TradeoffOptions, run_with};
     let size = (64, 48);
     let gpu = match Gpu::new(size) {
         Ok(gpu) => gpu,
@@ -118,7 +118,7 @@ fn the_tradeoff_report_measures_every_setting_against_the_gpu_reference_too() {
         .find(|r| r.entry.name == "budget=3000")
         .unwrap();
     // The GPU reference ranks the budgets as the CPU one does.
-    let gpu_error = |r: &stripmask::tradeoff::Row| r.measurement.errors[1].ssim;
+    let gpu_error = |r: &stripmask::sim::tradeoff::Row| r.measurement.errors[1].ssim;
     assert!(gpu_error(full) > gpu_error(coarse));
     let csv = std::fs::read_to_string(out.join("tradeoff.csv")).unwrap();
     assert!(csv.lines().next().unwrap().contains("wgpu_ssim"));

@@ -4,13 +4,13 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use stripmask::archive::{ArchiveReader, Codec};
-use stripmask::belts::{Grid, TileId};
-use stripmask::builder::{BuildOptions, build};
-use stripmask::dem::{MemoryReader, NodataFill};
-use stripmask::pager::{Pager, PagerConfig, PagerMode, TileLoader, TileState};
-use stripmask::source::file::FileSource;
-use stripmask::tile::Tile;
+use stripmask::db::archive::{ArchiveReader, Codec};
+use stripmask::db::builder::{BuildOptions, build};
+use stripmask::db::dem::{MemoryReader, NodataFill};
+use stripmask::db::source::file::FileSource;
+use stripmask::db::tile::Tile;
+use stripmask::engine::belts::{Grid, TileId};
+use stripmask::engine::pager::{Pager, PagerConfig, PagerMode, TileLoader, TileState};
 
 /// Builds an 8 x 6 tile archive of 17-sample tiles (129 x 97 samples) with 16-texel textures.
 fn build_archive(dir: &Path) -> PathBuf {

@@ -8,8 +8,8 @@ use std::time::{Duration, Instant};
 
 use proptest::prelude::*;
 use stripmask::Error;
-use stripmask::belts::{Failure, Grid, RetryPolicy, TileId};
-use stripmask::pager::{Pager, PagerConfig, PagerMode, TileLoader, TileState};
+use stripmask::engine::belts::{Failure, Grid, RetryPolicy, TileId};
+use stripmask::engine::pager::{Pager, PagerConfig, PagerMode, TileLoader, TileState};
 
 type Cost = Arc<dyn Fn(TileId, u32) -> usize + Send + Sync>;
 

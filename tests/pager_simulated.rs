@@ -5,8 +5,8 @@
 
 use std::sync::{Arc, Mutex};
 
-use stripmask::belts::{Grid, TileId};
-use stripmask::pager::{Pager, PagerConfig, PagerMode, TileLoader, TransferClock};
+use stripmask::engine::belts::{Grid, TileId};
+use stripmask::engine::pager::{Pager, PagerConfig, PagerMode, TileLoader, TransferClock};
 
 /// Seconds of transfer so far, as exact binary fractions so that due times compare exactly.
 #[derive(Default)]

@@ -3,18 +3,18 @@
 //! level counts.
 
 use glam::DVec3;
-use stripmask::belts::TileId;
-use stripmask::budget::drawable_level;
-use stripmask::camera::Camera;
-use stripmask::cracks::metric::BACKGROUND;
-use stripmask::cracks::neighbours::neighbour_levels;
-use stripmask::cracks::{CrackMode, TileIndices};
-use stripmask::held_meshes::HeldSideMeshes;
-use stripmask::masks::{LevelSet, MaskSet};
-use stripmask::render::{RenderSettings, TileDraw, TileMeshes, draw_tiles};
-use stripmask::resident::{Light, ResidentTile};
-use stripmask::terrain::TerrainFrame;
-use stripmask::tile::Tile;
+use stripmask::db::tile::Tile;
+use stripmask::engine::belts::TileId;
+use stripmask::engine::budget::drawable_level;
+use stripmask::engine::camera::Camera;
+use stripmask::engine::cracks::neighbours::neighbour_levels;
+use stripmask::engine::cracks::{CrackMode, TileIndices};
+use stripmask::engine::held_meshes::HeldSideMeshes;
+use stripmask::engine::masks::{LevelSet, MaskSet};
+use stripmask::engine::render::{RenderSettings, TileDraw, TileMeshes, draw_tiles};
+use stripmask::engine::resident::{Light, ResidentTile};
+use stripmask::engine::terrain::TerrainFrame;
+use stripmask::sim::crack_metric::BACKGROUND;
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer, RasterTarget, Rasterizer};
 
 /// Samples per tile side: 5 progressive levels, mask levels 0 ..= 15.

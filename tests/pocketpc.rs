@@ -6,19 +6,19 @@ use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::{Arc, Mutex};
 
-use stripmask::archive::ArchiveReader;
-use stripmask::belts::TileId;
-use stripmask::demo::{DemoOptions, run, run_live};
+use stripmask::db::archive::ArchiveReader;
+use stripmask::db::source::{self, TileSource};
+use stripmask::engine::belts::TileId;
+use stripmask::engine::pager::PagerMode;
+use stripmask::engine::terrain::TerrainFrame;
 use stripmask::engine::{Engine, EngineSettings};
-use stripmask::flight::{Builtin, Flight};
-use stripmask::fly::{FlyOptions, FlySummary, Length, LiveView, fly};
-use stripmask::pager::PagerMode;
-use stripmask::profile::DeviceProfile;
-use stripmask::report::{PLOT_FILES, PLOT_SIZE, StatsTable, draw};
-use stripmask::simclock::{Clock, CostModel, MeteredLink};
-use stripmask::source::{self, TileSource};
-use stripmask::stats::{FrameRecord, StatsCsv};
-use stripmask::terrain::TerrainFrame;
+use stripmask::sim::clock::{Clock, CostModel, MeteredLink};
+use stripmask::sim::demo::{DemoOptions, run, run_live};
+use stripmask::sim::device::DeviceProfile;
+use stripmask::sim::flight::{Builtin, Flight};
+use stripmask::sim::fly::{FlyOptions, FlySummary, Length, LiveView, fly};
+use stripmask::sim::report::{PLOT_FILES, PLOT_SIZE, StatsTable, draw};
+use stripmask::sim::stats::{FrameRecord, StatsCsv};
 use stripmask_platform::{Input, Overlay, PlatformError, Presenter};
 use stripmask_raster::Framebuffer;
 
@@ -188,7 +188,7 @@ impl Rig {
                 (e.offset, id)
             })
             .collect();
-        let link = stripmask::profile::Link {
+        let link = stripmask::sim::device::Link {
             drop_rate,
             ..p.link
         }

@@ -5,15 +5,15 @@ use std::collections::BTreeSet;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use stripmask::archive::ArchiveReader;
+use stripmask::db::archive::ArchiveReader;
+use stripmask::db::server::Server;
+use stripmask::db::source::TileSource;
+use stripmask::db::source::http::HttpSource;
+use stripmask::db::source::throttle::LinkProfile;
+use stripmask::engine::pager::PagerMode;
+use stripmask::engine::terrain::TerrainFrame;
 use stripmask::engine::{Engine, EngineSettings};
-use stripmask::flight::{Builtin, Flight};
-use stripmask::pager::PagerMode;
-use stripmask::serve::Server;
-use stripmask::source::TileSource;
-use stripmask::source::http::HttpSource;
-use stripmask::source::throttle::LinkProfile;
-use stripmask::terrain::TerrainFrame;
+use stripmask::sim::flight::{Builtin, Flight};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
 #[path = "support/hills.rs"]
@@ -87,7 +87,7 @@ fn a_flight_over_a_throttled_lossy_http_link_loads_every_visited_tile_at_the_lin
     settings.budget.target_fps = 7.0;
     let (w, h) = (160, 120);
     let mut engine = Engine::new(Box::new(source), settings, h).unwrap();
-    let header = ArchiveReader::open(stripmask::source::open(path.to_str().unwrap()).unwrap())
+    let header = ArchiveReader::open(stripmask::db::source::open(path.to_str().unwrap()).unwrap())
         .unwrap()
         .header()
         .clone();

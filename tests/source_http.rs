@@ -5,14 +5,14 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use stripmask::Error;
-use stripmask::archive::ArchiveReader;
-use stripmask::builder::{BuildOptions, build};
-use stripmask::dem::{MemoryReader, NodataFill};
-use stripmask::serve::Server;
-use stripmask::source::TileSource;
-use stripmask::source::file::FileSource;
-use stripmask::source::http::HttpSource;
-use stripmask::source::throttle::{LinkProfile, SimulatedLink};
+use stripmask::db::archive::ArchiveReader;
+use stripmask::db::builder::{BuildOptions, build};
+use stripmask::db::dem::{MemoryReader, NodataFill};
+use stripmask::db::server::Server;
+use stripmask::db::source::TileSource;
+use stripmask::db::source::file::FileSource;
+use stripmask::db::source::http::HttpSource;
+use stripmask::db::source::throttle::{LinkProfile, SimulatedLink};
 
 fn loopback() -> SocketAddr {
     "127.0.0.1:0".parse().unwrap()
@@ -222,7 +222,7 @@ fn large_answers_keep_their_content_length() {
         NodataFill::new(reader, None),
         &path,
         &BuildOptions {
-            codec: stripmask::archive::Codec::None,
+            codec: stripmask::db::archive::Codec::None,
             ..BuildOptions::default()
         },
         &|_, _| {},

@@ -2,9 +2,9 @@
 //! and CSV, and the comparison says what it should — progressive tiles download less and
 //! draw sooner over the slow link.
 
-use stripmask::flight::Builtin;
-use stripmask::profile::DeviceProfile;
-use stripmask::stream::compare::{CompareOptions, LINKS, Strategy, compare, write};
+use stripmask::sim::device::DeviceProfile;
+use stripmask::sim::flight::Builtin;
+use stripmask::sim::stream_compare::{CompareOptions, LINKS, Strategy, compare, write};
 
 #[path = "support/hills.rs"]
 mod hills;

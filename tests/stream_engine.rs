@@ -4,15 +4,15 @@
 //! fewer bytes.
 
 use glam::DVec3;
+use stripmask::db::source;
+use stripmask::db::tile::HeldLevels;
+use stripmask::engine::masks::LevelSet;
+use stripmask::engine::pager::PagerMode;
+use stripmask::engine::stream::{StreamSettings, Streaming};
 use stripmask::engine::{Engine, EngineSettings, FrameReport};
-use stripmask::flight::{Builtin, Flight};
-use stripmask::masks::LevelSet;
-use stripmask::pager::PagerMode;
-use stripmask::profile::Link;
-use stripmask::simclock::{Clock, CostModel, connect};
-use stripmask::source;
-use stripmask::stream::{StreamSettings, Streaming};
-use stripmask::tile::HeldLevels;
+use stripmask::sim::clock::{Clock, CostModel, connect};
+use stripmask::sim::device::Link;
+use stripmask::sim::flight::{Builtin, Flight};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
 #[path = "support/hills.rs"]

@@ -6,10 +6,10 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use proptest::prelude::*;
-use stripmask::belts::{Grid, TileId};
+use stripmask::engine::belts::{Grid, TileId};
+use stripmask::engine::pager::PagerMode;
+use stripmask::engine::stream::{LevelLoader, StreamConfig, StreamPager, Want};
 use stripmask::error::{Error, Result};
-use stripmask::pager::PagerMode;
-use stripmask::stream::{LevelLoader, StreamConfig, StreamPager, Want};
 
 /// Levels per tile and the bytes a tile holding `k` of them takes: 100 * 4^(k-1).
 const LEVELS: usize = 5;

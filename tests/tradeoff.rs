@@ -1,6 +1,6 @@
 //! `stripmask tradeoff` on the small hills archive: two views, two knobs, one repeat.
 
-use stripmask::tradeoff::{TradeoffOptions, run};
+use stripmask::sim::tradeoff::{TradeoffOptions, run};
 
 #[path = "support/hills.rs"]
 mod hills;
@@ -64,7 +64,7 @@ fn a_tiny_sweep_writes_its_table_csv_plot_and_references_and_ranks_the_budgets()
     let plot = image::open(out.join("pareto.png")).unwrap();
     assert_eq!(
         (plot.width(), plot.height()),
-        stripmask::tradeoff::plot::SIZE
+        stripmask::sim::tradeoff::plot::SIZE
     );
     assert!(out.join("reference-cpu-float-0-overview.png").exists());
     assert!(out.join("reference-cpu-float-1-oblique.png").exists());

@@ -10,11 +10,11 @@ mod crack_scene;
 use std::collections::BTreeSet;
 
 use crack_scene::scene;
-use stripmask::cracks::CrackMode;
-use stripmask::cracks::metric::{BACKGROUND, TILE_SIZE};
+use stripmask::db::mask_level::kept_indices;
+use stripmask::engine::cracks::CrackMode;
+use stripmask::engine::render::Wireframe;
 use stripmask::engine::{Engine, FrameReport};
-use stripmask::mask_level::kept_indices;
-use stripmask::render::Wireframe;
+use stripmask::sim::crack_metric::{BACKGROUND, TILE_SIZE};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 use support::golden::check;
 

@@ -2,7 +2,7 @@
 
 use std::sync::OnceLock;
 
-use stripmask::cracks::metric::CrackScene;
+use stripmask::sim::crack_metric::CrackScene;
 
 /// The crack scene, written to a temporary folder that lives as long as the test binary.
 pub fn scene() -> &'static CrackScene {

@@ -2,8 +2,8 @@
 
 use std::path::{Path, PathBuf};
 
-use stripmask::builder::{BuildOptions, build};
-use stripmask::dem::{MemoryReader, NodataFill};
+use stripmask::db::builder::{BuildOptions, build};
+use stripmask::db::dem::{MemoryReader, NodataFill};
 
 /// A 257 x 257 DEM of hills, 30 m apart, cut into tiles of `tile_size` samples (33: 8 x 8 tiles),
 /// written into `dir`.

@@ -1,0 +1,343 @@
+//! The interactive viewer behind `stripmask view` (a window) and `stripmask fb` (the Linux
+//! framebuffer): the engine's frame loop driven by a [`Presenter`]'s input, with the HUD.
+//!
+//! Without input the viewer follows a flight path (a scripted run on a board with no keyboard);
+//! the first movement key or mouse drag takes over from the path.
+
+use std::time::Instant;
+
+use glam::DVec3;
+use stripmask_platform::{Command, Hud, Input, Presenter};
+use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer, Precision};
+
+use stripmask::db::source;
+use stripmask::engine::{Engine, EngineSettings};
+use stripmask::error::{Error, Result};
+use stripmask::sim::flight::Flight;
+use stripmask::sim::hud::hud_info;
+
+/// What the viewer shows and how.
+#[derive(Clone, Debug)]
+pub struct ViewerOptions {
+    /// Archive path or URL.
+    pub source: String,
+    /// Framebuffer size (the output may scale it).
+    pub size: (u32, u32),
+    /// Colour format.
+    pub color: ColorFormat,
+    /// Depth buffer format.
+    pub depth: DepthFormat,
+    /// Engine settings.
+    pub engine: EngineSettings,
+    /// Start with the HUD on.
+    pub hud: bool,
+    /// The path followed until the user takes over.
+    pub flight: Flight,
+    /// Stop after this many frames (`None`: until the user quits).
+    pub frames: Option<u64>,
+}
+
+/// What a session did.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ViewerSummary {
+    /// Frames shown.
+    pub frames: u64,
+    /// Wall-clock seconds.
+    pub seconds: f64,
+}
+
+/// A camera the user steers: position, heading clockwise from north, pitch up from level.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct FreeCamera {
+    position: DVec3,
+    heading: f64,
+    pitch: f64,
+}
+
+impl FreeCamera {
+    fn from_pose(eye: DVec3, target: DVec3) -> Self {
+        let d = (target - eye).normalize_or(DVec3::NEG_Z);
+        FreeCamera {
+            position: eye,
+            heading: d.x.atan2(-d.z),
+            pitch: d.y.clamp(-1.0, 1.0).asin(),
+        }
+    }
+
+    fn forward(&self) -> DVec3 {
+        let (sh, ch) = self.heading.sin_cos();
+        let (sp, cp) = self.pitch.sin_cos();
+        DVec3::new(sh * cp, sp, -ch * cp)
+    }
+
+    /// Applies held keys for `dt` seconds at `speed` m/s, and a mouse drag in pixels.
+    fn steer(&mut self, input: &Input, dt: f64, speed: f64) {
+        let m = input.motion;
+        let axis = |plus: bool, minus: bool| f64::from(u8::from(plus)) - f64::from(u8::from(minus));
+        let (sh, ch) = self.heading.sin_cos();
+        let ahead = DVec3::new(sh, 0.0, -ch);
+        let right = DVec3::new(ch, 0.0, sh);
+        self.position += (ahead * axis(m.forward, m.back)
+            + right * axis(m.right, m.left)
+            + DVec3::Y * axis(m.up, m.down))
+            * speed
+            * dt;
+        self.heading += f64::from(input.drag.0) * 0.005;
+        self.pitch = (self.pitch - f64::from(input.drag.1) * 0.005).clamp(-1.55, 1.55);
+    }
+}
+
+/// Runs the viewer until the user quits (or `frames` are shown).
+pub fn run(presenter: &mut dyn Presenter, o: &ViewerOptions) -> Result<ViewerSummary> {
+    let (mut w, mut h) = o.size;
+    let new_fb = |w: u32, h: u32| {
+        Framebuffer::new(w, h, o.color, o.depth)
+            .map_err(|e| Error::Usage(format!("framebuffer {w}x{h}: {e}")))
+    };
+    let mut fb = new_fb(w, h)?;
+    let mut engine = Engine::new(source::open(&o.source)?, o.engine, h)?;
+    let mut hud = Hud::new(o.hud);
+    let mut free: Option<FreeCamera> = None;
+    let mut speed = engine.terrain().tile_metres();
+    let (mut t, mut paused, mut frames) = (0.0, false, 0u64);
+    let started = Instant::now();
+    let mut last = Instant::now();
+    loop {
+        if o.frames.is_some_and(|n| frames >= n) {
+            break;
+        }
+        let input = presenter.poll_input();
+        if input.quit {
+            break;
+        }
+        if let Some((nw, nh)) = input.resized.filter(|&(nw, nh)| nw > 0 && nh > 0) {
+            (w, h) = (nw, nh);
+            fb = new_fb(w, h)?;
+        }
+        for &command in &input.commands {
+            if hud.apply(command) {
+                continue;
+            }
+            match command {
+                Command::SpeedUp => speed *= 1.5,
+                Command::SpeedDown => speed /= 1.5,
+                Command::Pause => paused = !paused,
+                Command::Precision => {
+                    let r = engine.render_settings_mut();
+                    r.precision = match r.precision {
+                        Precision::Fixed => Precision::Float,
+                        Precision::Float => Precision::Fixed,
+                    };
+                }
+                Command::BudgetUp => {
+                    let fps = engine.settings().budget.target_fps / 1.25;
+                    engine.set_target_fps(fps);
+                }
+                Command::BudgetDown => {
+                    let fps = engine.settings().budget.target_fps * 1.25;
+                    engine.set_target_fps(fps);
+                }
+                Command::CrackMode => {
+                    let next = engine.settings().cracks.next();
+                    engine.set_cracks(next);
+                }
+                Command::Wireframe => {
+                    let r = engine.render_settings_mut();
+                    r.wireframe = r.wireframe.next();
+                }
+                Command::Hud | Command::Importance => {}
+            }
+        }
+        let dt = last.elapsed().as_secs_f64();
+        last = Instant::now();
+        let moved = input.motion != Default::default() || input.drag != (0.0, 0.0);
+        if moved && free.is_none() {
+            let (eye, target) = o.flight.at(t);
+            let camera = engine.camera(eye, target, o.flight.above_ground);
+            free = Some(FreeCamera::from_pose(
+                camera.position - engine.terrain().origin,
+                camera.position + camera.forward - engine.terrain().origin,
+            ));
+        }
+        let camera = match free.as_mut() {
+            Some(f) => {
+                if !paused {
+                    f.steer(&input, dt, speed);
+                }
+                engine.camera(f.position, f.position + f.forward(), false)
+            }
+            None => {
+                if !paused {
+                    t += dt * speed / engine.terrain().tile_metres();
+                }
+                let (eye, target) = o.flight.at(t % o.flight.duration().max(1e-9));
+                engine.camera(eye, target, o.flight.above_ground)
+            }
+        };
+        let frame_start = Instant::now();
+        let report = engine.render(&camera, &mut fb)?;
+        let info = hud_info(&engine, &report, 1.0 / dt.max(1e-6));
+        let overlay = hud.render(&info, w, h);
+        presenter
+            .present(&fb, overlay)
+            .map_err(|e| Error::Usage(e.to_string()))?;
+        engine.record_frame(
+            frame_start.elapsed().as_secs_f64(),
+            report.draw.triangles as usize,
+        );
+        frames += 1;
+    }
+    Ok(ViewerSummary {
+        frames,
+        seconds: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// The viewer driven by a scripted presenter: input reaches the camera, the HUD and the
+/// framebuffer, and quitting ends the loop.
+#[cfg(test)]
+mod tests {
+    use std::collections::VecDeque;
+
+    use super::{ViewerOptions, run};
+    use stripmask::db::builder::{BuildOptions, build};
+    use stripmask::db::dem::{MemoryReader, NodataFill};
+    use stripmask::engine::EngineSettings;
+    use stripmask::engine::pager::PagerMode;
+    use stripmask::sim::flight::{Builtin, Flight};
+    use stripmask_platform::{Command, Input, Motion, Overlay, PlatformError, Presenter};
+    use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
+
+    /// Plays back a list of inputs, one per frame, and records what it was shown.
+    struct Script {
+        inputs: VecDeque<Input>,
+        shown: Vec<(u32, u32, bool, Vec<u8>)>,
+    }
+
+    impl Presenter for Script {
+        fn present(
+            &mut self,
+            frame: &Framebuffer,
+            hud: Option<&Overlay>,
+        ) -> Result<(), PlatformError> {
+            let pixels = frame.to_rgba_image().into_raw();
+            self.shown
+                .push((frame.width(), frame.height(), hud.is_some(), pixels));
+            Ok(())
+        }
+
+        fn poll_input(&mut self) -> Input {
+            self.inputs.pop_front().unwrap_or(Input {
+                quit: true,
+                ..Input::default()
+            })
+        }
+    }
+
+    #[test]
+    fn input_steers_the_view_toggles_the_hud_resizes_and_quits() {
+        let dir = tempfile::tempdir().unwrap();
+        let n = 129;
+        let samples = (0..n * n)
+            .map(|k| 200.0 + 120.0 * ((k % n) as f32 * 0.1).sin() * ((k / n) as f32 * 0.08).cos())
+            .collect();
+        let reader = MemoryReader::new("waves", n, n, samples).unwrap();
+        let path = dir.path().join("waves.smdb");
+        let options = BuildOptions {
+            tile_size: 33,
+            spacing: Some(20.0),
+            ..BuildOptions::default()
+        };
+        build(NodataFill::new(reader, None), &path, &options, &|_, _| {}).unwrap();
+        let terrain = stripmask::engine::terrain::TerrainFrame::new(
+            stripmask::db::archive::ArchiveReader::open(
+                stripmask::db::source::open(path.to_str().unwrap()).unwrap(),
+            )
+            .unwrap()
+            .header(),
+        );
+
+        let idle = Input::default();
+        let forward = Input {
+            motion: Motion {
+                forward: true,
+                ..Motion::default()
+            },
+            ..Input::default()
+        };
+        let hud_off = Input {
+            commands: vec![Command::Hud],
+            ..Input::default()
+        };
+        let resize = Input {
+            resized: Some((200, 100)),
+            ..Input::default()
+        };
+        let mut script = Script {
+            inputs: [
+                idle.clone(),
+                idle.clone(),
+                idle.clone(),
+                forward.clone(),
+                forward,
+                hud_off,
+                resize,
+                idle,
+            ]
+            .into(),
+            shown: Vec::new(),
+        };
+        let options = ViewerOptions {
+            source: path.display().to_string(),
+            size: (160, 120),
+            color: ColorFormat::Rgb565,
+            depth: DepthFormat::D16,
+            engine: EngineSettings {
+                pager_mode: PagerMode::Stepped {
+                    fetches_per_update: 64,
+                },
+                threads: 1,
+                ..EngineSettings::default()
+            },
+            hud: true,
+            flight: Flight::builtin(Builtin::Overview, &terrain),
+            frames: None,
+        };
+        let summary = run(&mut script, &options).unwrap();
+        assert_eq!(summary.frames, 8, "the ninth poll quits");
+        let shown = &script.shown;
+        assert_eq!(shown.len(), 8);
+        assert!(shown[..5].iter().all(|s| s.2), "HUD on until H");
+        assert!(shown[5..].iter().all(|s| !s.2), "HUD off after H");
+        assert_eq!((shown[5].0, shown[5].1), (160, 120));
+        assert_eq!((shown[6].0, shown[6].1), (200, 100), "resized framebuffer");
+        assert_ne!(shown[3].3, shown[4].3, "moving forward changes the view");
+        let sky = [150u8, 180, 215];
+        let terrain_pixels = shown[2]
+            .3
+            .chunks_exact(4)
+            .filter(|p| p[..3].iter().zip(sky).any(|(&a, b)| a.abs_diff(b) > 8))
+            .count();
+        assert!(
+            terrain_pixels > 160 * 120 / 4,
+            "terrain drawn: {terrain_pixels}"
+        );
+
+        let mut bounded = Script {
+            inputs: VecDeque::new(),
+            shown: Vec::new(),
+        };
+        bounded
+            .inputs
+            .extend(std::iter::repeat_n(Input::default(), 10));
+        let summary = run(
+            &mut bounded,
+            &ViewerOptions {
+                frames: Some(3),
+                ..options
+            },
+        )
+        .unwrap();
+        assert_eq!(summary.frames, 3);
+    }
+}

@@ -1,0 +1,176 @@
+//! `stripmask build`: stream a DEM band by band, encode each tile, write the archive.
+//!
+//! Memory held at once: one band of `s` rows of the padded width (f32), one input row, the
+//! reader's own strip or tile row, the encoded tiles of one band (they are encoded in parallel,
+//! then written in order), and the texture image when one is given.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::db::archive::{ArchiveWriter, Codec, Header, compress};
+use crate::db::dem::{DemReader, NodataFill};
+use crate::db::texture_gen::{ImageTexture, shaded};
+use crate::db::tile::Tile;
+use crate::db::tiling::{BandReader, Grid};
+use crate::error::{Error, Result};
+
+/// What `build` makes of a DEM.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BuildOptions {
+    /// Samples per tile side, `2^n + 1`.
+    pub tile_size: usize,
+    /// Metres between samples; `None` takes the file's own spacing, or 1.
+    pub spacing: Option<f64>,
+    /// Metres per raw height unit.
+    pub vertical_scale: f64,
+    /// World position of sample (0, 0); `None` takes the file's own, or (0, 0).
+    pub origin: Option<(f64, f64)>,
+    /// Texels per grid cell in the tile textures, a power of two.
+    pub texture_factor: usize,
+    /// A colour image covering the DEM to cut into textures; `None` computes them from heights.
+    pub texture_image: Option<PathBuf>,
+    /// How tile payloads are stored.
+    pub codec: Codec,
+    /// Metres per height quantum, shared by all tiles so that neighbours agree on their shared
+    /// samples; a tile's relief must fit 65535 quanta (4096 m at the default 1/16 m).
+    pub height_quantum: f32,
+}
+
+/// The default height quantum: 1/16 m, finer than the vertical accuracy of any common DEM and a
+/// power of two, so quanta convert to metres exactly.
+pub const DEFAULT_HEIGHT_QUANTUM: f32 = 0.0625;
+
+impl Default for BuildOptions {
+    fn default() -> Self {
+        BuildOptions {
+            tile_size: 129,
+            spacing: None,
+            vertical_scale: 1.0,
+            origin: None,
+            texture_factor: 1,
+            texture_image: None,
+            codec: Codec::Lz4,
+            height_quantum: DEFAULT_HEIGHT_QUANTUM,
+        }
+    }
+}
+
+/// What a build produced.
+#[derive(Clone, Debug, Serialize)]
+pub struct BuildReport {
+    /// The archive header as written.
+    pub header: Header,
+    /// Archive length in bytes.
+    pub archive_bytes: u64,
+    /// Sum of the uncompressed tile payloads.
+    pub raw_payload_bytes: u64,
+    /// Sum of the stored tile payloads.
+    pub stored_payload_bytes: u64,
+    /// Wall-clock seconds.
+    pub seconds: f64,
+}
+
+/// Builds `out` from `reader`; `progress` is called with (tiles done, tiles total).
+pub fn build<R: DemReader>(
+    reader: NodataFill<R>,
+    out: &Path,
+    options: &BuildOptions,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<BuildReport> {
+    let started = Instant::now();
+    let info = reader.info().clone();
+    let grid = Grid::new(info.width, info.height, options.tile_size)?;
+    let f = options.texture_factor;
+    if !f.is_power_of_two() || f > 8 {
+        return Err(Error::Usage(format!(
+            "texture factor {f} is not a power of two up to 8"
+        )));
+    }
+    let spacing = options.spacing.or(info.spacing_hint).unwrap_or(1.0);
+    if !(spacing.is_finite() && spacing > 0.0) {
+        return Err(Error::Usage(format!(
+            "spacing {spacing} must be a positive number of metres"
+        )));
+    }
+    if !options.vertical_scale.is_finite() || options.vertical_scale == 0.0 {
+        return Err(Error::Usage(
+            "vertical scale must be a finite non-zero number".into(),
+        ));
+    }
+    let (origin_x, origin_y) = options.origin.or(info.origin_hint).unwrap_or((0.0, 0.0));
+    let image = match &options.texture_image {
+        Some(path) => Some(ImageTexture::open(path, info.width, info.height)?),
+        None => None,
+    };
+    let s = grid.tile_size;
+    let texture_size = (s - 1) * f;
+    let header = Header {
+        tiles_x: grid.tiles_x as u32,
+        tiles_y: grid.tiles_y as u32,
+        tile_size: s as u32,
+        texture_size: texture_size as u32,
+        codec: options.codec,
+        source_width: info.width as u32,
+        source_height: info.height as u32,
+        spacing,
+        vertical_scale: options.vertical_scale,
+        origin_x,
+        origin_y,
+        min_height: 0.0,
+        max_height: 0.0,
+        height_quantum: options.height_quantum,
+    };
+    let mut writer = ArchiveWriter::create(out, header.clone())?;
+    let mut bands = BandReader::new(reader, grid, options.vertical_scale as f32);
+    let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+    let (mut raw_bytes, mut stored_bytes) = (0u64, 0u64);
+    let mut done = 0;
+    while let Some(band) = bands.next_band()? {
+        let ty = band.tile_row;
+        let encoded: Vec<(Vec<Vec<u8>>, usize, f32, f32)> = (0..grid.tiles_x)
+            .into_par_iter()
+            .map(|tx| -> Result<_> {
+                let heights = band.tile_heights(tx);
+                let texture = match &image {
+                    Some(img) => img.cut(tx, ty, s, f),
+                    None => shaded(&heights, s, spacing as f32, f),
+                };
+                let tile = Tile::new(&heights, s, options.height_quantum, &texture, texture_size)
+                    .map_err(|problem| {
+                    Error::invalid(&info.name, format!("tile ({tx}, {ty}): {problem}"))
+                })?;
+                let (mut stored, mut raw_len) = (Vec::with_capacity(tile.levels), 0);
+                for g in 0..tile.levels {
+                    let raw = tile.encode_level(g);
+                    raw_len += raw.len();
+                    stored.push(compress(&raw, options.codec));
+                }
+                Ok((stored, raw_len, tile.min, tile.max))
+            })
+            .collect::<Result<_>>()?;
+        for (tx, (stored, raw_len, min, max)) in encoded.into_iter().enumerate() {
+            writer.write_tile(ty * grid.tiles_x + tx, &stored)?;
+            raw_bytes += raw_len as u64;
+            stored_bytes += stored.iter().map(|c| c.len() as u64).sum::<u64>();
+            lo = lo.min(min);
+            hi = hi.max(max);
+        }
+        done += grid.tiles_x;
+        progress(done, grid.tile_count());
+    }
+    let archive_bytes = writer.finish(lo, hi)?;
+    Ok(BuildReport {
+        header: Header {
+            min_height: lo,
+            max_height: hi,
+            ..header
+        },
+        archive_bytes,
+        raw_payload_bytes: raw_bytes,
+        stored_payload_bytes: stored_bytes,
+        seconds: started.elapsed().as_secs_f64(),
+    })
+}

@@ -1,0 +1,14 @@
+//! The terrain database: elevation models in, tiles cut and encoded, one archive out, and the
+//! sources that read it back.
+
+pub mod archive;
+pub mod builder;
+pub mod dem;
+pub mod level_error;
+pub mod mask_level;
+pub mod rgb565;
+pub mod server;
+pub mod source;
+pub mod texture_gen;
+pub mod tile;
+pub mod tiling;

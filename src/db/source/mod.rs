@@ -1,0 +1,51 @@
+//! Where archive bytes come from: one trait, three implementations.
+//!
+//! [`TileSource`] reads byte ranges of an archive; [`crate::db::archive::ArchiveReader`] turns them
+//! into a header, an index and verified tiles. [`file::FileSource`] reads a local file with
+//! positioned reads, [`http::HttpSource`] fetches the same file with HTTP range requests from any
+//! static server, and [`throttle::SimulatedLink`] wraps either with latency, bandwidth and drops.
+
+pub mod file;
+pub mod http;
+pub mod throttle;
+
+use crate::error::{Error, Result};
+
+/// Random access to the bytes of one archive.
+pub trait TileSource: Send + Sync {
+    /// The file path or URL, for messages.
+    fn name(&self) -> &str;
+    /// Total length in bytes.
+    fn size(&self) -> Result<u64>;
+    /// Exactly `len` bytes starting at `offset`.
+    fn read_range(&self, offset: u64, len: u64) -> Result<Vec<u8>>;
+}
+
+impl<S: TileSource + ?Sized> TileSource for Box<S> {
+    fn name(&self) -> &str {
+        (**self).name()
+    }
+    fn size(&self) -> Result<u64> {
+        (**self).size()
+    }
+    fn read_range(&self, offset: u64, len: u64) -> Result<Vec<u8>> {
+        (**self).read_range(offset, len)
+    }
+}
+
+/// Opens a local path or an `http://` URL (`https://` with the `https` feature) as a source.
+pub fn open(file_or_url: &str) -> Result<Box<dyn TileSource>> {
+    if file_or_url.starts_with("https://") && !cfg!(feature = "https") {
+        return Err(Error::Http {
+            url: file_or_url.to_string(),
+            problem: "https:// needs stripmask built with `--features https`".into(),
+        });
+    }
+    if file_or_url.starts_with("http://") || file_or_url.starts_with("https://") {
+        Ok(Box::new(http::HttpSource::new(file_or_url)))
+    } else {
+        Ok(Box::new(file::FileSource::open(std::path::Path::new(
+            file_or_url,
+        ))?))
+    }
+}

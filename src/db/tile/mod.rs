@@ -1,0 +1,247 @@
+//! One tile: what the runtime needs for it and nothing more, whole or as the coarser tile that
+//! a prefix of its progressive levels makes. The stored form is in [`payload`]: one chunk per
+//! progressive level, coarse first.
+//!
+//! Quantisation is global: every tile of an archive counts heights in the same `quantum`, and a
+//! sample's archive-wide integer height is `base + q`. The same DEM sample therefore gets the same
+//! integer in both tiles that share it, which is what lets the engine draw neighbouring tiles
+//! without a crack. A decoded height is within `quantum / 2` of the true one; a tile's relief must
+//! fit 65535 quanta.
+
+mod payload;
+
+pub use payload::level_payload_size;
+
+use std::ops::Range;
+
+use crate::db::level_error::level_errors;
+use crate::db::rgb565::{mip_chain, mip_count};
+
+/// The progressive levels of a tile of `tile_size = 2^n + 1` samples per side: `n + 1`. Level
+/// `g` is the grid of `2^g + 1` samples per side that keeps every `2^(n - g)`-th sample; level 0
+/// is the four corners, level `n` the whole tile. Each level adds only the samples the coarser
+/// ones lack, so a tile holding levels `0..k` is a usable coarser tile.
+pub fn progressive_levels(tile_size: usize) -> usize {
+    (tile_size.max(2) - 1).ilog2() as usize + 1
+}
+
+/// Samples per side of progressive level `level`'s grid: `2^level + 1`.
+pub fn level_side(level: usize) -> usize {
+    (1 << level) + 1
+}
+
+/// The texture mips (indices into the archive's chain, 0 the finest) that progressive level
+/// `level` carries: the mip a tile drawn at that level's sample spacing reads (mip `n - level`,
+/// clamped to the chain), and for level 0 every coarser one too. Levels whose mip a coarser level
+/// already carries carry none; every mip is carried by exactly one level.
+pub fn level_mips(level: usize, tile_size: usize, texture_size: usize) -> Range<usize> {
+    let n = progressive_levels(tile_size) - 1;
+    let last = mip_count(texture_size) - 1;
+    let shown = |g: usize| (n - g).min(last);
+    if level == 0 {
+        shown(0)..last + 1
+    } else {
+        shown(level)..shown(level - 1)
+    }
+}
+
+/// What a tile holding a prefix of its progressive levels knows of the grid it holds: shared by
+/// the decoded [`Tile`] and the resident form.
+pub trait HeldLevels {
+    /// Samples per side of the whole tile.
+    fn whole_size(&self) -> usize;
+    /// Progressive levels held, at least 1.
+    fn held_levels(&self) -> usize;
+
+    /// Samples per side of the held grid: `2^(levels - 1) + 1`.
+    fn side(&self) -> usize {
+        level_side(self.held_levels() - 1)
+    }
+
+    /// Whole-tile samples between neighbouring samples of the held grid.
+    fn stride(&self) -> usize {
+        (self.whole_size() - 1) / (self.side() - 1)
+    }
+
+    /// Whether every progressive level is held.
+    fn is_complete(&self) -> bool {
+        self.held_levels() == progressive_levels(self.whole_size())
+    }
+
+    /// The finest strip-mask level the held samples can draw: a mask keeping every
+    /// `stride`-th sample.
+    fn finest_mask_level(&self) -> usize {
+        self.stride() - 1
+    }
+}
+
+impl HeldLevels for Tile {
+    fn whole_size(&self) -> usize {
+        self.tile_size
+    }
+
+    fn held_levels(&self) -> usize {
+        self.levels
+    }
+}
+
+/// One decoded tile, or the coarser tile that a prefix of its progressive levels makes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tile {
+    /// Samples per side of the whole tile.
+    pub tile_size: usize,
+    /// Progressive levels held, `1 ..= progressive_levels(tile_size)`: the held grid is
+    /// [`Tile::side`] samples per side, every [`Tile::stride`]-th sample of the whole tile.
+    pub levels: usize,
+    /// Lowest height in metres.
+    pub min: f32,
+    /// Highest height in metres.
+    pub max: f32,
+    /// The tile's quantum 0 in archive quanta: sample `(i, j)` is `base + heights[j * s + i]`.
+    pub base: i32,
+    /// Metres per quantum.
+    pub quantum: f32,
+    /// Maximum geometric error of each mask level against the full tile, metres, level 0 first.
+    pub level_errors: Vec<f32>,
+    /// Quantised heights of the held grid, `side^2`, row-major from the north-west.
+    pub heights: Vec<u16>,
+    /// Texture side in texels of the archive's finest mip.
+    pub texture_size: usize,
+    /// Which mip of the archive's chain `texture_mips[0]` is (0 for a whole tile).
+    pub first_mip: usize,
+    /// RGB565 mip chain from mip `first_mip`, finest first, down to 1 x 1.
+    pub texture_mips: Vec<Vec<u16>>,
+}
+
+impl Tile {
+    /// Builds a tile from `s x s` heights in metres, quantised in steps of `quantum` metres, and
+    /// its finest texture (RGB, side `t`). Fails when the tile's relief exceeds 65535 quanta or a
+    /// height is beyond ±2^31 quanta.
+    pub fn new(
+        heights: &[f32],
+        tile_size: usize,
+        quantum: f32,
+        texture: &[[u8; 3]],
+        texture_size: usize,
+    ) -> std::result::Result<Tile, String> {
+        if !(quantum.is_finite() && quantum > 0.0) {
+            return Err(format!("height quantum {quantum} is not a positive number"));
+        }
+        let (min, max) = heights
+            .iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &h| {
+                (lo.min(h), hi.max(h))
+            });
+        let step = f64::from(quantum);
+        let to_quanta = |h: f32| (f64::from(h) / step).round();
+        let (lo, hi) = (to_quanta(min), to_quanta(max));
+        if !(lo >= f64::from(i32::MIN) && hi <= f64::from(i32::MAX)) {
+            return Err(format!(
+                "heights {min} ..= {max} m are beyond ±2^31 quanta of {quantum} m"
+            ));
+        }
+        if hi - lo > f64::from(u16::MAX) {
+            return Err(format!(
+                "the tile spans {min} ..= {max} m, more than 65535 quanta of {quantum} m: \
+                 choose a larger height quantum"
+            ));
+        }
+        let base = lo as i32;
+        let quantised = heights
+            .iter()
+            .map(|&h| (to_quanta(h) - lo) as u16)
+            .collect();
+        Ok(Tile {
+            tile_size,
+            levels: progressive_levels(tile_size),
+            min,
+            max,
+            base,
+            quantum,
+            level_errors: level_errors(heights, tile_size),
+            heights: quantised,
+            texture_size,
+            first_mip: 0,
+            texture_mips: mip_chain(texture, texture_size),
+        })
+    }
+
+    /// The coarser tile that the first `levels` progressive levels make (clamped to
+    /// `1 ..= self.levels`): every `2^k`-th held sample and the texture mips those levels carry.
+    pub fn truncated(&self, levels: usize) -> Tile {
+        let levels = levels.clamp(1, self.levels);
+        let step = 1 << (self.levels - levels);
+        let side = level_side(levels - 1);
+        let heights = (0..side * side)
+            .map(|k| self.heights[(k / side) * step * self.side() + (k % side) * step])
+            .collect();
+        let first_mip = level_mips(levels - 1, self.tile_size, self.texture_size)
+            .start
+            .max(self.first_mip);
+        Tile {
+            levels,
+            heights,
+            first_mip,
+            texture_mips: self.texture_mips[first_mip - self.first_mip..].to_vec(),
+            level_errors: self.level_errors.clone(),
+            ..*self
+        }
+    }
+
+    /// The archive-wide integer height of held-grid sample `(i, j)`, in quanta (whole-tile
+    /// sample `(i * stride, j * stride)`).
+    pub fn quanta(&self, i: usize, j: usize) -> i32 {
+        self.base + i32::from(self.heights[j * self.side() + i])
+    }
+
+    /// The height in metres of held-grid sample `(i, j)`.
+    pub fn height(&self, i: usize, j: usize) -> f32 {
+        (f64::from(self.quanta(i, j)) * f64::from(self.quantum)) as f32
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn levels_nest_and_carry_every_mip_once() {
+        assert_eq!(progressive_levels(3), 2);
+        assert_eq!(progressive_levels(65), 7);
+        assert_eq!(level_side(0), 2);
+        assert_eq!(level_side(6), 65);
+        // s = 9 (levels 0..=3) with a 32-texel chain (mips 0..=5): level 0 carries 5, 4, 3.
+        let carried: Vec<_> = (0..4).map(|g| level_mips(g, 9, 32)).collect();
+        assert_eq!(carried, [3..6, 2..3, 1..2, 0..1]);
+        // s = 65 (levels 0..=6) with a 16-texel chain (mips 0..=4): levels 1 and 2 carry none.
+        let carried: Vec<_> = (0..7).map(|g| level_mips(g, 65, 16)).collect();
+        assert_eq!(carried, [4..5, 4..4, 4..4, 3..4, 2..3, 1..2, 0..1]);
+    }
+
+    #[test]
+    fn a_truncated_tile_keeps_the_coarser_grid_and_mips() {
+        let s = 9;
+        let heights: Vec<f32> = (0..s * s).map(|k| k as f32).collect();
+        let tile = Tile::new(&heights, s, 1.0, &[[1, 2, 3]; 64], 8).unwrap();
+        assert_eq!((tile.side(), tile.stride(), tile.levels), (9, 1, 4));
+        let coarse = tile.truncated(2);
+        assert_eq!((coarse.side(), coarse.stride()), (3, 4));
+        assert_eq!(coarse.finest_mask_level(), 3);
+        assert_eq!(coarse.quanta(1, 2), tile.quanta(4, 8));
+        assert_eq!(coarse.first_mip, 2);
+        assert_eq!(coarse.texture_mips[..], tile.texture_mips[2..]);
+        assert_eq!(coarse.truncated(1), tile.truncated(1));
+        assert_eq!(tile.truncated(1).heights.len(), 4);
+        assert!(!coarse.is_complete() && tile.is_complete());
+    }
+
+    #[test]
+    fn relief_beyond_65535_quanta_is_refused_with_the_reason() {
+        let texture = vec![[0, 0, 0]; 4];
+        let heights = [0.0, 0.0, 0.0, 4096.0];
+        let err = Tile::new(&heights, 2, 0.0625, &texture, 2).unwrap_err();
+        assert!(err.contains("65535 quanta"), "{err}");
+        assert!(Tile::new(&heights, 2, 0.125, &texture, 2).is_ok());
+        assert!(Tile::new(&heights, 2, 0.0, &texture, 2).is_err());
+    }
+}

@@ -1,0 +1,154 @@
+//! Cutting a streamed DEM into tiles of `2^n + 1` samples per side with shared borders.
+//!
+//! Tile `(tx, ty)` covers samples `tx * (s - 1) ..= tx * (s - 1) + s - 1` across and the same
+//! down, so neighbours share their border row or column. The grid is padded on the east and
+//! south to a whole number of tiles by repeating the last column and row of the DEM.
+//!
+//! Memory: [`BandReader`] holds one band of `s` rows of the padded width (`f32` metres) and one
+//! input row; it never holds more than one row of tiles.
+
+use crate::db::dem::{DemReader, NodataFill};
+use crate::error::{Error, Result};
+
+/// The largest tile side supported (`2^12 + 1`).
+pub const MAX_TILE_SIZE: usize = 4097;
+
+/// How a DEM of `width x height` samples is cut into tiles.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Grid {
+    /// Samples per tile side, `2^n + 1`.
+    pub tile_size: usize,
+    /// Tiles across (west to east).
+    pub tiles_x: usize,
+    /// Tiles down (north to south).
+    pub tiles_y: usize,
+    /// Samples per row of the source DEM.
+    pub width: usize,
+    /// Rows of the source DEM.
+    pub height: usize,
+}
+
+/// Whether `s` is a valid tile size: `2^n + 1` with `n >= 1`, at most [`MAX_TILE_SIZE`].
+pub fn is_valid_tile_size(s: usize) -> bool {
+    (3..=MAX_TILE_SIZE).contains(&s) && (s - 1).is_power_of_two()
+}
+
+impl Grid {
+    /// The tiling of a `width x height` DEM with `tile_size` samples per tile side.
+    pub fn new(width: usize, height: usize, tile_size: usize) -> Result<Grid> {
+        if !is_valid_tile_size(tile_size) {
+            return Err(Error::Usage(format!(
+                "tile size {tile_size} is not 2^n + 1 between 3 and {MAX_TILE_SIZE}"
+            )));
+        }
+        let step = tile_size - 1;
+        Ok(Grid {
+            tile_size,
+            tiles_x: (width.max(2) - 1).div_ceil(step),
+            tiles_y: (height.max(2) - 1).div_ceil(step),
+            width,
+            height,
+        })
+    }
+
+    /// Samples per row after padding: `tiles_x * (s - 1) + 1`.
+    pub fn padded_width(&self) -> usize {
+        self.tiles_x * (self.tile_size - 1) + 1
+    }
+
+    /// Rows after padding: `tiles_y * (s - 1) + 1`.
+    pub fn padded_height(&self) -> usize {
+        self.tiles_y * (self.tile_size - 1) + 1
+    }
+
+    /// Number of tiles.
+    pub fn tile_count(&self) -> usize {
+        self.tiles_x * self.tiles_y
+    }
+}
+
+/// One row of tiles: `s` rows of the padded grid, in metres.
+pub struct Band {
+    /// Which tile row this is.
+    pub tile_row: usize,
+    grid: Grid,
+    samples: Vec<f32>,
+}
+
+impl Band {
+    /// The `s * s` heights of tile column `tx` in this band, row-major.
+    pub fn tile_heights(&self, tx: usize) -> Vec<f32> {
+        let s = self.grid.tile_size;
+        let w = self.grid.padded_width();
+        let x0 = tx * (s - 1);
+        let mut out = Vec::with_capacity(s * s);
+        for j in 0..s {
+            out.extend_from_slice(&self.samples[j * w + x0..j * w + x0 + s]);
+        }
+        out
+    }
+}
+
+/// Reads a DEM band by band (one row of tiles at a time).
+pub struct BandReader<R> {
+    reader: NodataFill<R>,
+    grid: Grid,
+    vertical_scale: f32,
+    band: Band,
+    rows_read: usize,
+    row: Vec<f32>,
+}
+
+impl<R: DemReader> BandReader<R> {
+    /// Streams `reader` in bands of `grid.tile_size` rows; heights are scaled by `vertical_scale`.
+    pub fn new(reader: NodataFill<R>, grid: Grid, vertical_scale: f32) -> Self {
+        let band = Band {
+            tile_row: 0,
+            grid,
+            samples: vec![0.0; grid.padded_width() * grid.tile_size],
+        };
+        let row = vec![0.0; grid.width];
+        BandReader {
+            reader,
+            grid,
+            vertical_scale,
+            band,
+            rows_read: 0,
+            row,
+        }
+    }
+
+    /// The next band, or `None` after the last tile row.
+    pub fn next_band(&mut self) -> Result<Option<&Band>> {
+        let s = self.grid.tile_size;
+        let w = self.grid.padded_width();
+        let first = if self.rows_read == 0 {
+            0
+        } else {
+            if self.band.tile_row + 1 >= self.grid.tiles_y {
+                return Ok(None);
+            }
+            self.band.tile_row += 1;
+            // The last row of the previous band is the first row of this one.
+            self.band.samples.copy_within((s - 1) * w..s * w, 0);
+            1
+        };
+        for j in first..s {
+            let dst = j * w;
+            if self.rows_read < self.grid.height {
+                self.reader.read_row(&mut self.row)?;
+                self.rows_read += 1;
+                let out = &mut self.band.samples[dst..dst + w];
+                for (o, v) in out.iter_mut().zip(&self.row) {
+                    *o = v * self.vertical_scale;
+                }
+                let last = out[self.grid.width - 1];
+                out[self.grid.width..].fill(last);
+            } else {
+                // South padding: repeat the previous row.
+                self.band.samples.copy_within(dst - w..dst, dst);
+            }
+        }
+        Ok(Some(&self.band))
+    }
+}

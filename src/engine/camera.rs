@@ -1,0 +1,107 @@
+//! The viewer: where it is, where it looks, and the eye-relative matrices built from that.
+//!
+//! World axes, used by the whole engine: x east, y up, z south, in metres, with (0, 0) at the
+//! terrain's north-west sample (see [`crate::engine::terrain::TerrainFrame`] for placing the terrain
+//! elsewhere). Matrices never contain the eye's absolute position: the view matrix looks from the
+//! origin, and the renderer subtracts the eye from positions in f64 before anything is rounded.
+
+use glam::{DMat4, DVec3};
+
+/// A perspective camera.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Eye position, world metres.
+    pub position: DVec3,
+    /// Unit viewing direction.
+    pub forward: DVec3,
+    /// Vertical field of view, radians.
+    pub fov_y: f64,
+    /// Near plane distance, metres.
+    pub near: f64,
+    /// Far plane distance, metres.
+    pub far: f64,
+}
+
+impl Camera {
+    /// A camera at `position` looking at `target` with a 60° vertical field of view.
+    pub fn looking_at(position: DVec3, target: DVec3) -> Camera {
+        Camera {
+            position,
+            forward: (target - position).normalize_or(DVec3::NEG_Z),
+            fov_y: 60f64.to_radians(),
+            near: 1.0,
+            far: 1e5,
+        }
+    }
+
+    /// The view matrix with the eye at the origin (eye-relative world to camera space).
+    pub fn view_from_eye(&self) -> DMat4 {
+        // An up vector parallel to the view direction has no meaning: fall back to north.
+        let up = if self.forward.cross(DVec3::Y).length_squared() < 1e-12 {
+            DVec3::NEG_Z
+        } else {
+            DVec3::Y
+        };
+        glam::dcamera::rh::view::look_at_mat4(DVec3::ZERO, self.forward, up)
+    }
+
+    /// The projection to the rasterizer's clip space (depth 0 ..= 1) for `aspect` = width / height.
+    pub fn projection(&self, aspect: f64) -> DMat4 {
+        glam::dcamera::rh::proj::directx::perspective(self.fov_y, aspect, self.near, self.far)
+    }
+
+    /// Projection times eye-relative view: maps `world - position` to clip space.
+    pub fn view_projection(&self, aspect: f64) -> DMat4 {
+        self.projection(aspect) * self.view_from_eye()
+    }
+
+    /// Heading in radians, clockwise from north, of the viewing direction.
+    pub fn heading(&self) -> f64 {
+        self.forward.x.atan2(-self.forward.z)
+    }
+
+    /// Pixels per metre at distance `d` for a viewport `height` pixels tall: the scale that turns a
+    /// geometric error in metres into a screen-space error.
+    pub fn pixels_per_metre(&self, d: f64, height: u32) -> f64 {
+        f64::from(height) / (2.0 * (self.fov_y / 2.0).tan() * d.max(self.near))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DVec4;
+
+    #[test]
+    fn the_target_projects_to_the_centre_at_any_distance_from_the_origin() {
+        for offset in [0.0, 1e3, 1e7, 1e8] {
+            let base = DVec3::new(offset, 0.0, -offset);
+            let cam = Camera::looking_at(base + DVec3::new(0.0, 500.0, 800.0), base);
+            let rel = base - cam.position;
+            let c = cam.view_projection(4.0 / 3.0) * DVec4::from((rel, 1.0));
+            assert!(
+                c.x.abs() / c.w < 1e-12 && c.y.abs() / c.w < 1e-12,
+                "{offset}: {c}"
+            );
+            assert!((0.0..=1.0).contains(&(c.z / c.w)));
+        }
+    }
+
+    #[test]
+    fn looking_straight_down_still_has_a_view_matrix() {
+        let cam = Camera::looking_at(DVec3::new(0.0, 100.0, 0.0), DVec3::ZERO);
+        let m = cam.view_projection(1.0);
+        assert!(m.to_cols_array().iter().all(|v| v.is_finite()));
+        // North (-z) is up on screen.
+        let north = m * DVec4::new(0.0, -100.0, -10.0, 1.0);
+        assert!(north.y / north.w > 0.0);
+    }
+
+    #[test]
+    fn heading_is_clockwise_from_north() {
+        let at = |x: f64, z: f64| Camera::looking_at(DVec3::ZERO, DVec3::new(x, 0.0, z)).heading();
+        assert!(at(0.0, -1.0).abs() < 1e-12);
+        assert!((at(1.0, 0.0) - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+        assert!((at(0.0, 1.0).abs() - std::f64::consts::PI).abs() < 1e-12);
+    }
+}

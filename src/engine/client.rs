@@ -1,0 +1,764 @@
+//! One frame of the paper's client, end to end: page belts in, cull, weigh tiles by visual
+//! importance, share the triangle budget, pick a strip mask per tile, draw.
+//!
+//! ```text
+//! camera ──> frustum cull ──> importance ──> budget ──> mask per tile ──> draw list ──> raster
+//!               ^
+//!        pager (belts) <── tile source
+//! ```
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use glam::DVec3;
+use stripmask_raster::{DrawStats, DrawTarget, Framebuffer, LineStats, RasterTarget, Rasterizer};
+
+use crate::db::archive::ArchiveReader;
+use crate::db::source::TileSource;
+use crate::db::tile::HeldLevels;
+use crate::db::tile::progressive_levels;
+use crate::engine::belts::{Grid, TileId};
+use crate::engine::budget::{
+    BudgetController, BudgetSettings, allocate, allocate_held, drawable_level,
+};
+use crate::engine::camera::Camera;
+use crate::engine::cracks::{CrackMode, TileIndices, neighbours::neighbour_levels};
+use crate::engine::frustum::{Aabb, Frustum};
+use crate::engine::geomorph::{Geomorph, Morpher, SUBDIVISION};
+use crate::engine::held_meshes::HeldSideMeshes;
+use crate::engine::importance::{TileMeasure, Weights, visual_importance};
+use crate::engine::loader::ArchiveLoader;
+use crate::engine::masks::{LevelSet, MaskSet};
+use crate::engine::pager::{Pager, PagerConfig, PagerMode, PagerStats, TransferClock};
+use crate::engine::paging::Paging;
+use crate::engine::render::{RenderSettings, TileDraw, TileMeshes, draw_tiles};
+use crate::engine::resident::{Light, ResidentTile};
+use crate::engine::stream::{PredictedView, Predictor, StreamConfig, StreamPager, Streaming, Want};
+use crate::engine::terrain::TerrainFrame;
+use crate::error::{Error, Result};
+
+/// Everything a run can set.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EngineSettings {
+    /// Rendering knobs.
+    pub render: RenderSettings,
+    /// Memory limit on loaded tiles, bytes.
+    pub memory_limit_bytes: usize,
+    /// Of that, the most the textures of the complete square may take (`None`: no separate cap).
+    pub texture_budget_bytes: Option<usize>,
+    /// Threaded (real runs), stepped or simulated (deterministic) fetching.
+    pub pager_mode: PagerMode,
+    /// A viewpoint off the terrain pages around the nearest tile.
+    pub nearest_when_off: bool,
+    /// All mask levels, or powers of two only (geometrical mipmapping).
+    pub level_set: LevelSet,
+    /// How cracks between tiles at different levels are hidden.
+    pub cracks: CrackMode,
+    /// Whether vertices that coarser levels drop glide onto the coarser surface with distance.
+    pub geomorph: Geomorph,
+    /// Importance weights (distance, height).
+    pub weights: Weights,
+    /// The frame-rate controller.
+    pub budget: BudgetSettings,
+    /// Sun direction and ambient light.
+    pub light: Light,
+    /// Vertical field of view, radians.
+    pub fov_y: f64,
+    /// The eye never goes lower than this above the ground, metres.
+    pub clearance: f64,
+    /// Rasterizer threads (0: all cores).
+    pub threads: usize,
+    /// Whole tiles in belts (the paper) or progressive levels by importance.
+    pub streaming: Streaming,
+}
+
+impl Default for EngineSettings {
+    fn default() -> Self {
+        EngineSettings {
+            render: RenderSettings::default(),
+            memory_limit_bytes: 64 << 20,
+            texture_budget_bytes: None,
+            pager_mode: PagerMode::Threaded { queue_depth: 4 },
+            nearest_when_off: true,
+            level_set: LevelSet::All,
+            cracks: CrackMode::default(),
+            geomorph: Geomorph::default(),
+            weights: Weights::default(),
+            budget: BudgetSettings::default(),
+            light: Light::default(),
+            fov_y: 60f64.to_radians(),
+            clearance: 20.0,
+            threads: 0,
+            streaming: Streaming::Belts,
+        }
+    }
+}
+
+/// What one frame did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameReport {
+    /// The camera as drawn (near and far planes set by the engine).
+    pub camera: Camera,
+    /// The triangle budget of this frame.
+    pub budget: usize,
+    /// Triangles the chosen masks hold.
+    pub triangles: usize,
+    /// Tiles in the view frustum among the loaded ones: the tiles drawn.
+    pub rendered_tiles: usize,
+    /// The drawn tiles with their visual importance and mask level.
+    pub rendered: Vec<RenderedTile>,
+    /// What the rasterizer did.
+    pub draw: DrawStats,
+    /// What the wireframe's lines did (zero when it is off).
+    pub wireframe: LineStats,
+    /// Seconds spent on culling, importance, budget and masks.
+    pub bookkeeping_seconds: f64,
+    /// Seconds spent drawing.
+    pub draw_seconds: f64,
+    /// The pager's counters after this frame's update.
+    pub pager: PagerStats,
+}
+
+/// One drawn tile.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderedTile {
+    /// Which tile.
+    pub id: TileId,
+    /// Its visual importance this frame (the drawn tiles' values sum to 1).
+    pub importance: f64,
+    /// The strip-mask level it was drawn at.
+    pub level: usize,
+    /// Its level's geometric error on screen: the height error (metres, from the archive)
+    /// times pixels per metre at its bounding box's distance from the eye.
+    pub error_px: f64,
+    /// Whether it drew coarser than the budget offered because it holds too few levels.
+    pub capped: bool,
+}
+
+/// The engine: an archive, its pager, the shared strip masks and the budget controller.
+pub struct Engine {
+    terrain: TerrainFrame,
+    pager: Paging,
+    grid: Grid,
+    /// The viewpoint predictor when streaming progressively with prediction.
+    predictor: Option<Predictor>,
+    masks: MaskSet,
+    /// The powers-of-two masks the budget chooses from while partial tiles are drawn, built
+    /// the first time one is (the same set as `masks` when the settings ask for it).
+    power_of_two: Option<MaskSet>,
+    cracks: TileIndices,
+    /// The masks and crack pieces of partial tiles, built per held side on first use.
+    held: HeldSideMeshes,
+    /// The geomorph state, `None` when geomorphing is off.
+    morpher: Option<Morpher>,
+    /// Levels pinned per tile instead of the budget's choice (for measurements).
+    forced_levels: Option<Box<dyn Fn(TileId) -> usize + Send>>,
+    budget: BudgetController,
+    settings: EngineSettings,
+    rasterizer: Rasterizer,
+}
+
+impl Engine {
+    /// Opens `source` for a screen `height` pixels tall.
+    pub fn new(
+        source: Box<dyn TileSource>,
+        mut settings: EngineSettings,
+        height: u32,
+    ) -> Result<Self> {
+        let reader = ArchiveReader::open(source)?;
+        let header = reader.header().clone();
+        let terrain = TerrainFrame::new(&header);
+        check_morph_range(&settings, &terrain, reader.name())?;
+        let focal_px = f64::from(height) / (2.0 * (settings.fov_y / 2.0).tan());
+        let mut loader = ArchiveLoader::new(reader, settings.light, focal_px, settings.cracks);
+        if let Some(budget) = settings.texture_budget_bytes {
+            loader.fit_texture_budget(settings.memory_limit_bytes, budget);
+        }
+        let grid = Grid::new(header.tiles_x, header.tiles_y)?;
+        let (pager, predictor) = match settings.streaming {
+            Streaming::Belts => {
+                let mut config = PagerConfig::new(settings.memory_limit_bytes, settings.pager_mode);
+                config.nearest_when_off = settings.nearest_when_off;
+                (
+                    Paging::Belts(Box::new(Pager::new(loader, grid, config)?)),
+                    None,
+                )
+            }
+            Streaming::Progressive(stream) => {
+                check_progressive(&settings)?;
+                // Partial tiles draw powers-of-two masks only (see `render_to`): every frame
+                // does, so a view does not change set when its last tile completes.
+                settings.level_set = LevelSet::PowerOfTwo;
+                let mut config =
+                    StreamConfig::new(settings.memory_limit_bytes, settings.pager_mode);
+                config.queue_capacity = stream.queue_capacity;
+                config.square_share = stream.square_share;
+                config.nearest_when_off = settings.nearest_when_off;
+                (
+                    Paging::Stream(Box::new(StreamPager::new(loader, grid, config)?)),
+                    stream.prediction.map(Predictor::new),
+                )
+            }
+        };
+        let rasterizer = if settings.threads == 0 {
+            Rasterizer::new()
+        } else {
+            Rasterizer::with_threads(settings.threads)
+        };
+        Ok(Engine {
+            terrain,
+            pager,
+            grid,
+            predictor,
+            masks: MaskSet::new(header.tile_size as usize, settings.level_set),
+            power_of_two: None,
+            cracks: TileIndices::new(settings.cracks, header.tile_size as usize),
+            morpher: Morpher::new(settings.geomorph, header.tile_size as usize),
+            held: HeldSideMeshes::new(),
+            forced_levels: None,
+            budget: BudgetController::new(settings.budget),
+            settings,
+            rasterizer,
+        })
+    }
+
+    /// Where the terrain is.
+    pub fn terrain(&self) -> &TerrainFrame {
+        &self.terrain
+    }
+
+    /// Moves the terrain in the world (e.g. 10^7 m from the origin); cameras move with it.
+    pub fn place_terrain(&mut self, origin: DVec3) {
+        self.terrain.origin = origin;
+    }
+
+    /// The pager, for its tile states and counters.
+    pub fn pager(&self) -> &Paging {
+        &self.pager
+    }
+
+    /// Sets the simulated time for a pager in [`PagerMode::Simulated`], seconds.
+    pub fn set_time(&mut self, seconds: f64) {
+        self.pager.set_time(seconds);
+    }
+
+    /// Times tile transfers for a pager in [`PagerMode::Simulated`].
+    pub fn set_transfer_clock(&mut self, clock: Arc<dyn TransferClock>) {
+        self.pager.set_transfer_clock(clock);
+    }
+
+    /// The strip masks.
+    pub fn masks(&self) -> &MaskSet {
+        &self.masks
+    }
+
+    /// Pins every drawn tile's mask level to `level_of(tile)` instead of the budget's choice
+    /// (`None` gives the choice back to the budget): views with known level pairs, for
+    /// measuring cracks. A partial tile draws no finer than it holds, and while any drawn tile
+    /// is partial the pinned levels snap to powers of two ([`drawable_level`]).
+    pub fn force_levels(&mut self, level_of: Option<Box<dyn Fn(TileId) -> usize + Send>>) {
+        self.forced_levels = level_of;
+    }
+
+    /// The settings in force.
+    pub fn settings(&self) -> &EngineSettings {
+        &self.settings
+    }
+
+    /// The rendering settings, changeable between frames.
+    pub fn render_settings_mut(&mut self) -> &mut RenderSettings {
+        &mut self.settings.render
+    }
+
+    /// The tiles within `radius` belts of the current one whose boxes, at the archive's height
+    /// range, meet the view of `camera` at `aspect` (held or not).
+    pub fn tiles_in_view(&self, camera: &Camera, aspect: f64, radius: u32) -> Vec<TileId> {
+        match self.pager.current_tile() {
+            Some(center) => {
+                view_tiles(self.grid, &self.terrain, center, radius, camera, aspect).collect()
+            }
+            None => Vec::new(),
+        }
+    }
+
+    /// The ground height under `position` if its tile is loaded.
+    pub fn ground(&self, position: DVec3) -> Option<f64> {
+        let (px, py) = self.terrain.tile_position(position);
+        if px < 0.0 || py < 0.0 {
+            return None;
+        }
+        let id = TileId::new(px as u32, py as u32);
+        let tile = self.pager.get(id)?;
+        self.terrain.ground_in(tile, id.x, id.y, position)
+    }
+
+    /// A camera for an eye and gaze in terrain-frame metres. With `above_ground`, heights count
+    /// from the ground under the eye (the archive's lowest height where no tile is loaded). The
+    /// eye is kept `clearance` metres above loaded ground.
+    pub fn camera(&self, eye: DVec3, target: DVec3, above_ground: bool) -> Camera {
+        let (eye, target) = (eye + self.terrain.origin, target + self.terrain.origin);
+        let ground = self.ground(eye);
+        let lift = if above_ground {
+            ground.unwrap_or(self.terrain.heights.0 + self.terrain.origin.y)
+        } else {
+            0.0
+        };
+        let mut eye = eye + DVec3::Y * lift;
+        let target = target + DVec3::Y * lift;
+        if let Some(g) = ground {
+            eye.y = eye.y.max(g + self.settings.clearance);
+        }
+        let mut camera = Camera::looking_at(eye, target);
+        camera.fov_y = self.settings.fov_y;
+        camera
+    }
+
+    /// Renders one frame into `fb` from `camera` (its near and far planes are set here).
+    pub fn render(&mut self, camera: &Camera, fb: &mut Framebuffer) -> Result<FrameReport> {
+        // The engine's rasterizer is lent to the frame's target: moving it out (no allocation)
+        // lets `render_to` borrow the whole engine.
+        let mut rasterizer = std::mem::take(&mut self.rasterizer);
+        let report = self.render_to(camera, &mut RasterTarget::new(fb, &mut rasterizer));
+        self.rasterizer = rasterizer;
+        report
+    }
+
+    /// Renders one frame from `camera` into any [`DrawTarget`]: the same draw list goes to the
+    /// CPU rasterizer ([`Engine::render`]) or to another backend, such as the wgpu comparison
+    /// target of `stripmask-platform`.
+    pub fn render_to<T: DrawTarget>(
+        &mut self,
+        camera: &Camera,
+        target: &mut T,
+    ) -> Result<FrameReport> {
+        let started = Instant::now();
+        self.pager
+            .update(self.terrain.tile_position(camera.position));
+        let mut camera = *camera;
+        self.fit_depth_range(&mut camera);
+        let (width, height) = target.size();
+        let aspect = f64::from(width) / f64::from(height);
+        let (visible, measures) = cull(&self.pager, &self.terrain, &camera, aspect);
+        let importance = visual_importance(&measures, self.settings.weights);
+        let budget = self.budget.budget();
+        let partial = visible.iter().find(|(_, tile, _)| !tile.is_complete());
+        if self.morpher.is_some() {
+            refuse_partial_tiles(partial.map(|&(id, tile, _)| (id, tile)))?;
+        }
+        // Partial tiles draw powers-of-two levels only: a level whose `l + 1` is not a multiple
+        // of a drawn neighbour's stride needs border samples that neighbour lacks.
+        let masks = match partial {
+            Some(_) if self.masks.level_set() != LevelSet::PowerOfTwo => &*self
+                .power_of_two
+                .get_or_insert_with(|| MaskSet::new(self.terrain.tile_size, LevelSet::PowerOfTwo)),
+            _ => &self.masks,
+        };
+        let finest: Vec<usize> = visible
+            .iter()
+            .map(|(_, tile, _)| tile.finest_mask_level())
+            .collect();
+        let mut allocation = allocate_held(budget, &importance, masks, &finest);
+        // What each tile would draw if it held every level: a tile drawn coarser is capped,
+        // and streaming asks for the levels it lacks.
+        let mut offered = if partial.is_some() {
+            allocate(budget, &importance, masks)
+        } else {
+            allocation.clone()
+        };
+        if let Some(level_of) = &self.forced_levels {
+            for ((a, o), &(id, tile, _)) in allocation.iter_mut().zip(&mut offered).zip(&visible) {
+                let pinned = level_of(id);
+                o.level = drawable_level(pinned, 0, partial.is_some());
+                a.level = drawable_level(pinned, tile.finest_mask_level(), partial.is_some());
+                a.triangles = self.masks.triangle_count(a.level);
+            }
+        }
+        let mut wants = Vec::new();
+        if matches!(self.pager, Paging::Stream(_)) {
+            let levels = progressive_levels(self.terrain.tile_size);
+            wants.extend(visible.iter().zip(&offered).zip(&importance.values).map(
+                |((&(id, _, _), o), &priority)| Want {
+                    id,
+                    levels: levels_for_mask(o.level, levels),
+                    priority,
+                    predicted: false,
+                },
+            ));
+            wants.extend(absent_wants(
+                &self.pager,
+                self.grid,
+                &self.terrain,
+                &camera,
+                aspect,
+                false,
+            ));
+            if let Some(predictor) = &mut self.predictor {
+                predictor.observe(self.pager.time(), camera);
+                if let Some(view) = predictor.predict() {
+                    wants.extend(absent_wants(
+                        &self.pager,
+                        self.grid,
+                        &self.terrain,
+                        &view.cull,
+                        aspect,
+                        true,
+                    ));
+                    wants.extend(predicted_wants(
+                        &self.pager,
+                        &self.terrain,
+                        &view,
+                        aspect,
+                        PredictedBudget {
+                            budget,
+                            weights: self.settings.weights,
+                            masks,
+                        },
+                    ));
+                }
+            }
+        }
+        let levels: Vec<(TileId, usize)> = visible
+            .iter()
+            .zip(&allocation)
+            .map(|(&(id, _, _), a)| (id, a.level))
+            .collect();
+        let mut draws: Vec<TileDraw<'_>> = visible
+            .iter()
+            .zip(neighbour_levels(&levels))
+            .zip(&levels)
+            .map(
+                |((&(id, tile, distance), neighbours), &(_, level))| TileDraw {
+                    x: id.x,
+                    y: id.y,
+                    tile,
+                    level,
+                    neighbours,
+                    distance,
+                },
+            )
+            .collect();
+        let triangles = allocation.iter().map(|a| a.triangles).sum();
+        let rendered: Vec<RenderedTile> = visible
+            .iter()
+            .zip(allocation.iter().zip(&offered))
+            .zip(&importance.values)
+            .map(
+                |((&(id, tile, distance), (a, o)), &importance)| RenderedTile {
+                    id,
+                    importance,
+                    level: a.level,
+                    // No nearer than the clearance the eye keeps above the ground: a tile whose
+                    // box holds the eye (distance 0) is not seen from closer.
+                    error_px: tile.level_errors.get(a.level).map_or(0.0, |&e| {
+                        let seen_from = distance.max(self.settings.clearance);
+                        f64::from(e) * camera.pixels_per_metre(seen_from, height)
+                    }),
+                    capped: a.level > o.level,
+                },
+            )
+            .collect();
+        let bookkeeping_seconds = started.elapsed().as_secs_f64();
+
+        let drawing = Instant::now();
+        let drawn = draw_tiles(
+            target,
+            &camera,
+            &self.terrain,
+            &mut draws,
+            TileMeshes {
+                masks: &self.masks,
+                cracks: &mut self.cracks,
+                held: Some(&mut self.held),
+                morph: self.morpher.as_mut(),
+            },
+            &self.settings.render,
+        )
+        .map_err(|e| Error::Usage(format!("rendering failed: {e}")))?;
+        let rendered_tiles = draws.len();
+        drop(draws);
+        drop(visible);
+        self.pager.request(&wants);
+        let levels = progressive_levels(self.terrain.tile_size);
+        self.pager.drawn(
+            rendered
+                .iter()
+                .map(|r| (r.id, levels_for_mask(r.level, levels))),
+        );
+        Ok(FrameReport {
+            camera,
+            budget,
+            triangles,
+            rendered_tiles,
+            rendered,
+            draw: drawn.triangles,
+            wireframe: drawn.lines,
+            bookkeeping_seconds,
+            draw_seconds: drawing.elapsed().as_secs_f64(),
+            pager: self.pager.stats(),
+        })
+    }
+
+    /// Switches the crack mode between frames. Loaded tiles are refit in place (skirt vertices
+    /// added or dropped; no fetch) and re-accounted, evicting the farthest tiles if the new mode
+    /// holds more than the memory limit allows ([`Pager::refit`]); fetches in flight are refit
+    /// when they arrive. The next frame draws exactly what an engine started in `mode` would
+    /// draw with the same tiles loaded.
+    pub fn set_cracks(&mut self, mode: CrackMode) {
+        if mode == self.settings.cracks {
+            return;
+        }
+        self.settings.cracks = mode;
+        self.pager.loader().set_cracks(mode);
+        self.pager.refit();
+        self.cracks = TileIndices::new(mode, self.terrain.tile_size);
+    }
+
+    /// Changes the frame rate the budget aims at (a lower target allows more triangles).
+    pub fn set_target_fps(&mut self, fps: f64) {
+        let mut settings = *self.budget.settings();
+        settings.target_fps = fps;
+        self.settings.budget.target_fps = fps;
+        let budget = self.budget.budget();
+        self.budget = BudgetController::new(BudgetSettings {
+            initial_budget: budget,
+            ..settings
+        });
+    }
+
+    /// Sets the next frame's budget to `triangles`, where it stays until a recorded frame moves
+    /// it: measurements at a fixed budget (the tradeoff report) bypass the frame-rate controller.
+    pub fn hold_budget(&mut self, triangles: usize) {
+        let settings = *self.budget.settings();
+        self.budget = BudgetController::new(BudgetSettings {
+            initial_budget: triangles,
+            min_budget: settings.min_budget.min(triangles),
+            max_budget: settings.max_budget.max(triangles),
+            ..settings
+        });
+    }
+
+    /// Feeds the time a frame took (as the target device would have spent it) to the budget
+    /// controller; returns the next frame's budget.
+    pub fn record_frame(&mut self, seconds: f64, triangles: usize) -> usize {
+        self.budget.record(seconds, triangles)
+    }
+
+    /// Near plane from the height above the ground (depth precision where it matters), far
+    /// plane at the farthest loaded tile (nothing beyond it can be drawn). The near plane stays
+    /// below the eye's height, or the ground under the lower screen edge would be clipped away
+    /// (down to a millimetre: an eye a centimetre above the ground still sees the ground).
+    fn fit_depth_range(&self, camera: &mut Camera) {
+        let ground = self
+            .ground(camera.position)
+            .unwrap_or(self.terrain.heights.0 + self.terrain.origin.y);
+        let height = (camera.position.y - ground).max(0.0);
+        camera.near = (0.25 * height).clamp(1e-3, 1000.0);
+        let far = self
+            .pager
+            .tiles()
+            .map(|(id, tile)| {
+                let (lo, hi) =
+                    self.terrain
+                        .tile_box(id.x, id.y, f64::from(tile.min), f64::from(tile.max));
+                let d = (lo - camera.position)
+                    .abs()
+                    .max((hi - camera.position).abs());
+                d.length()
+            })
+            .fold(0.0f64, f64::max);
+        camera.far = far.max(camera.near * 4.0);
+    }
+}
+
+/// Geomorphing morphs whole tiles only (its hierarchy is the whole tile's): refuses a frame
+/// with a partial tile while it is on, naming the tile.
+fn refuse_partial_tiles(partial: Option<(TileId, &ResidentTile)>) -> Result<()> {
+    match partial {
+        Some((id, tile)) => Err(Error::Usage(format!(
+            "tile ({}, {}) holds {} of its {} progressive levels, and geomorphing draws whole \
+             tiles only: turn geomorphing off to stream progressive tiles",
+            id.x,
+            id.y,
+            tile.levels,
+            progressive_levels(tile.tile_size)
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// The resident tiles whose boxes meet the view of `camera` at `aspect`, each with its
+/// distance from the eye, and their importance measures.
+fn cull<'p>(
+    pager: &'p Paging,
+    terrain: &TerrainFrame,
+    camera: &Camera,
+    aspect: f64,
+) -> (Vec<(TileId, &'p ResidentTile, f64)>, Vec<TileMeasure>) {
+    let frustum = Frustum::from_view_projection(&camera.view_projection(aspect));
+    let mut visible = Vec::new();
+    let mut measures = Vec::new();
+    for (id, tile) in pager.tiles() {
+        let (lo, hi) = terrain.tile_box(id.x, id.y, f64::from(tile.min), f64::from(tile.max));
+        let aabb = Aabb::new(lo - camera.position, hi - camera.position);
+        if frustum.intersects(&aabb) {
+            let distance = aabb.distance(DVec3::ZERO);
+            visible.push((id, tile, distance));
+            measures.push(TileMeasure {
+                distance,
+                height: f64::from(tile.max - tile.min),
+            });
+        }
+    }
+    (visible, measures)
+}
+
+/// The progressive levels (of `levels` in all) a tile needs to draw mask `level`: a mask keeping
+/// every `l + 1`-th sample needs the grid whose spacing divides `l + 1`.
+pub fn levels_for_mask(level: usize, levels: usize) -> usize {
+    let spacing_log2 = (level + 1).trailing_zeros() as usize;
+    levels - spacing_log2.min(levels - 1)
+}
+
+/// Wishes for the coarsest level of the tiles a view needs but nobody holds: those of the belts
+/// up to the one being filled whose boxes, at the archive's height range, meet the frustum.
+fn absent_wants(
+    pager: &Paging,
+    grid: Grid,
+    terrain: &TerrainFrame,
+    camera: &Camera,
+    aspect: f64,
+    predicted: bool,
+) -> Vec<Want> {
+    let Some(center) = pager.current_tile() else {
+        return Vec::new();
+    };
+    let reach = pager.stats().complete_belts.map_or(0, |d| d + 1);
+    view_tiles(grid, terrain, center, reach, camera, aspect)
+        .filter(|&id| pager.get(id).is_none())
+        .map(|id| Want {
+            id,
+            levels: 1,
+            priority: 1.0,
+            predicted,
+        })
+        .collect()
+}
+
+/// The tiles within `radius` belts of `center` whose boxes, at the archive's height range, meet
+/// the view of `camera` at `aspect`: the tiles a view may need, held or not.
+fn view_tiles<'a>(
+    grid: Grid,
+    terrain: &'a TerrainFrame,
+    center: TileId,
+    radius: u32,
+    camera: &'a Camera,
+    aspect: f64,
+) -> impl Iterator<Item = TileId> + 'a {
+    let frustum = Frustum::from_view_projection(&camera.view_projection(aspect));
+    let (lo_h, hi_h) = terrain.heights;
+    (0..=radius.min(grid.max_ring(center)))
+        .flat_map(move |d| grid.belt(center, d))
+        .filter(move |id| {
+            let (lo, hi) = terrain.tile_box(id.x, id.y, lo_h, hi_h);
+            frustum.intersects(&Aabb::new(lo - camera.position, hi - camera.position))
+        })
+}
+
+/// What the predicted view's budget is shared with.
+struct PredictedBudget<'m> {
+    budget: usize,
+    weights: Weights,
+    masks: &'m MaskSet,
+}
+
+/// The predicted view's wishes: the resident tiles its (pulled-back) frustum meets, weighed
+/// from the predicted eye, given the levels this frame's budget would buy them there, at half
+/// their importance (a guess counts less than what is on screen).
+fn predicted_wants(
+    pager: &Paging,
+    terrain: &TerrainFrame,
+    view: &PredictedView,
+    aspect: f64,
+    shared: PredictedBudget<'_>,
+) -> Vec<Want> {
+    let (seen, _) = cull(pager, terrain, &view.cull, aspect);
+    let measures: Vec<TileMeasure> = seen
+        .iter()
+        .map(|&(id, tile, _)| {
+            let (lo, hi) = terrain.tile_box(id.x, id.y, f64::from(tile.min), f64::from(tile.max));
+            TileMeasure {
+                distance: Aabb::new(lo - view.camera.position, hi - view.camera.position)
+                    .distance(DVec3::ZERO),
+                height: f64::from(tile.max - tile.min),
+            }
+        })
+        .collect();
+    let importance = visual_importance(&measures, shared.weights);
+    let offered = allocate(shared.budget, &importance, shared.masks);
+    let levels = progressive_levels(terrain.tile_size);
+    seen.iter()
+        .zip(&offered)
+        .zip(&importance.values)
+        .map(|((&(id, _, _), o), &priority)| Want {
+            id,
+            levels: levels_for_mask(o.level, levels),
+            priority: 0.5 * priority,
+            predicted: true,
+        })
+        .collect()
+}
+
+/// Progressive streaming draws partial tiles, which geomorphing cannot, and its textures follow
+/// the levels importance asks for, which a separate texture budget would contradict.
+fn check_progressive(settings: &EngineSettings) -> Result<()> {
+    if settings.geomorph != Geomorph::Off {
+        return Err(Error::Usage(
+            "progressive streaming draws partial tiles, which geomorphing cannot: turn one off"
+                .into(),
+        ));
+    }
+    if settings.texture_budget_bytes.is_some() {
+        return Err(Error::Usage(
+            "progressive streaming holds exactly the texture mips of the levels it holds: a \
+             separate texture budget does not apply (drop --texture-mb)"
+                .into(),
+        ));
+    }
+    Ok(())
+}
+
+/// Morphed heights count 1/[`SUBDIVISION`] quanta in an i32: refuses an archive whose heights
+/// would not fit when geomorphing is on.
+fn check_morph_range(settings: &EngineSettings, terrain: &TerrainFrame, name: &str) -> Result<()> {
+    let limit = f64::from(i32::MAX / SUBDIVISION - i32::from(u16::MAX));
+    let reach = terrain.heights.0.abs().max(terrain.heights.1.abs()) / terrain.quantum;
+    if settings.geomorph != Geomorph::Off && reach >= limit {
+        return Err(Error::invalid(
+            name,
+            format!(
+                "heights up to {reach:.0} quanta are beyond the {limit:.0} that geomorphing \
+                 can count in 1/{SUBDIVISION} quanta: turn geomorphing off"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::db::tile::Tile;
+
+    #[test]
+    fn geomorphing_refuses_a_partial_tile_by_name() {
+        let heights: Vec<f32> = (0..81).map(|k| k as f32).collect();
+        let tile = Tile::new(&heights, 9, 0.5, &[[1, 2, 3]; 64], 8).unwrap();
+        let light = Light::default();
+        let partial = ResidentTile::new(&tile.truncated(2), 0, 1.0, &light, CrackMode::Stitch);
+        let err = refuse_partial_tiles(Some((TileId::new(3, 4), &partial))).unwrap_err();
+        let text = err.to_string();
+        assert!(text.contains("tile (3, 4) holds 2 of its 4"), "{text}");
+        assert!(text.contains("turn geomorphing off"), "{text}");
+        assert!(refuse_partial_tiles(None).is_ok());
+    }
+}

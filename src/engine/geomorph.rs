@@ -1,0 +1,429 @@
+//! Geomorphing: vertices that coarser levels drop glide onto the coarser surface with distance,
+//! so that a mask switch moves them a little instead of all at once.
+//!
+//! The morph follows the power-of-two hierarchy of a tile of `s = 2^n + 1` samples: every
+//! sample that is not a corner *splits* a segment of the next coarser power-of-two grid, of
+//! `step` samples (1, 2, 4, …): horizontally, vertically, or along the north-west to south-east
+//! diagonal that the masks split cells on. [`MorphTree`] lists those splits, coarsest first.
+//! A vertex's morphed height is `h + f (p - h)`, where `p` is the mean of its two parents'
+//! *morphed* heights, so a morph factor of 1 at every vertex finer than some step leaves exactly
+//! the piecewise-linear surface of that coarser grid. Vertex colours (the lighting) morph the
+//! same way.
+//!
+//! The factor depends only on the vertex's world position, its step and the camera
+//! ([`Geomorph::Distance`], as in CDLOD): a vertex whose step projects to fewer than `pixels`
+//! pixels is fully morphed, one whose step spans twice that or more not at all, and in between
+//! the factor grows linearly with distance. A border vertex has the same global position, step,
+//! parents and height in both tiles that share it, so both tiles morph it to the same integer
+//! and [`crate::engine::cracks::CrackMode::Stitch`] stays crack-free. A per-tile factor (say, a morph
+//! over the frames after a tile's switch) would give the two tiles different border heights and
+//! reopen the cracks, which is why there is no such mode.
+//!
+//! Everything is integer: morphed positions count [`SUBDIVISION`]ths of a grid step and of a
+//! height quantum, factors [`FACTOR_ONE`]ths. Factor 0 gives the tile's own heights exactly,
+//! factor 1 the parents' mean exactly as long as the hierarchy is at most 8 steps deep (tiles of
+//! up to 257 samples; finer ones round the deepest midpoints down by 1/256 quantum).
+//!
+//! The tile data are not touched: the engine morphs each drawn tile into one scratch buffer per
+//! frame, so geomorphing costs no memory per tile, and nothing at all when it is off.
+
+use glam::DVec3;
+use stripmask_raster::Vertex;
+
+use crate::engine::camera::Camera;
+use crate::engine::terrain::TerrainFrame;
+
+/// Morphed vertices count positions in 1/256 of a grid step and of a height quantum.
+pub const SUBDIVISION: i32 = 256;
+
+/// A morph factor of 1: factors are integers `0 ..= FACTOR_ONE`.
+pub const FACTOR_ONE: i32 = 256;
+
+/// Whether, and how, vertices that coarser levels drop are morphed.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Geomorph {
+    /// Vertices keep their heights: a mask switch pops.
+    #[default]
+    Off,
+    /// By distance: a vertex is fully on the coarser surface where its step spans fewer than
+    /// `pixels` pixels on screen, untouched where it spans `2 pixels` or more.
+    Distance {
+        /// Projected step length, pixels, below which a vertex is fully morphed.
+        pixels: f64,
+    },
+}
+
+impl Geomorph {
+    /// The distance morph with the projected step of [`Geomorph::DEFAULT_PIXELS`].
+    pub const DISTANCE: Geomorph = Geomorph::Distance {
+        pixels: Geomorph::DEFAULT_PIXELS,
+    };
+
+    /// The default threshold of [`Geomorph::Distance`]: a 4-pixel step is close to what the
+    /// eye tells from a plane at 320x240, and 8-pixel steps keep all their relief.
+    pub const DEFAULT_PIXELS: f64 = 4.0;
+}
+
+/// One sample of a tile and the two samples of the next coarser grid whose segment it splits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Split {
+    /// The sample, `j * s + i`.
+    pub vertex: usize,
+    /// The ends of the segment it splits.
+    pub parents: [usize; 2],
+    /// Its distance to each parent along a grid axis, samples (a power of two).
+    pub step: usize,
+}
+
+/// The splits of every non-corner sample of one tile size, coarsest first: the order in which
+/// morphing can use the parents' morphed heights.
+#[derive(Clone, Debug)]
+pub struct MorphTree {
+    tile_size: usize,
+    splits: Vec<Split>,
+}
+
+impl MorphTree {
+    /// The hierarchy of tiles of `tile_size = 2^n + 1` samples per side; `None` for any other
+    /// size.
+    pub fn new(tile_size: usize) -> Option<MorphTree> {
+        let s = tile_size;
+        if s < 3 || !(s - 1).is_power_of_two() {
+            return None;
+        }
+        let v = |i: usize, j: usize| j * s + i;
+        let mut splits = Vec::with_capacity(s * s - 4);
+        let mut step = (s - 1) / 2;
+        while step >= 1 {
+            for j in (0..s).step_by(step) {
+                for i in (0..s).step_by(step) {
+                    let (odd_i, odd_j) = ((i / step) % 2 == 1, (j / step) % 2 == 1);
+                    let parents = match (odd_i, odd_j) {
+                        (false, false) => continue,
+                        (true, false) => [v(i - step, j), v(i + step, j)],
+                        (false, true) => [v(i, j - step), v(i, j + step)],
+                        (true, true) => [v(i - step, j - step), v(i + step, j + step)],
+                    };
+                    splits.push(Split {
+                        vertex: v(i, j),
+                        parents,
+                        step,
+                    });
+                }
+            }
+            step /= 2;
+        }
+        Some(MorphTree {
+            tile_size: s,
+            splits,
+        })
+    }
+
+    /// Samples per tile side.
+    pub fn tile_size(&self) -> usize {
+        self.tile_size
+    }
+
+    /// Every non-corner sample's split, coarsest first.
+    pub fn splits(&self) -> &[Split] {
+        &self.splits
+    }
+
+    /// Writes into `out` (emptied first) `vertices` in [`SUBDIVISION`] units with every split
+    /// sample morphed by `factor(split)` (`0 ..= FACTOR_ONE`) towards its parents' morphed mean.
+    /// Vertices beyond the grid (a crack mode's extras) are scaled and kept as they are.
+    pub fn morph(
+        &self,
+        vertices: &[Vertex],
+        mut factor: impl FnMut(&Split) -> i32,
+        out: &mut Vec<Vertex>,
+    ) {
+        debug_assert!(vertices.len() >= self.tile_size * self.tile_size);
+        out.clear();
+        out.extend(vertices.iter().map(|v| Vertex {
+            position: v.position.map(|c| c.saturating_mul(SUBDIVISION)),
+            ..*v
+        }));
+        for split in &self.splits {
+            let f = i64::from(factor(split).clamp(0, FACTOR_ONE));
+            if f == 0 {
+                continue;
+            }
+            let [a, b] = split.parents.map(|p| out[p]);
+            let v = &mut out[split.vertex];
+            let towards = |own: i64, a: i64, b: i64| {
+                let target = (a + b).div_euclid(2);
+                own + ((target - own) * f + i64::from(FACTOR_ONE / 2))
+                    .div_euclid(i64::from(FACTOR_ONE))
+            };
+            let y = i64::from(v.position[1]);
+            v.position[1] = towards(y, a.position[1].into(), b.position[1].into()) as i32;
+            for c in 0..3 {
+                let own = i64::from(v.color[c]);
+                v.color[c] = towards(own, a.color[c].into(), b.color[c].into()) as u8;
+            }
+        }
+    }
+}
+
+/// What a frame's distance morph needs: the eye and the scale from metres to pixels.
+#[derive(Clone, Copy, Debug)]
+pub struct MorphView {
+    /// The eye relative to the terrain's origin, metres.
+    eye: DVec3,
+    spacing: f64,
+    quantum: f64,
+    tile_cells: i64,
+    /// `2 pixels / (spacing * focal)`: a vertex's factor is `distance * this / step - 1`.
+    scale: f64,
+}
+
+impl MorphView {
+    /// The distance morph with threshold `pixels` ([`Geomorph::Distance`]) for `camera` over
+    /// `terrain` on a screen `height` pixels tall.
+    pub fn new(pixels: f64, camera: &Camera, terrain: &TerrainFrame, height: u32) -> MorphView {
+        let focal = f64::from(height) / (2.0 * (camera.fov_y / 2.0).tan());
+        MorphView {
+            eye: camera.position - terrain.origin,
+            spacing: terrain.spacing,
+            quantum: terrain.quantum,
+            tile_cells: terrain.tile_size as i64 - 1,
+            scale: 2.0 * pixels / (terrain.spacing * focal),
+        }
+    }
+
+    /// The morph factor (`0 ..= FACTOR_ONE`) of the sample at global grid position `(gx, gz)`
+    /// with height `quanta` and step `step`. Computed from integers and the eye only, so every
+    /// tile holding the sample gets the same factor.
+    pub fn factor(&self, gx: i64, gz: i64, quanta: i32, step: usize) -> i32 {
+        let at = DVec3::new(
+            gx as f64 * self.spacing,
+            f64::from(quanta) * self.quantum,
+            gz as f64 * self.spacing,
+        );
+        let f = (at - self.eye).length() * self.scale / step as f64 - 1.0;
+        (f.clamp(0.0, 1.0) * f64::from(FACTOR_ONE)).round() as i32
+    }
+
+    /// Writes into `out` the vertices of tile `(x, y)` morphed for this view.
+    pub fn morph_tile(
+        &self,
+        tree: &MorphTree,
+        vertices: &[Vertex],
+        (x, y): (u32, u32),
+        out: &mut Vec<Vertex>,
+    ) {
+        let s = tree.tile_size();
+        let (gx0, gz0) = (
+            i64::from(x) * self.tile_cells,
+            i64::from(y) * self.tile_cells,
+        );
+        tree.morph(
+            vertices,
+            |split| {
+                let (i, j) = (split.vertex % s, split.vertex / s);
+                let quanta = vertices[split.vertex].position[1];
+                self.factor(gx0 + i as i64, gz0 + j as i64, quanta, split.step)
+            },
+            out,
+        );
+    }
+}
+
+/// The engine's morph state: the hierarchy of its tile size and one scratch buffer that each
+/// drawn tile is morphed into in turn.
+#[derive(Clone, Debug)]
+pub struct Morpher {
+    pixels: f64,
+    tree: MorphTree,
+    scratch: Vec<Vertex>,
+}
+
+impl Morpher {
+    /// The morph state of `geomorph` for tiles of `tile_size` samples; `None` when it is off
+    /// (or the size is not `2^n + 1`, which archives never have).
+    pub fn new(geomorph: Geomorph, tile_size: usize) -> Option<Morpher> {
+        let Geomorph::Distance { pixels } = geomorph else {
+            return None;
+        };
+        Some(Morpher {
+            pixels,
+            tree: MorphTree::new(tile_size)?,
+            scratch: Vec::new(),
+        })
+    }
+
+    /// This frame's view of the morph.
+    pub fn view(&self, camera: &Camera, terrain: &TerrainFrame, height: u32) -> MorphView {
+        MorphView::new(self.pixels, camera, terrain, height)
+    }
+
+    /// Tile `(x, y)`'s `vertices` morphed for `view`, in [`SUBDIVISION`] units.
+    pub fn tile(&mut self, view: &MorphView, vertices: &[Vertex], at: (u32, u32)) -> &[Vertex] {
+        view.morph_tile(&self.tree, vertices, at, &mut self.scratch);
+        &self.scratch
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::db::mask_level::keeps_index;
+
+    fn grid(s: usize, height: impl Fn(usize, usize) -> i32) -> Vec<Vertex> {
+        (0..s * s)
+            .map(|k| {
+                let (i, j) = (k % s, k / s);
+                let c = (height(i, j).rem_euclid(200) + 20) as u8;
+                Vertex::new(
+                    [i as i32, height(i, j), j as i32],
+                    [0.0, 0.0],
+                    [c, c / 2, 255 - c],
+                )
+            })
+            .collect()
+    }
+
+    fn bumpy(i: usize, j: usize) -> i32 {
+        ((i * 37 + j * 91) % 53) as i32 * 17 - 300 + (i * j) as i32
+    }
+
+    #[test]
+    fn every_sample_but_the_corners_splits_one_segment_coarsest_first() {
+        for s in [3, 5, 9, 17, 65] {
+            let tree = MorphTree::new(s).unwrap();
+            let mut seen = vec![false; s * s];
+            let last = s - 1;
+            for k in [0, last, last * s, last * s + last] {
+                seen[k] = true;
+            }
+            for split in tree.splits() {
+                assert!(!seen[split.vertex], "s {s}: split twice");
+                assert!(
+                    split.parents.iter().all(|&p| seen[p]),
+                    "s {s}: parent after child"
+                );
+                let (i, j) = (split.vertex % s, split.vertex / s);
+                for p in split.parents {
+                    let (pi, pj) = (p % s, p / s);
+                    assert_eq!(pi.abs_diff(i).max(pj.abs_diff(j)), split.step);
+                }
+                seen[split.vertex] = true;
+            }
+            assert!(seen.iter().all(|&v| v), "s {s}");
+        }
+        assert!(MorphTree::new(10).is_none());
+        assert!(MorphTree::new(2).is_none());
+    }
+
+    #[test]
+    fn factor_zero_keeps_the_tile_exactly() {
+        let s = 17;
+        let vertices = grid(s, bumpy);
+        let mut out = Vec::new();
+        MorphTree::new(s).unwrap().morph(&vertices, |_| 0, &mut out);
+        for (m, v) in out.iter().zip(&vertices) {
+            assert_eq!(m.position, v.position.map(|c| c * SUBDIVISION));
+            assert_eq!(m.color, v.color);
+            assert_eq!(m.uv, v.uv);
+        }
+    }
+
+    /// The height of the coarse grid of `step` samples at `(i, j)`, in SUBDIVISION units:
+    /// bilinear on its edges, on the north-west to south-east diagonal split inside its cells.
+    fn coarse_surface(vertices: &[Vertex], s: usize, step: usize, i: usize, j: usize) -> i64 {
+        let h = |i: usize, j: usize| i64::from(vertices[j * s + i].position[1]) * 256;
+        let (i0, j0) = (
+            (i / step * step).min(s - 1 - step),
+            (j / step * step).min(s - 1 - step),
+        );
+        let (u, v) = ((i - i0) as i64, (j - j0) as i64);
+        let d = step as i64;
+        let (h00, h10, h01, h11) = (
+            h(i0, j0),
+            h(i0 + step, j0),
+            h(i0, j0 + step),
+            h(i0 + step, j0 + step),
+        );
+        let sum = if u >= v {
+            h00 * d + (h10 - h00) * u + (h11 - h10) * v
+        } else {
+            h00 * d + (h01 - h00) * v + (h11 - h01) * u
+        };
+        assert_eq!(
+            sum % d,
+            0,
+            "midpoints of a hierarchy up to 8 deep are exact"
+        );
+        sum / d
+    }
+
+    #[test]
+    fn factor_one_below_a_step_gives_exactly_that_coarse_grid_surface() {
+        for s in [9, 33, 257] {
+            let vertices = grid(s, bumpy);
+            let tree = MorphTree::new(s).unwrap();
+            let mut out = Vec::new();
+            for coarse in [2, 4, 8] {
+                tree.morph(
+                    &vertices,
+                    |split| if split.step < coarse { FACTOR_ONE } else { 0 },
+                    &mut out,
+                );
+                let level = coarse - 1;
+                for j in 0..s {
+                    for i in 0..s {
+                        let y = i64::from(out[j * s + i].position[1]);
+                        if keeps_index(s, level, i) && keeps_index(s, level, j) {
+                            // The samples of the coarse mask keep their own heights…
+                            assert_eq!(y, i64::from(vertices[j * s + i].position[1]) * 256);
+                        }
+                        // …and every sample lies on the coarse mask's surface.
+                        assert_eq!(
+                            y,
+                            coarse_surface(&vertices, s, coarse, i, j),
+                            "s {s} ({i}, {j})"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_partial_factor_lands_between_the_own_height_and_the_parents_mean() {
+        let s = 3;
+        let vertices = grid(s, |i, j| if (i, j) == (1, 0) { 100 } else { 0 });
+        let mut out = Vec::new();
+        MorphTree::new(s)
+            .unwrap()
+            .morph(&vertices, |_| FACTOR_ONE / 4, &mut out);
+        // (1, 0) splits the north edge between two corners at 0: three quarters of 100 quanta.
+        assert_eq!(out[1].position[1], 75 * 256);
+    }
+
+    #[test]
+    fn the_factor_grows_with_distance_from_untouched_to_full() {
+        let terrain = TerrainFrame {
+            tiles_x: 4,
+            tiles_y: 4,
+            tile_size: 9,
+            spacing: 10.0,
+            quantum: 0.25,
+            heights: (0.0, 100.0),
+            origin: DVec3::new(1e7, 0.0, -3e6),
+        };
+        let mut camera = Camera::looking_at(terrain.origin, terrain.origin + DVec3::X);
+        camera.fov_y = 90f64.to_radians();
+        // focal = 100 px on a 200 px screen; a 1-sample step (10 m) spans 4 px at 250 m.
+        let view = MorphView::new(4.0, &camera, &terrain, 200);
+        assert_eq!(view.factor(12, 0, 0, 1), 0, "120 m: 8.3 px");
+        assert_eq!(view.factor(25, 0, 0, 1), FACTOR_ONE, "250 m: 4 px");
+        assert_eq!(view.factor(50, 0, 0, 1), FACTOR_ONE);
+        assert_eq!(view.factor(25, 0, 0, 2), 0, "a 2-sample step spans 8 px");
+        let mid = view.factor(0, 18, 3 * 4 * 4 * 2, 1);
+        assert!(mid > 0 && mid < FACTOR_ONE, "{mid}");
+        assert!(Morpher::new(Geomorph::Off, 9).is_none());
+        assert!(Morpher::new(Geomorph::DISTANCE, 9).is_some());
+    }
+}

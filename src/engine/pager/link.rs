@@ -1,0 +1,136 @@
+//! What both pagers send their requests over: a fetch thread ([`PagerMode::Threaded`]), or, in
+//! the deterministic modes, this thread — with [`PagerMode::Simulated`] each result held back
+//! until the simulated time passes the end of its transfer on a link that carries one request at
+//! a time, as timed by a [`TransferClock`].
+//!
+//! [`PagerMode::Threaded`]: super::PagerMode::Threaded
+//! [`PagerMode::Simulated`]: super::PagerMode::Simulated
+
+use std::collections::VecDeque;
+use std::sync::Arc;
+
+use super::TransferClock;
+use super::worker::{self, Arrival, Job, Request, Worker};
+use crate::engine::belts::Ledger;
+use crate::error::{Error, Result};
+
+/// A result that arrives at `due` simulated seconds.
+struct Pending<R, T> {
+    due: f64,
+    request: R,
+    result: Result<(T, u64)>,
+}
+
+/// What arrived since the last look.
+pub struct Received<R, T> {
+    /// Requests and their results, in arrival order.
+    pub arrivals: Vec<(R, Result<(T, u64)>)>,
+    /// What went wrong with the fetch thread: it stopped (every request in flight failed in the
+    /// ledger, and a new thread was started), and starting the new one failed.
+    pub errors: Vec<Error>,
+}
+
+/// A fetch thread or this thread, and the simulated link's clock.
+pub struct Link<R: Request, T> {
+    job: Job<R, T>,
+    worker: Option<Worker<R, T>>,
+    transfer_clock: Option<Arc<dyn TransferClock>>,
+    pending: VecDeque<Pending<R, T>>,
+    free_at: f64,
+}
+
+impl<R: Request, T: Send + 'static> Link<R, T> {
+    /// Runs `job` for each request, on a fetch thread when `threaded`.
+    pub fn new(job: Job<R, T>, threaded: bool) -> Result<Self> {
+        let worker = if threaded {
+            Some(Worker::spawn(Arc::clone(&job))?)
+        } else {
+            None
+        };
+        Ok(Link {
+            job,
+            worker,
+            transfer_clock: None,
+            pending: VecDeque::new(),
+            free_at: 0.0,
+        })
+    }
+
+    /// Times simulated transfers; without a clock they take no time.
+    pub fn set_transfer_clock(&mut self, clock: Arc<dyn TransferClock>) {
+        self.transfer_clock = Some(clock);
+    }
+
+    /// Queues `request` on the fetch thread.
+    pub fn send(&self, request: R) -> Result<()> {
+        match &self.worker {
+            Some(worker) => worker.send(request),
+            None => Err(Error::invalid(
+                request.tile().to_string(),
+                "no fetch thread is running",
+            )),
+        }
+    }
+
+    /// Runs `request` on this thread now.
+    pub fn run_now(&self, request: R) -> Result<(T, u64)> {
+        worker::run(&*self.job, request)
+    }
+
+    /// Runs `request` now and holds its result back until the end of its transfer, which
+    /// starts at `time` or when the link is free, whichever is later.
+    pub fn schedule(&mut self, request: R, time: f64) {
+        let busy = |clock: &Option<Arc<dyn TransferClock>>| {
+            clock.as_ref().map_or(0.0, |c| c.busy_seconds())
+        };
+        let before = busy(&self.transfer_clock);
+        let result = self.run_now(request);
+        let took = (busy(&self.transfer_clock) - before).max(0.0);
+        let due = self.free_at.max(time) + took;
+        self.free_at = due;
+        self.pending.push_back(Pending {
+            due,
+            request,
+            result,
+        });
+    }
+
+    /// Every scheduled result due by `time`, then every result the fetch thread sent. If the
+    /// thread is gone, its requests in flight fail in `ledger` (update `now`) and a new thread
+    /// starts.
+    pub fn receive(&mut self, time: f64, ledger: &mut Ledger, now: u64) -> Received<R, T> {
+        let mut received = Received {
+            arrivals: Vec::new(),
+            errors: Vec::new(),
+        };
+        while self.pending.front().is_some_and(|p| p.due <= time) {
+            let p = self.pending.pop_front().expect("checked");
+            received.arrivals.push((p.request, p.result));
+        }
+        if let Some(worker) = &self.worker {
+            loop {
+                match worker.try_recv() {
+                    Ok(Some(Arrival { request, result })) => {
+                        received.arrivals.push((request, result))
+                    }
+                    Ok(None) => break,
+                    Err(e) => {
+                        received.errors.push(e);
+                        break;
+                    }
+                }
+            }
+        }
+        if !received.errors.is_empty() {
+            ledger.fail_in_flight(now);
+            match Worker::spawn(Arc::clone(&self.job)) {
+                Ok(worker) => self.worker = Some(worker),
+                Err(e) => {
+                    self.worker = None;
+                    received.errors.push(e);
+                }
+            }
+        }
+        received
+    }
+}

@@ -1,0 +1,126 @@
+//! The fetch thread: takes requests over a channel, runs a job on each, and sends the results
+//! back, so that the frame loop never waits on I/O. The belt pager's requests are whole-tile
+//! [`Fetch`]es; the stream pager's are (tile, level) requests.
+
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, Sender, TryRecvError, channel};
+use std::thread::JoinHandle;
+
+use super::TileLoader;
+use crate::engine::belts::{Fetch, TileId};
+use crate::error::{Error, Result};
+
+/// A request the fetch thread can run: it names the tile it is for.
+pub trait Request: Copy + Send + 'static {
+    /// The tile the request fetches.
+    fn tile(&self) -> TileId;
+}
+
+impl Request for Fetch {
+    fn tile(&self) -> TileId {
+        self.id
+    }
+}
+
+/// What the fetch thread sends back for one request.
+pub struct Arrival<R, T> {
+    /// The request.
+    pub request: R,
+    /// What the job made of it, and the bytes it downloaded.
+    pub result: Result<(T, u64)>,
+}
+
+/// A job the fetch thread runs for each request.
+pub type Job<R, T> = Arc<dyn Fn(R) -> Result<(T, u64)> + Send + Sync>;
+
+/// A fetch thread and its two channels. Dropping it stops the thread after the request it is
+/// running, if any, without starting the requests still queued.
+pub struct Worker<R, T> {
+    requests: Option<Sender<R>>,
+    arrivals: Receiver<Arrival<R, T>>,
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl<R: Request, T: Send + 'static> Worker<R, T> {
+    /// Starts the fetch thread running `job` on each request; a panic in `job` becomes an error
+    /// naming the tile.
+    pub fn spawn(job: Job<R, T>) -> Result<Self> {
+        let (requests, queue) = channel::<R>();
+        let (done, arrivals) = channel();
+        let stop = Arc::new(AtomicBool::new(false));
+        let stopped = Arc::clone(&stop);
+        let thread = std::thread::Builder::new()
+            .name("stripmask-fetch".into())
+            .spawn(move || {
+                for request in queue {
+                    if stopped.load(Ordering::Relaxed) {
+                        break;
+                    }
+                    let result = run(&*job, request);
+                    if done.send(Arrival { request, result }).is_err() {
+                        break;
+                    }
+                }
+            })
+            .map_err(|e| Error::io("the fetch thread", e))?;
+        Ok(Worker {
+            requests: Some(requests),
+            arrivals,
+            stop,
+            thread: Some(thread),
+        })
+    }
+
+    /// Queues a request; fails when the thread is gone.
+    pub fn send(&self, request: R) -> Result<()> {
+        let sent = self.requests.as_ref().map(|r| r.send(request));
+        match sent {
+            Some(Ok(())) => Ok(()),
+            _ => Err(Error::invalid(
+                request.tile().to_string(),
+                "the fetch thread has stopped",
+            )),
+        }
+    }
+
+    /// The next result that arrived, without waiting; an error when the thread is gone.
+    pub fn try_recv(&self) -> Result<Option<Arrival<R, T>>> {
+        match self.arrivals.try_recv() {
+            Ok(arrival) => Ok(Some(arrival)),
+            Err(TryRecvError::Empty) => Ok(None),
+            Err(TryRecvError::Disconnected) => Err(Error::invalid(
+                "the fetch thread",
+                "it stopped with fetches in flight",
+            )),
+        }
+    }
+}
+
+impl<R, T> Drop for Worker<R, T> {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        self.requests = None;
+        if let Some(thread) = self.thread.take() {
+            // A panic inside the job is already caught in `run`; nothing else can panic.
+            let _ = thread.join();
+        }
+    }
+}
+
+/// Runs `job` for one request, turning a panic into an error that names the tile.
+pub fn run<R: Request, T>(job: &dyn Fn(R) -> Result<(T, u64)>, request: R) -> Result<(T, u64)> {
+    catch_unwind(AssertUnwindSafe(|| job(request))).unwrap_or_else(|_| {
+        Err(Error::invalid(
+            request.tile().to_string(),
+            "the loader panicked while fetching it",
+        ))
+    })
+}
+
+/// The belt pager's job: the loader's whole-tile load for the fetch's ring.
+pub fn load_job<L: TileLoader>(loader: Arc<L>) -> Job<Fetch, L::Loaded> {
+    Arc::new(move |fetch: Fetch| loader.load(fetch.id, fetch.ring))
+}

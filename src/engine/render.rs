@@ -1,0 +1,361 @@
+//! From a draw list to pixels: one shared eye-relative matrix, one integer origin per tile, and
+//! a draw order that suits the depth mode.
+//!
+//! The matrix is built in f64 around an *anchor* tile (the one under the eye): world positions
+//! are never formed, only `anchor origin - eye`, which is small wherever the terrain sits in the
+//! world. Each tile then draws with the same matrix and the integer offset of its grid position
+//! from the anchor (`Transform::with_origin`), so shared border vertices of neighbouring tiles
+//! land on bit-identical sub-pixel positions and no crack opens between tiles at the same level.
+
+use glam::{DMat4, DVec3};
+use stripmask_raster::{
+    CullMode, DepthMode, DrawStats, DrawTarget, Fog, Indices, LineDepth, LineState, LineStats,
+    Mesh, Perspective, Precision, RasterError, RenderState, Sampler, Shading, TextureBinding,
+    Topology, Transform,
+};
+
+use crate::db::tile::HeldLevels;
+use crate::engine::camera::Camera;
+use crate::engine::cracks::{CrackMode, TileIndices, shadow};
+use crate::engine::geomorph::{self, Morpher};
+use crate::engine::held_meshes::{HeldSideMeshes, held_level};
+use crate::engine::masks::{FRONT_FACE, MaskSet};
+use crate::engine::resident::ResidentTile;
+use crate::engine::terrain::TerrainFrame;
+
+/// Whether the tiles' triangle edges are drawn (the viewer's L key cycles through these).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Wireframe {
+    /// Shaded terrain only: no line is drawn and nothing is paid.
+    #[default]
+    Off,
+    /// The edges in [`Wireframe::OVER_COLOR`] over the shaded terrain.
+    Over,
+    /// The edges in [`Wireframe::ONLY_COLOR`] over the terrain filled in white (untextured,
+    /// unlit, no fog): a hidden-line drawing of the triangles alone.
+    Only,
+}
+
+impl Wireframe {
+    /// Line colour over the shaded terrain.
+    pub const OVER_COLOR: [u8; 3] = [255, 255, 255];
+    /// Line colour over the white terrain.
+    pub const ONLY_COLOR: [u8; 3] = [24, 24, 48];
+
+    /// The next mode: off, over, only, off.
+    pub fn next(self) -> Wireframe {
+        match self {
+            Wireframe::Off => Wireframe::Over,
+            Wireframe::Over => Wireframe::Only,
+            Wireframe::Only => Wireframe::Off,
+        }
+    }
+
+    /// The lines' state, `None` when off.
+    fn lines(self, depth_test: bool) -> Option<LineState> {
+        let color = match self {
+            Wireframe::Off => return None,
+            Wireframe::Over => Wireframe::OVER_COLOR,
+            Wireframe::Only => Wireframe::ONLY_COLOR,
+        };
+        Some(LineState {
+            color,
+            // In painter's order each tile's edges are drawn right after it, and nearer tiles
+            // drawn later cover them: no depth test needed (the depth buffer is not written).
+            depth: if depth_test {
+                LineDepth::ON_SURFACE
+            } else {
+                LineDepth::Always
+            },
+            scissor: None,
+        })
+    }
+}
+
+/// The rendering knobs a user trades speed for accuracy with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderSettings {
+    /// Fixed-point or f32 pipeline.
+    pub precision: Precision,
+    /// Perspective correction of texture coordinates.
+    pub perspective: Perspective,
+    /// Texture sampling; `None` draws untextured (shading colour only).
+    pub sampler: Option<Sampler>,
+    /// Per-vertex lighting (Gouraud); off draws the texture alone.
+    pub lighting: bool,
+    /// Depth test: tiles drawn front to back. Off: back to front, painter's order.
+    pub depth_test: bool,
+    /// Distance fog towards the sky colour, starting at `fog_start` of the far distance.
+    pub fog: bool,
+    /// Where fog starts, as a fraction of the far plane.
+    pub fog_start: f64,
+    /// Background and fog colour.
+    pub sky: [u8; 3],
+    /// The tiles' triangle edges over (or instead of) the shaded terrain.
+    pub wireframe: Wireframe,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            precision: Precision::Fixed,
+            perspective: Perspective::Spans(16),
+            sampler: Some(Sampler::BILINEAR_MIPMAP),
+            lighting: true,
+            depth_test: true,
+            fog: true,
+            fog_start: 0.6,
+            sky: [150, 180, 215],
+            wireframe: Wireframe::Off,
+        }
+    }
+}
+
+/// One tile in the draw list.
+#[derive(Clone, Copy, Debug)]
+pub struct TileDraw<'a> {
+    /// Grid column.
+    pub x: u32,
+    /// Grid row.
+    pub y: u32,
+    /// Its resident data.
+    pub tile: &'a ResidentTile,
+    /// The strip-mask level chosen for it, a whole-tile level (see [`crate::engine::held_meshes`] for
+    /// how a partial tile draws it; `level + 1` must then be a multiple of its stride).
+    pub level: usize,
+    /// The whole-tile levels of its neighbours this frame (`crate::engine::cracks::Side::ALL` order).
+    pub neighbours: [usize; 4],
+    /// Eye distance to its bounding box, metres: the draw order key.
+    pub distance: f64,
+}
+
+/// The shared part of every tile's transform this frame.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameTransform {
+    base: Transform,
+    anchor: (i64, i64),
+    cells: i64,
+}
+
+impl FrameTransform {
+    /// The matrix for `camera` over `terrain` at `aspect` = width / height, for vertices in
+    /// grid steps and height quanta.
+    pub fn new(
+        camera: &Camera,
+        terrain: &TerrainFrame,
+        aspect: f64,
+    ) -> Result<FrameTransform, RasterError> {
+        FrameTransform::subdivided(camera, terrain, aspect, 1)
+    }
+
+    /// The same for vertices in `1 / subdivision` of a grid step and of a height quantum.
+    pub fn subdivided(
+        camera: &Camera,
+        terrain: &TerrainFrame,
+        aspect: f64,
+        subdivision: i32,
+    ) -> Result<FrameTransform, RasterError> {
+        let unit = 1.0 / f64::from(subdivision);
+        let (px, py) = terrain.tile_position(camera.position);
+        let clamp = |v: f64, n: u32| (v.floor().max(0.0) as i64).min(i64::from(n) - 1);
+        let anchor = (clamp(px, terrain.tiles_x), clamp(py, terrain.tiles_y));
+        let origin = terrain.tile_origin(anchor.0 as u32, anchor.1 as u32);
+        let model = DMat4::from_translation(origin - camera.position)
+            * DMat4::from_scale(
+                DVec3::new(terrain.spacing, terrain.quantum, terrain.spacing) * unit,
+            );
+        Ok(FrameTransform {
+            base: Transform::new(camera.view_projection(aspect) * model)?,
+            anchor,
+            cells: (terrain.tile_size as i64 - 1) * i64::from(subdivision),
+        })
+    }
+
+    /// Tile `(x, y)`'s transform: the shared matrix with the tile's integer grid offset.
+    pub fn tile(&self, x: u32, y: u32) -> Result<Transform, RasterError> {
+        let offset = |t: u32, a: i64| {
+            ((i64::from(t) - a) * self.cells).clamp(i32::MIN.into(), i32::MAX.into()) as i32
+        };
+        self.base
+            .with_origin([offset(x, self.anchor.0), 0, offset(y, self.anchor.1)])
+    }
+}
+
+/// The indices every tile is drawn with: the shared strip masks, and the crack mode's pieces.
+pub struct TileMeshes<'m> {
+    /// The strip masks of whole tiles.
+    pub masks: &'m MaskSet,
+    /// The crack mode's index buffers for whole tiles.
+    pub cracks: &'m mut TileIndices,
+    /// The masks and crack pieces of partial tiles, kept between frames; `None` builds them for
+    /// this frame only when a partial tile is drawn.
+    pub held: Option<&'m mut HeldSideMeshes>,
+    /// The geomorph state when geomorphing is on: whole tiles are then drawn morphed, in
+    /// [`geomorph::SUBDIVISION`] units. Partial tiles are drawn unmorphed (the engine refuses
+    /// partial tiles with geomorphing on, see `crate::engine`).
+    pub morph: Option<&'m mut Morpher>,
+}
+
+/// What drawing a frame's tiles did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TilesDrawn {
+    /// The triangles: tiles and the crack mode's geometry.
+    pub triangles: DrawStats,
+    /// The wireframe's lines (zero when it is off).
+    pub lines: LineStats,
+}
+
+/// Clears `target` to the sky and draws `tiles` (reordered for the depth mode) into it, each
+/// followed by its wireframe when that is on: the CPU rasterizer's framebuffer or any other
+/// [`DrawTarget`], with the same draws.
+pub fn draw_tiles<T: DrawTarget>(
+    target: &mut T,
+    camera: &Camera,
+    terrain: &TerrainFrame,
+    tiles: &mut [TileDraw<'_>],
+    meshes: TileMeshes<'_>,
+    settings: &RenderSettings,
+) -> Result<TilesDrawn, T::Error> {
+    target.clear(settings.sky);
+    let (width, height) = target.size();
+    let aspect = f64::from(width) / f64::from(height);
+    let transform = FrameTransform::new(camera, terrain, aspect)?;
+    if settings.depth_test {
+        tiles.sort_by(|a, b| a.distance.total_cmp(&b.distance));
+    } else {
+        tiles.sort_by(|a, b| b.distance.total_cmp(&a.distance));
+    }
+    let fog = settings.fog.then_some(Fog {
+        color: settings.sky,
+        start: settings.fog_start * camera.far,
+        end: camera.far,
+    });
+    let shadows = meshes.cracks.mode() == CrackMode::Shadow;
+    let wire = settings.wireframe.lines(settings.depth_test);
+    let surface = match settings.wireframe {
+        Wireframe::Only => RenderSettings {
+            sampler: None,
+            lighting: false,
+            fog: false,
+            ..*settings
+        },
+        Wireframe::Off | Wireframe::Over => *settings,
+    };
+    let (settings, fog) = match settings.wireframe {
+        Wireframe::Only => (&surface, None),
+        Wireframe::Off | Wireframe::Over => (settings, fog),
+    };
+    let mut stats = DrawStats::default();
+    let mut lines = LineStats::default();
+    if shadows && !settings.depth_test {
+        stats += draw_shadows(target, camera, terrain, tiles, aspect, settings, fog)?;
+    }
+    let mut morph = match meshes.morph {
+        Some(morpher) => Some((
+            morpher.view(camera, terrain, height),
+            FrameTransform::subdivided(camera, terrain, aspect, geomorph::SUBDIVISION)?,
+            morpher,
+        )),
+        None => None,
+    };
+    let mode = meshes.cracks.mode();
+    let mut frame_held = HeldSideMeshes::new();
+    let held = meshes.held.unwrap_or(&mut frame_held);
+    for t in tiles.iter() {
+        let stride = t.tile.stride();
+        let (indices, topology) = if stride == 1 {
+            meshes.cracks.tile(meshes.masks, t.level, t.neighbours)
+        } else {
+            let (masks, cracks) = held.get(mode, t.tile.side());
+            let neighbours = t.neighbours.map(|n| held_level(n, stride));
+            cracks.tile(masks, held_level(t.level, stride), neighbours)
+        };
+        let (vertices, tile_transform) = match &mut morph {
+            Some((view, fine, morpher)) if stride == 1 => (
+                morpher.tile(view, &t.tile.vertices, (t.x, t.y)),
+                fine.tile(t.x, t.y)?,
+            ),
+            _ => (&t.tile.vertices[..], transform.tile(t.x, t.y)?),
+        };
+        let mesh = Mesh {
+            vertices,
+            indices,
+            topology,
+        };
+        stats += target.draw(&mesh, &tile_transform, &tile_state(settings, fog, t))?;
+        if let Some(wire) = &wire {
+            lines += target.draw_edges(&mesh, &tile_transform, wire)?;
+        }
+    }
+    if shadows && settings.depth_test {
+        stats += draw_shadows(target, camera, terrain, tiles, aspect, settings, fog)?;
+    }
+    Ok(TilesDrawn {
+        triangles: stats,
+        lines,
+    })
+}
+
+/// Draws the shadow quad of every tile in `tiles` ([`crate::engine::cracks::shadow`]), in their order,
+/// with each tile's render state; a quad that grazes or lies beyond the subdivided transform's
+/// reach is skipped.
+fn draw_shadows<T: DrawTarget>(
+    target: &mut T,
+    camera: &Camera,
+    terrain: &TerrainFrame,
+    tiles: &[TileDraw<'_>],
+    aspect: f64,
+    settings: &RenderSettings,
+    fog: Option<Fog>,
+) -> Result<DrawStats, T::Error> {
+    let fine = FrameTransform::subdivided(camera, terrain, aspect, shadow::SUBDIVISION)?;
+    let mut stats = DrawStats::default();
+    for t in tiles {
+        let origin = terrain.tile_origin(t.x, t.y);
+        let eye = (camera.position - origin)
+            / DVec3::new(terrain.spacing, terrain.quantum, terrain.spacing);
+        let (Some(vertices), Ok(transform)) = (shadow::quad(t.tile, eye), fine.tile(t.x, t.y))
+        else {
+            continue;
+        };
+        let mesh = Mesh {
+            vertices: &vertices,
+            indices: Indices::U16(&shadow::QUAD_STRIP),
+            topology: Topology::TriangleStrip,
+        };
+        stats += target.draw(&mesh, &transform, &tile_state(settings, fog, t))?;
+    }
+    Ok(stats)
+}
+
+/// The render state of a tile's draws, its texture detail capped by its mask level.
+fn tile_state<'t>(
+    settings: &RenderSettings,
+    fog: Option<Fog>,
+    draw: &TileDraw<'t>,
+) -> RenderState<'t> {
+    let tile = draw.tile;
+    let finest_level = tile.finest_texture_level(draw.level);
+    RenderState {
+        precision: settings.precision,
+        cull: CullMode::Back,
+        front_face: FRONT_FACE,
+        depth: if settings.depth_test {
+            DepthMode::LESS_WRITE
+        } else {
+            DepthMode::NONE
+        },
+        shading: if settings.lighting {
+            Shading::Gouraud
+        } else {
+            Shading::Flat([255; 3])
+        },
+        texture: settings.sampler.map(|sampler| TextureBinding {
+            finest_level,
+            ..TextureBinding::new(&tile.texture, sampler)
+        }),
+        perspective: settings.perspective,
+        fog,
+        ..RenderState::default()
+    }
+}

@@ -1,0 +1,515 @@
+//! A tile as the renderer holds it in memory: vertices ready for the rasterizer, the normals they
+//! were lit with, and the part of the texture chain its distance needs.
+//!
+//! Vertices are tile-local integers: `(i, base + q, j)`, grid column, archive-wide height in
+//! quanta, grid row. The renderer places a tile with an integer model origin on one shared
+//! eye-relative matrix, so the border vertices two tiles share land on the same screen positions
+//! (see `stripmask_raster::Transform::with_origin`). Normals are computed once, when the tile is
+//! loaded, at the finest level, as the paper does; every mask level reuses them.
+
+use glam::DVec3;
+use stripmask_raster::{Texels, Texture, Vertex};
+
+use crate::db::rgb565::mip_count;
+use crate::db::tile::{HeldLevels, Tile, level_mips, level_side, progressive_levels};
+use crate::engine::cracks::{CrackMode, skirts};
+
+/// Light shared by every tile: a direction towards the light and an ambient floor.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Light {
+    /// Direction towards the light, world axes (x east, y up, z south); normalised on use.
+    pub direction: DVec3,
+    /// Intensity of a surface facing away from the light, 0 ..= 1.
+    pub ambient: f64,
+}
+
+impl Default for Light {
+    /// Late-afternoon sun from the north-west, as cartographers light relief.
+    fn default() -> Self {
+        Light {
+            direction: DVec3::new(-1.0, 1.4, -1.0),
+            ambient: 0.35,
+        }
+    }
+}
+
+/// One loaded tile, whole or holding only its first progressive levels ([`Tile::levels`]).
+///
+/// A partial tile holds a compact grid of [`ResidentTile::side`] vertices per side, every
+/// [`ResidentTile::stride`]-th sample of the whole tile, so its memory shrinks with the levels
+/// it lacks. Vertex positions stay in whole-tile grid units (`(ci * stride, base + q, cj *
+/// stride)`): the shared frame transform and integer tile origin place it, and the border
+/// vertices it shares with a neighbour are bit-identical to the neighbour's.
+#[derive(Clone, Debug)]
+pub struct ResidentTile {
+    /// `side x side` vertices, row-major from the north-west, then the crack mode's extra
+    /// vertices ([`CrackMode::extra_vertices`] of the side).
+    pub vertices: Vec<Vertex>,
+    /// Unit normals packed as `round(127 n)`, one per grid vertex.
+    pub normals: Vec<[i8; 3]>,
+    /// The texture from mip `texture_base` of the archive's chain down to 1 x 1.
+    pub texture: Texture,
+    /// Which mip of the archive's chain this tile's finest texture level is.
+    pub texture_base: usize,
+    /// Lowest height, metres.
+    pub min: f32,
+    /// Highest height, metres.
+    pub max: f32,
+    /// Geometric error of each mask level, metres (from the archive).
+    pub level_errors: Vec<f32>,
+    /// Samples per side of the whole tile.
+    pub tile_size: usize,
+    /// Progressive levels held (see [`crate::db::tile::progressive_levels`]).
+    pub levels: usize,
+    /// The tile's quantum 0 in archive quanta: a vertex height is `base + q`.
+    pub base: i32,
+    /// Metres per height quantum.
+    pub quantum: f32,
+    /// Metres between whole-tile samples: what the normals were computed with.
+    pub spacing: f64,
+    /// The light the vertex colours were lit with.
+    pub light: Light,
+}
+
+impl HeldLevels for ResidentTile {
+    fn whole_size(&self) -> usize {
+        self.tile_size
+    }
+
+    fn held_levels(&self) -> usize {
+        self.levels
+    }
+}
+
+impl ResidentTile {
+    /// Builds the resident form of `tile` (whole or partial), keeping texture mips from
+    /// `texture_base` down (never finer than the tile holds, clamped to the chain), with
+    /// `spacing` metres between samples, vertex colours lit by `light` and the extra vertices
+    /// `cracks` draws.
+    pub fn new(
+        tile: &Tile,
+        texture_base: usize,
+        spacing: f64,
+        light: &Light,
+        cracks: CrackMode,
+    ) -> ResidentTile {
+        let (side, stride) = (tile.side(), tile.stride());
+        let normals = normals(tile, spacing * stride as f64);
+        let towards = light.direction.normalize_or(DVec3::Y);
+        let last = (side - 1) as f32;
+        let mut vertices: Vec<Vertex> = (0..side * side)
+            .map(|k| {
+                let (i, j) = (k % side, k / side);
+                let n = normals[k].map(|c| f64::from(c) / 127.0);
+                let lit = DVec3::from_array(n).dot(towards).max(0.0);
+                let intensity = (light.ambient + (1.0 - light.ambient) * lit).clamp(0.0, 1.0);
+                let uv = [i as f32 / last, j as f32 / last];
+                Vertex::new(
+                    [(i * stride) as i32, tile.quanta(i, j), (j * stride) as i32],
+                    uv,
+                    [(intensity * 255.0).round() as u8; 3],
+                )
+            })
+            .collect();
+        if cracks == CrackMode::Skirts {
+            let depth = skirts::depth_quanta(&tile.level_errors, tile.quantum);
+            skirts::append_vertices(&mut vertices, side, depth);
+        }
+        let held = tile.first_mip..tile.first_mip + tile.texture_mips.len();
+        let base = texture_base.clamp(held.start, held.end - 1);
+        ResidentTile {
+            vertices,
+            normals,
+            texture: chain_from(tile, base),
+            texture_base: base,
+            min: tile.min,
+            max: tile.max,
+            level_errors: tile.level_errors.clone(),
+            tile_size: tile.tile_size,
+            levels: tile.levels,
+            base: tile.base,
+            quantum: tile.quantum,
+            spacing,
+            light: *light,
+        }
+    }
+
+    /// The tile this resident form was built from, as far as it holds it: the held heights
+    /// (from the vertices) and the held texture mips. What the pager needs to rebuild a tile in
+    /// another form without fetching it again.
+    pub fn to_tile(&self) -> Tile {
+        let grid = self.side() * self.side();
+        let texture_mips = self
+            .texture
+            .levels()
+            .iter()
+            .map(|l| match l.texels() {
+                Texels::Rgb565(t) => t.clone(),
+                other => unreachable!("resident textures are RGB565, not {other:?}"),
+            })
+            .collect();
+        Tile {
+            tile_size: self.tile_size,
+            levels: self.levels,
+            min: self.min,
+            max: self.max,
+            base: self.base,
+            quantum: self.quantum,
+            level_errors: self.level_errors.clone(),
+            heights: self.vertices[..grid]
+                .iter()
+                .map(|v| (v.position[1] - self.base) as u16)
+                .collect(),
+            texture_size: (self.texture.levels()[0].width() as usize) << self.texture_base,
+            first_mip: self.texture_base,
+            texture_mips,
+        }
+    }
+
+    /// Keeps only the first `levels` progressive levels (clamped to `1 ..= self.levels`),
+    /// geometry and texture, exactly as a tile loaded with those levels: what the pager does to
+    /// a far tile under memory pressure before it drops whole tiles. Returns the bytes held now.
+    pub fn drop_levels(&mut self, levels: usize) -> usize {
+        if levels < self.levels {
+            let cracks = if self.vertices.len() > self.normals.len() {
+                CrackMode::Skirts
+            } else {
+                CrackMode::None
+            };
+            let coarse = self.to_tile().truncated(levels);
+            *self = ResidentTile::new(
+                &coarse,
+                self.texture_base,
+                self.spacing,
+                &self.light,
+                cracks,
+            );
+        }
+        self.bytes()
+    }
+
+    /// Bytes this tile holds: what the memory limit accounts.
+    pub fn bytes(&self) -> usize {
+        resident_bytes(
+            self.vertices.len(),
+            self.normals.len(),
+            self.level_errors.len(),
+            self.texture.byte_size(),
+        )
+    }
+
+    /// The finest level of [`Self::texture`] worth reading when the tile is drawn at (whole-tile)
+    /// mask level `mask_level`: texture detail follows the geometric detail the tile's importance
+    /// bought (the paper's textures-follow-importance rule). A mask that keeps every `l + 1`-th
+    /// sample spans `l + 1` cells per triangle edge, so the archive mip `floor(log2(l + 1))`
+    /// keeps the full level's texels per mesh edge; mips the tile does not hold (dropped, or
+    /// not fetched by a partial tile) count as dropped already.
+    pub fn finest_texture_level(&self, mask_level: usize) -> u8 {
+        let archive_mip = (mask_level + 1).ilog2() as usize;
+        let held = self.texture.levels().len() - 1;
+        archive_mip.saturating_sub(self.texture_base).min(held) as u8
+    }
+
+    /// Adds or removes the skirt vertices so that the tile draws in crack mode `cracks` (heights
+    /// in archive quanta of `quantum` metres), exactly as if it had been loaded in that mode:
+    /// switching modes needs no fetch. Returns the bytes the tile holds now.
+    pub fn set_cracks(&mut self, cracks: CrackMode, quantum: f32) -> usize {
+        let grid = self.normals.len();
+        let s = self.side();
+        if self.vertices.len() != grid + cracks.extra_vertices(s) {
+            self.vertices.truncate(grid);
+            if cracks == CrackMode::Skirts {
+                let depth = skirts::depth_quanta(&self.level_errors, quantum);
+                skirts::append_vertices(&mut self.vertices, s, depth);
+            }
+            self.vertices.shrink_to_fit();
+        }
+        self.bytes()
+    }
+
+    /// Drops texture mips finer than `base` (no-op when already coarser); returns the new bytes.
+    pub fn coarsen_texture(&mut self, base: usize) -> usize {
+        let drop = base.saturating_sub(self.texture_base);
+        let levels = self.texture.levels();
+        if drop > 0 && drop < levels.len() {
+            let kept = levels[drop..]
+                .iter()
+                .map(|l| (l.width(), l.height(), l.texels().clone()))
+                .collect();
+            self.texture = Texture::from_levels(kept).expect("a tail of a mip chain is a chain");
+            self.texture_base += drop;
+        }
+        self.bytes()
+    }
+}
+
+/// The bytes a resident tile of `tile_size` samples holding its first `levels` progressive
+/// levels holds with its texture from mip `base` of a `texture_size` RGB565 chain (never finer
+/// than those levels carry), drawn in crack mode `cracks`, known before the tile is fetched.
+pub fn predicted_bytes(
+    tile_size: usize,
+    texture_size: usize,
+    base: usize,
+    levels: usize,
+    cracks: CrackMode,
+) -> usize {
+    let levels = levels.clamp(1, progressive_levels(tile_size));
+    let first = level_mips(levels - 1, tile_size, texture_size).start;
+    let base = base.max(first).min(mip_count(texture_size) - 1);
+    let texels: usize = (base..mip_count(texture_size))
+        .map(|l| (texture_size >> l).pow(2))
+        .sum();
+    let side = level_side(levels - 1);
+    let grid = side * side;
+    resident_bytes(
+        grid + cracks.extra_vertices(side),
+        grid,
+        tile_size - 1,
+        2 * texels,
+    )
+}
+
+fn resident_bytes(vertices: usize, normals: usize, levels: usize, texture_bytes: usize) -> usize {
+    std::mem::size_of::<ResidentTile>()
+        + vertices * std::mem::size_of::<Vertex>()
+        + normals * std::mem::size_of::<[i8; 3]>()
+        + levels * std::mem::size_of::<f32>()
+        + texture_bytes
+}
+
+/// Unit normals of the held grid from central differences, `spacing` metres between held
+/// samples (one-sided at the tile border, where the neighbour's samples are not at hand).
+fn normals(tile: &Tile, spacing: f64) -> Vec<[i8; 3]> {
+    let s = tile.side();
+    let h = |i: usize, j: usize| f64::from(tile.height(i, j));
+    (0..s * s)
+        .map(|k| {
+            let (i, j) = (k % s, k / s);
+            let (i0, i1) = (i.saturating_sub(1), (i + 1).min(s - 1));
+            let (j0, j1) = (j.saturating_sub(1), (j + 1).min(s - 1));
+            let dhdx = (h(i1, j) - h(i0, j)) / ((i1 - i0) as f64 * spacing);
+            let dhdz = (h(i, j1) - h(i, j0)) / ((j1 - j0) as f64 * spacing);
+            let n = DVec3::new(-dhdx, 1.0, -dhdz).normalize();
+            n.to_array().map(|c| (c * 127.0).round() as i8)
+        })
+        .collect()
+}
+
+/// The texture chain of `tile` from archive mip `base` (one the tile holds) down.
+fn chain_from(tile: &Tile, base: usize) -> Texture {
+    let t = tile.texture_size;
+    let levels = tile.texture_mips[base - tile.first_mip..]
+        .iter()
+        .enumerate()
+        .map(|(k, texels)| {
+            let side = (t >> (base + k)).max(1) as u32;
+            (side, side, Texels::Rgb565(texels.clone()))
+        })
+        .collect();
+    Texture::from_levels(levels).expect("a decoded tile holds a complete RGB565 mip chain")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sloped_tile() -> Tile {
+        let s = 9;
+        // Rises 1 m per metre eastwards with a 2 m spacing: dh/dx = 1.
+        let heights: Vec<f32> = (0..s * s).map(|k| 2.0 * (k % s) as f32).collect();
+        Tile::new(&heights, s, 0.0625, &[[90, 120, 60]; 64], 8).unwrap()
+    }
+
+    #[test]
+    fn vertices_carry_grid_indices_and_archive_quanta() {
+        let tile = sloped_tile();
+        let r = ResidentTile::new(&tile, 0, 2.0, &Light::default(), CrackMode::None);
+        assert_eq!(r.vertices.len(), 81);
+        let v = r.vertices[2 * 9 + 3];
+        assert_eq!(v.position, [3, tile.quanta(3, 2), 2]);
+        assert_eq!(tile.quanta(3, 2), 96);
+        assert_eq!(v.uv.map(|c| c.to_num::<f32>()), [3.0 / 8.0, 2.0 / 8.0]);
+    }
+
+    #[test]
+    fn normals_follow_the_slope_and_light_follows_the_normals() {
+        let tile = sloped_tile();
+        // A 45° slope facing west: the normal is (-1, 1, 0) / sqrt 2.
+        let r = ResidentTile::new(&tile, 0, 2.0, &Light::default(), CrackMode::None);
+        for n in &r.normals {
+            assert_eq!(*n, [-90, 90, 0]);
+        }
+        let west = Light {
+            direction: DVec3::new(-1.0, 1.0, 0.0),
+            ambient: 0.2,
+        };
+        let east = Light {
+            direction: DVec3::new(1.0, 1.0, 0.0),
+            ambient: 0.2,
+        };
+        let lit = ResidentTile::new(&tile, 0, 2.0, &west, CrackMode::None).vertices[40].color[0];
+        let dark = ResidentTile::new(&tile, 0, 2.0, &east, CrackMode::None).vertices[40].color[0];
+        assert_eq!(lit, 255);
+        assert_eq!(dark, (0.2f64 * 255.0).round() as u8);
+    }
+
+    #[test]
+    fn accounted_bytes_are_known_before_loading_and_shrink_with_the_texture() {
+        let tile = sloped_tile();
+        for base in 0..5 {
+            for cracks in CrackMode::ALL {
+                let r = ResidentTile::new(&tile, base, 2.0, &Light::default(), cracks);
+                assert_eq!(
+                    r.bytes(),
+                    predicted_bytes(9, 8, base, 4, cracks),
+                    "{cracks:?}"
+                );
+            }
+        }
+        let skirted = ResidentTile::new(&tile, 0, 2.0, &Light::default(), CrackMode::Skirts);
+        for from in CrackMode::ALL {
+            for to in CrackMode::ALL {
+                let mut r = ResidentTile::new(&tile, 1, 2.0, &Light::default(), from);
+                let fresh = ResidentTile::new(&tile, 1, 2.0, &Light::default(), to);
+                assert_eq!(
+                    r.set_cracks(to, tile.quantum),
+                    fresh.bytes(),
+                    "{from:?} -> {to:?}"
+                );
+                assert_eq!(r.vertices, fresh.vertices, "{from:?} -> {to:?}");
+            }
+        }
+        assert_eq!(skirted.vertices.len(), 81 + 36);
+        let mut r = ResidentTile::new(&tile, 0, 2.0, &Light::default(), CrackMode::None);
+        let full = r.bytes();
+        assert_eq!(r.texture.levels().len(), 4);
+        let smaller = r.coarsen_texture(2);
+        assert_eq!(r.texture_base, 2);
+        assert_eq!(r.texture.levels()[0].width(), 2);
+        assert_eq!(smaller, predicted_bytes(9, 8, 2, 4, CrackMode::None));
+        assert_eq!(full - smaller, 2 * (64 + 16));
+        assert_eq!(r.coarsen_texture(1), smaller, "never refines");
+    }
+
+    #[test]
+    fn texture_detail_follows_the_mask_level_and_what_the_tile_holds() {
+        let tile = sloped_tile();
+        let full = ResidentTile::new(&tile, 0, 2.0, &Light::default(), CrackMode::None);
+        // Mask levels 0..7 keep every 1st..8th sample: archive mips 0, 1, 1, 2, 2, 2, 2, 3.
+        let levels: Vec<u8> = (0..8).map(|l| full.finest_texture_level(l)).collect();
+        assert_eq!(levels, [0, 1, 1, 2, 2, 2, 2, 3]);
+        let coarse = ResidentTile::new(&tile, 2, 2.0, &Light::default(), CrackMode::None);
+        let levels: Vec<u8> = (0..8).map(|l| coarse.finest_texture_level(l)).collect();
+        assert_eq!(levels, [0, 0, 0, 0, 0, 0, 0, 1], "mips from 2 on are held");
+        assert_eq!(
+            full.finest_texture_level(1000),
+            3,
+            "never past the last level"
+        );
+    }
+
+    /// A 17-sample tile with rough relief and a texture whose every mip differs.
+    fn rough_tile() -> Tile {
+        let s = 17;
+        let heights: Vec<f32> = (0..s * s)
+            .map(|k| 30.0 * ((k % s) as f32 * 1.3).sin() + 20.0 * ((k / s) as f32 * 0.7).cos())
+            .collect();
+        let texture: Vec<[u8; 3]> = (0..256)
+            .map(|k| {
+                [
+                    (k * 7 % 256) as u8,
+                    (k * 13 % 256) as u8,
+                    (k % 16 * 16) as u8,
+                ]
+            })
+            .collect();
+        Tile::new(&heights, s, 0.125, &texture, 16).unwrap()
+    }
+
+    #[test]
+    fn a_partial_tile_holds_a_compact_grid_in_whole_tile_units() {
+        let tile = rough_tile();
+        let coarse = tile.truncated(3);
+        let r = ResidentTile::new(&coarse, 0, 2.0, &Light::default(), CrackMode::Skirts);
+        assert_eq!((r.side(), r.stride(), r.finest_mask_level()), (5, 4, 3));
+        assert_eq!(r.normals.len(), 25);
+        assert_eq!(r.vertices.len(), 25 + 4 * 5);
+        let v = r.vertices[2 * 5 + 3];
+        assert_eq!(v.position, [12, tile.quanta(12, 8), 8]);
+        assert_eq!(v.uv.map(|c| c.to_num::<f32>()), [3.0 / 4.0, 2.0 / 4.0]);
+        assert_eq!(
+            r.texture_base, coarse.first_mip,
+            "never finer than it holds"
+        );
+        assert!(!r.is_complete());
+    }
+
+    #[test]
+    fn the_resident_form_gives_back_the_tile_it_was_built_from() {
+        let tile = rough_tile();
+        for levels in 1..=tile.levels {
+            let t = tile.truncated(levels);
+            for cracks in CrackMode::ALL {
+                let r = ResidentTile::new(&t, t.first_mip, 2.0, &Light::default(), cracks);
+                assert_eq!(r.to_tile(), t, "{levels} levels, {cracks:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn bytes_shrink_with_fewer_levels_and_are_known_before_loading() {
+        let tile = rough_tile();
+        for cracks in CrackMode::ALL {
+            let mut previous = usize::MAX;
+            for levels in (1..=tile.levels).rev() {
+                let t = tile.truncated(levels);
+                for base in 0..6 {
+                    let r = ResidentTile::new(&t, base, 2.0, &Light::default(), cracks);
+                    assert_eq!(
+                        r.bytes(),
+                        predicted_bytes(17, 16, base, levels, cracks),
+                        "{levels} levels, base {base}, {cracks:?}"
+                    );
+                }
+                let bytes = predicted_bytes(17, 16, 0, levels, cracks);
+                assert!(bytes < previous, "{levels} levels, {cracks:?}");
+                previous = bytes;
+            }
+        }
+    }
+
+    #[test]
+    fn dropping_levels_is_loading_fewer() {
+        let tile = rough_tile();
+        let light = Light::default();
+        for cracks in [CrackMode::Stitch, CrackMode::Skirts] {
+            for base in [0, 3] {
+                for levels in 1..=tile.levels {
+                    let mut r = ResidentTile::new(&tile, base, 2.0, &light, cracks);
+                    let fresh =
+                        ResidentTile::new(&tile.truncated(levels), base, 2.0, &light, cracks);
+                    assert_eq!(r.drop_levels(levels), fresh.bytes());
+                    assert_eq!(r.vertices, fresh.vertices, "{levels} levels, {cracks:?}");
+                    assert_eq!(r.normals, fresh.normals);
+                    assert_eq!(r.texture, fresh.texture);
+                    assert_eq!(
+                        (r.texture_base, r.levels),
+                        (fresh.texture_base, fresh.levels)
+                    );
+                    assert_eq!(r.drop_levels(tile.levels), fresh.bytes(), "never refines");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn texture_detail_of_a_partial_tile_starts_at_its_first_mip() {
+        let coarse = rough_tile().truncated(3);
+        let r = ResidentTile::new(&coarse, 0, 2.0, &Light::default(), CrackMode::None);
+        // Stride 4: archive mip 2 is the finest held; levels 3 and 7 read mips 2 and 3.
+        assert_eq!(r.texture_base, 2);
+        assert_eq!(r.finest_texture_level(3), 0);
+        assert_eq!(r.finest_texture_level(7), 1);
+        assert_eq!(r.finest_texture_level(15), 2);
+    }
+}

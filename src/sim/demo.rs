@@ -1,0 +1,304 @@
+//! `stripmask demo`: the paper's PocketPC experiment in one command.
+//!
+//! Builds an archive from the project's own copy of the Puget Sound 1k elevation model (160 m
+//! between samples, 0.1 m per unit) into the output folder — or reuses the one there when it is
+//! intact and was built with the same settings — then flies the paper's corner-to-corner
+//! diagonal as the PocketPC profile (320x240 RGB565, 20 MB, 7 fps, 1 Mbit/s link) on the
+//! simulated clock, headless, and writes frames, `stats.csv` and the report's plots beside it.
+//! [`run_live`] also shows the flight in a window as it runs, at the device's pace.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use crate::db::archive::ArchiveReader;
+use crate::db::builder::{BuildOptions, build};
+use crate::db::dem::{self, OpenOptions};
+use crate::db::source::{self, file::FileSource};
+use crate::engine::EngineSettings;
+use crate::engine::stream::Streaming;
+use crate::engine::terrain::TerrainFrame;
+use crate::error::{Error, Result};
+use crate::sim::clock::{Clock, CostModel};
+use crate::sim::device::DeviceProfile;
+use crate::sim::flight::{Builtin, Flight};
+use crate::sim::fly::{FlyOptions, FlySummary, Length, LiveView, fly_live};
+
+/// The elevation model, relative to the repository root.
+pub const DEM: &str = "examples/data/puget_sound_1k_height.png";
+/// The archive's name inside the output folder.
+pub const ARCHIVE: &str = "puget.smdb";
+/// Metres between samples of the 1k model (16 x the 10 m of the full one).
+pub const SPACING: f64 = 160.0;
+/// Metres per raw height unit.
+pub const VERTICAL_SCALE: f64 = 0.1;
+/// Samples per tile side: 16 x 16 tiles, so that belts matter under 20 MB.
+pub const TILE_SIZE: usize = 65;
+
+/// What the demo runs.
+#[derive(Clone, Debug)]
+pub struct DemoOptions {
+    /// Output folder.
+    pub out: PathBuf,
+    /// The elevation model (default: [`DEM`], found from the working directory or the source tree).
+    pub dem: Option<PathBuf>,
+    /// The device.
+    pub profile: DeviceProfile,
+    /// The simulated clock (reproducible) or the wall clock.
+    pub simulated: bool,
+    /// When to stop (default: the whole flight).
+    pub length: Option<Length>,
+    /// Keep one frame in `every`.
+    pub every: u64,
+    /// Show progress.
+    pub progress: bool,
+    /// Whole-tile belts (the paper, the default) or progressive tiles.
+    pub streaming: Streaming,
+}
+
+impl Default for DemoOptions {
+    fn default() -> Self {
+        DemoOptions {
+            out: PathBuf::from("stripmask-demo"),
+            dem: None,
+            profile: DeviceProfile::pocketpc(),
+            simulated: true,
+            length: None,
+            every: 10,
+            progress: true,
+            streaming: Streaming::Belts,
+        }
+    }
+}
+
+/// What the demo did.
+#[derive(Clone, Debug)]
+pub struct DemoSummary {
+    /// The archive flown over.
+    pub archive: PathBuf,
+    /// Whether it was built now (false: reused).
+    pub built: bool,
+    /// The device.
+    pub profile: DeviceProfile,
+    /// The flight's summary.
+    pub fly: FlySummary,
+    /// Fraction of frames after the first second whose frame rate is within 10% of the target.
+    pub held: f64,
+    /// The output folder.
+    pub out: PathBuf,
+}
+
+impl fmt::Display for DemoSummary {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let s = &self.fly;
+        let p = &self.profile;
+        writeln!(
+            f,
+            "archive      {} ({})",
+            self.archive.display(),
+            if self.built { "built" } else { "reused" }
+        )?;
+        writeln!(
+            f,
+            "device       {}: {}x{}, {} MB, {} thread(s), CPU {}x slower, link {}",
+            p.name,
+            p.width,
+            p.height,
+            p.memory_mb,
+            p.threads,
+            p.cpu_slowdown,
+            link_text(p)
+        )?;
+        writeln!(
+            f,
+            "frame rate   median {:.1} fps, target {}; {:.0}% of frames after the first second within 10%",
+            s.median_fps,
+            p.target_fps,
+            100.0 * self.held
+        )?;
+        writeln!(
+            f,
+            "triangles    {:.0} per frame on average over {} frames ({:.1} s of flight)",
+            s.mean_triangles, s.frames, s.seconds
+        )?;
+        writeln!(
+            f,
+            "memory       peak {:.2} MB of {:.2} MB; {:.2} MB downloaded",
+            s.peak_memory_bytes as f64 / 1e6,
+            s.memory_limit_bytes as f64 / 1e6,
+            s.downloaded_bytes as f64 / 1e6
+        )?;
+        writeln!(
+            f,
+            "first frame  {}",
+            s.first_frame_s
+                .map_or("never".into(), |t| format!("at {t:.2} s of flight"))
+        )?;
+        write!(
+            f,
+            "written      {}: stats.csv, frames/, fps.png, triangles.png, downloads.png, tiles.png, memory.png",
+            self.out.display()
+        )
+    }
+}
+
+fn link_text(p: &DeviceProfile) -> String {
+    match p.link.bandwidth_kbps {
+        Some(kbps) => format!(
+            "{kbps} kbit/s, {} ms latency{}, {}% dropped",
+            p.link.latency_ms,
+            if p.link.jitter_ms > 0.0 {
+                format!(" ± {} ms", p.link.jitter_ms)
+            } else {
+                String::new()
+            },
+            100.0 * p.link.drop_rate
+        ),
+        None => "unlimited".into(),
+    }
+}
+
+/// Runs the demo.
+pub fn run(o: &DemoOptions) -> Result<DemoSummary> {
+    run_live(o, None)
+}
+
+/// Runs the demo, showing the flight in `live` as well when given.
+pub fn run_live(o: &DemoOptions, live: Option<LiveView<'_>>) -> Result<DemoSummary> {
+    let out_name = o.out.display().to_string();
+    std::fs::create_dir_all(&o.out).map_err(|e| Error::io(&out_name, e))?;
+    let archive = o.out.join(ARCHIVE);
+    let built = if intact(&archive) {
+        false
+    } else {
+        let dem = match &o.dem {
+            Some(path) => path.clone(),
+            None => find_dem()?,
+        };
+        build_archive(&dem, &archive)?;
+        true
+    };
+    let archive_name = archive.display().to_string();
+    let reader = ArchiveReader::open(source::open(&archive_name)?)?;
+    let terrain = TerrainFrame::new(reader.header());
+    drop(reader);
+    let p = &o.profile;
+    let clock = if o.simulated {
+        Clock::Simulated {
+            model: CostModel::HOST,
+            slowdown: p.cpu_slowdown,
+        }
+    } else {
+        Clock::Wall {
+            slowdown: p.cpu_slowdown,
+        }
+    };
+    let mut engine = EngineSettings {
+        memory_limit_bytes: p.memory_limit_bytes(),
+        threads: p.threads,
+        streaming: o.streaming,
+        ..EngineSettings::default()
+    };
+    engine.budget.target_fps = p.target_fps;
+    let fly_options = FlyOptions {
+        source: archive_name,
+        flight: Flight::builtin(Builtin::Diagonal, &terrain),
+        length: o.length,
+        size: (p.width, p.height),
+        color: p.color,
+        depth: p.depth,
+        engine,
+        out: o.out.clone(),
+        every: o.every,
+        hud: true,
+        progress: o.progress,
+        clock,
+        link: (!p.link.is_unlimited()).then(|| p.link.to_link_profile(1)),
+        plots: true,
+    };
+    let summary = fly_live(&fly_options, live)?;
+    Ok(DemoSummary {
+        archive,
+        built,
+        profile: p.clone(),
+        held: held_fraction(&o.out, p.target_fps)?,
+        fly: summary,
+        out: o.out.clone(),
+    })
+}
+
+/// The elevation model in the working directory, else in the source tree this was built from.
+fn find_dem() -> Result<PathBuf> {
+    let here = PathBuf::from(DEM);
+    if here.is_file() {
+        return Ok(here);
+    }
+    let tree = Path::new(env!("CARGO_MANIFEST_DIR")).join(DEM);
+    if tree.is_file() {
+        return Ok(tree);
+    }
+    Err(Error::invalid(
+        DEM,
+        format!(
+            "the demo's elevation model is neither here nor at {} (give one with --dem)",
+            tree.display()
+        ),
+    ))
+}
+
+/// Builds the demo's archive from `dem` into `archive` (through a temporary file, so that an
+/// interrupted build never leaves a half-written archive behind).
+fn build_archive(dem: &Path, archive: &Path) -> Result<()> {
+    let reader = dem::open(
+        dem,
+        &OpenOptions {
+            format: None,
+            raw: None,
+            nodata: None,
+        },
+    )?;
+    let options = BuildOptions {
+        tile_size: TILE_SIZE,
+        spacing: Some(SPACING),
+        vertical_scale: VERTICAL_SCALE,
+        ..BuildOptions::default()
+    };
+    let partial = archive.with_extension("smdb.partial");
+    build(reader, &partial, &options, &|_, _| {})?;
+    std::fs::rename(&partial, archive).map_err(|e| Error::io(archive.display().to_string(), e))
+}
+
+/// Whether `archive` opens, was built with the demo's settings, and every tile passes its
+/// checksum and decodes.
+fn intact(archive: &Path) -> bool {
+    let Ok(source) = FileSource::open(archive) else {
+        return false;
+    };
+    let Ok(reader) = ArchiveReader::open_with_attempts(source, 1) else {
+        return false;
+    };
+    let h = reader.header();
+    let same = h.tile_size as usize == TILE_SIZE
+        && h.spacing == SPACING
+        && h.vertical_scale == VERTICAL_SCALE
+        && (h.source_width, h.source_height) == (1025, 1025);
+    same && (0..h.tiles_y as usize)
+        .all(|ty| (0..h.tiles_x as usize).all(|tx| reader.tile(tx, ty).is_ok()))
+}
+
+/// Fraction of the frames after the first second of flight within 10% of `target` fps.
+fn held_fraction(out: &Path, target: f64) -> Result<f64> {
+    let table = crate::sim::report::StatsTable::read(&out.join("stats.csv"))?;
+    let time = table.column("time_s")?;
+    let fps = table.column("fps")?;
+    let settled: Vec<f64> = time
+        .iter()
+        .zip(&fps)
+        .filter(|(t, _)| **t >= 1.0)
+        .map(|(_, f)| *f)
+        .collect();
+    let within = settled
+        .iter()
+        .filter(|f| (**f / target - 1.0).abs() <= 0.1)
+        .count();
+    Ok(within as f64 / settled.len().max(1) as f64)
+}

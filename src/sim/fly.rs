@@ -1,0 +1,244 @@
+//! `stripmask fly`: a flight over an archive, headless, with per-frame statistics and frames.
+//!
+//! Flight time advances by each frame's cost as [`Clock`] tells it (measured bookkeeping and
+//! drawing, or modelled; times the device's CPU slowdown; writing PNGs is not counted), so a slow
+//! renderer covers the path in fewer frames, as on the real device. A [`LiveView`] shows the
+//! frames as they are computed as well (`demo --window`).
+
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use indicatif::{ProgressBar, ProgressStyle};
+use stripmask_platform::{Hud, PngFrames, Presenter};
+use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
+
+use crate::db::source;
+use crate::db::source::throttle::LinkProfile;
+use crate::engine::pager::PagerMode;
+use crate::engine::{Engine, EngineSettings};
+use crate::error::{Error, Result};
+use crate::sim::clock::{Clock, connect};
+use crate::sim::flight::Flight;
+use crate::sim::hud::hud_info;
+use crate::sim::report;
+use crate::sim::stats::{FrameRecord, StatsCsv};
+
+/// When a flight stops.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Length {
+    /// After this many frames.
+    Frames(u64),
+    /// After this many seconds of flight time.
+    Seconds(f64),
+}
+
+/// What to fly, where to write it.
+#[derive(Clone, Debug)]
+pub struct FlyOptions {
+    /// Archive path or URL.
+    pub source: String,
+    /// The path.
+    pub flight: Flight,
+    /// When to stop; `None` flies the whole path once.
+    pub length: Option<Length>,
+    /// Framebuffer size.
+    pub size: (u32, u32),
+    /// Colour format (RGB565 as on the handheld, or RGBA8888).
+    pub color: ColorFormat,
+    /// Depth buffer format.
+    pub depth: DepthFormat,
+    /// Engine settings.
+    pub engine: EngineSettings,
+    /// Output folder for `stats.csv` and frames.
+    pub out: PathBuf,
+    /// Keep one frame in `every` as PNG (0: none).
+    pub every: u64,
+    /// Draw the HUD (statistics and minimap) into the kept frames.
+    pub hud: bool,
+    /// Show a progress bar.
+    pub progress: bool,
+    /// Where frame costs come from. The simulated clock turns a threaded pager into a
+    /// simulated one with the same queue depth.
+    pub clock: Clock,
+    /// The link tiles come over (`None`: the source as it is).
+    pub link: Option<LinkProfile>,
+    /// Draw the report's plots into `out` at the end.
+    pub plots: bool,
+}
+
+/// Where a flight is shown while it runs, besides the files it writes.
+pub struct LiveView<'a> {
+    /// The window (or any presenter) the frames go to, with the HUD when the flight draws one.
+    /// Its quit input (Esc, closing the window) ends the flight early; what was flown is still
+    /// written.
+    pub presenter: &'a mut dyn Presenter,
+    /// Show each frame when its flight time has passed on the wall clock, so that the flight
+    /// plays at the device's pace; otherwise frames are shown as fast as they are drawn.
+    pub real_time: bool,
+}
+
+/// A run's summary.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FlySummary {
+    /// Frames rendered.
+    pub frames: u64,
+    /// Flight seconds covered.
+    pub seconds: f64,
+    /// Median frame rate.
+    pub median_fps: f64,
+    /// Mean triangles per frame.
+    pub mean_triangles: f64,
+    /// Peak accounted memory, bytes.
+    pub peak_memory_bytes: usize,
+    /// The memory limit, bytes.
+    pub memory_limit_bytes: usize,
+    /// Bytes downloaded.
+    pub downloaded_bytes: u64,
+    /// Flight time of the first frame that drew any tile, seconds.
+    pub first_frame_s: Option<f64>,
+}
+
+/// Flies `o.flight` and writes `stats.csv` (and frames) into `o.out`.
+pub fn fly(o: &FlyOptions) -> Result<FlySummary> {
+    fly_live(o, None)
+}
+
+/// [`fly`], showing the frames in `live` as well when given.
+pub fn fly_live(o: &FlyOptions, mut live: Option<LiveView<'_>>) -> Result<FlySummary> {
+    let out_name = o.out.display().to_string();
+    std::fs::create_dir_all(&o.out).map_err(|e| Error::io(&out_name, e))?;
+    let mut csv = StatsCsv::create(&o.out.join("stats.csv"))?;
+    let mut frames = if o.every > 0 {
+        Some(
+            PngFrames::new(o.out.join("frames"), o.every)
+                .map_err(|e| Error::Usage(e.to_string()))?,
+        )
+    } else {
+        None
+    };
+    let (w, h) = o.size;
+    let mut fb = Framebuffer::new(w, h, o.color, o.depth)
+        .map_err(|e| Error::Usage(format!("--size {w}x{h}: {e}")))?;
+    let mut settings = o.engine;
+    if let (Clock::Simulated { .. }, PagerMode::Threaded { queue_depth }) =
+        (o.clock, settings.pager_mode)
+    {
+        settings.pager_mode = PagerMode::Simulated { queue_depth };
+    }
+    let (source, meter) = connect(source::open(&o.source)?, o.link, &o.clock);
+    let mut engine = Engine::new(source, settings, h)?;
+    if let Some(meter) = meter {
+        engine.set_transfer_clock(meter);
+    }
+    let length = o
+        .length
+        .unwrap_or(Length::Seconds(o.flight.duration().max(f64::MIN_POSITIVE)));
+    let bar = progress_bar(o.progress, length);
+    let mut hud = Hud::new(o.hud);
+    let started = Instant::now();
+
+    let mut t = 0.0;
+    let mut frame = 0u64;
+    let mut fps = Vec::new();
+    let mut triangles = 0u64;
+    let mut first_frame_s = None;
+    let mut last_stats = None;
+    loop {
+        let done = match length {
+            Length::Frames(n) => frame >= n,
+            Length::Seconds(s) => t >= s,
+        };
+        if done || live.as_mut().is_some_and(|l| l.presenter.poll_input().quit) {
+            break;
+        }
+        let (eye, target) = o.flight.at(t);
+        let camera = engine.camera(eye, target, o.flight.above_ground);
+        engine.set_time(t);
+        let report = engine.render(&camera, &mut fb)?;
+        let seconds = o.clock.frame_seconds(&report);
+        engine.record_frame(seconds, report.draw.triangles as usize);
+        if report.rendered_tiles > 0 && first_frame_s.is_none() {
+            first_frame_s = Some(t);
+        }
+        let record = FrameRecord {
+            frame,
+            time_s: t,
+            frame_ms: seconds * 1e3,
+            fps: 1.0 / seconds.max(1e-9),
+            target_fps: o.engine.budget.target_fps,
+            budget: report.budget as u64,
+            triangles: report.triangles as u64,
+            fragments: report.draw.fragments,
+            rendered_tiles: report.rendered_tiles as u64,
+            loaded_tiles: report.pager.loaded_tiles as u64,
+            memory_bytes: report.pager.memory_bytes as u64,
+            memory_limit_bytes: report.pager.memory_limit_bytes as u64,
+            downloaded_bytes: report.pager.downloaded_bytes,
+            downloads: report.pager.fetches,
+            complete_belts: report.pager.complete_belts.map_or(0, |d| u64::from(d) + 1),
+            fetching: report.pager.fetching as u64,
+        };
+        csv.write(&record)?;
+        if frames.is_some() || live.is_some() {
+            let info = hud_info(&engine, &report, record.fps);
+            let overlay = hud.render(&info, w, h);
+            if let Some(frames) = frames.as_mut() {
+                frames
+                    .present(&fb, overlay)
+                    .map_err(|e| Error::Usage(e.to_string()))?;
+            }
+            if let Some(live) = live.as_mut() {
+                if live.real_time {
+                    let due = Duration::from_secs_f64(t);
+                    std::thread::sleep(due.saturating_sub(started.elapsed()));
+                }
+                live.presenter
+                    .present(&fb, overlay)
+                    .map_err(|e| Error::Usage(e.to_string()))?;
+            }
+        }
+        fps.push(record.fps);
+        triangles += record.triangles;
+        last_stats = Some(report.pager);
+        t += seconds;
+        frame += 1;
+        match length {
+            Length::Frames(_) => bar.set_position(frame),
+            Length::Seconds(_) => bar.set_position((t * 10.0) as u64),
+        }
+    }
+    bar.finish_and_clear();
+    csv.finish()?;
+    if o.plots {
+        report::draw(&o.out)?;
+    }
+    fps.sort_by(f64::total_cmp);
+    let stats = last_stats.unwrap_or_else(|| engine.pager().stats());
+    Ok(FlySummary {
+        frames: frame,
+        seconds: t,
+        median_fps: fps.get(fps.len() / 2).copied().unwrap_or(0.0),
+        mean_triangles: triangles as f64 / frame.max(1) as f64,
+        peak_memory_bytes: stats.memory_peak_bytes,
+        memory_limit_bytes: stats.memory_limit_bytes,
+        downloaded_bytes: stats.downloaded_bytes,
+        first_frame_s,
+    })
+}
+
+fn progress_bar(show: bool, length: Length) -> ProgressBar {
+    if !show {
+        return ProgressBar::hidden();
+    }
+    let (len, unit) = match length {
+        Length::Frames(n) => (n, "frames"),
+        Length::Seconds(s) => ((s * 10.0).ceil() as u64, "ds of flight"),
+    };
+    ProgressBar::new(len).with_style(
+        ProgressStyle::with_template(&format!(
+            "{{elapsed_precise}} [{{bar:40}}] {{pos}}/{{len}} {unit} {{eta}}"
+        ))
+        .expect("valid template")
+        .progress_chars("=> "),
+    )
+}

@@ -1,0 +1,62 @@
+//! What the HUD shows of a frame: the paper's Figure 2 (tile states around the viewer) and
+//! Figure 3 (visual importance of the drawn tiles), for the viewer and `fly`'s frames.
+
+use stripmask_platform::{HudInfo, Minimap, TileState};
+
+use crate::engine::belts::TileId;
+use crate::engine::pager::TileState as PagerState;
+use crate::engine::{Engine, FrameReport};
+
+/// The largest minimap side in cells; bigger grids show the part around the viewer.
+const MINIMAP_CELLS: u32 = 32;
+
+/// The HUD's numbers and minimap for a frame: the paper's Figure 2 (tile states around the
+/// viewer) and Figure 3 (visual importance of the drawn tiles).
+pub fn hud_info(engine: &Engine, report: &FrameReport, fps: f64) -> HudInfo {
+    let terrain = engine.terrain();
+    let (px, py) = terrain.tile_position(report.camera.position);
+    let (gw, gh) = (terrain.tiles_x, terrain.tiles_y);
+    let (mw, mh) = (gw.min(MINIMAP_CELLS), gh.min(MINIMAP_CELLS));
+    let corner = |p: f64, size: u32, cells: u32| {
+        ((p.floor() as i64 - i64::from(cells / 2)).clamp(0, i64::from(size - cells))) as u32
+    };
+    let (x0, y0) = (corner(px, gw, mw), corner(py, gh, mh));
+    let mut cells = Vec::with_capacity((mw * mh) as usize);
+    let mut importance = vec![0.0f32; (mw * mh) as usize];
+    for y in y0..y0 + mh {
+        for x in x0..x0 + mw {
+            cells.push(match engine.pager().state(TileId::new(x, y)) {
+                PagerState::Square => TileState::Loaded,
+                PagerState::Cached => TileState::Cached,
+                PagerState::Fetching => TileState::Fetching,
+                PagerState::Failed | PagerState::Absent => TileState::Empty,
+            });
+        }
+    }
+    for r in &report.rendered {
+        let (x, y) = (r.id.x.wrapping_sub(x0), r.id.y.wrapping_sub(y0));
+        if x < mw && y < mh {
+            let k = (y * mw + x) as usize;
+            cells[k] = TileState::Rendered;
+            importance[k] = r.importance as f32;
+        }
+    }
+    HudInfo {
+        fps: fps as f32,
+        target_fps: engine.settings().budget.target_fps as f32,
+        triangles: report.draw.triangles,
+        budget: report.budget as u64,
+        memory_bytes: report.pager.memory_bytes as u64,
+        memory_limit_bytes: report.pager.memory_limit_bytes as u64,
+        tiles_loaded: report.pager.loaded_tiles as u32,
+        tiles_rendered: report.rendered_tiles as u32,
+        minimap: Some(Minimap {
+            width: mw,
+            height: mh,
+            cells,
+            viewer: ((px - f64::from(x0)) as f32, (py - f64::from(y0)) as f32),
+            heading: report.camera.heading() as f32,
+            importance: Some(importance),
+        }),
+    }
+}

@@ -14,7 +14,7 @@ use crate::db::archive::{ArchiveWriter, Codec, Header, compress};
 use crate::db::dem::{DemReader, NodataFill};
 use crate::db::texture_gen::{ImageTexture, shaded};
 use crate::db::tile::Tile;
-use crate::db::tiling::{BandReader, Grid};
+use crate::db::tiling::{BandReader, Tiling};
 use crate::error::{Error, Result};
 
 /// What `build` makes of a DEM.
@@ -82,7 +82,7 @@ pub fn build<R: DemReader>(
 ) -> Result<BuildReport> {
     let started = Instant::now();
     let info = reader.info().clone();
-    let grid = Grid::new(info.width, info.height, options.tile_size)?;
+    let grid = Tiling::new(info.width, info.height, options.tile_size)?;
     let f = options.texture_factor;
     if !f.is_power_of_two() || f > 8 {
         return Err(Error::Usage(format!(

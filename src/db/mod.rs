@@ -4,6 +4,7 @@
 pub mod archive;
 pub mod builder;
 pub mod dem;
+pub mod grid;
 pub mod level_error;
 pub mod mask_level;
 pub mod rgb565;

@@ -15,7 +15,7 @@ pub const MAX_TILE_SIZE: usize = 4097;
 
 /// How a DEM of `width x height` samples is cut into tiles.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Grid {
+pub struct Tiling {
     /// Samples per tile side, `2^n + 1`.
     pub tile_size: usize,
     /// Tiles across (west to east).
@@ -33,16 +33,16 @@ pub fn is_valid_tile_size(s: usize) -> bool {
     (3..=MAX_TILE_SIZE).contains(&s) && (s - 1).is_power_of_two()
 }
 
-impl Grid {
+impl Tiling {
     /// The tiling of a `width x height` DEM with `tile_size` samples per tile side.
-    pub fn new(width: usize, height: usize, tile_size: usize) -> Result<Grid> {
+    pub fn new(width: usize, height: usize, tile_size: usize) -> Result<Tiling> {
         if !is_valid_tile_size(tile_size) {
             return Err(Error::Usage(format!(
                 "tile size {tile_size} is not 2^n + 1 between 3 and {MAX_TILE_SIZE}"
             )));
         }
         let step = tile_size - 1;
-        Ok(Grid {
+        Ok(Tiling {
             tile_size,
             tiles_x: (width.max(2) - 1).div_ceil(step),
             tiles_y: (height.max(2) - 1).div_ceil(step),
@@ -71,7 +71,7 @@ impl Grid {
 pub struct Band {
     /// Which tile row this is.
     pub tile_row: usize,
-    grid: Grid,
+    grid: Tiling,
     samples: Vec<f32>,
 }
 
@@ -92,7 +92,7 @@ impl Band {
 /// Reads a DEM band by band (one row of tiles at a time).
 pub struct BandReader<R> {
     reader: NodataFill<R>,
-    grid: Grid,
+    grid: Tiling,
     vertical_scale: f32,
     band: Band,
     rows_read: usize,
@@ -101,7 +101,7 @@ pub struct BandReader<R> {
 
 impl<R: DemReader> BandReader<R> {
     /// Streams `reader` in bands of `grid.tile_size` rows; heights are scaled by `vertical_scale`.
-    pub fn new(reader: NodataFill<R>, grid: Grid, vertical_scale: f32) -> Self {
+    pub fn new(reader: NodataFill<R>, grid: Tiling, vertical_scale: f32) -> Self {
         let band = Band {
             tile_row: 0,
             grid,

@@ -14,10 +14,11 @@ use glam::DVec3;
 use stripmask_raster::{DrawStats, DrawTarget, Framebuffer, LineStats, RasterTarget, Rasterizer};
 
 use crate::db::archive::ArchiveReader;
+use crate::db::grid::TileId;
 use crate::db::source::TileSource;
 use crate::db::tile::HeldLevels;
 use crate::db::tile::progressive_levels;
-use crate::engine::belts::{Grid, TileId};
+use crate::engine::belts::Grid;
 use crate::engine::budget::{
     BudgetController, BudgetSettings, allocate, allocate_held, drawable_level,
 };

@@ -16,11 +16,11 @@
 use std::sync::atomic::{AtomicU8, AtomicUsize, Ordering};
 
 use crate::db::archive::ArchiveReader;
+use crate::db::grid::TileId;
 use crate::db::rgb565::mip_count;
 use crate::db::source::TileSource;
 use crate::db::tile::Tile;
 use crate::db::tile::progressive_levels;
-use crate::engine::belts::TileId;
 use crate::engine::cracks::CrackMode;
 use crate::engine::pager::TileLoader;
 use crate::engine::resident::{Light, ResidentTile, predicted_bytes};

@@ -4,7 +4,8 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use crate::engine::belts::{Ledger, TileId};
+use crate::db::grid::TileId;
+use crate::engine::belts::Ledger;
 use crate::engine::loader::ArchiveLoader;
 use crate::engine::pager::{Pager, PagerStats, TileState, TransferClock};
 use crate::engine::resident::ResidentTile;

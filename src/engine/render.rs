@@ -314,8 +314,10 @@ fn draw_shadows<T: DrawTarget>(
         let origin = terrain.tile_origin(t.x, t.y);
         let eye = (camera.position - origin)
             / DVec3::new(terrain.spacing, terrain.quantum, terrain.spacing);
-        let (Some(vertices), Ok(transform)) = (shadow::quad(t.tile, eye), fine.tile(t.x, t.y))
-        else {
+        let (Some(vertices), Ok(transform)) = (
+            shadow::quad(&t.tile.vertices, t.tile.side(), eye),
+            fine.tile(t.x, t.y),
+        ) else {
             continue;
         };
         let mesh = Mesh {

@@ -16,8 +16,8 @@ use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
 use crate::db::builder::{BuildOptions, build};
 use crate::db::dem::{MemoryReader, NodataFill};
+use crate::db::grid::TileId;
 use crate::db::source;
-use crate::engine::belts::TileId;
 use crate::engine::camera::Camera;
 use crate::engine::cracks::CrackMode;
 use crate::engine::pager::PagerMode;

@@ -3,7 +3,7 @@
 
 use stripmask_platform::{HudInfo, Minimap, TileState};
 
-use crate::engine::belts::TileId;
+use crate::db::grid::TileId;
 use crate::engine::pager::TileState as PagerState;
 use crate::engine::{Engine, FrameReport};
 

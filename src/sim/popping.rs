@@ -14,7 +14,7 @@ use std::collections::HashMap;
 use glam::DVec3;
 use stripmask_raster::Framebuffer;
 
-use crate::engine::belts::TileId;
+use crate::db::grid::TileId;
 use crate::engine::camera::Camera;
 use crate::engine::{Engine, FrameReport};
 use crate::error::{Error, Result};

@@ -21,7 +21,7 @@ use std::ops::Range;
 
 use serde::Serialize;
 
-use crate::db::tile::{level_payload_size, progressive_levels};
+use crate::db::tile::{MAX_TEXTURE_SIZE, level_payload_size, progressive_levels};
 use crate::db::tiling::is_valid_tile_size;
 use crate::error::{Error, Result};
 
@@ -38,8 +38,6 @@ pub const HEADER_LEN: usize = 96;
 pub const MAX_TILES: usize = 1 << 24;
 /// The largest index a reader accepts (bounds what it allocates: 256 MiB).
 pub const MAX_INDEX_LEN: usize = 1 << 28;
-/// The largest texture side.
-pub const MAX_TEXTURE_SIZE: usize = 4096;
 
 /// How tile payloads are stored.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]

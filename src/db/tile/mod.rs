@@ -17,6 +17,9 @@ use std::ops::Range;
 use crate::db::level_error::level_errors;
 use crate::db::rgb565::{mip_chain, mip_count};
 
+/// The largest texture side a tile may carry.
+pub const MAX_TEXTURE_SIZE: usize = 4096;
+
 /// The progressive levels of a tile of `tile_size = 2^n + 1` samples per side: `n + 1`. Level
 /// `g` is the grid of `2^g + 1` samples per side that keeps every `2^(n - g)`-th sample; level 0
 /// is the four corners, level `n` the whole tile. Each level adds only the samples the coarser

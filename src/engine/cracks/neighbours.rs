@@ -3,7 +3,7 @@
 use std::collections::HashMap;
 
 use super::Side;
-use crate::engine::belts::TileId;
+use crate::db::grid::TileId;
 
 /// For each drawn tile `(id, level)`, the levels of its four neighbours in [`Side::ALL`] order.
 /// A neighbour not drawn this frame counts as the tile's own level.

@@ -20,9 +20,6 @@
 use glam::DVec3;
 use stripmask_raster::Vertex;
 
-use crate::db::tile::HeldLevels;
-use crate::engine::resident::ResidentTile;
-
 /// Shadow vertices count positions in 1/256 of a grid step and of a height quantum.
 pub const SUBDIVISION: i32 = 256;
 
@@ -33,21 +30,22 @@ pub const MAX_STRETCH: f64 = 64.0;
 /// How far below the tile's lowest sample the shadow plane lies, in quanta.
 const DEPTH_QUANTA: f64 = 1.0;
 
-/// The shadow quad of `tile` (whole or partial: its corners are held at every level) seen from
-/// `eye`, given in whole-tile grid units (`(i, quanta, j)` with the tile's north-west sample at
-/// height 0 as origin), as vertices in [`SUBDIVISION`] units: north-west, north-east,
-/// south-west, south-east. `None` at grazing angles (see the module documentation).
-pub fn quad(tile: &ResidentTile, eye: DVec3) -> Option<[Vertex; 4]> {
-    let s = tile.side();
+/// The shadow quad of a tile whose held grid (whole or partial: its corners are held at every
+/// level) is `grid`, row-major with `side` samples per side, seen from `eye`, given in
+/// whole-tile grid units (`(i, quanta, j)` with the tile's north-west sample at height 0 as
+/// origin), as vertices in [`SUBDIVISION`] units: north-west, north-east, south-west,
+/// south-east. `None` at grazing angles (see the module documentation).
+pub fn quad(grid: &[Vertex], side: usize, eye: DVec3) -> Option<[Vertex; 4]> {
+    let s = side;
     let plane = f64::from(
-        tile.vertices[..s * s]
+        grid[..s * s]
             .iter()
             .map(|v| v.position[1])
             .min()
             .expect("a tile has vertices"),
     ) - DEPTH_QUANTA;
     let last = s - 1;
-    let corners = [0, last, last * s, last * s + last].map(|k| tile.vertices[k]);
+    let corners = [0, last, last * s, last * s + last].map(|k| grid[k]);
     let mut out = corners;
     for (v, corner) in out.iter_mut().zip(corners) {
         let p = DVec3::from_array(corner.position.map(f64::from));
@@ -68,45 +66,46 @@ pub const QUAD_STRIP: [u16; 4] = [2, 0, 3, 1];
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::db::tile::Tile;
-    use crate::engine::cracks::CrackMode;
-    use crate::engine::resident::Light;
 
-    fn tile() -> ResidentTile {
-        let s = 5;
-        let heights: Vec<f32> = (0..s * s).map(|k| 10.0 + (k % 7) as f32).collect();
-        let tile = Tile::new(&heights, s, 0.25, &[[90, 120, 60]; 16], 4).unwrap();
-        ResidentTile::new(&tile, 0, 2.0, &Light::default(), CrackMode::Shadow)
+    /// A 5 x 5 grid with heights 10 ..= 16 quanta, each vertex its own texel and colour.
+    fn grid() -> Vec<Vertex> {
+        (0..25i32)
+            .map(|k| {
+                let t = k as u8;
+                Vertex::new(
+                    [k % 5, 10 + k % 7, k / 5],
+                    [k as f32 / 25.0, k as f32 / 50.0],
+                    [t, 2 * t, 3 * t],
+                )
+            })
+            .collect()
     }
 
     #[test]
     fn corners_go_along_their_eye_ray_onto_the_plane_below_the_tile() {
-        let tile = tile();
+        let grid = grid();
         let eye = DVec3::new(1.0, 400.0, 9.0);
-        let q = quad(&tile, eye).unwrap();
-        let low = tile.vertices.iter().map(|v| v.position[1]).min().unwrap();
+        let q = quad(&grid, 5, eye).unwrap();
+        let low = grid.iter().map(|v| v.position[1]).min().unwrap();
         let sub = f64::from(SUBDIVISION);
         for (v, k) in q.iter().zip([0, 4, 20, 24]) {
-            let corner = DVec3::from_array(tile.vertices[k].position.map(f64::from));
+            let corner = DVec3::from_array(grid[k].position.map(f64::from));
             let p = DVec3::from_array(v.position.map(f64::from)) / sub;
             assert!((p.y - (f64::from(low) - DEPTH_QUANTA)).abs() <= 0.5 / sub);
             let (a, b) = ((corner - eye).normalize(), (p - eye).normalize());
             assert!(a.dot(b) > 1.0 - 1e-9, "corner {k} off its ray");
             assert!((p - eye).length() > (corner - eye).length());
-            assert_eq!(
-                (v.uv, v.color),
-                (tile.vertices[k].uv, tile.vertices[k].color)
-            );
+            assert_eq!((v.uv, v.color), (grid[k].uv, grid[k].color));
         }
     }
 
     #[test]
     fn no_quad_when_the_eye_is_not_above_every_corner_or_the_view_grazes() {
-        let tile = tile();
-        let top = f64::from(tile.vertices.iter().map(|v| v.position[1]).max().unwrap());
-        assert!(quad(&tile, DVec3::new(2.0, top, 2.0)).is_none());
-        assert!(quad(&tile, DVec3::new(2.0, top - 10.0, 2.0)).is_none());
-        assert!(quad(&tile, DVec3::new(2.0, top + 0.01, 2.0)).is_none());
-        assert!(quad(&tile, DVec3::new(2.0, top + 100.0, 2.0)).is_some());
+        let grid = grid();
+        let top = f64::from(grid.iter().map(|v| v.position[1]).max().unwrap());
+        assert!(quad(&grid, 5, DVec3::new(2.0, top, 2.0)).is_none());
+        assert!(quad(&grid, 5, DVec3::new(2.0, top - 10.0, 2.0)).is_none());
+        assert!(quad(&grid, 5, DVec3::new(2.0, top + 0.01, 2.0)).is_none());
+        assert!(quad(&grid, 5, DVec3::new(2.0, top + 100.0, 2.0)).is_some());
     }
 }

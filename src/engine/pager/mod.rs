@@ -20,7 +20,8 @@ use std::sync::Arc;
 
 pub use meminfo::{memory_limit_from_available, parse_mem_available};
 
-use crate::engine::belts::{self, Failure, Fetch, Grid, Ledger, Plan, RetryPolicy, TileId};
+use crate::db::grid::TileId;
+use crate::engine::belts::{self, Failure, Fetch, Grid, Ledger, Plan, RetryPolicy};
 use crate::error::{Error, Result};
 pub use link::{Link, Received};
 use worker::{Job, Request, load_job};

@@ -9,7 +9,8 @@ use std::sync::mpsc::{Receiver, Sender, TryRecvError, channel};
 use std::thread::JoinHandle;
 
 use super::TileLoader;
-use crate::engine::belts::{Fetch, TileId};
+use crate::db::grid::TileId;
+use crate::engine::belts::Fetch;
 use crate::error::{Error, Result};
 
 /// A request the fetch thread can run: it names the tile it is for.

@@ -41,7 +41,8 @@ pub use predict::{PredictedView, PredictionSettings, Predictor};
 pub use queue::{LevelRequest, Reason, RequestQueue};
 pub use stats::{Delivery, StreamStats};
 
-use crate::engine::belts::{Failure, Fetch, Grid, Ledger, RetryPolicy, TileId};
+use crate::db::grid::TileId;
+use crate::engine::belts::{Failure, Fetch, Grid, Ledger, RetryPolicy};
 use crate::engine::pager::worker::{Job, Request};
 use crate::engine::pager::{Link, PagerMode, PagerStats, TileState, TransferClock};
 use crate::error::{Error, Result};

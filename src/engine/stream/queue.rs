@@ -7,7 +7,7 @@
 use std::cmp::Ordering;
 use std::collections::HashSet;
 
-use crate::engine::belts::TileId;
+use crate::db::grid::TileId;
 
 /// Why a request was made.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]

@@ -5,7 +5,7 @@
 
 use std::collections::VecDeque;
 
-use crate::engine::belts::TileId;
+use crate::db::grid::TileId;
 use crate::engine::stream::Reason;
 
 /// Seconds after its arrival within which a delivery must be drawn to count as rendered.

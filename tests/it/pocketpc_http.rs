@@ -16,8 +16,7 @@ use stripmask::engine::{Engine, EngineSettings};
 use stripmask::sim::flight::{Builtin, Flight};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
-#[path = "support/hills.rs"]
-mod hills;
+use crate::support::hills;
 
 /// What the client saw of each request.
 #[derive(Default)]

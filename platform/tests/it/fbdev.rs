@@ -3,7 +3,7 @@
 //! format's definition; and the errors for devices that are missing or are not framebuffers.
 #![cfg(all(feature = "fbdev", target_os = "linux"))]
 
-mod common;
+use crate::common;
 
 use std::io::Write;
 

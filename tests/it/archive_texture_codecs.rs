@@ -1,6 +1,6 @@
 //! Bytes per tile and decode time of the payload parts on the Puget Sound tiles: heights and
 //! RGB565 textures raw, with LZ4, and the textures as JPEG (quality 85) for comparison.
-//! `cargo test --release --test archive_texture_codecs -- --nocapture` prints the table that
+//! `cargo test --release --test it archive_texture_codecs -- --nocapture` prints the table that
 //! docs/database.md quotes.
 
 use std::path::Path;

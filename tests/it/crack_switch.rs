@@ -3,8 +3,7 @@
 //! accounting stays exact (what it counts is what the tiles hold, never over the limit), also
 //! when the new mode does not fit the limit and when tiles are still in flight.
 
-#[path = "support/crack_scene.rs"]
-mod crack_scene;
+use crate::support::crack_scene;
 
 use crack_scene::scene;
 use stripmask::db::source;

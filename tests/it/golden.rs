@@ -1,9 +1,9 @@
 //! Golden images of the rasterizer, one per behaviour, compared byte for byte (rendering is
 //! deterministic). Re-bless after an intended change with
-//! `STRIPMASK_BLESS=1 cargo test --profile ci --test golden` and explain the change in the commit;
+//! `STRIPMASK_BLESS=1 cargo test --profile ci --test it golden` and explain the change in the commit;
 //! on a mismatch the new picture is written to `target/golden-failures/` for inspection.
 
-mod support;
+use crate::support;
 
 use glam::DVec3;
 use stripmask_raster::*;

@@ -5,7 +5,8 @@
 
 use std::sync::{Arc, Mutex};
 
-use stripmask::engine::belts::{Grid, TileId};
+use stripmask::db::grid::TileId;
+use stripmask::engine::belts::Grid;
 use stripmask::engine::pager::{Pager, PagerConfig, PagerMode, TileLoader, TransferClock};
 
 /// Seconds of transfer so far, as exact binary fractions so that due times compare exactly.

@@ -3,8 +3,8 @@
 //! level counts.
 
 use glam::DVec3;
+use stripmask::db::grid::TileId;
 use stripmask::db::tile::Tile;
-use stripmask::engine::belts::TileId;
 use stripmask::engine::budget::drawable_level;
 use stripmask::engine::camera::Camera;
 use stripmask::engine::cracks::neighbours::neighbour_levels;

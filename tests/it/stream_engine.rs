@@ -15,8 +15,7 @@ use stripmask::sim::device::Link;
 use stripmask::sim::flight::{Builtin, Flight};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
-#[path = "support/hills.rs"]
-mod hills;
+use crate::support::hills;
 use hills::archive;
 
 fn settings(memory_limit_bytes: usize, streaming: Streaming, mode: PagerMode) -> EngineSettings {

@@ -2,7 +2,7 @@
 //! degenerate triangles, 1x1 and 4096x4096 targets. Nothing may panic or wrap (the test profile
 //! keeps overflow checks on), and coverage must stay right.
 
-mod common;
+use crate::common;
 
 use common::*;
 use glam::{DMat4, DVec3};

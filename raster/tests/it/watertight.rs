@@ -3,7 +3,7 @@
 //! both pipelines, including projected meshes with random `w` and meshes reaching past the guard
 //! band (so that side clipping runs).
 
-mod common;
+use crate::common;
 
 use common::*;
 use proptest::prelude::*;

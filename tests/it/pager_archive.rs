@@ -7,9 +7,10 @@ use std::time::{Duration, Instant};
 use stripmask::db::archive::{ArchiveReader, Codec};
 use stripmask::db::builder::{BuildOptions, build};
 use stripmask::db::dem::{MemoryReader, NodataFill};
+use stripmask::db::grid::TileId;
 use stripmask::db::source::file::FileSource;
 use stripmask::db::tile::Tile;
-use stripmask::engine::belts::{Grid, TileId};
+use stripmask::engine::belts::Grid;
 use stripmask::engine::pager::{Pager, PagerConfig, PagerMode, TileLoader, TileState};
 
 /// Builds an 8 x 6 tile archive of 17-sample tiles (129 x 97 samples) with 16-texel textures.

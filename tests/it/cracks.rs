@@ -2,10 +2,9 @@
 //! levels side by side, the terrain covering the screen, magenta behind it. Golden images of
 //! one view per mode follow `tests/golden.rs` (re-bless with `STRIPMASK_BLESS=1`).
 
-mod support;
+use crate::support;
 
-#[path = "support/crack_scene.rs"]
-mod crack_scene;
+use crate::support::crack_scene;
 
 use crack_scene::scene;
 use stripmask::engine::cracks::CrackMode;

@@ -11,8 +11,7 @@ use stripmask::sim::fly::{FlyOptions, Length, fly};
 use stripmask::sim::stats::CSV_HEADER;
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
-#[path = "support/hills.rs"]
-mod hills;
+use crate::support::hills;
 use hills::archive;
 
 fn stepped(memory_limit_bytes: usize) -> EngineSettings {

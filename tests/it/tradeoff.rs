@@ -2,8 +2,7 @@
 
 use stripmask::sim::tradeoff::{TradeoffOptions, run};
 
-#[path = "support/hills.rs"]
-mod hills;
+use crate::support::hills;
 
 fn options(source: String, out: std::path::PathBuf, knobs: &[&str]) -> TradeoffOptions {
     TradeoffOptions {

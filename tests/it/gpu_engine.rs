@@ -11,8 +11,7 @@ use stripmask::engine::{Engine, EngineSettings};
 use stripmask_platform::{GpuTarget, PlatformError};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
-#[path = "support/hills.rs"]
-mod hills;
+use crate::support::hills;
 
 #[test]
 fn an_engine_frame_on_the_gpu_matches_the_cpu_frame() {

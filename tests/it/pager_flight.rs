@@ -8,7 +8,8 @@ use std::time::{Duration, Instant};
 
 use proptest::prelude::*;
 use stripmask::Error;
-use stripmask::engine::belts::{Failure, Grid, RetryPolicy, TileId};
+use stripmask::db::grid::TileId;
+use stripmask::engine::belts::{Failure, Grid, RetryPolicy};
 use stripmask::engine::pager::{Pager, PagerConfig, PagerMode, TileLoader, TileState};
 
 type Cost = Arc<dyn Fn(TileId, u32) -> usize + Send + Sync>;

@@ -2,10 +2,9 @@
 //! drawn tile's triangle edges, each once, over the shaded terrain or over a white one; off, the
 //! frame is untouched. Golden image as in `tests/golden.rs` (re-bless with `STRIPMASK_BLESS=1`).
 
-mod support;
+use crate::support;
 
-#[path = "support/crack_scene.rs"]
-mod crack_scene;
+use crate::support::crack_scene;
 
 use std::collections::BTreeSet;
 

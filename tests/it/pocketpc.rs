@@ -7,8 +7,8 @@ use std::path::Path;
 use std::sync::{Arc, Mutex};
 
 use stripmask::db::archive::ArchiveReader;
+use stripmask::db::grid::TileId;
 use stripmask::db::source::{self, TileSource};
-use stripmask::engine::belts::TileId;
 use stripmask::engine::pager::PagerMode;
 use stripmask::engine::terrain::TerrainFrame;
 use stripmask::engine::{Engine, EngineSettings};
@@ -22,8 +22,7 @@ use stripmask::sim::stats::{FrameRecord, StatsCsv};
 use stripmask_platform::{Input, Overlay, PlatformError, Presenter};
 use stripmask_raster::Framebuffer;
 
-#[path = "support/hills.rs"]
-mod hills;
+use crate::support::hills;
 use hills::archive;
 
 fn simulated(p: &DeviceProfile) -> Clock {

@@ -6,7 +6,8 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use proptest::prelude::*;
-use stripmask::engine::belts::{Grid, TileId};
+use stripmask::db::grid::TileId;
+use stripmask::engine::belts::Grid;
 use stripmask::engine::pager::PagerMode;
 use stripmask::engine::stream::{LevelLoader, StreamConfig, StreamPager, Want};
 use stripmask::error::{Error, Result};

@@ -6,8 +6,7 @@ use stripmask::sim::device::DeviceProfile;
 use stripmask::sim::flight::Builtin;
 use stripmask::sim::stream_compare::{CompareOptions, LINKS, Strategy, compare, write};
 
-#[path = "support/hills.rs"]
-mod hills;
+use crate::support::hills;
 
 #[test]
 fn every_link_and_strategy_gets_a_row_and_progressive_tiles_cost_fewer_bytes() {

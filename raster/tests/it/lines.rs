@@ -2,7 +2,7 @@
 //! clipping against near and the guard band, the depth test with its bias, a mesh's wireframe
 //! edge count, and no panic or wrap for any finite input.
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeSet;
 

@@ -1,6 +1,6 @@
 //! The test helper paints what it is asked to: the other tests rely on it.
 
-mod common;
+use crate::common;
 
 use stripmask_raster::ColorFormat;
 

@@ -3,8 +3,7 @@
 //! tiles up to sub-pixel rounding. (Factor 1 giving exactly the coarse surface is checked on the mesh, in
 //! `src/geomorph.rs`.)
 
-#[path = "support/crack_scene.rs"]
-mod crack_scene;
+use crate::support::crack_scene;
 
 use crack_scene::scene;
 use stripmask::engine::EngineSettings;

@@ -4,7 +4,7 @@
 //! display the test checks that opening fails with the no-display error, and says it skipped.
 #![cfg(all(feature = "window", target_os = "linux"))]
 
-mod common;
+use crate::common;
 
 use std::ffi::{CStr, c_char, c_int, c_uint};
 use std::ptr;

@@ -2,7 +2,7 @@
 //! only pixels inside its panels; minimap cells show their states' colours; the same input
 //! gives the same bytes; RGB565 and RGBA8888 frames get the same HUD.
 
-mod common;
+use crate::common;
 
 use proptest::prelude::*;
 use stripmask_platform::{Hud, HudInfo, Minimap, Overlay, TileState, compose_rgba};

@@ -1,0 +1,35 @@
+//! The integration tests of `stripmask`, one module per behaviour, linked into one binary.
+//! `cargo test --test it MODULE` runs one module.
+
+mod support;
+
+mod archive_corrupt;
+mod archive_fuzz;
+mod archive_levels;
+mod archive_roundtrip;
+mod archive_texture_codecs;
+mod cli_build_info;
+mod cli_demo;
+mod cli_serve;
+mod crack_switch;
+mod cracks;
+mod dem_formats;
+mod dem_fuzz;
+mod engine;
+mod extremes_engine;
+mod geomorph;
+mod golden;
+#[cfg(feature = "wgpu")]
+mod gpu_engine;
+mod pager_archive;
+mod pager_flight;
+mod pager_simulated;
+mod partial_tiles;
+mod pocketpc;
+mod pocketpc_http;
+mod source_http;
+mod stream_compare;
+mod stream_engine;
+mod stream_pager;
+mod tradeoff;
+mod wireframe;

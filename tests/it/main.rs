@@ -21,6 +21,7 @@ mod geomorph;
 mod golden;
 #[cfg(feature = "wgpu")]
 mod gpu_engine;
+mod layers;
 mod pager_archive;
 mod pager_flight;
 mod pager_simulated;

@@ -20,7 +20,7 @@ use std::time::Instant;
 
 use stripmask::db::archive::ArchiveReader;
 use stripmask::db::source;
-use stripmask::engine::pager::PagerMode;
+use stripmask::engine::paging::PagerMode;
 use stripmask::engine::terrain::TerrainFrame;
 use stripmask::engine::{Engine, EngineSettings};
 use stripmask::sim::clock::CostModel;

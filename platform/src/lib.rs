@@ -39,7 +39,7 @@ pub use fbdev::{Bitfield, EvdevInput, FbPresenter, ScreenInfo};
 pub use fit::Fit;
 #[cfg(feature = "wgpu")]
 pub use gpu::GpuTarget;
-pub use hud::{Hud, HudInfo, Minimap, Overlay, PanelRect, TileState};
+pub use hud::{Hud, HudInfo, Minimap, MinimapCell, Overlay, PanelRect};
 pub use input::{Command, Input, Motion};
 pub use png::PngFrames;
 #[cfg(feature = "window")]

@@ -22,9 +22,9 @@ use stripmask::engine::geomorph::Geomorph;
 use stripmask::engine::importance::Weights;
 use stripmask::engine::masks::LevelSet;
 #[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
-use stripmask::engine::pager::PagerMode;
-use stripmask::engine::pager::memory_limit_from_available;
-use stripmask::engine::stream::{PredictionSettings, StreamSettings, Streaming};
+use stripmask::engine::paging::PagerMode;
+use stripmask::engine::paging::memory_limit_from_available;
+use stripmask::engine::paging::stream::{PredictionSettings, StreamSettings, Streaming};
 use stripmask::engine::terrain::TerrainFrame;
 use stripmask::error::{Error, Result};
 use stripmask::sim::clock::{Clock, CostModel};

@@ -203,7 +203,7 @@ mod tests {
     use stripmask::db::builder::{BuildOptions, build};
     use stripmask::db::dem::{MemoryReader, NodataFill};
     use stripmask::engine::EngineSettings;
-    use stripmask::engine::pager::PagerMode;
+    use stripmask::engine::paging::PagerMode;
     use stripmask::sim::flight::{Builtin, Flight};
     use stripmask_platform::{Command, Input, Motion, Overlay, PlatformError, Presenter};
     use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};

@@ -217,7 +217,7 @@ pub struct TileAllocation {
 /// leaves in the pool is spent in a second pass, again in importance order and under the same
 /// rule, so a budget covering every tile's finest mask gives every tile level 0.
 pub fn allocate(budget: usize, importance: &Importance, masks: &MaskSet) -> Vec<TileAllocation> {
-    allocate_held(budget, importance, masks, &vec![0; importance.order.len()])
+    allocate_capped(budget, importance, masks, &vec![0; importance.order.len()])
 }
 
 /// [`allocate`] for tiles that cannot all draw every level: tile `t` never gets a level finer
@@ -226,7 +226,7 @@ pub fn allocate(budget: usize, importance: &Importance, masks: &MaskSet) -> Vec<
 /// tiles, like any leftover; the no-outbidding rule compares the levels the tiles could buy, so
 /// a less important tile may draw finer than a more important one only because that one holds
 /// too little.
-pub fn allocate_held(
+pub fn allocate_capped(
     budget: usize,
     importance: &Importance,
     masks: &MaskSet,
@@ -592,10 +592,10 @@ mod tests {
         };
         let whole = allocate(170, &imp, &masks);
         assert_eq!((whole[0].level, whole[1].level), (0, 1));
-        let held = allocate_held(170, &imp, &masks, &[3, 0]);
+        let held = allocate_capped(170, &imp, &masks, &[3, 0]);
         assert_eq!(held[0].level, 3, "never finer than it holds");
         assert_eq!(held[1].level, 0, "its triangles go to the next tile");
-        assert_eq!(allocate_held(170, &imp, &masks, &[0, 0]), whole);
+        assert_eq!(allocate_capped(170, &imp, &masks, &[0, 0]), whole);
     }
 
     #[test]
@@ -678,7 +678,7 @@ mod tests {
                 .collect();
             let all = tiles.len() * masks.triangle_count(0);
             let budget = (all as f64 * fraction) as usize;
-            let a = allocate_held(budget, &imp, &masks, &finest);
+            let a = allocate_capped(budget, &imp, &masks, &finest);
             let total: usize = a.iter().map(|t| t.triangles).sum();
             let floor = masks.triangle_count(masks.coarsest_level());
             prop_assert!(total <= budget || a.iter().all(|t| t.triangles == floor));

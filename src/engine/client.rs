@@ -14,27 +14,26 @@ use glam::DVec3;
 use stripmask_raster::{DrawStats, DrawTarget, Framebuffer, LineStats, RasterTarget, Rasterizer};
 
 use crate::db::archive::ArchiveReader;
-use crate::db::grid::TileId;
+use crate::db::grid::{Grid, TileId};
 use crate::db::source::TileSource;
-use crate::db::tile::HeldLevels;
-use crate::db::tile::progressive_levels;
-use crate::engine::belts::Grid;
+use crate::db::tile::{PartialGrid, progressive_levels};
 use crate::engine::budget::{
-    BudgetController, BudgetSettings, allocate, allocate_held, drawable_level,
+    BudgetController, BudgetSettings, TileAllocation, allocate, allocate_capped, drawable_level,
 };
 use crate::engine::camera::Camera;
 use crate::engine::cracks::{CrackMode, TileIndices, neighbours::neighbour_levels};
 use crate::engine::frustum::{Aabb, Frustum};
 use crate::engine::geomorph::{Geomorph, Morpher, SUBDIVISION};
-use crate::engine::held_meshes::HeldSideMeshes;
 use crate::engine::importance::{TileMeasure, Weights, visual_importance};
-use crate::engine::loader::ArchiveLoader;
 use crate::engine::masks::{LevelSet, MaskSet};
-use crate::engine::pager::{Pager, PagerConfig, PagerMode, PagerStats, TransferClock};
-use crate::engine::paging::Paging;
+use crate::engine::paging::stream::{PredictedView, Predictor, StreamPager, Streaming, Want};
+use crate::engine::paging::{
+    ArchiveLoader, BeltPager, PagerConfig, PagerMode, PagerStats, Paging, Residency, StreamStats,
+    TransferClock,
+};
+use crate::engine::partial_meshes::PartialMeshes;
 use crate::engine::render::{RenderSettings, TileDraw, TileMeshes, draw_tiles};
 use crate::engine::resident::{Light, ResidentTile};
-use crate::engine::stream::{PredictedView, Predictor, StreamConfig, StreamPager, Streaming, Want};
 use crate::engine::terrain::TerrainFrame;
 use crate::error::{Error, Result};
 
@@ -139,17 +138,14 @@ pub struct RenderedTile {
 /// The engine: an archive, its pager, the shared strip masks and the budget controller.
 pub struct Engine {
     terrain: TerrainFrame,
-    pager: Paging,
+    pager: Box<dyn Paging>,
     grid: Grid,
     /// The viewpoint predictor when streaming progressively with prediction.
     predictor: Option<Predictor>,
     masks: MaskSet,
-    /// The powers-of-two masks the budget chooses from while partial tiles are drawn, built
-    /// the first time one is (the same set as `masks` when the settings ask for it).
-    power_of_two: Option<MaskSet>,
     cracks: TileIndices,
     /// The masks and crack pieces of partial tiles, built per held side on first use.
-    held: HeldSideMeshes,
+    partial: PartialMeshes,
     /// The geomorph state, `None` when geomorphing is off.
     morpher: Option<Morpher>,
     /// Levels pinned per tile instead of the budget's choice (for measurements).
@@ -176,27 +172,17 @@ impl Engine {
             loader.fit_texture_budget(settings.memory_limit_bytes, budget);
         }
         let grid = Grid::new(header.tiles_x, header.tiles_y)?;
-        let (pager, predictor) = match settings.streaming {
-            Streaming::Belts => {
-                let mut config = PagerConfig::new(settings.memory_limit_bytes, settings.pager_mode);
-                config.nearest_when_off = settings.nearest_when_off;
-                (
-                    Paging::Belts(Box::new(Pager::new(loader, grid, config)?)),
-                    None,
-                )
-            }
+        let mut config = PagerConfig::new(settings.memory_limit_bytes, settings.pager_mode);
+        config.nearest_when_off = settings.nearest_when_off;
+        let (pager, predictor): (Box<dyn Paging>, _) = match settings.streaming {
+            Streaming::Belts => (Box::new(BeltPager::new(loader, grid, config)?), None),
             Streaming::Progressive(stream) => {
                 check_progressive(&settings)?;
-                // Partial tiles draw powers-of-two masks only (see `render_to`): every frame
+                // Partial tiles draw powers-of-two masks only (see `plan_frame`): every frame
                 // does, so a view does not change set when its last tile completes.
                 settings.level_set = LevelSet::PowerOfTwo;
-                let mut config =
-                    StreamConfig::new(settings.memory_limit_bytes, settings.pager_mode);
-                config.queue_capacity = stream.queue_capacity;
-                config.square_share = stream.square_share;
-                config.nearest_when_off = settings.nearest_when_off;
                 (
-                    Paging::Stream(Box::new(StreamPager::new(loader, grid, config)?)),
+                    Box::new(StreamPager::new(loader, grid, config, stream)?),
                     stream.prediction.map(Predictor::new),
                 )
             }
@@ -212,10 +198,9 @@ impl Engine {
             grid,
             predictor,
             masks: MaskSet::new(header.tile_size as usize, settings.level_set),
-            power_of_two: None,
             cracks: TileIndices::new(settings.cracks, header.tile_size as usize),
             morpher: Morpher::new(settings.geomorph, header.tile_size as usize),
-            held: HeldSideMeshes::new(),
+            partial: PartialMeshes::new(),
             forced_levels: None,
             budget: BudgetController::new(settings.budget),
             settings,
@@ -233,9 +218,14 @@ impl Engine {
         self.terrain.origin = origin;
     }
 
-    /// The pager, for its tile states and counters.
-    pub fn pager(&self) -> &Paging {
-        &self.pager
+    /// What the pager holds: its tiles, their states and the counters.
+    pub fn pager(&self) -> &Residency<ResidentTile> {
+        self.pager.resident()
+    }
+
+    /// The streaming counters, when tiles stream progressively.
+    pub fn stream_stats(&self) -> Option<&StreamStats> {
+        self.pager.stream_stats()
     }
 
     /// Sets the simulated time for a pager in [`PagerMode::Simulated`], seconds.
@@ -274,7 +264,7 @@ impl Engine {
     /// The tiles within `radius` belts of the current one whose boxes, at the archive's height
     /// range, meet the view of `camera` at `aspect` (held or not).
     pub fn tiles_in_view(&self, camera: &Camera, aspect: f64, radius: u32) -> Vec<TileId> {
-        match self.pager.current_tile() {
+        match self.pager.resident().current_tile() {
             Some(center) => {
                 view_tiles(self.grid, &self.terrain, center, radius, camera, aspect).collect()
             }
@@ -289,7 +279,7 @@ impl Engine {
             return None;
         }
         let id = TileId::new(px as u32, py as u32);
-        let tile = self.pager.get(id)?;
+        let tile = self.pager.resident().get(id)?;
         self.terrain.ground_in(tile, id.x, id.y, position)
     }
 
@@ -339,125 +329,29 @@ impl Engine {
         self.fit_depth_range(&mut camera);
         let (width, height) = target.size();
         let aspect = f64::from(width) / f64::from(height);
-        let (visible, measures) = cull(&self.pager, &self.terrain, &camera, aspect);
-        let importance = visual_importance(&measures, self.settings.weights);
-        let budget = self.budget.budget();
-        let partial = visible.iter().find(|(_, tile, _)| !tile.is_complete());
-        if self.morpher.is_some() {
-            refuse_partial_tiles(partial.map(|&(id, tile, _)| (id, tile)))?;
-        }
-        // Partial tiles draw powers-of-two levels only: a level whose `l + 1` is not a multiple
-        // of a drawn neighbour's stride needs border samples that neighbour lacks.
-        let masks = match partial {
-            Some(_) if self.masks.level_set() != LevelSet::PowerOfTwo => &*self
-                .power_of_two
-                .get_or_insert_with(|| MaskSet::new(self.terrain.tile_size, LevelSet::PowerOfTwo)),
-            _ => &self.masks,
+        let predicted = self.predict(&camera);
+        let inputs = FrameInputs {
+            pager: &*self.pager,
+            terrain: &self.terrain,
+            masks: &self.masks,
+            weights: self.settings.weights,
+            budget: self.budget.budget(),
+            forced_levels: self.forced_levels.as_deref(),
         };
-        let finest: Vec<usize> = visible
-            .iter()
-            .map(|(_, tile, _)| tile.finest_mask_level())
-            .collect();
-        let mut allocation = allocate_held(budget, &importance, masks, &finest);
-        // What each tile would draw if it held every level: a tile drawn coarser is capped,
-        // and streaming asks for the levels it lacks.
-        let mut offered = if partial.is_some() {
-            allocate(budget, &importance, masks)
-        } else {
-            allocation.clone()
-        };
-        if let Some(level_of) = &self.forced_levels {
-            for ((a, o), &(id, tile, _)) in allocation.iter_mut().zip(&mut offered).zip(&visible) {
-                let pinned = level_of(id);
-                o.level = drawable_level(pinned, 0, partial.is_some());
-                a.level = drawable_level(pinned, tile.finest_mask_level(), partial.is_some());
-                a.triangles = self.masks.triangle_count(a.level);
-            }
-        }
-        let mut wants = Vec::new();
-        if matches!(self.pager, Paging::Stream(_)) {
-            let levels = progressive_levels(self.terrain.tile_size);
-            wants.extend(visible.iter().zip(&offered).zip(&importance.values).map(
-                |((&(id, _, _), o), &priority)| Want {
-                    id,
-                    levels: levels_for_mask(o.level, levels),
-                    priority,
-                    predicted: false,
-                },
-            ));
-            wants.extend(absent_wants(
-                &self.pager,
+        let plan = plan_frame(&inputs, &camera, aspect, self.morpher.is_some())?;
+        let wants = match self.settings.streaming {
+            Streaming::Belts => Vec::new(),
+            Streaming::Progressive(_) => streaming_wants(
+                &inputs,
                 self.grid,
-                &self.terrain,
+                &plan,
                 &camera,
+                predicted.as_ref(),
                 aspect,
-                false,
-            ));
-            if let Some(predictor) = &mut self.predictor {
-                predictor.observe(self.pager.time(), camera);
-                if let Some(view) = predictor.predict() {
-                    wants.extend(absent_wants(
-                        &self.pager,
-                        self.grid,
-                        &self.terrain,
-                        &view.cull,
-                        aspect,
-                        true,
-                    ));
-                    wants.extend(predicted_wants(
-                        &self.pager,
-                        &self.terrain,
-                        &view,
-                        aspect,
-                        PredictedBudget {
-                            budget,
-                            weights: self.settings.weights,
-                            masks,
-                        },
-                    ));
-                }
-            }
-        }
-        let levels: Vec<(TileId, usize)> = visible
-            .iter()
-            .zip(&allocation)
-            .map(|(&(id, _, _), a)| (id, a.level))
-            .collect();
-        let mut draws: Vec<TileDraw<'_>> = visible
-            .iter()
-            .zip(neighbour_levels(&levels))
-            .zip(&levels)
-            .map(
-                |((&(id, tile, distance), neighbours), &(_, level))| TileDraw {
-                    x: id.x,
-                    y: id.y,
-                    tile,
-                    level,
-                    neighbours,
-                    distance,
-                },
-            )
-            .collect();
-        let triangles = allocation.iter().map(|a| a.triangles).sum();
-        let rendered: Vec<RenderedTile> = visible
-            .iter()
-            .zip(allocation.iter().zip(&offered))
-            .zip(&importance.values)
-            .map(
-                |((&(id, tile, distance), (a, o)), &importance)| RenderedTile {
-                    id,
-                    importance,
-                    level: a.level,
-                    // No nearer than the clearance the eye keeps above the ground: a tile whose
-                    // box holds the eye (distance 0) is not seen from closer.
-                    error_px: tile.level_errors.get(a.level).map_or(0.0, |&e| {
-                        let seen_from = distance.max(self.settings.clearance);
-                        f64::from(e) * camera.pixels_per_metre(seen_from, height)
-                    }),
-                    capped: a.level > o.level,
-                },
-            )
-            .collect();
+            ),
+        };
+        let rendered = plan.rendered(&camera, height, self.settings.clearance);
+        let mut draws = plan.draws();
         let bookkeeping_seconds = started.elapsed().as_secs_f64();
 
         let drawing = Instant::now();
@@ -469,22 +363,18 @@ impl Engine {
             TileMeshes {
                 masks: &self.masks,
                 cracks: &mut self.cracks,
-                held: Some(&mut self.held),
+                partial: Some(&mut self.partial),
                 morph: self.morpher.as_mut(),
             },
             &self.settings.render,
         )
         .map_err(|e| Error::Usage(format!("rendering failed: {e}")))?;
+        let draw_seconds = drawing.elapsed().as_secs_f64();
         let rendered_tiles = draws.len();
+        let (budget, triangles) = (plan.budget, plan.triangles());
         drop(draws);
-        drop(visible);
-        self.pager.request(&wants);
-        let levels = progressive_levels(self.terrain.tile_size);
-        self.pager.drawn(
-            rendered
-                .iter()
-                .map(|r| (r.id, levels_for_mask(r.level, levels))),
-        );
+        drop(plan);
+        self.tell_pager(&wants, &rendered);
         Ok(FrameReport {
             camera,
             budget,
@@ -494,14 +384,34 @@ impl Engine {
             draw: drawn.triangles,
             wireframe: drawn.lines,
             bookkeeping_seconds,
-            draw_seconds: drawing.elapsed().as_secs_f64(),
-            pager: self.pager.stats(),
+            draw_seconds,
+            pager: self.pager.resident().stats(),
         })
+    }
+
+    /// The view the predictor expects a second ahead, when streaming with prediction; it hears
+    /// this frame's camera first.
+    fn predict(&mut self, camera: &Camera) -> Option<PredictedView> {
+        let predictor = self.predictor.as_mut()?;
+        predictor.observe(self.pager.resident().time(), *camera);
+        predictor.predict()
+    }
+
+    /// Tells the pager what the frame wished for and which progressive levels it drew (a
+    /// progressive pager fetches by them; the belt pager plans by itself).
+    fn tell_pager(&mut self, wants: &[Want], rendered: &[RenderedTile]) {
+        let levels = progressive_levels(self.terrain.tile_size);
+        let drawn: Vec<(TileId, usize)> = rendered
+            .iter()
+            .map(|r| (r.id, levels_for_mask(r.level, levels)))
+            .collect();
+        self.pager.request(wants);
+        self.pager.drawn(&drawn);
     }
 
     /// Switches the crack mode between frames. Loaded tiles are refit in place (skirt vertices
     /// added or dropped; no fetch) and re-accounted, evicting the farthest tiles if the new mode
-    /// holds more than the memory limit allows ([`Pager::refit`]); fetches in flight are refit
+    /// holds more than the memory limit allows ([`BeltPager::refit`]); fetches in flight are refit
     /// when they arrive. The next frame draws exactly what an engine started in `mode` would
     /// draw with the same tiles loaded.
     pub fn set_cracks(&mut self, mode: CrackMode) {
@@ -556,6 +466,7 @@ impl Engine {
         camera.near = (0.25 * height).clamp(1e-3, 1000.0);
         let far = self
             .pager
+            .resident()
             .tiles()
             .map(|(id, tile)| {
                 let (lo, hi) =
@@ -587,10 +498,182 @@ fn refuse_partial_tiles(partial: Option<(TileId, &ResidentTile)>) -> Result<()> 
     }
 }
 
+/// What a frame's plan is made from.
+struct FrameInputs<'e> {
+    pager: &'e dyn Paging,
+    terrain: &'e TerrainFrame,
+    masks: &'e MaskSet,
+    weights: Weights,
+    /// This frame's triangle budget.
+    budget: usize,
+    /// Levels pinned per tile instead of the budget's choice.
+    forced_levels: Option<&'e (dyn Fn(TileId) -> usize + Send)>,
+}
+
+/// One frame's plan: the resident tiles in view, their importance, and the mask level each
+/// draws and would draw if it held every level.
+struct FramePlan<'p> {
+    /// In view: the tile, its resident copy and its box's distance from the eye.
+    visible: Vec<(TileId, &'p ResidentTile, f64)>,
+    importance: Vec<f64>,
+    /// The levels drawn.
+    allocation: Vec<TileAllocation>,
+    /// The levels the budget offered: a tile drawn coarser is capped by what it holds, and
+    /// streaming asks for the levels it lacks.
+    offered: Vec<TileAllocation>,
+    budget: usize,
+}
+
+/// Culls, weighs (Algorithm 2) and shares the budget: the frame's plan. Geomorphing (`morph`)
+/// refuses partial tiles.
+fn plan_frame<'p>(
+    inputs: &FrameInputs<'p>,
+    camera: &Camera,
+    aspect: f64,
+    morph: bool,
+) -> Result<FramePlan<'p>> {
+    let (visible, measures) = cull(inputs.pager.resident(), inputs.terrain, camera, aspect);
+    let importance = visual_importance(&measures, inputs.weights);
+    let partial = visible.iter().find(|(_, tile, _)| !tile.is_complete());
+    if morph {
+        refuse_partial_tiles(partial.map(|&(id, tile, _)| (id, tile)))?;
+    }
+    // Partial tiles draw powers-of-two levels only, which the engine's masks are whenever tiles
+    // stream progressively: a level whose `l + 1` is not a multiple of a drawn neighbour's
+    // stride needs border samples that neighbour lacks.
+    debug_assert!(partial.is_none() || inputs.masks.level_set() == LevelSet::PowerOfTwo);
+    let finest: Vec<usize> = visible
+        .iter()
+        .map(|(_, tile, _)| tile.finest_mask_level())
+        .collect();
+    let mut allocation = allocate_capped(inputs.budget, &importance, inputs.masks, &finest);
+    let mut offered = if partial.is_some() {
+        allocate(inputs.budget, &importance, inputs.masks)
+    } else {
+        allocation.clone()
+    };
+    if let Some(level_of) = inputs.forced_levels {
+        for ((a, o), &(id, tile, _)) in allocation.iter_mut().zip(&mut offered).zip(&visible) {
+            let pinned = level_of(id);
+            o.level = drawable_level(pinned, 0, partial.is_some());
+            a.level = drawable_level(pinned, tile.finest_mask_level(), partial.is_some());
+            a.triangles = inputs.masks.triangle_count(a.level);
+        }
+    }
+    Ok(FramePlan {
+        visible,
+        importance: importance.values,
+        allocation,
+        offered,
+        budget: inputs.budget,
+    })
+}
+
+impl<'p> FramePlan<'p> {
+    /// Triangles the chosen masks hold.
+    fn triangles(&self) -> usize {
+        self.allocation.iter().map(|a| a.triangles).sum()
+    }
+
+    /// The draw list: each tile with its level and its neighbours' levels (for crack hiding).
+    fn draws(&self) -> Vec<TileDraw<'p>> {
+        let levels: Vec<(TileId, usize)> = self
+            .visible
+            .iter()
+            .zip(&self.allocation)
+            .map(|(&(id, _, _), a)| (id, a.level))
+            .collect();
+        self.visible
+            .iter()
+            .zip(neighbour_levels(&levels))
+            .zip(&levels)
+            .map(
+                |((&(id, tile, distance), neighbours), &(_, level))| TileDraw {
+                    x: id.x,
+                    y: id.y,
+                    tile,
+                    level,
+                    neighbours,
+                    distance,
+                },
+            )
+            .collect()
+    }
+
+    /// The report's drawn tiles, with each level's geometric error on a screen `height` pixels
+    /// tall, seen from no nearer than `clearance`: a tile whose box holds the eye (distance 0)
+    /// is not seen from closer than the eye keeps above the ground.
+    fn rendered(&self, camera: &Camera, height: u32, clearance: f64) -> Vec<RenderedTile> {
+        self.visible
+            .iter()
+            .zip(self.allocation.iter().zip(&self.offered))
+            .zip(&self.importance)
+            .map(
+                |((&(id, tile, distance), (a, o)), &importance)| RenderedTile {
+                    id,
+                    importance,
+                    level: a.level,
+                    error_px: tile.level_errors.get(a.level).map_or(0.0, |&e| {
+                        f64::from(e) * camera.pixels_per_metre(distance.max(clearance), height)
+                    }),
+                    capped: a.level > o.level,
+                },
+            )
+            .collect()
+    }
+}
+
+/// What a progressive pager should fetch for this frame: the levels the budget offered each
+/// tile in view, the coarsest level of absent tiles the view meets, and the same for the
+/// predicted view at half weight.
+fn streaming_wants(
+    inputs: &FrameInputs<'_>,
+    grid: Grid,
+    plan: &FramePlan<'_>,
+    camera: &Camera,
+    predicted: Option<&PredictedView>,
+    aspect: f64,
+) -> Vec<Want> {
+    let resident = inputs.pager.resident();
+    let levels = progressive_levels(inputs.terrain.tile_size);
+    let mut wants: Vec<Want> = plan
+        .visible
+        .iter()
+        .zip(&plan.offered)
+        .zip(&plan.importance)
+        .map(|((&(id, _, _), o), &priority)| Want {
+            id,
+            levels: levels_for_mask(o.level, levels),
+            priority,
+            predicted: false,
+        })
+        .collect();
+    wants.extend(absent_wants(
+        resident,
+        grid,
+        inputs.terrain,
+        camera,
+        aspect,
+        false,
+    ));
+    if let Some(view) = predicted {
+        wants.extend(absent_wants(
+            resident,
+            grid,
+            inputs.terrain,
+            &view.cull,
+            aspect,
+            true,
+        ));
+        wants.extend(predicted_wants(inputs, view, aspect));
+    }
+    wants
+}
+
 /// The resident tiles whose boxes meet the view of `camera` at `aspect`, each with its
 /// distance from the eye, and their importance measures.
 fn cull<'p>(
-    pager: &'p Paging,
+    resident: &'p Residency<ResidentTile>,
     terrain: &TerrainFrame,
     camera: &Camera,
     aspect: f64,
@@ -598,7 +681,7 @@ fn cull<'p>(
     let frustum = Frustum::from_view_projection(&camera.view_projection(aspect));
     let mut visible = Vec::new();
     let mut measures = Vec::new();
-    for (id, tile) in pager.tiles() {
+    for (id, tile) in resident.tiles() {
         let (lo, hi) = terrain.tile_box(id.x, id.y, f64::from(tile.min), f64::from(tile.max));
         let aabb = Aabb::new(lo - camera.position, hi - camera.position);
         if frustum.intersects(&aabb) {
@@ -623,19 +706,19 @@ pub fn levels_for_mask(level: usize, levels: usize) -> usize {
 /// Wishes for the coarsest level of the tiles a view needs but nobody holds: those of the belts
 /// up to the one being filled whose boxes, at the archive's height range, meet the frustum.
 fn absent_wants(
-    pager: &Paging,
+    resident: &Residency<ResidentTile>,
     grid: Grid,
     terrain: &TerrainFrame,
     camera: &Camera,
     aspect: f64,
     predicted: bool,
 ) -> Vec<Want> {
-    let Some(center) = pager.current_tile() else {
+    let Some(center) = resident.current_tile() else {
         return Vec::new();
     };
-    let reach = pager.stats().complete_belts.map_or(0, |d| d + 1);
+    let reach = resident.stats().complete_belts.map_or(0, |d| d + 1);
     view_tiles(grid, terrain, center, reach, camera, aspect)
-        .filter(|&id| pager.get(id).is_none())
+        .filter(|&id| resident.get(id).is_none())
         .map(|id| Want {
             id,
             levels: 1,
@@ -665,24 +748,12 @@ fn view_tiles<'a>(
         })
 }
 
-/// What the predicted view's budget is shared with.
-struct PredictedBudget<'m> {
-    budget: usize,
-    weights: Weights,
-    masks: &'m MaskSet,
-}
-
 /// The predicted view's wishes: the resident tiles its (pulled-back) frustum meets, weighed
 /// from the predicted eye, given the levels this frame's budget would buy them there, at half
 /// their importance (a guess counts less than what is on screen).
-fn predicted_wants(
-    pager: &Paging,
-    terrain: &TerrainFrame,
-    view: &PredictedView,
-    aspect: f64,
-    shared: PredictedBudget<'_>,
-) -> Vec<Want> {
-    let (seen, _) = cull(pager, terrain, &view.cull, aspect);
+fn predicted_wants(inputs: &FrameInputs<'_>, view: &PredictedView, aspect: f64) -> Vec<Want> {
+    let terrain = inputs.terrain;
+    let (seen, _) = cull(inputs.pager.resident(), terrain, &view.cull, aspect);
     let measures: Vec<TileMeasure> = seen
         .iter()
         .map(|&(id, tile, _)| {
@@ -694,8 +765,8 @@ fn predicted_wants(
             }
         })
         .collect();
-    let importance = visual_importance(&measures, shared.weights);
-    let offered = allocate(shared.budget, &importance, shared.masks);
+    let importance = visual_importance(&measures, inputs.weights);
+    let offered = allocate(inputs.budget, &importance, inputs.masks);
     let levels = progressive_levels(terrain.tile_size);
     seen.iter()
         .zip(&offered)

@@ -14,12 +14,12 @@ use stripmask_raster::{
     Topology, Transform,
 };
 
-use crate::db::tile::HeldLevels;
+use crate::db::tile::PartialGrid;
 use crate::engine::camera::Camera;
 use crate::engine::cracks::{CrackMode, TileIndices, shadow};
 use crate::engine::geomorph::{self, Morpher};
-use crate::engine::held_meshes::{HeldSideMeshes, held_level};
 use crate::engine::masks::{FRONT_FACE, MaskSet};
+use crate::engine::partial_meshes::{PartialMeshes, compact_level};
 use crate::engine::resident::ResidentTile;
 use crate::engine::terrain::TerrainFrame;
 
@@ -120,7 +120,7 @@ pub struct TileDraw<'a> {
     pub y: u32,
     /// Its resident data.
     pub tile: &'a ResidentTile,
-    /// The strip-mask level chosen for it, a whole-tile level (see [`crate::engine::held_meshes`] for
+    /// The strip-mask level chosen for it, a whole-tile level (see [`crate::engine::partial_meshes`] for
     /// how a partial tile draws it; `level + 1` must then be a multiple of its stride).
     pub level: usize,
     /// The whole-tile levels of its neighbours this frame (`crate::engine::cracks::Side::ALL` order).
@@ -189,7 +189,7 @@ pub struct TileMeshes<'m> {
     pub cracks: &'m mut TileIndices,
     /// The masks and crack pieces of partial tiles, kept between frames; `None` builds them for
     /// this frame only when a partial tile is drawn.
-    pub held: Option<&'m mut HeldSideMeshes>,
+    pub partial: Option<&'m mut PartialMeshes>,
     /// The geomorph state when geomorphing is on: whole tiles are then drawn morphed, in
     /// [`geomorph::SUBDIVISION`] units. Partial tiles are drawn unmorphed (the engine refuses
     /// partial tiles with geomorphing on, see `crate::engine`).
@@ -259,16 +259,16 @@ pub fn draw_tiles<T: DrawTarget>(
         None => None,
     };
     let mode = meshes.cracks.mode();
-    let mut frame_held = HeldSideMeshes::new();
-    let held = meshes.held.unwrap_or(&mut frame_held);
+    let mut frame_held = PartialMeshes::new();
+    let held = meshes.partial.unwrap_or(&mut frame_held);
     for t in tiles.iter() {
         let stride = t.tile.stride();
         let (indices, topology) = if stride == 1 {
             meshes.cracks.tile(meshes.masks, t.level, t.neighbours)
         } else {
             let (masks, cracks) = held.get(mode, t.tile.side());
-            let neighbours = t.neighbours.map(|n| held_level(n, stride));
-            cracks.tile(masks, held_level(t.level, stride), neighbours)
+            let neighbours = t.neighbours.map(|n| compact_level(n, stride));
+            cracks.tile(masks, compact_level(t.level, stride), neighbours)
         };
         let (vertices, tile_transform) = match &mut morph {
             Some((view, fine, morpher)) if stride == 1 => (

@@ -11,7 +11,7 @@ use glam::DVec3;
 use stripmask_raster::{Texels, Texture, Vertex};
 
 use crate::db::rgb565::mip_count;
-use crate::db::tile::{HeldLevels, Tile, level_mips, level_side, progressive_levels};
+use crate::db::tile::{PartialGrid, Tile, level_mips, level_side, progressive_levels};
 use crate::engine::cracks::{CrackMode, skirts};
 
 /// Light shared by every tile: a direction towards the light and an ambient floor.
@@ -71,7 +71,7 @@ pub struct ResidentTile {
     pub light: Light,
 }
 
-impl HeldLevels for ResidentTile {
+impl PartialGrid for ResidentTile {
     fn whole_size(&self) -> usize {
         self.tile_size
     }

@@ -3,7 +3,7 @@
 use glam::DVec3;
 
 use crate::db::archive::Header;
-use crate::db::tile::HeldLevels;
+use crate::db::tile::PartialGrid;
 use crate::engine::resident::ResidentTile;
 
 /// The terrain's placement and grid, from an archive header.

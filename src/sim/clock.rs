@@ -19,7 +19,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use crate::db::source::TileSource;
 use crate::db::source::throttle::{DropDice, LatencyDice, LinkProfile, SimulatedLink};
 use crate::engine::FrameReport;
-use crate::engine::pager::{PagerMode, TransferClock};
+use crate::engine::paging::{PagerMode, TransferClock};
 use crate::error::Result;
 
 /// What one frame costs, in seconds of one core of this machine, as a function of what it drew.

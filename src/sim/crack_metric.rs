@@ -20,7 +20,7 @@ use crate::db::grid::TileId;
 use crate::db::source;
 use crate::engine::camera::Camera;
 use crate::engine::cracks::CrackMode;
-use crate::engine::pager::PagerMode;
+use crate::engine::paging::PagerMode;
 use crate::engine::{Engine, EngineSettings};
 use crate::error::Result;
 

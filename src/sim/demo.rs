@@ -15,7 +15,7 @@ use crate::db::builder::{BuildOptions, build};
 use crate::db::dem::{self, OpenOptions};
 use crate::db::source::{self, file::FileSource};
 use crate::engine::EngineSettings;
-use crate::engine::stream::Streaming;
+use crate::engine::paging::stream::Streaming;
 use crate::engine::terrain::TerrainFrame;
 use crate::error::{Error, Result};
 use crate::sim::clock::{Clock, CostModel};

@@ -14,7 +14,7 @@ use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
 use crate::db::source;
 use crate::db::source::throttle::LinkProfile;
-use crate::engine::pager::PagerMode;
+use crate::engine::paging::PagerMode;
 use crate::engine::{Engine, EngineSettings};
 use crate::error::{Error, Result};
 use crate::sim::clock::{Clock, connect};

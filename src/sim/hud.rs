@@ -1,10 +1,10 @@
 //! What the HUD shows of a frame: the paper's Figure 2 (tile states around the viewer) and
 //! Figure 3 (visual importance of the drawn tiles), for the viewer and `fly`'s frames.
 
-use stripmask_platform::{HudInfo, Minimap, TileState};
+use stripmask_platform::{HudInfo, Minimap, MinimapCell};
 
 use crate::db::grid::TileId;
-use crate::engine::pager::TileState as PagerState;
+use crate::engine::paging::TileState;
 use crate::engine::{Engine, FrameReport};
 
 /// The largest minimap side in cells; bigger grids show the part around the viewer.
@@ -26,10 +26,10 @@ pub fn hud_info(engine: &Engine, report: &FrameReport, fps: f64) -> HudInfo {
     for y in y0..y0 + mh {
         for x in x0..x0 + mw {
             cells.push(match engine.pager().state(TileId::new(x, y)) {
-                PagerState::Square => TileState::Loaded,
-                PagerState::Cached => TileState::Cached,
-                PagerState::Fetching => TileState::Fetching,
-                PagerState::Failed | PagerState::Absent => TileState::Empty,
+                TileState::Square => MinimapCell::Loaded,
+                TileState::Cached => MinimapCell::Cached,
+                TileState::Fetching => MinimapCell::Fetching,
+                TileState::Failed | TileState::Absent => MinimapCell::Empty,
             });
         }
     }
@@ -37,7 +37,7 @@ pub fn hud_info(engine: &Engine, report: &FrameReport, fps: f64) -> HudInfo {
         let (x, y) = (r.id.x.wrapping_sub(x0), r.id.y.wrapping_sub(y0));
         if x < mw && y < mh {
             let k = (y * mw + x) as usize;
-            cells[k] = TileState::Rendered;
+            cells[k] = MinimapCell::Rendered;
             importance[k] = r.importance as f32;
         }
     }

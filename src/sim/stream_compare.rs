@@ -17,8 +17,8 @@ use stripmask_raster::Framebuffer;
 
 use crate::db::archive::ArchiveReader;
 use crate::db::source;
-use crate::engine::pager::PagerMode;
-use crate::engine::stream::{StreamSettings, Streaming};
+use crate::engine::paging::PagerMode;
+use crate::engine::paging::stream::{StreamSettings, Streaming};
 use crate::engine::terrain::TerrainFrame;
 use crate::engine::{Engine, EngineSettings, FrameReport};
 use crate::error::{Error, Result};
@@ -280,7 +280,7 @@ impl Run<'_> {
             t += seconds;
         }
         let pager = engine.pager().stats();
-        let stream = engine.pager().stream_stats();
+        let stream = engine.stream_stats();
         let result = RunResult {
             flight: self.flight,
             link: self.link.name,

@@ -10,7 +10,7 @@ use stripmask::db::source;
 use stripmask::db::tile::progressive_levels;
 use stripmask::engine::Engine;
 use stripmask::engine::cracks::CrackMode;
-use stripmask::engine::pager::PagerMode;
+use stripmask::engine::paging::PagerMode;
 use stripmask::engine::resident::predicted_bytes;
 use stripmask::sim::crack_metric::{CrackScene, TILE_SIZE};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
@@ -43,10 +43,10 @@ fn assert_exact_accounting(engine: &Engine, mode: CrackMode) {
             grid + mode.extra_vertices(TILE_SIZE),
             "{mode:?}: {id}"
         );
-        let ring = pager.ledger().record(id).held.unwrap().ring;
+        let ring = pager.ledger().record(id).loaded.unwrap().ring;
         assert_eq!(
             Some(tile.bytes()),
-            pager.ledger().record(id).held.map(|h| h.bytes),
+            pager.ledger().record(id).loaded.map(|h| h.bytes),
             "{mode:?}: {id} at ring {ring}"
         );
     }
@@ -121,7 +121,7 @@ fn a_mode_that_holds_more_than_the_limit_evicts_the_farthest_tiles() {
         engine
             .pager()
             .tiles()
-            .map(|(id, _)| stripmask::engine::belts::Grid::ring(center, id))
+            .map(|(id, _)| stripmask::db::grid::Grid::ring(center, id))
             .max()
             .unwrap()
     };

@@ -3,7 +3,7 @@
 
 use glam::DVec3;
 use stripmask::db::source;
-use stripmask::engine::pager::PagerMode;
+use stripmask::engine::paging::PagerMode;
 use stripmask::engine::{Engine, EngineSettings};
 use stripmask::sim::clock::Clock;
 use stripmask::sim::flight::{Builtin, Flight};

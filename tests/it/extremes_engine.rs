@@ -19,7 +19,7 @@ use stripmask::db::dem::{MemoryReader, NodataFill};
 use stripmask::db::source;
 use stripmask::engine::camera::Camera;
 use stripmask::engine::cracks::{CrackMode, TileIndices};
-use stripmask::engine::pager::PagerMode;
+use stripmask::engine::paging::PagerMode;
 use stripmask::engine::render::{RenderSettings, TileDraw, TileMeshes, draw_tiles};
 use stripmask::engine::{Engine, EngineSettings, FrameReport};
 use stripmask::sim::tradeoff::metrics::{compare, psnr};
@@ -383,7 +383,7 @@ fn draw_as_is(
         TileMeshes {
             masks: engine.masks(),
             cracks: &mut cracks,
-            held: None,
+            partial: None,
             morph: None,
         },
         &settings,

@@ -6,7 +6,7 @@ use std::io::Write;
 
 use glam::DVec3;
 use stripmask::db::source;
-use stripmask::engine::pager::PagerMode;
+use stripmask::engine::paging::PagerMode;
 use stripmask::engine::{Engine, EngineSettings};
 use stripmask_platform::{GpuTarget, PlatformError};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};

@@ -7,11 +7,11 @@ use std::time::{Duration, Instant};
 use stripmask::db::archive::{ArchiveReader, Codec};
 use stripmask::db::builder::{BuildOptions, build};
 use stripmask::db::dem::{MemoryReader, NodataFill};
+use stripmask::db::grid::Grid;
 use stripmask::db::grid::TileId;
 use stripmask::db::source::file::FileSource;
 use stripmask::db::tile::Tile;
-use stripmask::engine::belts::Grid;
-use stripmask::engine::pager::{Pager, PagerConfig, PagerMode, TileLoader, TileState};
+use stripmask::engine::paging::{BeltPager, PagerConfig, PagerMode, TileLoader, TileState};
 
 /// Builds an 8 x 6 tile archive of 17-sample tiles (129 x 97 samples) with 16-texel textures.
 fn build_archive(dir: &Path) -> PathBuf {
@@ -70,14 +70,14 @@ impl TileLoader for ArchiveLoader {
         Ok((tile, self.reader.index()[i].stored_len()))
     }
 
-    fn held_bytes(&self, tile: &Tile) -> usize {
+    fn loaded_bytes(&self, tile: &Tile) -> usize {
         2 * tile.heights.len() + 2 * tile.texture_mips.iter().map(Vec::len).sum::<usize>()
     }
 
     fn shrink(&self, tile: &mut Tile, ring: u32) -> usize {
         let drop = tile.texture_mips.len() - (self.mips() - self.first_mip(ring));
         tile.texture_mips.drain(..drop);
-        self.held_bytes(tile)
+        self.loaded_bytes(tile)
     }
 }
 
@@ -112,7 +112,7 @@ fn a_stepped_pager_fills_the_largest_square_that_fits_from_an_archive() {
     let grid = grid_of(&loader);
     let c = TileId::new(3, 3);
     let limit = 30_000;
-    let mut pager = Pager::new(
+    let mut pager = BeltPager::new(
         loader,
         grid,
         PagerConfig::new(
@@ -125,19 +125,19 @@ fn a_stepped_pager_fills_the_largest_square_that_fits_from_an_archive() {
     .unwrap();
     for _ in 0..20 {
         pager.update((3.5, 3.5));
-        assert!(pager.stats().memory_bytes <= limit);
+        assert!(pager.resident().stats().memory_bytes <= limit);
     }
-    let s = pager.stats();
+    let s = pager.resident().stats();
     assert_eq!(s.complete_belts, Some(2));
     assert!(s.memory_bound);
     assert_eq!((s.loaded_tiles, s.memory_bytes, s.errors), (25, 23_308, 0));
     let check = open(&path);
     let mut downloaded = 0;
-    for (id, tile) in pager.tiles() {
+    for (id, tile) in pager.resident().tiles() {
         let ring = Grid::ring(c, id);
-        assert_eq!(pager.state(id), TileState::Square);
+        assert_eq!(pager.resident().state(id), TileState::Square);
         assert_eq!(
-            pager.loader().held_bytes(tile),
+            pager.loader().loaded_bytes(tile),
             pager.loader().predicted_bytes(id, ring)
         );
         let truth = check.reader.tile(id.x as usize, id.y as usize).unwrap();
@@ -152,12 +152,12 @@ fn a_stepped_pager_fills_the_largest_square_that_fits_from_an_archive() {
     // One tile west: belt 2 around (2, 3) misses the column x = 0; tiles leaving belt 1 shrink.
     for _ in 0..20 {
         pager.update((2.5, 3.5));
-        assert!(pager.stats().memory_bytes <= limit);
+        assert!(pager.resident().stats().memory_bytes <= limit);
     }
-    assert_eq!(pager.stats().complete_belts, Some(2));
-    let shrunk = pager.get(TileId::new(4, 3)).unwrap();
+    assert_eq!(pager.resident().stats().complete_belts, Some(2));
+    let shrunk = pager.resident().get(TileId::new(4, 3)).unwrap();
     assert_eq!(shrunk.texture_mips.len(), 4);
-    let upgraded = pager.get(TileId::new(1, 3)).unwrap();
+    let upgraded = pager.resident().get(TileId::new(1, 3)).unwrap();
     assert_eq!(upgraded.texture_mips.len(), 5);
 }
 
@@ -168,7 +168,7 @@ fn a_threaded_pager_flies_the_archive_corner_to_corner_within_the_limit() {
     let loader = open(&path);
     let grid = grid_of(&loader);
     let limit = 16_000;
-    let mut pager = Pager::new(
+    let mut pager = BeltPager::new(
         loader,
         grid,
         PagerConfig::new(limit, PagerMode::Threaded { queue_depth: 3 }),
@@ -177,7 +177,7 @@ fn a_threaded_pager_flies_the_archive_corner_to_corner_within_the_limit() {
     for k in 0..=200 {
         let t = f64::from(k) / 200.0;
         pager.update((0.5 + 7.0 * t, 0.5 + 5.0 * t));
-        let s = pager.stats();
+        let s = pager.resident().stats();
         assert!(
             s.memory_bytes <= limit && s.memory_peak_bytes <= limit,
             "{s:?}"
@@ -187,17 +187,19 @@ fn a_threaded_pager_flies_the_archive_corner_to_corner_within_the_limit() {
     // At the south-east corner belts 0..=3 are 4 near tiles, 5 at ring 2 and 7 at ring 3
     // (13,120 bytes); belt 4 would add 9 tiles at 588 (18,412 in all).
     let start = Instant::now();
-    while pager.stats().complete_belts != Some(3) || pager.stats().fetching > 0 {
+    while pager.resident().stats().complete_belts != Some(3)
+        || pager.resident().stats().fetching > 0
+    {
         assert!(
             start.elapsed() < Duration::from_secs(20),
             "{:?}",
-            pager.stats()
+            pager.resident().stats()
         );
         pager.update((7.5, 5.5));
         std::thread::sleep(Duration::from_millis(1));
     }
-    let s = pager.stats();
-    assert_eq!(s.errors, 0, "{:?}", pager.last_error());
+    let s = pager.resident().stats();
+    assert_eq!(s.errors, 0, "{:?}", pager.resident().last_error());
     assert!(s.memory_bound);
     assert!(s.fetches >= 40 && s.evictions > 0, "{s:?}");
     assert!(s.memory_peak_bytes <= limit);

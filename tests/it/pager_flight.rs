@@ -8,9 +8,10 @@ use std::time::{Duration, Instant};
 
 use proptest::prelude::*;
 use stripmask::Error;
+use stripmask::db::grid::Grid;
 use stripmask::db::grid::TileId;
-use stripmask::engine::belts::{Failure, Grid, RetryPolicy};
-use stripmask::engine::pager::{Pager, PagerConfig, PagerMode, TileLoader, TileState};
+use stripmask::engine::paging::{BeltPager, PagerConfig, PagerMode, TileLoader, TileState};
+use stripmask::engine::paging::{Failure, RetryPolicy};
 
 type Cost = Arc<dyn Fn(TileId, u32) -> usize + Send + Sync>;
 
@@ -83,7 +84,7 @@ impl TileLoader for Fake {
         Ok((FakeTile { id, ring, bytes }, bytes as u64 / 4))
     }
 
-    fn held_bytes(&self, tile: &FakeTile) -> usize {
+    fn loaded_bytes(&self, tile: &FakeTile) -> usize {
         tile.bytes
     }
 
@@ -100,8 +101,8 @@ fn stepped(n: usize) -> PagerMode {
     }
 }
 
-fn pager(fake: Fake, w: u32, h: u32, limit: usize, mode: PagerMode) -> Pager<Fake> {
-    Pager::new(
+fn pager(fake: Fake, w: u32, h: u32, limit: usize, mode: PagerMode) -> BeltPager<Fake> {
+    BeltPager::new(
         fake,
         Grid::new(w, h).unwrap(),
         PagerConfig::new(limit, mode),
@@ -114,8 +115,8 @@ fn center_of(t: TileId) -> (f64, f64) {
 }
 
 /// The invariants that hold after every update, in either mode.
-fn check(p: &Pager<Fake>) {
-    let s = p.stats();
+fn check(p: &BeltPager<Fake>) {
+    let s = p.resident().stats();
     assert!(
         s.memory_bytes <= s.memory_limit_bytes,
         "memory {} over the limit {}",
@@ -124,28 +125,35 @@ fn check(p: &Pager<Fake>) {
     );
     assert!(s.memory_peak_bytes <= s.memory_limit_bytes);
     assert!(s.memory_bytes <= s.memory_peak_bytes);
-    let held: usize = p.tiles().map(|(_, t)| t.bytes).sum();
+    let held: usize = p.resident().tiles().map(|(_, t)| t.bytes).sum();
     let reserved: usize = p
+        .resident()
         .ledger()
         .records()
         .filter_map(|(_, r)| r.fetch)
         .map(|f| f.bytes)
         .sum();
     assert_eq!(held + reserved, s.memory_bytes, "accounting drifted");
-    for (id, tile) in p.tiles() {
+    for (id, tile) in p.resident().tiles() {
         assert_eq!(id, tile.id);
-        let record = p.ledger().record(id).held.unwrap();
+        let record = p.resident().ledger().record(id).loaded.unwrap();
         assert_eq!((record.bytes, record.ring), (tile.bytes, tile.ring), "{id}");
     }
-    assert_eq!(s.loaded_tiles, p.tiles().count());
-    if let (Some(c), Some(d)) = (p.current_tile(), s.complete_belts) {
-        let grid = p.ledger().grid();
+    assert_eq!(s.loaded_tiles, p.resident().tiles().count());
+    if let (Some(c), Some(d)) = (p.resident().current_tile(), s.complete_belts) {
+        let grid = p.resident().ledger().grid();
         for y in 0..grid.tiles_y() {
             for x in 0..grid.tiles_x() {
                 let t = TileId::new(x, y);
-                if Grid::ring(c, t) <= d && p.ledger().record(t).failure != Some(Failure::GaveUp) {
-                    assert_eq!(p.state(t), TileState::Square, "{t} in belt <= {d}");
-                    assert!(p.get(t).is_some());
+                if Grid::ring(c, t) <= d
+                    && p.resident().ledger().record(t).failure != Some(Failure::GaveUp)
+                {
+                    assert_eq!(
+                        p.resident().state(t),
+                        TileState::Square,
+                        "{t} in belt <= {d}"
+                    );
+                    assert!(p.resident().get(t).is_some());
                 }
             }
         }
@@ -207,11 +215,11 @@ fn a_long_stepped_flight_never_exceeds_the_limit_and_keeps_the_square_loaded() {
         }
     }
     assert!(off_terrain > 10);
-    let s = p.stats();
+    let s = p.resident().stats();
     assert!(s.fetches > 200 && s.evictions > 100, "{s:?}");
     assert_eq!(s.errors, 0);
     // Tiles were fetched again for a nearer belt (upgrades) and shrunk for farther ones.
-    let upgraded = p.tiles().any(|(id, _)| {
+    let upgraded = p.resident().tiles().any(|(id, _)| {
         let rings = p.loader().loads_of(id);
         rings.windows(2).any(|w| w[1] < w[0])
     });
@@ -223,11 +231,12 @@ fn a_long_stepped_flight_never_exceeds_the_limit_and_keeps_the_square_loaded() {
         p.update(center_of(c));
         check(&p);
     }
-    assert_eq!(p.stats().complete_belts, Some(2));
-    assert!(p.stats().memory_bound);
+    assert_eq!(p.resident().stats().complete_belts, Some(2));
+    assert!(p.resident().stats().memory_bound);
     let square: usize = p
+        .resident()
         .tiles()
-        .filter(|&(id, _)| p.state(id) == TileState::Square)
+        .filter(|&(id, _)| p.resident().state(id) == TileState::Square)
         .map(|(_, t)| t.bytes)
         .sum();
     assert_eq!(square, 52_000);
@@ -243,19 +252,23 @@ fn a_long_threaded_flight_never_exceeds_the_limit() {
     for &viewer in &long_path() {
         p.update(viewer);
         check(&p);
-        most_in_flight = most_in_flight.max(p.stats().fetching);
+        most_in_flight = most_in_flight.max(p.resident().stats().fetching);
         std::thread::sleep(Duration::from_millis(1));
     }
     assert!(most_in_flight > 1 && most_in_flight <= 4);
     let c = TileId::new(12, 14);
     let start = Instant::now();
-    while p.stats().complete_belts != Some(2) || p.stats().fetching > 0 {
-        assert!(start.elapsed() < Duration::from_secs(20), "{:?}", p.stats());
+    while p.resident().stats().complete_belts != Some(2) || p.resident().stats().fetching > 0 {
+        assert!(
+            start.elapsed() < Duration::from_secs(20),
+            "{:?}",
+            p.resident().stats()
+        );
         p.update(center_of(c));
         check(&p);
         std::thread::sleep(Duration::from_millis(1));
     }
-    let s = p.stats();
+    let s = p.resident().stats();
     assert!(s.fetches > 150 && s.evictions > 50, "{s:?}");
     assert_eq!(s.errors, 0);
     assert!(s.memory_peak_bytes <= limit);
@@ -271,14 +284,14 @@ fn off_the_terrain_the_nearest_tile_is_used_when_asked() {
         p.update((-3.0, 2.5));
         check(&p);
     }
-    assert_eq!(p.current_tile(), Some(TileId::new(0, 2)));
-    let s = p.stats();
+    assert_eq!(p.resident().current_tile(), Some(TileId::new(0, 2)));
+    let s = p.resident().stats();
     assert_eq!(s.complete_belts, Some(2));
     assert!(s.memory_bound);
     assert_eq!((s.loaded_tiles, s.memory_bytes), (15, 150));
-    assert_eq!(p.state(TileId::new(2, 4)), TileState::Square);
-    assert_eq!(p.state(TileId::new(3, 2)), TileState::Absent);
-    assert_eq!(p.state(TileId::new(0, 5)), TileState::Absent);
+    assert_eq!(p.resident().state(TileId::new(2, 4)), TileState::Square);
+    assert_eq!(p.resident().state(TileId::new(3, 2)), TileState::Absent);
+    assert_eq!(p.resident().state(TileId::new(0, 5)), TileState::Absent);
 }
 
 #[test]
@@ -286,31 +299,41 @@ fn off_the_terrain_without_nearest_nothing_new_is_fetched_and_the_tiles_stay_as_
     let fake = Fake::new(|_, _| 10);
     let mut config = PagerConfig::new(usize::MAX, stepped(100));
     config.nearest_when_off = false;
-    let mut p = Pager::new(fake, Grid::new(8, 6).unwrap(), config).unwrap();
+    let mut p = BeltPager::new(fake, Grid::new(8, 6).unwrap(), config).unwrap();
     for _ in 0..5 {
         p.update((-3.0, 2.5));
     }
-    assert_eq!(p.current_tile(), None);
-    assert_eq!((p.stats().fetches, p.stats().loaded_tiles), (0, 0));
+    assert_eq!(p.resident().current_tile(), None);
+    assert_eq!(
+        (
+            p.resident().stats().fetches,
+            p.resident().stats().loaded_tiles
+        ),
+        (0, 0)
+    );
     for _ in 0..10 {
         p.update((3.5, 2.5));
     }
-    let loaded = p.stats();
+    let loaded = p.resident().stats();
     assert_eq!(loaded.loaded_tiles, 48);
     for viewer in [(3.5, -0.1), (8.0, 2.0), (f64::NAN, 1.0)] {
         p.update(viewer);
         check(&p);
-        let s = p.stats();
+        let s = p.resident().stats();
         assert_eq!(s.complete_belts, None);
         assert_eq!(
             (s.fetches, s.memory_bytes),
             (loaded.fetches, loaded.memory_bytes)
         );
-        assert!(p.tiles().all(|(id, _)| p.state(id) == TileState::Cached));
+        assert!(
+            p.resident()
+                .tiles()
+                .all(|(id, _)| p.resident().state(id) == TileState::Cached)
+        );
     }
     p.update((3.5, 2.5));
-    assert_eq!(p.stats().fetches, loaded.fetches);
-    assert_eq!(p.state(TileId::new(0, 0)), TileState::Square);
+    assert_eq!(p.resident().stats().fetches, loaded.fetches);
+    assert_eq!(p.resident().state(TileId::new(0, 0)), TileState::Square);
 }
 
 #[test]
@@ -320,21 +343,21 @@ fn a_far_jump_rebuilds_the_square_there_evicting_the_old_one_farthest_first() {
     for _ in 0..30 {
         p.update(center_of(TileId::new(3, 3)));
     }
-    assert_eq!(p.stats().complete_belts, Some(2));
-    assert_eq!(p.stats().memory_bytes, 250);
+    assert_eq!(p.resident().stats().complete_belts, Some(2));
+    assert_eq!(p.resident().stats().memory_bytes, 250);
     let far = TileId::new(28, 28);
     p.update(center_of(far));
     check(&p);
-    assert_eq!(p.state(far), TileState::Square);
-    assert_eq!(p.state(TileId::new(1, 1)), TileState::Absent);
-    assert_eq!(p.state(TileId::new(5, 5)), TileState::Cached);
+    assert_eq!(p.resident().state(far), TileState::Square);
+    assert_eq!(p.resident().state(TileId::new(1, 1)), TileState::Absent);
+    assert_eq!(p.resident().state(TileId::new(5, 5)), TileState::Cached);
     for _ in 0..30 {
         p.update(center_of(far));
         check(&p);
     }
-    assert_eq!(p.stats().complete_belts, Some(2));
-    assert!(p.tiles().all(|(id, _)| Grid::ring(far, id) <= 2));
-    assert_eq!(p.stats().evictions, 25);
+    assert_eq!(p.resident().stats().complete_belts, Some(2));
+    assert!(p.resident().tiles().all(|(id, _)| Grid::ring(far, id) <= 2));
+    assert_eq!(p.resident().stats().evictions, 25);
 }
 
 #[test]
@@ -346,36 +369,36 @@ fn ring_dependent_costs_upgrade_nearer_tiles_and_shrink_farther_ones() {
         p.update(center_of(TileId::new(5, 5)));
     }
     check(&p);
-    assert_eq!(p.stats().complete_belts, Some(5));
-    assert_eq!(p.stats().memory_bytes, all);
+    assert_eq!(p.resident().stats().complete_belts, Some(5));
+    assert_eq!(p.resident().stats().memory_bytes, all);
     // One tile east: x = 7 comes into belt 1 holding coarse copies, x = 4 leaves it.
     let east = TileId::new(6, 5);
     p.update(center_of(east));
     check(&p);
-    let shrunk = p.get(TileId::new(4, 5)).unwrap();
+    let shrunk = p.resident().get(TileId::new(4, 5)).unwrap();
     assert_eq!((shrunk.bytes, shrunk.ring), (100, 2));
-    assert_eq!(p.stats().complete_belts, Some(0));
+    assert_eq!(p.resident().stats().complete_belts, Some(0));
     // The first update upgraded the nearest one; the others still hold their coarse copies.
-    assert_eq!(p.get(TileId::new(7, 5)).unwrap().bytes, 1000);
-    assert_eq!(p.get(TileId::new(7, 4)).unwrap().bytes, 100);
-    assert_eq!(p.state(TileId::new(7, 4)), TileState::Cached);
+    assert_eq!(p.resident().get(TileId::new(7, 5)).unwrap().bytes, 1000);
+    assert_eq!(p.resident().get(TileId::new(7, 4)).unwrap().bytes, 100);
+    assert_eq!(p.resident().state(TileId::new(7, 4)), TileState::Cached);
     p.update(center_of(east));
     p.update(center_of(east));
     check(&p);
-    assert_eq!(p.stats().complete_belts, Some(6));
+    assert_eq!(p.resident().stats().complete_belts, Some(6));
     for t in [TileId::new(7, 4), TileId::new(7, 5), TileId::new(7, 6)] {
         assert_eq!(p.loader().loads_of(t), vec![2, 1], "{t}");
-        assert_eq!(p.get(t).unwrap().bytes, 1000);
+        assert_eq!(p.resident().get(t).unwrap().bytes, 1000);
     }
-    assert_eq!(p.stats().memory_bytes, all);
+    assert_eq!(p.resident().stats().memory_bytes, all);
     // With costs that do not depend on the ring, the same move fetches nothing.
     let mut r = pager(Fake::new(|_, _| 100), 11, 11, usize::MAX, stepped(200));
     r.update(center_of(TileId::new(5, 5)));
-    let fetched = r.stats().fetches;
+    let fetched = r.resident().stats().fetches;
     assert_eq!(fetched, 121);
     r.update(center_of(east));
-    assert_eq!(r.stats().fetches, fetched);
-    assert_eq!(r.stats().complete_belts, Some(6));
+    assert_eq!(r.resident().stats().fetches, fetched);
+    assert_eq!(r.resident().stats().complete_belts, Some(6));
 }
 
 #[test]
@@ -390,23 +413,23 @@ fn failed_fetches_are_retried_then_given_up_and_the_pager_carries_on() {
         max_attempts: 3,
         delay_updates: 2,
     };
-    let mut p = Pager::new(fake, Grid::new(5, 5).unwrap(), config).unwrap();
+    let mut p = BeltPager::new(fake, Grid::new(5, 5).unwrap(), config).unwrap();
     p.update(center_of(TileId::new(2, 2)));
     check(&p);
-    assert_eq!(p.state(TileId::new(2, 2)), TileState::Failed);
-    assert_eq!(p.stats().complete_belts, None);
-    let e = p.last_error().unwrap();
+    assert_eq!(p.resident().state(TileId::new(2, 2)), TileState::Failed);
+    assert_eq!(p.resident().stats().complete_belts, None);
+    let e = p.resident().last_error().unwrap();
     assert!(e.contains("tile (2, 2)") && e.contains("will retry"), "{e}");
     for _ in 0..12 {
         p.update(center_of(TileId::new(2, 2)));
         check(&p);
     }
-    let s = p.stats();
+    let s = p.resident().stats();
     assert_eq!(s.errors, 3 + 2);
     assert_eq!(s.failed_tiles, 1);
-    assert_eq!(p.state(TileId::new(2, 2)), TileState::Failed);
-    assert!(p.get(TileId::new(2, 2)).is_none());
-    assert_eq!(p.state(TileId::new(1, 1)), TileState::Square);
+    assert_eq!(p.resident().state(TileId::new(2, 2)), TileState::Failed);
+    assert!(p.resident().get(TileId::new(2, 2)).is_none());
+    assert_eq!(p.resident().state(TileId::new(1, 1)), TileState::Square);
     assert_eq!(s.complete_belts, Some(2));
     assert_eq!((s.loaded_tiles, s.memory_bytes), (24, 240));
     assert_eq!(p.loader().loads_of(TileId::new(2, 2)).len(), 3);
@@ -422,11 +445,11 @@ fn a_tile_holding_more_than_predicted_is_refused() {
         p.update((0.5, 0.5));
         check(&p);
     }
-    assert!(p.get(TileId::new(1, 0)).is_none());
-    assert_eq!(p.state(TileId::new(1, 0)), TileState::Failed);
-    let e = p.last_error().unwrap();
+    assert!(p.resident().get(TileId::new(1, 0)).is_none());
+    assert_eq!(p.resident().state(TileId::new(1, 0)), TileState::Failed);
+    let e = p.resident().last_error().unwrap();
     assert!(e.contains("tile (1, 0)") && e.contains("11 bytes"), "{e}");
-    assert_eq!(p.stats().complete_belts, Some(2));
+    assert_eq!(p.resident().stats().complete_belts, Some(2));
 }
 
 #[test]
@@ -435,14 +458,14 @@ fn a_panicking_loader_is_an_error_not_a_crash() {
     fake.panic_on = Some(TileId::new(1, 1));
     let mut p = pager(fake, 3, 3, 1000, PagerMode::Threaded { queue_depth: 2 });
     let start = Instant::now();
-    while p.stats().errors == 0 || p.stats().fetching > 0 {
+    while p.resident().stats().errors == 0 || p.resident().stats().fetching > 0 {
         assert!(start.elapsed() < Duration::from_secs(10));
         p.update((1.5, 1.5));
         check(&p);
         std::thread::sleep(Duration::from_millis(1));
     }
-    assert!(p.last_error().unwrap().contains("panicked"));
-    assert_eq!(p.state(TileId::new(1, 1)), TileState::Failed);
+    assert!(p.resident().last_error().unwrap().contains("panicked"));
+    assert_eq!(p.resident().state(TileId::new(1, 1)), TileState::Failed);
 }
 
 #[test]
@@ -453,8 +476,8 @@ fn threaded_updates_never_wait_and_dropping_stops_the_fetch_thread() {
     let mut p = pager(fake, 9, 9, 10_000, PagerMode::Threaded { queue_depth: 8 });
     let start = Instant::now();
     p.update((4.5, 4.5));
-    assert_eq!(p.stats().fetching, 1);
-    while p.stats().loaded_tiles == 0 {
+    assert_eq!(p.resident().stats().fetching, 1);
+    while p.resident().stats().loaded_tiles == 0 {
         let t = Instant::now();
         p.update((4.5, 4.5));
         assert!(t.elapsed() < Duration::from_millis(100));
@@ -462,7 +485,7 @@ fn threaded_updates_never_wait_and_dropping_stops_the_fetch_thread() {
     }
     // The first tile took 300 ms; the updates meanwhile returned at once.
     assert!(start.elapsed() >= Duration::from_millis(300));
-    assert_eq!(p.stats().fetching, 8);
+    assert_eq!(p.resident().stats().fetching, 8);
     drop(p);
     let started = log.lock().unwrap().len();
     assert!(started <= 3, "{started} loads started");
@@ -533,7 +556,7 @@ proptest! {
         let grid = Grid::new(w, h).unwrap();
         let mut config = PagerConfig::new(limit, stepped(fetches));
         config.nearest_when_off = nearest;
-        let mut p = Pager::new(Fake::new(cost.clone()), grid, config).unwrap();
+        let mut p = BeltPager::new(Fake::new(cost.clone()), grid, config).unwrap();
         let mut at = start;
         let mut before: Option<(Option<TileId>, Vec<TileId>)> = None;
         for s in &steps {
@@ -546,16 +569,17 @@ proptest! {
             check(&p);
             // With the same current tile, the complete square of the last update is still loaded.
             if let Some((c, square)) = &before {
-                if *c == p.current_tile() {
-                    prop_assert!(square.iter().all(|&t| p.get(t).is_some()));
+                if *c == p.resident().current_tile() {
+                    prop_assert!(square.iter().all(|&t| p.resident().get(t).is_some()));
                 }
             }
             let square: Vec<TileId> = p
+                .resident()
                 .tiles()
                 .map(|(t, _)| t)
-                .filter(|&t| p.state(t) == TileState::Square)
+                .filter(|&t| p.resident().state(t) == TileState::Square)
                 .collect();
-            before = Some((p.current_tile(), square));
+            before = Some((p.resident().current_tile(), square));
         }
         // Settle on the grid: the square grows to exactly the largest one that fits.
         let c = TileId::new(
@@ -566,12 +590,12 @@ proptest! {
         for _ in 0..2000 {
             p.update(center_of(c));
             check(&p);
-            if p.stats().fetches == last {
+            if p.resident().stats().fetches == last {
                 break;
             }
-            last = p.stats().fetches;
+            last = p.resident().stats().fetches;
         }
-        prop_assert_eq!(p.stats().complete_belts, largest_square(grid, c, limit, &cost));
-        prop_assert_eq!(p.stats().errors, 0);
+        prop_assert_eq!(p.resident().stats().complete_belts, largest_square(grid, c, limit, &cost));
+        prop_assert_eq!(p.resident().stats().errors, 0);
     }
 }

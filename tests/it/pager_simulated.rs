@@ -5,9 +5,9 @@
 
 use std::sync::{Arc, Mutex};
 
+use stripmask::db::grid::Grid;
 use stripmask::db::grid::TileId;
-use stripmask::engine::belts::Grid;
-use stripmask::engine::pager::{Pager, PagerConfig, PagerMode, TileLoader, TransferClock};
+use stripmask::engine::paging::{BeltPager, PagerConfig, PagerMode, TileLoader, TransferClock};
 
 /// Seconds of transfer so far, as exact binary fractions so that due times compare exactly.
 #[derive(Default)]
@@ -45,7 +45,7 @@ impl TileLoader for Timed {
         Ok((Tile { bytes: self.bytes }, self.bytes as u64))
     }
 
-    fn held_bytes(&self, tile: &Tile) -> usize {
+    fn loaded_bytes(&self, tile: &Tile) -> usize {
         tile.bytes
     }
 
@@ -55,7 +55,7 @@ impl TileLoader for Timed {
 }
 
 struct Rig {
-    pager: Pager<Timed>,
+    pager: BeltPager<Timed>,
     log: Arc<Mutex<Vec<TileId>>>,
 }
 
@@ -69,21 +69,22 @@ fn rig(grid: (u32, u32), limit: usize, queue_depth: usize, seconds: f64) -> Rig 
         log: Arc::clone(&log),
     };
     let config = PagerConfig::new(limit, PagerMode::Simulated { queue_depth });
-    let mut pager = Pager::new(loader, Grid::new(grid.0, grid.1).unwrap(), config).unwrap();
+    let mut pager = BeltPager::new(loader, Grid::new(grid.0, grid.1).unwrap(), config).unwrap();
     pager.set_transfer_clock(meter);
     Rig { pager, log }
 }
 
-fn loaded(p: &Pager<Timed>) -> Vec<TileId> {
-    p.tiles().map(|(id, _)| id).collect()
+fn loaded(p: &BeltPager<Timed>) -> Vec<TileId> {
+    p.resident().tiles().map(|(id, _)| id).collect()
 }
 
 /// Memory (loaded tiles plus reservations) within the limit, and at most `depth` in flight.
-fn check(p: &Pager<Timed>, depth: usize) {
-    let s = p.stats();
+fn check(p: &BeltPager<Timed>, depth: usize) {
+    let s = p.resident().stats();
     assert!(s.memory_bytes <= s.memory_limit_bytes, "{s:?}");
     assert!(s.memory_peak_bytes <= s.memory_limit_bytes, "{s:?}");
     let reserved: usize = p
+        .resident()
         .ledger()
         .records()
         .filter_map(|(_, r)| r.fetch)
@@ -148,7 +149,7 @@ fn tiles_arrive_when_their_transfers_end_one_after_the_other_in_planned_order() 
         .map(|&(id, _)| Grid::ring(centre, id))
         .collect();
     assert!(rings.windows(2).all(|w| w[0] <= w[1]), "{rings:?}");
-    assert_eq!(r.pager.stats().fetching, 0);
+    assert_eq!(r.pager.resident().stats().fetching, 0);
 }
 
 #[test]
@@ -160,7 +161,7 @@ fn an_idle_link_starts_the_next_transfer_at_the_time_it_is_planned() {
     r.pager.set_time(1.0);
     r.pager.update((0.5, 0.5));
     assert_eq!(loaded(&r.pager), [TileId::new(0, 0)]);
-    assert_eq!(r.pager.stats().fetching, 1);
+    assert_eq!(r.pager.resident().stats().fetching, 1);
     r.pager.set_time(1.24);
     r.pager.update((0.5, 0.5));
     assert_eq!(loaded(&r.pager).len(), 1, "not before 1.25 s");
@@ -186,10 +187,10 @@ fn a_simulated_flight_under_a_binding_limit_never_overspends_it() {
         r.pager.set_time(t);
         r.pager.update(viewer);
         check(&r.pager, depth);
-        peak = peak.max(r.pager.stats().memory_bytes);
+        peak = peak.max(r.pager.resident().stats().memory_bytes);
     }
-    let s = r.pager.stats();
+    let s = r.pager.resident().stats();
     assert!(s.evictions > 0, "the limit binds: {s:?}");
     assert!(peak > limit * 8 / 10, "peak {peak}");
-    assert_eq!(s.errors, 0, "{:?}", r.pager.last_error());
+    assert_eq!(s.errors, 0, "{:?}", r.pager.resident().last_error());
 }

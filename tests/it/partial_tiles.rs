@@ -9,8 +9,8 @@ use stripmask::engine::budget::drawable_level;
 use stripmask::engine::camera::Camera;
 use stripmask::engine::cracks::neighbours::neighbour_levels;
 use stripmask::engine::cracks::{CrackMode, TileIndices};
-use stripmask::engine::held_meshes::HeldSideMeshes;
 use stripmask::engine::masks::{LevelSet, MaskSet};
+use stripmask::engine::partial_meshes::PartialMeshes;
 use stripmask::engine::render::{RenderSettings, TileDraw, TileMeshes, draw_tiles};
 use stripmask::engine::resident::{Light, ResidentTile};
 use stripmask::engine::terrain::TerrainFrame;
@@ -98,7 +98,7 @@ fn draw(
         .collect();
     let masks = MaskSet::new(S, LevelSet::All);
     let mut cracks = TileIndices::new(mode, S);
-    let mut held = HeldSideMeshes::new();
+    let mut held = PartialMeshes::new();
     let mut fb = Framebuffer::new(96, 72, ColorFormat::Rgba8888, DepthFormat::D32).unwrap();
     draw_tiles(
         &mut RasterTarget::new(&mut fb, &mut Rasterizer::with_threads(1)),
@@ -108,7 +108,7 @@ fn draw(
         TileMeshes {
             masks: &masks,
             cracks: &mut cracks,
-            held: Some(&mut held),
+            partial: Some(&mut held),
             morph: None,
         },
         settings,

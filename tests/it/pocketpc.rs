@@ -9,7 +9,7 @@ use std::sync::{Arc, Mutex};
 use stripmask::db::archive::ArchiveReader;
 use stripmask::db::grid::TileId;
 use stripmask::db::source::{self, TileSource};
-use stripmask::engine::pager::PagerMode;
+use stripmask::engine::paging::PagerMode;
 use stripmask::engine::terrain::TerrainFrame;
 use stripmask::engine::{Engine, EngineSettings};
 use stripmask::sim::clock::{Clock, CostModel, MeteredLink};
@@ -268,8 +268,8 @@ fn a_simulated_flight_downloads_each_tile_at_most_once_per_visit() {
             downloads += 1;
             assert!(before.fetch.is_none(), "{id} was fetched while in flight");
             let after = rig.engine.pager().ledger().record(id);
-            let ring = after.fetch.map(|f| f.ring).or(after.held.map(|h| h.ring));
-            if let (Some(held), Some(now)) = (before.held, ring) {
+            let ring = after.fetch.map(|f| f.ring).or(after.loaded.map(|h| h.ring));
+            if let (Some(held), Some(now)) = (before.loaded, ring) {
                 // Downloaded again while held: only to upgrade to a nearer belt's detail.
                 assert!(now < held.ring, "{id} re-downloaded for ring {now}");
                 refetches += 1;

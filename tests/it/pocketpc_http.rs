@@ -10,7 +10,7 @@ use stripmask::db::server::Server;
 use stripmask::db::source::TileSource;
 use stripmask::db::source::http::HttpSource;
 use stripmask::db::source::throttle::LinkProfile;
-use stripmask::engine::pager::PagerMode;
+use stripmask::engine::paging::PagerMode;
 use stripmask::engine::terrain::TerrainFrame;
 use stripmask::engine::{Engine, EngineSettings};
 use stripmask::sim::flight::{Builtin, Flight};

@@ -5,10 +5,10 @@
 
 use glam::DVec3;
 use stripmask::db::source;
-use stripmask::db::tile::HeldLevels;
+use stripmask::db::tile::PartialGrid;
 use stripmask::engine::masks::LevelSet;
-use stripmask::engine::pager::PagerMode;
-use stripmask::engine::stream::{StreamSettings, Streaming};
+use stripmask::engine::paging::PagerMode;
+use stripmask::engine::paging::stream::{StreamSettings, Streaming};
 use stripmask::engine::{Engine, EngineSettings, FrameReport};
 use stripmask::sim::clock::{Clock, CostModel, connect};
 use stripmask::sim::device::Link;
@@ -76,7 +76,7 @@ fn a_progressive_flight_keeps_the_limit_and_ends_with_every_tile_at_its_level() 
         t += 0.5;
     }
     assert!(partial_frames > 0, "the flight drew partial tiles");
-    let stream = engine.pager().stream_stats().unwrap().clone();
+    let stream = engine.stream_stats().unwrap().clone();
     assert!(stream.requests > 0);
     // Hold still at the end: every tile drawn reaches the level its importance buys.
     let (eye, target) = flight.at(flight.duration());
@@ -208,7 +208,7 @@ fn over_a_slow_link_progressive_tiles_draw_sooner_for_fewer_bytes() {
     );
     assert!(sb * 3 < bb, "progressive {sb} bytes, whole tiles {bb}");
     assert!(stream_first.unwrap() < belts_first.unwrap());
-    let stats = stream.pager().stream_stats().unwrap();
+    let stats = stream.stream_stats().unwrap();
     assert!(stats.view_rendered_share().unwrap() > 0.5, "{stats:?}");
     assert!(stats.received_bytes == sb);
 }
@@ -238,7 +238,7 @@ fn the_fetch_thread_streams_levels_too() {
         std::thread::sleep(std::time::Duration::from_millis(5));
     };
     assert!(settled, "{:?}", engine.pager().stats());
-    let stats = engine.pager().stream_stats().unwrap();
+    let stats = engine.stream_stats().unwrap();
     assert!(stats.requests > 0 && stats.received_bytes > 0);
     assert_eq!(engine.pager().stats().errors, 0);
 }

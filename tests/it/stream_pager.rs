@@ -6,10 +6,10 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use proptest::prelude::*;
+use stripmask::db::grid::Grid;
 use stripmask::db::grid::TileId;
-use stripmask::engine::belts::Grid;
-use stripmask::engine::pager::PagerMode;
-use stripmask::engine::stream::{LevelLoader, StreamConfig, StreamPager, Want};
+use stripmask::engine::paging::stream::{LevelLoader, StreamPager, StreamSettings, Want};
+use stripmask::engine::paging::{PagerConfig, PagerMode};
 use stripmask::error::{Error, Result};
 
 /// Levels per tile and the bytes a tile holding `k` of them takes: 100 * 4^(k-1).
@@ -66,7 +66,7 @@ impl LevelLoader for Synthetic {
         tile.levels
     }
 
-    fn held_bytes(&self, tile: &Held) -> usize {
+    fn loaded_bytes(&self, tile: &Held) -> usize {
         bytes_at(tile.levels)
     }
 
@@ -80,7 +80,8 @@ fn pager(limit: usize, tiles: u32, fetches_per_update: usize) -> StreamPager<Syn
     StreamPager::new(
         Synthetic::default(),
         Grid::new(tiles, tiles).unwrap(),
-        StreamConfig::new(limit, PagerMode::Stepped { fetches_per_update }),
+        PagerConfig::new(limit, PagerMode::Stepped { fetches_per_update }),
+        StreamSettings::default(),
     )
     .unwrap()
 }
@@ -96,17 +97,17 @@ fn want(x: u32, y: u32, levels: usize, priority: f64) -> Want {
 
 /// Accounted bytes equal what the tiles hold when nothing is in flight.
 fn check_accounting(p: &StreamPager<Synthetic>) {
-    let stats = p.stats();
+    let stats = p.resident().stats();
     assert!(stats.memory_bytes <= stats.memory_limit_bytes, "{stats:?}");
     assert!(
         stats.memory_peak_bytes <= stats.memory_limit_bytes,
         "{stats:?}"
     );
     if stats.fetching == 0 {
-        let held: usize = p.tiles().map(|(_, t)| bytes_at(t.levels)).sum();
+        let held: usize = p.resident().tiles().map(|(_, t)| bytes_at(t.levels)).sum();
         assert_eq!(held, stats.memory_bytes);
     }
-    for (id, t) in p.tiles() {
+    for (id, t) in p.resident().tiles() {
         assert_eq!(id, t.id);
     }
 }
@@ -118,9 +119,10 @@ fn what_the_view_needs_comes_first_and_belts_fill_at_the_coarsest_level() {
     let mut order = Vec::new();
     for _ in 0..40 {
         p.update(center);
-        let before: Vec<(TileId, usize)> = p.tiles().map(|(id, t)| (id, t.levels)).collect();
+        let before: Vec<(TileId, usize)> =
+            p.resident().tiles().map(|(id, t)| (id, t.levels)).collect();
         p.request(&[want(3, 3, LEVELS, 0.9)]);
-        for (id, t) in p.tiles() {
+        for (id, t) in p.resident().tiles() {
             if !before.contains(&(id, t.levels)) {
                 order.push((id, t.levels));
             }
@@ -140,10 +142,11 @@ fn what_the_view_needs_comes_first_and_belts_fill_at_the_coarsest_level() {
         50,
         "49 coarse levels and one refinement: {order:?}"
     );
-    assert_eq!(p.stats().complete_belts, Some(3));
+    assert_eq!(p.resident().stats().complete_belts, Some(3));
     assert_eq!(p.held_levels(TileId::new(3, 3)), LEVELS);
     assert!(
-        p.tiles()
+        p.resident()
+            .tiles()
             .all(|(id, t)| t.levels == 1 || id == TileId::new(3, 3))
     );
 }
@@ -155,9 +158,10 @@ fn refinements_follow_importance_and_stop_at_what_is_asked() {
     let mut refined = Vec::new();
     for _ in 0..40 {
         p.update((1.5, 1.5));
-        let before: Vec<(TileId, usize)> = p.tiles().map(|(id, t)| (id, t.levels)).collect();
+        let before: Vec<(TileId, usize)> =
+            p.resident().tiles().map(|(id, t)| (id, t.levels)).collect();
         p.request(&wants);
-        for (id, t) in p.tiles() {
+        for (id, t) in p.resident().tiles() {
             if t.levels > 1 && !before.contains(&(id, t.levels)) {
                 refined.push((id.x, t.levels));
             }
@@ -191,7 +195,7 @@ fn a_request_that_stops_mattering_is_cancelled_before_it_is_sent() {
     assert_eq!(q.held_levels(TileId::new(0, 0)), 1);
     q.request(&[want(0, 0, 3, 0.5)]);
     assert_eq!(q.queue().waiting().len(), 1);
-    assert!(q.stats().memory_bound);
+    assert!(q.resident().stats().memory_bound);
     q.request(&[]);
     assert_eq!(q.stream_stats().cancelled, 1);
     assert!(q.queue().waiting().is_empty());
@@ -221,9 +225,9 @@ fn under_pressure_fine_levels_of_far_tiles_go_before_whole_tiles() {
     }
     assert_eq!(p.held_levels(TileId::new(0, 0)), 4);
     assert!(p.held_levels(TileId::new(2, 2)) < 4);
-    assert_eq!(p.tiles().count(), 9, "no whole tile was evicted");
+    assert_eq!(p.resident().tiles().count(), 9, "no whole tile was evicted");
     assert!(p.stream_stats().dropped_levels > 0);
-    assert!(p.stats().memory_bound);
+    assert!(p.resident().stats().memory_bound);
 }
 
 #[test]
@@ -233,21 +237,27 @@ fn a_broken_tile_is_retried_then_given_up_without_stopping_the_square() {
     let mut p = StreamPager::new(
         loader,
         Grid::new(3, 3).unwrap(),
-        StreamConfig::new(
+        PagerConfig::new(
             1 << 20,
             PagerMode::Stepped {
                 fetches_per_update: 4,
             },
         ),
+        StreamSettings::default(),
     )
     .unwrap();
     for _ in 0..200 {
         p.update((1.5, 1.5));
         p.request(&[]);
     }
-    assert_eq!(p.stats().complete_belts, Some(1));
-    assert_eq!(p.stats().failed_tiles, 1);
-    assert!(p.last_error().unwrap().contains("broken on purpose"));
+    assert_eq!(p.resident().stats().complete_belts, Some(1));
+    assert_eq!(p.resident().stats().failed_tiles, 1);
+    assert!(
+        p.resident()
+            .last_error()
+            .unwrap()
+            .contains("broken on purpose")
+    );
 }
 
 proptest! {
@@ -265,10 +275,11 @@ proptest! {
         capacity in 1usize..6,
     ) {
         let limit = 36 * bytes_at(1) + rest.len() * bytes_at(LEVELS);
-        let mut config = StreamConfig::new(limit, PagerMode::Stepped { fetches_per_update: 2 });
-        config.queue_capacity = capacity;
-        let mut p = StreamPager::new(Synthetic::default(), Grid::new(6, 6).unwrap(), config)
-            .unwrap();
+        let config = PagerConfig::new(limit, PagerMode::Stepped { fetches_per_update: 2 });
+        let settings = StreamSettings { queue_capacity: capacity, ..StreamSettings::default() };
+        let mut p =
+            StreamPager::new(Synthetic::default(), Grid::new(6, 6).unwrap(), config, settings)
+                .unwrap();
         for (k, &viewer) in path.iter().enumerate() {
             p.update(viewer);
             let wants: Vec<Want> = wishes[k % wishes.len()]
@@ -288,6 +299,6 @@ proptest! {
         for w in &wants {
             prop_assert!(p.held_levels(w.id) >= w.levels, "{:?} holds {}", w, p.held_levels(w.id));
         }
-        prop_assert_eq!(p.stats().errors, 0, "{:?}", p.last_error());
+        prop_assert_eq!(p.resident().stats().errors, 0, "{:?}", p.resident().last_error());
     }
 }

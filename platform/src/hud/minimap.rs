@@ -5,7 +5,7 @@ use tiny_skia::{FillRule, Paint, PathBuilder, Pixmap, Rect, Transform};
 
 /// What the pager knows about one tile of the minimap.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum TileState {
+pub enum MinimapCell {
     /// Not in memory and not asked for.
     #[default]
     Empty,
@@ -19,15 +19,15 @@ pub enum TileState {
     Rendered,
 }
 
-impl TileState {
+impl MinimapCell {
     /// The colour the minimap draws this state in.
     pub fn color(self) -> [u8; 3] {
         match self {
-            TileState::Empty => [48, 48, 48],
-            TileState::Cached => [70, 110, 190],
-            TileState::Loaded => [60, 150, 70],
-            TileState::Fetching => [235, 150, 40],
-            TileState::Rendered => [170, 240, 120],
+            MinimapCell::Empty => [48, 48, 48],
+            MinimapCell::Cached => [70, 110, 190],
+            MinimapCell::Loaded => [60, 150, 70],
+            MinimapCell::Fetching => [235, 150, 40],
+            MinimapCell::Rendered => [170, 240, 120],
         }
     }
 }
@@ -39,8 +39,8 @@ pub struct Minimap {
     pub width: u32,
     /// Rows.
     pub height: u32,
-    /// One state per cell; missing cells are drawn as [`TileState::Empty`].
-    pub cells: Vec<TileState>,
+    /// One state per cell; missing cells are drawn as [`MinimapCell::Empty`].
+    pub cells: Vec<MinimapCell>,
     /// The viewer in cell units from the map's top-left corner (x right, y down).
     pub viewer: (f32, f32),
     /// Viewing direction in radians, clockwise from up (north).
@@ -199,24 +199,24 @@ mod tests {
         let map = Minimap {
             width: 3,
             height: 1,
-            cells: vec![TileState::Rendered, TileState::Cached],
+            cells: vec![MinimapCell::Rendered, MinimapCell::Cached],
             importance: Some(vec![0.25, 0.0, f32::NAN]),
             ..Minimap::default()
         };
         assert_eq!(map.cell_color(0, 0, true), [255, 240, 80]);
-        assert_eq!(map.cell_color(0, 0, false), TileState::Rendered.color());
-        assert_eq!(map.cell_color(1, 0, true), TileState::Cached.color());
-        assert_eq!(map.cell_color(2, 0, true), TileState::Empty.color());
+        assert_eq!(map.cell_color(0, 0, false), MinimapCell::Rendered.color());
+        assert_eq!(map.cell_color(1, 0, true), MinimapCell::Cached.color());
+        assert_eq!(map.cell_color(2, 0, true), MinimapCell::Empty.color());
     }
 
     #[test]
     fn state_colours_are_distinct() {
         let all = [
-            TileState::Empty,
-            TileState::Cached,
-            TileState::Loaded,
-            TileState::Fetching,
-            TileState::Rendered,
+            MinimapCell::Empty,
+            MinimapCell::Cached,
+            MinimapCell::Loaded,
+            MinimapCell::Fetching,
+            MinimapCell::Rendered,
         ];
         let colours: std::collections::HashSet<_> = all.iter().map(|s| s.color()).collect();
         assert_eq!(colours.len(), all.len());

@@ -6,7 +6,7 @@ mod minimap;
 mod overlay;
 
 use minimap::MinimapLayout;
-pub use minimap::{Minimap, TileState};
+pub use minimap::{Minimap, MinimapCell};
 pub(crate) use overlay::Panel;
 pub use overlay::{Overlay, PanelRect};
 

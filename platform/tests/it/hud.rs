@@ -5,15 +5,15 @@
 use crate::common;
 
 use proptest::prelude::*;
-use stripmask_platform::{Hud, HudInfo, Minimap, Overlay, TileState, compose_rgba};
+use stripmask_platform::{Hud, HudInfo, Minimap, MinimapCell, Overlay, compose_rgba};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
-const STATES: [TileState; 5] = [
-    TileState::Empty,
-    TileState::Cached,
-    TileState::Loaded,
-    TileState::Fetching,
-    TileState::Rendered,
+const STATES: [MinimapCell; 5] = [
+    MinimapCell::Empty,
+    MinimapCell::Cached,
+    MinimapCell::Loaded,
+    MinimapCell::Fetching,
+    MinimapCell::Rendered,
 ];
 
 fn frame(width: u32, height: u32, format: ColorFormat, color: [u8; 3]) -> Framebuffer {
@@ -100,7 +100,7 @@ fn on_a_patterned_frame_only_panel_pixels_change() {
         minimap: Some(Minimap {
             width: 5,
             height: 5,
-            cells: vec![TileState::Loaded; 25],
+            cells: vec![MinimapCell::Loaded; 25],
             viewer: (2.5, 2.5),
             ..Minimap::default()
         }),
@@ -194,7 +194,7 @@ fn the_importance_overlay_colours_the_most_important_cell_yellow() {
     let map = Minimap {
         width: 2,
         height: 1,
-        cells: vec![TileState::Rendered, TileState::Cached],
+        cells: vec![MinimapCell::Rendered, MinimapCell::Cached],
         viewer: (-50.0, -50.0),
         importance: Some(vec![0.8, 0.0]),
         ..Minimap::default()
@@ -205,7 +205,10 @@ fn the_importance_overlay_colours_the_most_important_cell_yellow() {
     };
     let fb = frame(320, 240, ColorFormat::Rgb565, [0; 3]);
     let mut hud = Hud::new(true);
-    for (importance, first) in [(false, TileState::Rendered.color()), (true, [255, 240, 80])] {
+    for (importance, first) in [
+        (false, MinimapCell::Rendered.color()),
+        (true, [255, 240, 80]),
+    ] {
         hud.set_show_importance(importance);
         let overlay = hud.render(&info, 320, 240).unwrap();
         let shown = compose_rgba(&fb, Some(overlay));
@@ -215,7 +218,7 @@ fn the_importance_overlay_colours_the_most_important_cell_yellow() {
             [px[0], px[1], px[2]]
         };
         assert_eq!(at(0), first);
-        assert_eq!(at(1), TileState::Cached.color());
+        assert_eq!(at(1), MinimapCell::Cached.color());
     }
 }
 

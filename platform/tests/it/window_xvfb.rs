@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 
 use image::RgbaImage;
 use stripmask_platform::{
-    Command, Hud, HudInfo, Input, Minimap, PlatformError, Presenter, TileState, WindowPresenter,
+    Command, Hud, HudInfo, Input, Minimap, MinimapCell, PlatformError, Presenter, WindowPresenter,
     compose_rgba,
 };
 use stripmask_raster::ColorFormat;
@@ -261,7 +261,7 @@ fn the_window_shows_the_frame_reports_keys_and_resizes_and_closes() {
         minimap: Some(Minimap {
             width: 3,
             height: 3,
-            cells: vec![TileState::Rendered; 9],
+            cells: vec![MinimapCell::Rendered; 9],
             viewer: (1.5, 1.5),
             ..Minimap::default()
         }),

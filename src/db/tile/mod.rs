@@ -50,7 +50,7 @@ pub fn level_mips(level: usize, tile_size: usize, texture_size: usize) -> Range<
 
 /// What a tile holding a prefix of its progressive levels knows of the grid it holds: shared by
 /// the decoded [`Tile`] and the resident form.
-pub trait HeldLevels {
+pub trait PartialGrid {
     /// Samples per side of the whole tile.
     fn whole_size(&self) -> usize;
     /// Progressive levels held, at least 1.
@@ -78,7 +78,7 @@ pub trait HeldLevels {
     }
 }
 
-impl HeldLevels for Tile {
+impl PartialGrid for Tile {
     fn whole_size(&self) -> usize {
         self.tile_size
     }

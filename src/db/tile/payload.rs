@@ -16,7 +16,7 @@
 //! Smooth terrain predicts well, so residuals are small numbers that compress far better than
 //! the heights themselves.
 
-use super::{HeldLevels, MAX_TEXTURE_SIZE, Tile, level_mips, level_side, progressive_levels};
+use super::{MAX_TEXTURE_SIZE, PartialGrid, Tile, level_mips, level_side, progressive_levels};
 use crate::db::tiling::{MAX_TILE_SIZE, is_valid_tile_size};
 use crate::error::{Error, Result};
 

@@ -19,7 +19,7 @@ use crate::db::source;
 use crate::engine::camera::Camera;
 use crate::engine::cracks::CrackMode;
 use crate::engine::geomorph::Geomorph;
-use crate::engine::pager::PagerMode;
+use crate::engine::paging::PagerMode;
 use crate::engine::{Engine, EngineSettings, FrameReport};
 use crate::error::{Error, Result};
 

@@ -2,16 +2,13 @@
 //! the deterministic modes, this thread — with [`PagerMode::Simulated`] each result held back
 //! until the simulated time passes the end of its transfer on a link that carries one request at
 //! a time, as timed by a [`TransferClock`].
-//!
-//! [`PagerMode::Threaded`]: super::PagerMode::Threaded
-//! [`PagerMode::Simulated`]: super::PagerMode::Simulated
 
 use std::collections::VecDeque;
 use std::sync::Arc;
 
-use super::TransferClock;
+use super::ledger::Ledger;
 use super::worker::{self, Arrival, Job, Request, Worker};
-use crate::engine::belts::Ledger;
+use super::{PagerMode, TransferClock};
 use crate::error::{Error, Result};
 
 /// A result that arrives at `due` simulated seconds.
@@ -33,6 +30,7 @@ pub struct Received<R, T> {
 /// A fetch thread or this thread, and the simulated link's clock.
 pub struct Link<R: Request, T> {
     job: Job<R, T>,
+    mode: PagerMode,
     worker: Option<Worker<R, T>>,
     transfer_clock: Option<Arc<dyn TransferClock>>,
     pending: VecDeque<Pending<R, T>>,
@@ -40,15 +38,16 @@ pub struct Link<R: Request, T> {
 }
 
 impl<R: Request, T: Send + 'static> Link<R, T> {
-    /// Runs `job` for each request, on a fetch thread when `threaded`.
-    pub fn new(job: Job<R, T>, threaded: bool) -> Result<Self> {
-        let worker = if threaded {
+    /// Runs `job` for each request the way `mode` says: on a fetch thread when threaded.
+    pub fn new(job: Job<R, T>, mode: PagerMode) -> Result<Self> {
+        let worker = if matches!(mode, PagerMode::Threaded { .. }) {
             Some(Worker::spawn(Arc::clone(&job))?)
         } else {
             None
         };
         Ok(Link {
             job,
+            mode,
             worker,
             transfer_clock: None,
             pending: VecDeque::new(),
@@ -61,8 +60,22 @@ impl<R: Request, T: Send + 'static> Link<R, T> {
         self.transfer_clock = Some(clock);
     }
 
+    /// Starts `request` the way the link runs: queued on the fetch thread, scheduled on the
+    /// simulated link (at `time` or when it is free), or, stepped, run now. A result that is
+    /// already there (a stepped fetch, or a send to a stopped thread) comes back at once.
+    pub fn start(&mut self, request: R, time: f64) -> Option<(R, Result<(T, u64)>)> {
+        match self.mode {
+            PagerMode::Threaded { .. } => self.send(request).err().map(|e| (request, Err(e))),
+            PagerMode::Simulated { .. } => {
+                self.schedule(request, time);
+                None
+            }
+            PagerMode::Stepped { .. } => Some((request, self.run_now(request))),
+        }
+    }
+
     /// Queues `request` on the fetch thread.
-    pub fn send(&self, request: R) -> Result<()> {
+    fn send(&self, request: R) -> Result<()> {
         match &self.worker {
             Some(worker) => worker.send(request),
             None => Err(Error::invalid(
@@ -73,13 +86,13 @@ impl<R: Request, T: Send + 'static> Link<R, T> {
     }
 
     /// Runs `request` on this thread now.
-    pub fn run_now(&self, request: R) -> Result<(T, u64)> {
+    fn run_now(&self, request: R) -> Result<(T, u64)> {
         worker::run(&*self.job, request)
     }
 
     /// Runs `request` now and holds its result back until the end of its transfer, which
     /// starts at `time` or when the link is free, whichever is later.
-    pub fn schedule(&mut self, request: R, time: f64) {
+    fn schedule(&mut self, request: R, time: f64) {
         let busy = |clock: &Option<Arc<dyn TransferClock>>| {
             clock.as_ref().map_or(0.0, |c| c.busy_seconds())
         };

@@ -6,7 +6,7 @@
 use std::collections::VecDeque;
 
 use crate::db::grid::TileId;
-use crate::engine::stream::Reason;
+use crate::engine::paging::stream::Reason;
 
 /// Seconds after its arrival within which a delivery must be drawn to count as rendered.
 pub const RENDER_WINDOW: f64 = 1.0;

@@ -26,484 +26,29 @@
 //! ring-independent costs this is exactly the paper's algorithm.
 
 use std::cmp::Reverse;
-use std::collections::BTreeMap;
 
-use crate::db::grid::TileId;
-use crate::error::{Error, Result};
+use super::ledger::{Failure, Fetch, Ledger, Loaded, Record};
+use crate::db::grid::{Grid, TileId, distance2};
 
-/// The grid of `tiles_x x tiles_y` tiles and its belt geometry.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Grid {
-    tiles_x: u32,
-    tiles_y: u32,
-}
-
-impl Grid {
-    /// A grid of `tiles_x` columns and `tiles_y` rows; both must be at least 1.
-    pub fn new(tiles_x: u32, tiles_y: u32) -> Result<Self> {
-        if tiles_x == 0 || tiles_y == 0 {
-            return Err(Error::Usage(format!(
-                "a tile grid needs at least one tile, got {tiles_x} x {tiles_y}"
-            )));
-        }
-        Ok(Grid { tiles_x, tiles_y })
-    }
-
-    /// Columns.
-    pub fn tiles_x(&self) -> u32 {
-        self.tiles_x
-    }
-
-    /// Rows.
-    pub fn tiles_y(&self) -> u32 {
-        self.tiles_y
-    }
-
-    /// Whether `id` lies on the grid.
-    pub fn contains(&self, id: TileId) -> bool {
-        id.x < self.tiles_x && id.y < self.tiles_y
-    }
-
-    /// The belt of `id` around `center`: their Chebyshev distance.
-    pub fn ring(center: TileId, id: TileId) -> u32 {
-        center.x.abs_diff(id.x).max(center.y.abs_diff(id.y))
-    }
-
-    /// The farthest non-empty belt around `center`.
-    pub fn max_ring(&self, center: TileId) -> u32 {
-        let dx = center
-            .x
-            .max(self.tiles_x - 1 - center.x.min(self.tiles_x - 1));
-        let dy = center
-            .y
-            .max(self.tiles_y - 1 - center.y.min(self.tiles_y - 1));
-        dx.max(dy)
-    }
-
-    /// The tiles of belt `d` around `center`, clipped to the grid, nearest first (squared
-    /// Euclidean distance in tiles), ties in row-major order.
-    pub fn belt(&self, center: TileId, d: u32) -> Vec<TileId> {
-        let (cx, cy) = (i64::from(center.x), i64::from(center.y));
-        let d = i64::from(d);
-        let (x0, x1) = ((cx - d).max(0), (cx + d).min(i64::from(self.tiles_x) - 1));
-        let (y0, y1) = ((cy - d).max(0), (cy + d).min(i64::from(self.tiles_y) - 1));
-        let mut tiles = Vec::new();
-        for y in y0..=y1 {
-            let edge_row = (y - cy).abs() == d;
-            for x in x0..=x1 {
-                if edge_row || (x - cx).abs() == d {
-                    tiles.push(TileId::new(x as u32, y as u32));
-                }
-            }
-        }
-        tiles.sort_by_key(|t| (distance2(center, *t), *t));
-        tiles
-    }
-
-    /// The tile under a viewpoint given in tile units (tile `(x, y)` covers `[x, x + 1) x
-    /// [y, y + 1)`). Off the grid: the nearest tile when `nearest_when_off`, else `None`; a
-    /// non-finite position is off the grid and has no nearest tile.
-    pub fn locate(&self, position: (f64, f64), nearest_when_off: bool) -> Option<TileId> {
-        let (px, py) = position;
-        if !px.is_finite() || !py.is_finite() {
-            return None;
-        }
-        let (fx, fy) = (px.floor(), py.floor());
-        let inside = |f: f64, n: u32| f >= 0.0 && f < f64::from(n);
-        let on_grid = inside(fx, self.tiles_x) && inside(fy, self.tiles_y);
-        if !on_grid && !nearest_when_off {
-            return None;
-        }
-        let clamp = |f: f64, n: u32| f.clamp(0.0, f64::from(n - 1)) as u32;
-        Some(TileId::new(
-            clamp(fx, self.tiles_x),
-            clamp(fy, self.tiles_y),
-        ))
-    }
-}
-
-/// Squared Euclidean distance between two tiles, in tiles.
-fn distance2(a: TileId, b: TileId) -> u64 {
-    let (dx, dy) = (u64::from(a.x.abs_diff(b.x)), u64::from(a.y.abs_diff(b.y)));
-    dx * dx + dy * dy
-}
-
-/// A resident copy of a tile: the bytes it holds and the ring its detail serves.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Held {
-    /// Accounted bytes.
-    pub bytes: usize,
-    /// The belt distance the copy was loaded for (or shrunk to).
-    pub ring: u32,
-}
-
-/// Bytes accounted for a fetch in flight, and the ring it was planned for.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Reservation {
-    /// Bytes the loader predicted the tile will hold.
-    pub bytes: usize,
-    /// The belt distance the tile is fetched for.
-    pub ring: u32,
-    /// Whether the fetch adds to the resident copy (a finer progressive level) instead of
-    /// replacing it: `bytes` is then the growth, not the whole.
-    pub adds: bool,
-}
-
-/// Why a tile is not fetched although it is missing.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Failure {
-    /// It failed and waits until the given update before it is tried again.
-    Waiting {
-        /// The update number from which the tile may be fetched again.
-        retry_at: u64,
-    },
-    /// It failed too often: it is left out (a hole) and counts as complete for its belt.
-    GaveUp,
-}
-
-/// What the ledger knows about one tile.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Record {
-    /// The resident copy, if any.
-    pub held: Option<Held>,
-    /// The fetch in flight, if any (an upgrade when `held` is also set).
-    pub fetch: Option<Reservation>,
-    /// How many fetches of this tile failed.
-    pub failures: u32,
-    /// The failure state, if the tile failed.
-    pub failure: Option<Failure>,
-}
-
-impl Record {
-    fn is_empty(&self) -> bool {
-        self.held.is_none() && self.fetch.is_none() && self.failures == 0
-    }
-}
-
-/// How often a failed tile is tried again.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct RetryPolicy {
-    /// Fetches of one tile (first try included) before it is given up.
-    pub max_attempts: u32,
-    /// Updates to wait after a failure before the next attempt.
-    pub delay_updates: u64,
-}
-
-impl Default for RetryPolicy {
-    fn default() -> Self {
-        RetryPolicy {
-            max_attempts: 3,
-            delay_updates: 30,
-        }
-    }
-}
-
-/// The accounting of Algorithm 1: every tile that holds or will hold memory, the accounted bytes
-/// (held copies plus reservations of fetches in flight) and their peak, under a fixed limit.
-#[derive(Clone, Debug)]
-pub struct Ledger {
-    grid: Grid,
-    limit: usize,
-    retry: RetryPolicy,
-    records: BTreeMap<TileId, Record>,
-    memory: usize,
-    peak: usize,
-}
-
-impl Ledger {
-    /// An empty ledger for `grid` under `limit` accounted bytes.
-    pub fn new(grid: Grid, limit: usize, retry: RetryPolicy) -> Self {
-        Ledger {
-            grid,
-            limit,
-            retry,
-            records: BTreeMap::new(),
-            memory: 0,
-            peak: 0,
-        }
-    }
-
-    /// The grid.
-    pub fn grid(&self) -> Grid {
-        self.grid
-    }
-
-    /// The memory limit in bytes.
-    pub fn limit(&self) -> usize {
-        self.limit
-    }
-
-    /// Accounted bytes: held copies plus reservations of fetches in flight.
-    pub fn memory(&self) -> usize {
-        self.memory
-    }
-
-    /// The highest [`Ledger::memory`] so far.
-    pub fn peak(&self) -> usize {
-        self.peak
-    }
-
-    /// The record of `id` (empty when the ledger knows nothing of it).
-    pub fn record(&self, id: TileId) -> Record {
-        self.records.get(&id).copied().unwrap_or_default()
-    }
-
-    /// Every tile the ledger knows, row-major.
-    pub fn records(&self) -> impl Iterator<Item = (TileId, &Record)> {
-        self.records.iter().map(|(id, r)| (*id, r))
-    }
-
-    /// Fetches in flight.
-    pub fn fetching(&self) -> usize {
-        self.records.values().filter(|r| r.fetch.is_some()).count()
-    }
-
-    /// Tiles whose last fetch failed (waiting for a retry, or given up).
-    pub fn failed_tiles(&self) -> usize {
-        self.records
-            .values()
-            .filter(|r| r.failure.is_some())
-            .count()
-    }
-
-    /// Tiles with a resident copy.
-    pub fn resident(&self) -> usize {
-        self.records.values().filter(|r| r.held.is_some()).count()
-    }
-
-    /// `d_c` around `center`: the largest `d` such that every tile of belts `0..=d` is complete
-    /// (see [`is_complete`]); `None` while the center itself is not.
-    pub fn complete_belts(
-        &self,
-        center: TileId,
-        predicted: impl Fn(TileId, u32) -> usize,
-    ) -> Option<u32> {
-        let mut complete = None;
-        for d in 0..=self.grid.max_ring(center) {
-            let belt = self.grid.belt(center, d);
-            if !belt
-                .iter()
-                .all(|&t| is_complete(&self.record(t), t, d, &predicted))
-            {
-                break;
-            }
-            complete = Some(d);
-        }
-        complete
-    }
-
-    /// Accounts a planned fetch. Fails (and changes nothing) if the tile already has a fetch in
-    /// flight or the reservation would exceed the limit.
-    pub fn reserve(&mut self, fetch: Fetch) -> Result<()> {
-        self.reserve_as(fetch, false)
-    }
-
-    /// Accounts a fetch that adds `fetch.bytes` to the tile's resident copy (a refinement: the
-    /// copy stays and grows when it arrives). Fails like [`Ledger::reserve`], and when the tile
-    /// holds no copy.
-    pub fn reserve_addition(&mut self, fetch: Fetch) -> Result<()> {
-        if self.record(fetch.id).held.is_none() {
-            return Err(Error::invalid(
-                fetch.id.to_string(),
-                "cannot refine it: it holds no resident copy",
-            ));
-        }
-        self.reserve_as(fetch, true)
-    }
-
-    fn reserve_as(&mut self, fetch: Fetch, adds: bool) -> Result<()> {
-        let record = self.record(fetch.id);
-        let memory = self
-            .memory
-            .checked_add(fetch.bytes)
-            .filter(|&m| m <= self.limit);
-        let (Some(memory), None) = (memory, record.fetch) else {
-            return Err(Error::invalid(
-                fetch.id.to_string(),
-                format!(
-                    "cannot reserve {} bytes for a fetch ({} of {} bytes accounted, fetch in flight: {})",
-                    fetch.bytes,
-                    self.memory,
-                    self.limit,
-                    record.fetch.is_some()
-                ),
-            ));
-        };
-        self.records.entry(fetch.id).or_default().fetch = Some(Reservation {
-            bytes: fetch.bytes,
-            ring: fetch.ring,
-            adds,
-        });
-        self.memory = memory;
-        self.peak = self.peak.max(memory);
-        Ok(())
-    }
-
-    /// A fetch arrived and the tile now holds `bytes`: the new copy replaces the old one, if
-    /// any (or, for a [`Ledger::reserve_addition`], the grown copy does). Fails (and releases
-    /// the reservation, counting a failure) when the tile holds more than was reserved (plus
-    /// the old copy, for an addition), since accounting it could overspend the limit; the
-    /// caller drops the new copy then.
-    pub fn arrive(&mut self, id: TileId, bytes: usize, now: u64) -> Result<()> {
-        let record = self.record(id);
-        let Some(reservation) = record.fetch else {
-            return Err(Error::invalid(
-                id.to_string(),
-                "it arrived without a fetch in flight",
-            ));
-        };
-        let old = record.held.map_or(0, |h| h.bytes);
-        let allowed = reservation.bytes + if reservation.adds { old } else { 0 };
-        if bytes > allowed {
-            self.fail(id, now);
-            return Err(Error::invalid(
-                id.to_string(),
-                format!(
-                    "the loader holds {bytes} bytes, {allowed} were predicted for ring {}",
-                    reservation.ring
-                ),
-            ));
-        }
-        self.memory = self.memory - reservation.bytes - old + bytes;
-        let entry = self.records.entry(id).or_default();
-        entry.fetch = None;
-        entry.held = Some(Held {
-            bytes,
-            ring: reservation.ring,
-        });
-        entry.failures = 0;
-        entry.failure = None;
-        Ok(())
-    }
-
-    /// A fetch of `id` failed: releases its reservation and counts the failure under the retry
-    /// policy (the tile waits, or is given up after the last attempt).
-    pub fn fail(&mut self, id: TileId, now: u64) {
-        let entry = self.records.entry(id).or_default();
-        if let Some(reservation) = entry.fetch.take() {
-            self.memory -= reservation.bytes;
-        }
-        entry.failures += 1;
-        entry.failure = Some(if entry.failures >= self.retry.max_attempts {
-            Failure::GaveUp
-        } else {
-            Failure::Waiting {
-                retry_at: now.saturating_add(self.retry.delay_updates),
-            }
-        });
-    }
-
-    /// Every fetch in flight failed (the fetch thread stopped with them).
-    pub fn fail_in_flight(&mut self, now: u64) {
-        let in_flight: Vec<TileId> = self
-            .records
+/// `d_c` around `center`: the largest `d` such that every tile of belts `0..=d` is complete
+/// (see [`is_complete`]); `None` while the center itself is not.
+pub fn complete_belts(
+    ledger: &Ledger,
+    center: TileId,
+    predicted: impl Fn(TileId, u32) -> usize,
+) -> Option<u32> {
+    let mut complete = None;
+    for d in 0..=ledger.grid().max_ring(center) {
+        let belt = ledger.grid().belt(center, d);
+        if !belt
             .iter()
-            .filter(|(_, r)| r.fetch.is_some())
-            .map(|(&id, _)| id)
-            .collect();
-        for id in in_flight {
-            self.fail(id, now);
+            .all(|&t| is_complete(&ledger.record(t), t, d, &predicted))
+        {
+            break;
         }
+        complete = Some(d);
     }
-
-    /// Makes failed tiles whose wait is over eligible for a new attempt.
-    pub fn tick(&mut self, now: u64) {
-        for record in self.records.values_mut() {
-            if matches!(record.failure, Some(Failure::Waiting { retry_at }) if retry_at <= now) {
-                record.failure = None;
-            }
-        }
-    }
-
-    /// Drops the resident copy of `id`; returns the bytes it held. A copy whose upgrade was
-    /// given up takes its failures with it: the tile may be fetched afresh later.
-    pub fn evict(&mut self, id: TileId) -> usize {
-        let Some(record) = self.records.get_mut(&id) else {
-            return 0;
-        };
-        let bytes = record.held.take().map_or(0, |h| h.bytes);
-        self.memory -= bytes;
-        if record.fetch.is_none() && bytes > 0 {
-            record.failures = 0;
-            record.failure = None;
-        }
-        if record.is_empty() {
-            self.records.remove(&id);
-        }
-        bytes
-    }
-
-    /// A resident copy now holds `bytes`, more or fewer than before (the loader's settings
-    /// changed, see `Pager::refit`). Fails (and changes nothing) when that would take the
-    /// accounted bytes over the limit.
-    pub fn resize_held(&mut self, id: TileId, bytes: usize) -> Result<()> {
-        let Some(held) = self.records.get(&id).and_then(|r| r.held) else {
-            return Err(Error::invalid(
-                id.to_string(),
-                "it was resized but is not resident",
-            ));
-        };
-        self.resize(id, held.bytes, bytes, "resident copy")?;
-        if let Some(h) = self.records.get_mut(&id).and_then(|r| r.held.as_mut()) {
-            h.bytes = bytes;
-        }
-        Ok(())
-    }
-
-    /// The fetch of `id` in flight will hold `bytes` instead of what was reserved. Fails (and
-    /// changes nothing) when that would take the accounted bytes over the limit.
-    pub fn resize_reservation(&mut self, id: TileId, bytes: usize) -> Result<()> {
-        let Some(fetch) = self.records.get(&id).and_then(|r| r.fetch) else {
-            return Err(Error::invalid(
-                id.to_string(),
-                "it has no fetch in flight to resize",
-            ));
-        };
-        self.resize(id, fetch.bytes, bytes, "reservation")?;
-        if let Some(f) = self.records.get_mut(&id).and_then(|r| r.fetch.as_mut()) {
-            f.bytes = bytes;
-        }
-        Ok(())
-    }
-
-    fn resize(&mut self, id: TileId, old: usize, new: usize, what: &str) -> Result<()> {
-        let memory = self.memory - old + new;
-        if memory > self.limit {
-            return Err(Error::invalid(
-                id.to_string(),
-                format!(
-                    "its {what} cannot grow from {old} to {new} bytes ({} of {} bytes accounted)",
-                    self.memory, self.limit
-                ),
-            ));
-        }
-        self.memory = memory;
-        self.peak = self.peak.max(memory);
-        Ok(())
-    }
-
-    /// A resident copy now serves `ring` and holds `bytes` (after the loader shrank it). Fails
-    /// (and changes nothing) when it would hold more than before.
-    pub fn shrink(&mut self, id: TileId, bytes: usize, ring: u32) -> Result<()> {
-        let Some(held) = self.records.get_mut(&id).and_then(|r| r.held.as_mut()) else {
-            return Err(Error::invalid(
-                id.to_string(),
-                "it was shrunk but is not resident",
-            ));
-        };
-        if bytes > held.bytes {
-            return Err(Error::invalid(
-                id.to_string(),
-                format!(
-                    "shrinking it for ring {ring} grew it from {} to {bytes} bytes",
-                    held.bytes
-                ),
-            ));
-        }
-        self.memory -= held.bytes - bytes;
-        *held = Held { bytes, ring };
-        Ok(())
-    }
+    complete
 }
 
 /// Whether a tile counts as loaded for belt `ring`: it holds a copy whose detail serves that ring
@@ -518,29 +63,18 @@ pub fn is_complete(
         return true;
     }
     record
-        .held
+        .loaded
         .is_some_and(|h| !needs_upgrade(h, id, ring, &predicted))
 }
 
-/// A copy held for a larger ring than `ring` and predicted to hold more at `ring`.
+/// A copy loaded for a larger ring than `ring` and predicted to hold more at `ring`.
 fn needs_upgrade(
-    held: Held,
+    loaded: Loaded,
     id: TileId,
     ring: u32,
     predicted: impl Fn(TileId, u32) -> usize,
 ) -> bool {
-    ring < held.ring && predicted(id, ring) > predicted(id, held.ring)
-}
-
-/// One tile to fetch: its id, the ring it is fetched for and the bytes it will hold.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Fetch {
-    /// The tile.
-    pub id: TileId,
-    /// Its belt distance from the current tile.
-    pub ring: u32,
-    /// Bytes the loader predicts it will hold at that ring.
-    pub bytes: usize,
+    ring < loaded.ring && predicted(id, ring) > predicted(id, loaded.ring)
 }
 
 /// What to do now: evict these resident copies, then reserve and start these fetches.
@@ -567,12 +101,12 @@ pub fn plan(
     max_fetches: usize,
     predicted: impl Fn(TileId, u32) -> usize,
 ) -> Plan {
-    let Some(center) = center.filter(|&c| ledger.grid.contains(c)) else {
+    let Some(center) = center.filter(|&c| ledger.grid().contains(c)) else {
         return Plan::default();
     };
-    let complete = ledger.complete_belts(center, &predicted);
+    let complete = complete_belts(ledger, center, &predicted);
     let next = complete.map_or(0, |d| d + 1);
-    if next > ledger.grid.max_ring(center) {
+    if next > ledger.grid().max_ring(center) {
         return Plan {
             complete,
             ..Plan::default()
@@ -582,7 +116,7 @@ pub fn plan(
     // and the tiles that can be fetched now.
     let mut outstanding = 0usize;
     let mut missing = Vec::new();
-    for id in ledger.grid.belt(center, next) {
+    for id in ledger.grid().belt(center, next) {
         let record = ledger.record(id);
         if record.fetch.is_some() || is_complete(&record, id, next, &predicted) {
             continue;
@@ -598,7 +132,7 @@ pub fn plan(
         }
     }
     let evictable = evictable(ledger, center, next, &predicted);
-    let mut free = ledger.limit.saturating_sub(ledger.memory);
+    let mut free = ledger.limit().saturating_sub(ledger.memory());
     let reclaimable: usize = evictable.iter().map(|&(_, bytes)| bytes).sum();
     if outstanding > free.saturating_add(reclaimable) {
         return Plan {
@@ -641,7 +175,7 @@ fn evictable(
         .records()
         .filter(|(_, r)| r.fetch.is_none())
         .filter_map(|(id, r)| {
-            let held = r.held?;
+            let held = r.loaded?;
             let ring = Grid::ring(center, id);
             let cache = ring > next;
             let stale = ring == next && needs_upgrade(held, id, ring, &predicted);
@@ -665,6 +199,7 @@ fn evictable(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::engine::paging::RetryPolicy;
 
     const NOW: u64 = 0;
 
@@ -765,7 +300,7 @@ mod tests {
         // The complete square of 2 belts is the 3 x 4 rectangle x in 0..=2, y in 0..=3.
         let mut l = ledger(6, 4, 12 * 10);
         settle(&mut l, c, 100, &uniform(10));
-        assert_eq!(l.complete_belts(c, uniform(10)), Some(2));
+        assert_eq!(complete_belts(&l, c, uniform(10)), Some(2));
         let held: Vec<TileId> = l.records().map(|(t, _)| t).collect();
         let rectangle: Vec<TileId> = (0..4).flat_map(|y| (0..3).map(move |x| id(x, y))).collect();
         assert_eq!(held, rectangle);
@@ -852,7 +387,7 @@ mod tests {
         ] {
             let mut l = ledger(9, 9, limit);
             settle(&mut l, id(0, 0), 1, &uniform(100));
-            assert_eq!(l.complete_belts(id(0, 0), uniform(100)), expected);
+            assert_eq!(complete_belts(&l, id(0, 0), uniform(100)), expected);
         }
     }
 
@@ -895,7 +430,7 @@ mod tests {
         let c = id(4, 4);
         // 9 + 5 + 3 + 3 = 20 bytes held; belt 2 misses 11 tiles.
         let l = partial_belts(20 + 11 - 2);
-        assert_eq!(l.complete_belts(c, uniform(1)), Some(1));
+        assert_eq!(complete_belts(&l, c, uniform(1)), Some(1));
         let p = plan(&l, Some(c), 100, uniform(1));
         let ids: Vec<TileId> = p.fetch.iter().map(|f| f.id).collect();
         assert_eq!(ids.len(), 11);
@@ -943,14 +478,14 @@ mod tests {
     fn a_far_jump_turns_the_old_square_into_cache_evicted_farthest_first() {
         let mut l = ledger(32, 32, 25);
         settle(&mut l, id(3, 3), 4, &uniform(1));
-        assert_eq!(l.complete_belts(id(3, 3), uniform(1)), Some(2));
+        assert_eq!(complete_belts(&l, id(3, 3), uniform(1)), Some(2));
         let far = id(28, 28);
         let p = plan(&l, Some(far), 1, uniform(1));
         assert_eq!(p.complete, None);
         assert_eq!(p.fetch[0].id, far);
         assert_eq!(p.evict, vec![id(1, 1)]);
         settle(&mut l, far, 4, &uniform(1));
-        assert_eq!(l.complete_belts(far, uniform(1)), Some(2));
+        assert_eq!(complete_belts(&l, far, uniform(1)), Some(2));
         assert!(l.records().all(|(t, _)| Grid::ring(far, t) <= 2));
     }
 
@@ -960,12 +495,12 @@ mod tests {
         let cost = |_: TileId, ring: u32| if ring <= 1 { 1000 } else { 100 };
         let mut l = ledger(9, 9, usize::MAX);
         settle(&mut l, id(4, 4), 3, &cost);
-        assert_eq!(l.complete_belts(id(4, 4), cost), Some(4));
+        assert_eq!(complete_belts(&l, id(4, 4), cost), Some(4));
         let all = 9 * 1000 + 72 * 100;
         assert_eq!(l.memory(), all);
         // One tile east, x = 6 moves to ring 1 but holds the coarse copy: it is missing there.
         let east = id(5, 4);
-        assert_eq!(l.complete_belts(east, cost), Some(0));
+        assert_eq!(complete_belts(&l, east, cost), Some(0));
         assert!(!is_complete(&l.record(id(6, 4)), id(6, 4), 1, cost));
         assert!(is_complete(&l.record(id(4, 4)), id(4, 4), 1, cost));
         let p = plan(&l, Some(east), 1, cost);
@@ -981,18 +516,18 @@ mod tests {
         // The new copy is accounted beside the old one until it arrives, then replaces it.
         l.reserve(p.fetch[0]).unwrap();
         assert_eq!(l.memory(), all + 1000);
-        assert_eq!(l.record(id(6, 4)).held.unwrap().bytes, 100);
+        assert_eq!(l.record(id(6, 4)).loaded.unwrap().bytes, 100);
         l.arrive(id(6, 4), 1000, NOW).unwrap();
         assert_eq!(
-            l.record(id(6, 4)).held,
-            Some(Held {
+            l.record(id(6, 4)).loaded,
+            Some(Loaded {
                 bytes: 1000,
                 ring: 1
             })
         );
         assert_eq!(l.memory(), all + 900);
         settle(&mut l, east, 1, &cost);
-        assert_eq!(l.complete_belts(east, cost), Some(5));
+        assert_eq!(complete_belts(&l, east, cost), Some(5));
         assert_eq!(l.memory(), all + 3 * 900);
         // Under a tight limit the stale coarse copies of belt 1 go last, after all cache: here
         // belt 1 holds only coarse copies (100 bytes, loaded for ring 2) and one cache tile sits
@@ -1015,11 +550,11 @@ mod tests {
         assert!(p.evict[1..].iter().all(|&t| Grid::ring(c, t) == 1));
         apply(&mut l, &p);
         assert_eq!(l.memory(), 9000);
-        assert_eq!(l.complete_belts(c, cost), Some(1));
+        assert_eq!(complete_belts(&l, c, cost), Some(1));
         // With costs independent of the ring, moving needs no upgrade (the paper's behaviour).
         let mut l = ledger(9, 9, usize::MAX);
         settle(&mut l, id(4, 4), 3, &uniform(100));
-        assert_eq!(l.complete_belts(id(5, 4), uniform(100)), Some(5));
+        assert_eq!(complete_belts(&l, id(5, 4), uniform(100)), Some(5));
         assert!(plan(&l, Some(id(5, 4)), 9, uniform(100)).fetch.is_empty());
     }
 
@@ -1123,7 +658,7 @@ mod tests {
         l.reserve(again.fetch[0]).unwrap();
         l.fail(bad, 13);
         assert_eq!(l.record(bad).failure, Some(Failure::GaveUp));
-        assert_eq!(l.complete_belts(c, uniform(1)), Some(1));
+        assert_eq!(complete_belts(&l, c, uniform(1)), Some(1));
         l.tick(1000);
         assert!(plan(&l, Some(c), 9, uniform(1)).fetch.is_empty());
     }

@@ -1,6 +1,6 @@
 //! The fetch thread: takes requests over a channel, runs a job on each, and sends the results
 //! back, so that the frame loop never waits on I/O. The belt pager's requests are whole-tile
-//! [`Fetch`]es; the stream pager's are (tile, level) requests.
+//! fetches; the stream pager's are (tile, level) requests.
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::sync::Arc;
@@ -8,21 +8,13 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, Sender, TryRecvError, channel};
 use std::thread::JoinHandle;
 
-use super::TileLoader;
 use crate::db::grid::TileId;
-use crate::engine::belts::Fetch;
 use crate::error::{Error, Result};
 
 /// A request the fetch thread can run: it names the tile it is for.
 pub trait Request: Copy + Send + 'static {
     /// The tile the request fetches.
     fn tile(&self) -> TileId;
-}
-
-impl Request for Fetch {
-    fn tile(&self) -> TileId {
-        self.id
-    }
 }
 
 /// What the fetch thread sends back for one request.
@@ -119,9 +111,4 @@ pub fn run<R: Request, T>(job: &dyn Fn(R) -> Result<(T, u64)>, request: R) -> Re
             "the loader panicked while fetching it",
         ))
     })
-}
-
-/// The belt pager's job: the loader's whole-tile load for the fetch's ring.
-pub fn load_job<L: TileLoader>(loader: Arc<L>) -> Job<Fetch, L::Loaded> {
-    Arc::new(move |fetch: Fetch| loader.load(fetch.id, fetch.ring))
 }

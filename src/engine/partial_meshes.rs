@@ -17,22 +17,22 @@ use crate::engine::masks::{LevelSet, MaskSet};
 /// `level + 1` a multiple of the stride) and for its neighbours' levels, where a neighbour
 /// finer than the held grid counts as the finest held level: the finer neighbour adapts its
 /// border to this tile's.
-pub fn held_level(level: usize, stride: usize) -> usize {
+pub fn compact_level(level: usize, stride: usize) -> usize {
     ((level + 1) / stride).max(1) - 1
 }
 
 /// The strip masks and crack pieces of every held side drawn so far, for one crack mode.
 #[derive(Debug, Default)]
-pub struct HeldSideMeshes {
+pub struct PartialMeshes {
     mode: Option<CrackMode>,
     /// `(side, masks, crack pieces)`, at most one entry per progressive level.
     sides: Vec<(usize, MaskSet, TileIndices)>,
 }
 
-impl HeldSideMeshes {
+impl PartialMeshes {
     /// An empty set: nothing is built until a partial tile is drawn.
-    pub fn new() -> HeldSideMeshes {
-        HeldSideMeshes::default()
+    pub fn new() -> PartialMeshes {
+        PartialMeshes::default()
     }
 
     /// The masks and crack pieces (crack mode `mode`) of tiles holding `side` samples per side,
@@ -75,7 +75,7 @@ mod tests {
         for stride in [1, 2, 4, 8, 16, 32] {
             let side = (s - 1) / stride + 1;
             for level in (0..s - 1).filter(|l| (l + 1) % stride == 0) {
-                let compact: Vec<usize> = kept_indices(side, held_level(level, stride))
+                let compact: Vec<usize> = kept_indices(side, compact_level(level, stride))
                     .into_iter()
                     .map(|c| c * stride)
                     .collect();
@@ -83,17 +83,17 @@ mod tests {
             }
         }
         assert_eq!(
-            held_level(0, 4),
+            compact_level(0, 4),
             0,
             "a finer neighbour counts as the finest held"
         );
-        assert_eq!(held_level(1, 4), 0);
-        assert_eq!(held_level(15, 4), 3);
+        assert_eq!(compact_level(1, 4), 0);
+        assert_eq!(compact_level(15, 4), 3);
     }
 
     #[test]
     fn sides_are_built_on_first_use_and_per_crack_mode() {
-        let mut held = HeldSideMeshes::new();
+        let mut held = PartialMeshes::new();
         assert_eq!(held.sides().count(), 0);
         let (masks, cracks) = held.get(CrackMode::Stitch, 5);
         assert_eq!(masks.tile_size(), 5);

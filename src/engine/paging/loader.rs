@@ -22,9 +22,9 @@ use crate::db::source::TileSource;
 use crate::db::tile::Tile;
 use crate::db::tile::progressive_levels;
 use crate::engine::cracks::CrackMode;
-use crate::engine::pager::TileLoader;
+use crate::engine::paging::TileLoader;
+use crate::engine::paging::stream::LevelLoader;
 use crate::engine::resident::{Light, ResidentTile, predicted_bytes};
-use crate::engine::stream::LevelLoader;
 use crate::error::{Error, Result};
 
 /// Loads resident tiles from an archive.
@@ -179,7 +179,7 @@ impl TileLoader for ArchiveLoader {
         ))
     }
 
-    fn held_bytes(&self, tile: &ResidentTile) -> usize {
+    fn loaded_bytes(&self, tile: &ResidentTile) -> usize {
         tile.bytes()
     }
 
@@ -295,7 +295,7 @@ impl LevelLoader for ArchiveLoader {
         tile.levels
     }
 
-    fn held_bytes(&self, tile: &ResidentTile) -> usize {
+    fn loaded_bytes(&self, tile: &ResidentTile) -> usize {
         tile.bytes()
     }
 

@@ -1,0 +1,224 @@
+//! The paper's pager: Algorithm 1 of [`super::belts`] driving a [`TileLoader`], beside the frame
+//! loop, with whole tiles.
+//!
+//! Call [`Pager::update`] once at the start of every frame with the viewpoint: it takes in the
+//! tiles that arrived, shrinks tiles that moved to a farther belt, evicts cache and starts the
+//! next fetches of belt `d_c + 1`, all without waiting on I/O in [`PagerMode::Threaded`]. The
+//! frame then draws the resident tiles. [`PagerMode::Stepped`] runs a fixed number of fetches
+//! synchronously inside each update instead, which makes a run reproducible.
+//! [`PagerMode::Simulated`] is reproducible too and also models the link: each fetch runs when it
+//! is planned, but its tile arrives only once the simulated time ([`Pager::set_time`]) passes the
+//! moment its transfer would end on a link that carries one request at a time, as timed by a
+//! [`TransferClock`]. Either way the accounted memory, reservations of fetches in flight
+//! included, never exceeds the limit.
+
+use std::marker::PhantomData;
+use std::sync::Arc;
+
+use super::belts::{self, Plan};
+use super::ledger::Fetch;
+use super::worker::{Job, Request};
+use super::{Pager, PagerConfig, PagerMode, Strategy};
+use crate::db::grid::{Grid, TileId};
+use crate::error::Result;
+
+/// What the engine gives the pager: costs known before fetching, fetching itself, and shrinking.
+pub trait TileLoader: Send + Sync + 'static {
+    /// A loaded tile.
+    type Loaded: Send + 'static;
+    /// Bytes a tile will hold once loaded for belt distance `ring` (known before fetching).
+    fn predicted_bytes(&self, id: TileId, ring: u32) -> usize;
+    /// Fetches and decodes a tile for belt distance `ring` (on the fetch thread in threaded
+    /// mode). Returns the tile and the bytes downloaded.
+    fn load(&self, id: TileId, ring: u32) -> Result<(Self::Loaded, u64)>;
+    /// Bytes a loaded tile holds; at most what [`TileLoader::predicted_bytes`] said for the ring
+    /// it was loaded for (a tile holding more is refused as an error).
+    fn loaded_bytes(&self, tile: &Self::Loaded) -> usize;
+    /// Drops detail a tile no longer needs at the larger belt distance `ring` (for example its
+    /// finest texture mips); returns the bytes it holds now, never more than before.
+    fn shrink(&self, tile: &mut Self::Loaded, ring: u32) -> usize;
+    /// Brings a tile loaded (or fetched) under earlier settings of this loader to its current
+    /// ones, for belt distance `ring`; returns the bytes it holds now, which may be more than
+    /// before (see [`Pager::refit`]). A loader whose settings never change keeps the default,
+    /// which changes nothing.
+    fn refit(&self, tile: &mut Self::Loaded, ring: u32) -> usize {
+        let _ = ring;
+        self.loaded_bytes(tile)
+    }
+}
+
+/// The paper's strategy: whole tiles, Algorithm 1 choosing the next fetches. It keeps no state
+/// of its own: the ledger says everything Algorithm 1 needs.
+pub struct Belts<L>(PhantomData<fn() -> L>);
+
+/// Pages whole tiles in belts around the viewpoint under a memory limit (see the module doc).
+pub type BeltPager<L> = Pager<Belts<L>>;
+
+impl Request for Fetch {
+    fn tile(&self) -> TileId {
+        self.id
+    }
+}
+
+impl<L: TileLoader> Strategy for Belts<L> {
+    type Loader = L;
+    type Tile = L::Loaded;
+    type Request = Fetch;
+    type Piece = L::Loaded;
+
+    fn job(loader: Arc<L>) -> Job<Fetch, L::Loaded> {
+        Arc::new(move |fetch: Fetch| loader.load(fetch.id, fetch.ring))
+    }
+
+    /// Takes in arrived tiles, shrinks tiles that are now farther, evicts and schedules.
+    fn update(pager: &mut BeltPager<L>, viewer: (f64, f64)) {
+        for (fetch, result) in pager.begin(viewer) {
+            pager.integrate(fetch, result);
+        }
+        pager.shrink();
+        if let PagerMode::Stepped { fetches_per_update } = pager.mode {
+            // One fetch at a time, re-planning after each arrival: a run is reproducible.
+            for _ in 0..fetches_per_update {
+                let plan = pager.plan(1);
+                let Some(&fetch) = plan.fetch.first() else {
+                    break;
+                };
+                pager.fetch(fetch);
+            }
+        } else {
+            let plan = pager.plan(pager.mode.room(pager.resident.ledger.fetching()));
+            for &fetch in &plan.fetch {
+                pager.fetch(fetch);
+            }
+        }
+        let loader = &*pager.loader;
+        let r = &mut pager.resident;
+        r.complete = r.center.and_then(|c| {
+            belts::complete_belts(&r.ledger, c, |id, ring| loader.predicted_bytes(id, ring))
+        });
+    }
+
+    /// Refits every loaded tile ([`TileLoader::refit`]) and accounts what it holds now,
+    /// evicting the tiles farthest from the current one while the total would exceed the limit,
+    /// then re-reserves every fetch in flight at the new prediction where that fits. A fetch
+    /// whose grown reservation does not fit keeps its old one: its tile, refit on arrival,
+    /// holds more than reserved and is refused and fetched again later, so the accounted bytes
+    /// never exceed the limit. Tiles loaded under the old settings that arrive later are refit
+    /// on arrival.
+    fn refit(pager: &mut BeltPager<L>) {
+        let r = &mut pager.resident;
+        let mut resized = Vec::new();
+        for (&id, tile) in &mut r.tiles {
+            let loaded = r
+                .ledger
+                .record(id)
+                .loaded
+                .expect("a resident tile is loaded");
+            resized.push((id, loaded.bytes, pager.loader.refit(tile, loaded.ring)));
+        }
+        let center = r.center;
+        resized
+            .sort_by_key(|&(id, _, _)| std::cmp::Reverse(center.map_or(0, |c| Grid::ring(c, id))));
+        let grown: usize = resized
+            .iter()
+            .map(|&(_, old, new)| new.saturating_sub(old))
+            .sum();
+        let shrunk: usize = resized
+            .iter()
+            .map(|&(_, old, new)| old.saturating_sub(new))
+            .sum();
+        let mut total = r.ledger.memory() + grown - shrunk;
+        let mut kept = Vec::new();
+        for (id, _, new) in resized {
+            if total > r.ledger.limit() {
+                total -= new;
+                r.evict(id);
+            } else {
+                kept.push((id, new));
+            }
+        }
+        r.resize(kept);
+        let fetching: Vec<(TileId, u32)> = r
+            .ledger
+            .records()
+            .filter_map(|(id, rec)| rec.fetch.map(|f| (id, f.ring)))
+            .collect();
+        for (id, ring) in fetching {
+            // Too large to fit: keeps the old reservation, as documented above.
+            let _ = r
+                .ledger
+                .resize_reservation(id, pager.loader.predicted_bytes(id, ring));
+        }
+    }
+}
+
+impl<L: TileLoader> BeltPager<L> {
+    /// A pager for `grid` with nothing loaded; starts the fetch thread in threaded mode.
+    pub fn new(loader: L, grid: Grid, config: PagerConfig) -> Result<Self> {
+        Pager::with_strategy(loader, grid, config, Belts(PhantomData))
+    }
+
+    /// Algorithm 1's next step for at most `max_fetches` fetches; evicts what it says.
+    fn plan(&mut self, max_fetches: usize) -> Plan {
+        let loader = &*self.loader;
+        let plan = belts::plan(
+            &self.resident.ledger,
+            self.resident.center,
+            max_fetches,
+            |id, ring| loader.predicted_bytes(id, ring),
+        );
+        self.resident.memory_bound = plan.full;
+        for &id in &plan.evict {
+            self.resident.evict(id);
+        }
+        plan
+    }
+
+    /// Reserves a planned fetch and starts it.
+    fn fetch(&mut self, fetch: Fetch) {
+        if self.resident.reserve(fetch, false)
+            && let Some((fetch, result)) = self.start(fetch)
+        {
+            self.integrate(fetch, result);
+        }
+    }
+
+    fn integrate(&mut self, fetch: Fetch, result: Result<(L::Loaded, u64)>) {
+        let ring = self
+            .resident
+            .ledger
+            .record(fetch.id)
+            .fetch
+            .map_or(0, |f| f.ring);
+        match result {
+            Ok((mut tile, downloaded)) => {
+                let bytes = self.loader.refit(&mut tile, ring);
+                self.resident.accept(fetch.id, tile, bytes, downloaded);
+            }
+            Err(e) => self.resident.fail(fetch.id, &format!("ring {ring}"), &e),
+        }
+    }
+
+    /// Shrinks every loaded tile that is now in a farther belt than the one it holds detail for.
+    fn shrink(&mut self) {
+        let r = &mut self.resident;
+        let Some(center) = r.center else {
+            return;
+        };
+        let farther: Vec<(TileId, u32)> = r
+            .ledger
+            .records()
+            .filter_map(|(id, rec)| {
+                let ring = Grid::ring(center, id);
+                rec.loaded.filter(|l| ring > l.ring).map(|_| (id, ring))
+            })
+            .collect();
+        for (id, ring) in farther {
+            let Some(tile) = r.tiles.get_mut(&id) else {
+                continue;
+            };
+            let bytes = self.loader.shrink(tile, ring);
+            r.shrunk(id, bytes, ring);
+        }
+    }
+}

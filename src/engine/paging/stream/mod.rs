@@ -1,0 +1,552 @@
+//! Progressive streaming: the paper's future work ("fetch tile levels only when needed, load
+//! farther tiles at their lowest resolution") as its 2009 follow-up did it.
+//!
+//! The unit of work is a (tile, level) pair, not a whole tile: a request brings a tile from the
+//! `k` progressive levels it holds to `m > k` with one range request ([`crate::db::tile`] stores
+//! each level as a separate chunk, coarse first, so levels `k..m` are contiguous bytes). The
+//! engine asks for levels: the coarsest first, then as many as the mask its importance buys
+//! needs. Each frame:
+//!
+//! 1. [`StreamPager::update`] takes in what arrived (merging a finer level into the resident
+//!    tile) and finds `d_c`, the complete square of belts held at the coarsest level at least;
+//! 2. the engine culls and weighs the held tiles, asks the budget which mask each would get if
+//!    it held every level, and tells [`StreamPager::request`] how many levels each wants and how
+//!    much it matters (its visual importance; the predicted view's wishes count half), and which
+//!    absent tiles of the belts the view (or the predicted view) meets;
+//! 3. the pager turns wishes into requests — a tile the view needs and nobody holds comes at its
+//!    coarsest level first, above everything; a held tile comes up to the levels it is asked
+//!    for in one range request, by importance; and the coarse level of each tile of belt
+//!    `d_c + 1` (Algorithm 1 at the coarsest level, while the coarse square takes at most
+//!    [`StreamSettings::square_share`] of the memory) comes when nothing a view asks for waits —
+//!    re-prioritises its bounded [`RequestQueue`] with them, cancelling what fell out before it
+//!    was sent, and sends the best while the link has room;
+//! 4. [`StreamPager::drawn`] hears which levels the frame used, for the share of received
+//!    bytes rendered within a second.
+//!
+//! Memory: every held level is accounted at its exact resident bytes and every request reserves
+//! its growth before it is sent, so the limit is never overspent. When a request does not fit,
+//! room is made first by dropping fine levels — of tiles holding more than they are asked for,
+//! then of tiles that matter less than the request, farthest first — and only then by evicting
+//! whole tiles from the cache outside the square.
+
+mod predict;
+mod queue;
+mod stats;
+
+use std::collections::{BTreeMap, HashMap};
+use std::marker::PhantomData;
+use std::sync::Arc;
+
+pub use predict::{PredictedView, PredictionSettings, Predictor};
+pub use queue::{LevelRequest, Reason, RequestQueue};
+pub use stats::{Delivery, StreamStats};
+
+use super::belts;
+use super::ledger::{Fetch, Ledger};
+use super::worker::{Job, Request};
+use super::{Pager, PagerConfig, PagerMode, Strategy};
+use crate::db::grid::{Grid, TileId};
+use crate::error::{Error, Result};
+
+/// How tiles come in.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Streaming {
+    /// The paper's way: whole tiles, belt by belt ([`super::BeltPager`]).
+    #[default]
+    Belts,
+    /// Progressive levels by importance ([`StreamPager`]).
+    Progressive(StreamSettings),
+}
+
+/// The settings of progressive streaming an engine is built with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StreamSettings {
+    /// Requests waiting to be sent, at most.
+    pub queue_capacity: usize,
+    /// The most of the memory limit the coarse square may take.
+    pub square_share: f64,
+    /// Prefetching for the predicted view, or none.
+    pub prediction: Option<PredictionSettings>,
+}
+
+impl Default for StreamSettings {
+    fn default() -> Self {
+        StreamSettings {
+            queue_capacity: 32,
+            square_share: 0.5,
+            prediction: Some(PredictionSettings::default()),
+        }
+    }
+}
+
+/// Priority of the coarsest level of a tile the view needs: above every refinement (importance
+/// is at most 1).
+const COARSE_PRIORITY: f64 = 2.0;
+
+/// Priority of the coarsest level of a belt tile no view needs yet, at ring 0 (divided by
+/// `1 + ring`): below any refinement a view asks for, so on a slow link the square grows while
+/// the link would otherwise idle, never instead of the detail on screen.
+const BELT_PRIORITY: f64 = 1e-3;
+
+/// What the engine gives the stream pager: level costs known before fetching, fetching a range
+/// of levels, and merging them into the resident tile.
+pub trait LevelLoader: Send + Sync + 'static {
+    /// A resident tile.
+    type Loaded: Send + 'static;
+    /// Fetched levels not yet merged (made on the fetch thread).
+    type Piece: Send + 'static;
+    /// Progressive levels of a whole tile.
+    fn levels(&self) -> usize;
+    /// Bytes a tile holding `levels` progressive levels holds.
+    fn predicted_bytes(&self, levels: usize) -> usize;
+    /// Fetches levels `have..want` of `id` with one range request; returns them and the bytes
+    /// downloaded.
+    fn fetch(&self, id: TileId, have: usize, want: usize) -> Result<(Self::Piece, u64)>;
+    /// The resident tile that `held` (`None` when the piece starts at the coarsest level) and
+    /// `piece` make; `held` stays as it was if this fails.
+    fn merge(
+        &self,
+        id: TileId,
+        held: Option<&Self::Loaded>,
+        piece: Self::Piece,
+    ) -> Result<Self::Loaded>;
+    /// Progressive levels a resident tile holds.
+    fn held_levels(&self, tile: &Self::Loaded) -> usize;
+    /// Bytes a resident tile holds: at most [`LevelLoader::predicted_bytes`] of its levels.
+    fn loaded_bytes(&self, tile: &Self::Loaded) -> usize;
+    /// Keeps only the first `levels` levels; returns the bytes held now.
+    fn drop_levels(&self, tile: &mut Self::Loaded, levels: usize) -> usize;
+    /// Brings a tile to the loader's current settings (see [`StreamPager::refit`]); returns its
+    /// bytes.
+    fn refit(&self, tile: &mut Self::Loaded) -> usize {
+        self.loaded_bytes(tile)
+    }
+}
+
+/// One tile's wish this frame: `levels` progressive levels, mattering `priority` (its visual
+/// importance, 0 ..= 1). A tile may have several (the current and the predicted view's).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Want {
+    /// The tile.
+    pub id: TileId,
+    /// Progressive levels the chosen mask needs.
+    pub levels: usize,
+    /// How much it matters.
+    pub priority: f64,
+    /// Whether only the predicted view asks for it.
+    pub predicted: bool,
+}
+
+/// A request on its way: bring `id` from `have` to `want` levels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LevelFetch {
+    id: TileId,
+    have: usize,
+    want: usize,
+}
+
+impl Request for LevelFetch {
+    fn tile(&self) -> TileId {
+        self.id
+    }
+}
+
+/// The progressive strategy's own state: the bounded request queue, why each request in flight
+/// was made, and the streaming counters.
+pub struct Progressive<L> {
+    square_share: f64,
+    queue: RequestQueue,
+    reasons: HashMap<TileId, Reason>,
+    stats: StreamStats,
+    loader: PhantomData<fn() -> L>,
+}
+
+/// Streams tiles level by level around the viewpoint under a memory limit (see the module doc).
+pub type StreamPager<L> = Pager<Progressive<L>>;
+
+impl<L: LevelLoader> Strategy for Progressive<L> {
+    type Loader = L;
+    type Tile = L::Loaded;
+    type Request = LevelFetch;
+    type Piece = L::Piece;
+
+    fn job(loader: Arc<L>) -> Job<LevelFetch, L::Piece> {
+        Arc::new(move |f: LevelFetch| loader.fetch(f.id, f.have, f.want))
+    }
+
+    /// Before culling: takes in what arrived and finds the complete square.
+    fn update(pager: &mut StreamPager<L>, viewer: (f64, f64)) {
+        for (fetch, result) in pager.begin(viewer) {
+            pager.integrate(fetch, result);
+        }
+        let now = pager.resident.time();
+        pager.strategy.stats.settle(now);
+        // `d_c` at the coarsest level: every tile of belts `0..=d_c` holds a level (or was
+        // given up). With one cost at every ring no held tile counts as needing an upgrade.
+        let r = &mut pager.resident;
+        r.complete = r
+            .center
+            .and_then(|c| belts::complete_belts(&r.ledger, c, |_, _| 0));
+    }
+
+    /// Refits every resident tile and accounts what it holds now, dropping the finest levels of
+    /// the farthest tiles while the total would exceed the limit.
+    fn refit(pager: &mut StreamPager<L>) {
+        let r = &mut pager.resident;
+        let center = r.center;
+        let mut ids: Vec<TileId> = r.tiles.keys().copied().collect();
+        ids.sort_by_key(|&id| std::cmp::Reverse(center.map_or(0, |c| Grid::ring(c, id))));
+        let mut sizes: Vec<(TileId, usize)> = ids
+            .iter()
+            .map(|&id| {
+                let tile = r.tiles.get_mut(&id).expect("listed");
+                (id, pager.loader.refit(tile))
+            })
+            .collect();
+        let loaded = |ledger: &Ledger, id| ledger.record(id).loaded.map_or(0, |l| l.bytes);
+        let mut total: usize = r.ledger.memory()
+            - sizes
+                .iter()
+                .map(|&(id, _)| loaded(&r.ledger, id))
+                .sum::<usize>()
+            + sizes.iter().map(|&(_, b)| b).sum::<usize>();
+        for (id, bytes) in &mut sizes {
+            if total <= r.ledger.limit() {
+                break;
+            }
+            let tile = r.tiles.get_mut(id).expect("listed");
+            let smaller = pager.loader.drop_levels(tile, 1);
+            total -= *bytes - smaller;
+            *bytes = smaller;
+        }
+        r.resize(sizes);
+    }
+
+    fn request(pager: &mut StreamPager<L>, wants: &[Want]) {
+        pager.request(wants);
+    }
+
+    fn drawn(pager: &mut StreamPager<L>, drawn: &[(TileId, usize)]) {
+        pager.drawn(drawn.iter().copied());
+    }
+
+    fn stream_stats(pager: &StreamPager<L>) -> Option<&StreamStats> {
+        Some(&pager.strategy.stats)
+    }
+}
+
+impl<L: LevelLoader> StreamPager<L> {
+    /// A pager for `grid` with nothing loaded, sharing its memory and queue as `settings` say;
+    /// starts the fetch thread in threaded mode.
+    pub fn new(
+        loader: L,
+        grid: Grid,
+        config: PagerConfig,
+        settings: StreamSettings,
+    ) -> Result<Self> {
+        if !(settings.square_share > 0.0 && settings.square_share <= 1.0) {
+            return Err(Error::Usage(format!(
+                "the coarse square's share of memory must be in (0, 1], not {}",
+                settings.square_share
+            )));
+        }
+        let strategy = Progressive {
+            square_share: settings.square_share,
+            queue: RequestQueue::new(settings.queue_capacity),
+            reasons: HashMap::new(),
+            stats: StreamStats::default(),
+            loader: PhantomData,
+        };
+        Pager::with_strategy(loader, grid, config, strategy)
+    }
+
+    /// Once per frame, after the engine weighed the held tiles: turns `wants` and the belt
+    /// fill into requests, re-prioritises the queue and sends what fits.
+    pub fn request(&mut self, wants: &[Want]) {
+        let candidates = self.candidates(wants);
+        let cancelled = self.strategy.queue.reprioritise(candidates);
+        self.strategy.stats.cancelled += cancelled.len() as u64;
+        // Each tile's strongest wish: the most levels and the highest priority asked.
+        let mut wanted: HashMap<TileId, Want> = HashMap::new();
+        for w in wants {
+            wanted
+                .entry(w.id)
+                .and_modify(|m| {
+                    m.levels = m.levels.max(w.levels);
+                    m.priority = m.priority.max(w.priority);
+                })
+                .or_insert(*w);
+        }
+        let stepped = matches!(self.mode, PagerMode::Stepped { .. });
+        let mut room = self.mode.room(self.resident.ledger.fetching());
+        while room > 0 && self.send_next(&wanted) {
+            room = if stepped {
+                room - 1
+            } else {
+                self.mode.room(self.resident.ledger.fetching())
+            };
+        }
+    }
+
+    /// Tells the pager which levels the frame drew: `(tile, levels)` for each drawn tile, the
+    /// progressive levels its mask used.
+    pub fn drawn(&mut self, drawn: impl IntoIterator<Item = (TileId, usize)>) {
+        let now = self.resident.time();
+        for (id, levels) in drawn {
+            self.strategy.stats.rendered(id, levels, now);
+        }
+    }
+
+    /// The waiting requests, best first.
+    pub fn queue(&self) -> &RequestQueue {
+        &self.strategy.queue
+    }
+
+    /// The streaming counters: requests, cancellations, bytes rendered within a second,
+    /// prediction hits.
+    pub fn stream_stats(&self) -> &StreamStats {
+        &self.strategy.stats
+    }
+
+    /// Progressive levels `id` holds (0 when absent).
+    pub fn held_levels(&self, id: TileId) -> usize {
+        self.resident
+            .get(id)
+            .map_or(0, |t| self.loader.held_levels(t))
+    }
+
+    /// This frame's requests: the coarse level of belt `d_c + 1` while the coarse square fits
+    /// its share, and each wished-for tile's next level.
+    fn candidates(&mut self, wants: &[Want]) -> Vec<LevelRequest> {
+        let mut out = Vec::new();
+        self.resident.memory_bound = false;
+        if let Some(center) = self.resident.center {
+            let grid = self.resident.ledger.grid();
+            let next = self.resident.complete.map_or(0, |d| d + 1);
+            if next <= grid.max_ring(center) {
+                let square: usize = (0..=next).map(|d| grid.belt(center, d).len()).sum();
+                let coarse = square.saturating_mul(self.loader.predicted_bytes(1));
+                let share = self.strategy.square_share * self.resident.ledger.limit() as f64;
+                if coarse as f64 <= share {
+                    for id in grid.belt(center, next) {
+                        if self.can_request(id) && self.resident.get(id).is_none() {
+                            out.push(LevelRequest {
+                                id,
+                                levels: 1,
+                                priority: BELT_PRIORITY / f64::from(1 + next),
+                                reason: Reason::Belt,
+                            });
+                        }
+                    }
+                } else {
+                    self.resident.memory_bound = true;
+                }
+            }
+        }
+        // Levels the current view alone asks for: a request beyond them is the prediction's.
+        let mut now_levels: HashMap<TileId, usize> = HashMap::new();
+        for w in wants.iter().filter(|w| !w.predicted) {
+            let l = now_levels.entry(w.id).or_default();
+            *l = (*l).max(w.levels);
+        }
+        // A tile the view needs comes at its coarsest level first, then in one request up to
+        // the levels asked for (one range request: the levels are contiguous).
+        for w in wants {
+            let have = self.held_levels(w.id);
+            let asked = w.levels.min(self.loader.levels());
+            if have < asked && self.can_request(w.id) {
+                let (levels, priority) = if have == 0 {
+                    (1, COARSE_PRIORITY)
+                } else {
+                    (asked, w.priority)
+                };
+                out.push(LevelRequest {
+                    id: w.id,
+                    levels,
+                    priority,
+                    reason: if levels > now_levels.get(&w.id).copied().unwrap_or(0) {
+                        Reason::Predicted
+                    } else {
+                        Reason::View
+                    },
+                });
+            }
+        }
+        out
+    }
+
+    /// Whether a request for `id` may be made now: none in flight, not failed or waiting.
+    fn can_request(&self, id: TileId) -> bool {
+        let r = self.resident.ledger.record(id);
+        r.fetch.is_none() && r.failure.is_none() && self.resident.ledger.grid().contains(id)
+    }
+
+    /// Sends the best waiting request that is still valid; false when there is none or it does
+    /// not fit in memory even after making room (it waits then).
+    fn send_next(&mut self, wanted: &HashMap<TileId, Want>) -> bool {
+        while let Some(request) = self.strategy.queue.pop() {
+            let have = self.held_levels(request.id);
+            if request.levels <= have || !self.can_request(request.id) {
+                continue;
+            }
+            let bytes = self.loader.predicted_bytes(request.levels)
+                - if have == 0 {
+                    0
+                } else {
+                    self.loader.predicted_bytes(have)
+                };
+            if !self.make_room(bytes, &request, wanted) {
+                self.strategy.queue.push_back(request);
+                self.resident.memory_bound = true;
+                return false;
+            }
+            let ring = self
+                .resident
+                .center
+                .map_or(0, |c| Grid::ring(c, request.id));
+            let fetch = Fetch {
+                id: request.id,
+                ring,
+                bytes,
+            };
+            if !self.resident.reserve(fetch, have > 0) {
+                return false;
+            }
+            self.strategy.stats.requests += 1;
+            self.strategy.reasons.insert(request.id, request.reason);
+            let level_fetch = LevelFetch {
+                id: request.id,
+                have,
+                want: request.levels,
+            };
+            if let Some((fetch, result)) = self.start(level_fetch) {
+                self.integrate(fetch, result);
+            }
+            return true;
+        }
+        false
+    }
+
+    /// Frees memory for `bytes` more: fine levels of tiles holding more than asked, then fine
+    /// levels of tiles that matter less than `request`, farthest first, then whole cached tiles
+    /// outside the square. Changes nothing and returns false when all of that is not enough.
+    fn make_room(
+        &mut self,
+        bytes: usize,
+        request: &LevelRequest,
+        wanted: &HashMap<TileId, Want>,
+    ) -> bool {
+        let r = &self.resident;
+        let mut free = r.ledger.limit().saturating_sub(r.ledger.memory());
+        if free >= bytes {
+            return true;
+        }
+        let center = r.center;
+        let ring = |id: TileId| center.map_or(0, |c| Grid::ring(c, id));
+        let square = r.complete.map_or(0, |d| d + 1);
+        // (class, priority, farther first, tile, finer first) -> drop one level or the tile.
+        let mut steps = Vec::new();
+        for (id, tile) in r.tiles() {
+            if id == request.id || r.ledger.record(id).fetch.is_some() {
+                continue;
+            }
+            let held = self.loader.held_levels(tile);
+            let want = wanted.get(&id);
+            let (asked, priority) = want.map_or((0, 0.0), |w| (w.levels, w.priority));
+            for level in (2..=held).rev() {
+                let class = if level > asked {
+                    0
+                } else if priority < request.priority {
+                    1
+                } else {
+                    continue;
+                };
+                let saved =
+                    self.loader.predicted_bytes(level) - self.loader.predicted_bytes(level - 1);
+                steps.push((class, priority, ring(id), id, level, saved));
+            }
+            if ring(id) > square && want.is_none() {
+                // Its finer levels are steps of their own (it is asked for none), so evicting
+                // it saves what is left once they are gone.
+                let fine = self.loader.predicted_bytes(held) - self.loader.predicted_bytes(1);
+                let saved = r
+                    .ledger
+                    .record(id)
+                    .loaded
+                    .map_or(0, |l| l.bytes.saturating_sub(fine));
+                steps.push((2, 0.0, ring(id), id, 1, saved));
+            }
+        }
+        steps.sort_by(|a, b| {
+            a.0.cmp(&b.0)
+                .then(a.1.total_cmp(&b.1))
+                .then(b.2.cmp(&a.2))
+                .then(a.3.cmp(&b.3))
+                .then(b.4.cmp(&a.4))
+        });
+        let mut keep: BTreeMap<TileId, usize> = BTreeMap::new();
+        for &(_, _, _, id, level, saved) in &steps {
+            if free >= bytes {
+                break;
+            }
+            // Only a tile's finest remaining level can go, so levels leave finest first.
+            let kept = keep.entry(id).or_insert(self.held_levels(id));
+            if *kept != level {
+                continue;
+            }
+            *kept = level - 1;
+            free += saved;
+        }
+        if free < bytes {
+            return false;
+        }
+        for (id, levels) in keep {
+            let ring = ring(id);
+            if levels == 0 {
+                self.resident.evict(id);
+                continue;
+            }
+            let Some(tile) = self.resident.tiles.get_mut(&id) else {
+                continue;
+            };
+            let bytes = self.loader.drop_levels(tile, levels);
+            self.strategy.stats.dropped_levels += 1;
+            self.resident.shrunk(id, bytes, ring);
+        }
+        true
+    }
+
+    fn integrate(&mut self, fetch: LevelFetch, result: Result<(L::Piece, u64)>) {
+        let id = fetch.id;
+        let reason = self.strategy.reasons.remove(&id).unwrap_or_default();
+        let merged = result.and_then(|(piece, downloaded)| {
+            let mut tile = self.loader.merge(id, self.resident.get(id), piece)?;
+            let levels = self.loader.held_levels(&tile);
+            if levels != fetch.want {
+                return Err(Error::invalid(
+                    id.to_string(),
+                    format!("it holds {levels} levels after a fetch of {}", fetch.want),
+                ));
+            }
+            let bytes = self.loader.refit(&mut tile);
+            Ok((tile, bytes, downloaded))
+        });
+        match merged {
+            Ok((tile, bytes, downloaded)) => {
+                if self.resident.accept(id, tile, bytes, downloaded) {
+                    self.strategy.stats.received(Delivery {
+                        id,
+                        levels: fetch.want,
+                        bytes: downloaded,
+                        at: self.resident.time(),
+                        reason,
+                    });
+                }
+            }
+            Err(e) => {
+                let what = format!("levels {}..{}", fetch.have, fetch.want);
+                self.resident.fail(id, &what, &e);
+            }
+        }
+    }
+}

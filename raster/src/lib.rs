@@ -29,7 +29,6 @@
 //! assert_eq!(stats.fragments, 64 * 64);
 //! ```
 
-#![warn(missing_docs)]
 
 mod clip;
 mod draw;

@@ -221,7 +221,7 @@ pub fn allocate(budget: usize, importance: &Importance, masks: &MaskSet) -> Vec<
 }
 
 /// [`allocate`] for tiles that cannot all draw every level: tile `t` never gets a level finer
-/// than `finest[t]` (a partial tile's [`crate::engine::resident::ResidentTile::finest_mask_level`], a
+/// than `finest[t]` (a partial tile's [`crate::db::tile::PartialGrid::finest_mask_level`], a
 /// level of `masks`' set). The triangles a capped tile cannot use stay in the pool for the next
 /// tiles, like any leftover; the no-outbidding rule compares the levels the tiles could buy, so
 /// a less important tile may draw finer than a more important one only because that one holds

@@ -1,5 +1,5 @@
 //! One tile: what the runtime needs for it and nothing more, whole or as the coarser tile that
-//! a prefix of its progressive levels makes. The stored form is in [`payload`]: one chunk per
+//! a prefix of its progressive levels makes. The stored form is in `payload`: one chunk per
 //! progressive level, coarse first.
 //!
 //! Quantisation is global: every tile of an archive counts heights in the same `quantum`, and a

@@ -80,7 +80,7 @@ fn needs_upgrade(
 /// What to do now: evict these resident copies, then reserve and start these fetches.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Plan {
-    /// `d_c` before the plan runs (see [`Ledger::complete_belts`]).
+    /// `d_c` before the plan runs (see [`complete_belts`]).
     pub complete: Option<u32>,
     /// Resident copies to drop, farthest first.
     pub evict: Vec<TileId>,

@@ -3,7 +3,7 @@
 //! Over a fixed set of [`views`] (plus views sampled from a flight), the [`sweep`] turns the
 //! [`knobs`] one at a time and in the combinations that interact; for each setting
 //! [`measure`] times whole engine frames (every tile loaded, so only rendering is timed) and
-//! compares the pictures with each [`reference`] ([`metrics`]: PSNR, SSIM, pixels off), and
+//! compares the pictures with each [`mod@reference`] ([`metrics`]: PSNR, SSIM, pixels off), and
 //! computes the screen-space geometric error of the masks the budget chose. [`output`] writes
 //! a Markdown table, a CSV and the error-against-time plot with its Pareto front ([`plot`]).
 

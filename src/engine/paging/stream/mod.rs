@@ -39,7 +39,7 @@ use std::sync::Arc;
 
 pub use predict::{PredictedView, PredictionSettings, Predictor};
 pub use queue::{LevelRequest, Reason, RequestQueue};
-pub use stats::{Delivery, StreamStats};
+pub use stats::{Delivery, HIT_WINDOW, RENDER_WINDOW, StreamStats};
 
 use super::belts;
 use super::ledger::{Fetch, Ledger};

@@ -15,7 +15,6 @@
 //! each presenter maps its output pixels to frame pixels once ([`Fit`]), and composition works on
 //! 8-bit RGB rows, so the same frame and overlay give the same bytes on every target.
 
-
 mod compose;
 mod error;
 #[cfg(all(feature = "fbdev", target_os = "linux"))]

@@ -29,7 +29,6 @@
 //! assert_eq!(stats.fragments, 64 * 64);
 //! ```
 
-
 mod clip;
 mod draw;
 mod edge;

@@ -137,6 +137,28 @@ pub struct Want {
     pub predicted: bool,
 }
 
+/// Why a step of [`StreamPager::make_room`] may drop what it drops, in the order they go.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+enum RoomClass {
+    /// A level finer than its tile is asked for.
+    Unasked,
+    /// A level of a tile that matters less than the request.
+    LessImportant,
+    /// A whole tile of the cache outside the square.
+    Cache,
+}
+
+/// One way to make room: drop `level` of tile `id` (level 1: the whole tile), saving `saved`
+/// bytes.
+struct RoomStep {
+    class: RoomClass,
+    priority: f64,
+    ring: u32,
+    id: TileId,
+    level: usize,
+    saved: usize,
+}
+
 /// A request on its way: bring `id` from `have` to `want` levels.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct LevelFetch {
@@ -441,10 +463,49 @@ impl<L: LevelLoader> StreamPager<L> {
         if free >= bytes {
             return true;
         }
-        let center = r.center;
-        let ring = |id: TileId| center.map_or(0, |c| Grid::ring(c, id));
+        // Levels each tile keeps: only a tile's finest remaining level can go, so levels leave
+        // finest first, and a tile leaves whole once none of its finer levels is left.
+        let mut keep: BTreeMap<TileId, usize> = BTreeMap::new();
+        for step in self.room_steps(request, wanted) {
+            if free >= bytes {
+                break;
+            }
+            let kept = keep.entry(step.id).or_insert(self.held_levels(step.id));
+            if *kept != step.level {
+                continue;
+            }
+            *kept = step.level - 1;
+            free += step.saved;
+        }
+        if free < bytes {
+            return false;
+        }
+        let center = self.resident.center;
+        for (id, levels) in keep {
+            if levels == 0 {
+                self.resident.evict(id);
+                continue;
+            }
+            let Some(tile) = self.resident.tiles.get_mut(&id) else {
+                continue;
+            };
+            let bytes = self.loader.drop_levels(tile, levels);
+            self.strategy.stats.dropped_levels += 1;
+            let ring = center.map_or(0, |c| Grid::ring(c, id));
+            self.resident.shrunk(id, bytes, ring);
+        }
+        true
+    }
+
+    /// What could go to make room for `request`, in the order it should go: each step drops one
+    /// level (its finest first) of a tile holding more than it is asked for, then of a tile
+    /// that matters less than `request` (least important, then farthest, first), then a whole
+    /// tile of the cache outside the square that nobody asks for.
+    fn room_steps(&self, request: &LevelRequest, wanted: &HashMap<TileId, Want>) -> Vec<RoomStep> {
+        let r = &self.resident;
+        let ring = |id: TileId| r.center.map_or(0, |c| Grid::ring(c, id));
         let square = r.complete.map_or(0, |d| d + 1);
-        // (class, priority, farther first, tile, finer first) -> drop one level or the tile.
+        let predicted = |levels| self.loader.predicted_bytes(levels);
         let mut steps = Vec::new();
         for (id, tile) in r.tiles() {
             if id == request.id || r.ledger.record(id).fetch.is_some() {
@@ -455,65 +516,51 @@ impl<L: LevelLoader> StreamPager<L> {
             let (asked, priority) = want.map_or((0, 0.0), |w| (w.levels, w.priority));
             for level in (2..=held).rev() {
                 let class = if level > asked {
-                    0
+                    RoomClass::Unasked
                 } else if priority < request.priority {
-                    1
+                    RoomClass::LessImportant
                 } else {
                     continue;
                 };
-                let saved =
-                    self.loader.predicted_bytes(level) - self.loader.predicted_bytes(level - 1);
-                steps.push((class, priority, ring(id), id, level, saved));
+                let saved = predicted(level) - predicted(level - 1);
+                steps.push(RoomStep {
+                    class,
+                    priority,
+                    ring: ring(id),
+                    id,
+                    level,
+                    saved,
+                });
             }
             if ring(id) > square && want.is_none() {
                 // Its finer levels are steps of their own (it is asked for none), so evicting
                 // it saves what is left once they are gone.
-                let fine = self.loader.predicted_bytes(held) - self.loader.predicted_bytes(1);
+                let fine = predicted(held) - predicted(1);
                 let saved = r
                     .ledger
                     .record(id)
                     .loaded
                     .map_or(0, |l| l.bytes.saturating_sub(fine));
-                steps.push((2, 0.0, ring(id), id, 1, saved));
+                let (class, priority, level) = (RoomClass::Cache, 0.0, 1);
+                steps.push(RoomStep {
+                    class,
+                    priority,
+                    ring: ring(id),
+                    id,
+                    level,
+                    saved,
+                });
             }
         }
         steps.sort_by(|a, b| {
-            a.0.cmp(&b.0)
-                .then(a.1.total_cmp(&b.1))
-                .then(b.2.cmp(&a.2))
-                .then(a.3.cmp(&b.3))
-                .then(b.4.cmp(&a.4))
+            a.class
+                .cmp(&b.class)
+                .then(a.priority.total_cmp(&b.priority))
+                .then(b.ring.cmp(&a.ring))
+                .then(a.id.cmp(&b.id))
+                .then(b.level.cmp(&a.level))
         });
-        let mut keep: BTreeMap<TileId, usize> = BTreeMap::new();
-        for &(_, _, _, id, level, saved) in &steps {
-            if free >= bytes {
-                break;
-            }
-            // Only a tile's finest remaining level can go, so levels leave finest first.
-            let kept = keep.entry(id).or_insert(self.held_levels(id));
-            if *kept != level {
-                continue;
-            }
-            *kept = level - 1;
-            free += saved;
-        }
-        if free < bytes {
-            return false;
-        }
-        for (id, levels) in keep {
-            let ring = ring(id);
-            if levels == 0 {
-                self.resident.evict(id);
-                continue;
-            }
-            let Some(tile) = self.resident.tiles.get_mut(&id) else {
-                continue;
-            };
-            let bytes = self.loader.drop_levels(tile, levels);
-            self.strategy.stats.dropped_levels += 1;
-            self.resident.shrunk(id, bytes, ring);
-        }
-        true
+        steps
     }
 
     fn integrate(&mut self, fetch: LevelFetch, result: Result<(L::Piece, u64)>) {

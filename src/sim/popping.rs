@@ -1,6 +1,6 @@
 //! Popping: how much the picture jumps when tiles switch strip-mask levels.
 //!
-//! The measure is the issue's: the mean absolute pixel change between consecutive frames,
+//! The measure: the mean absolute pixel change between consecutive frames,
 //! per colour channel (0 ..= 255), with the share of pixels that changed at all. Two settings:
 //!
 //! - [`switch_change`]: one camera, the tiles drawn at one set of levels and then at another

@@ -1,6 +1,6 @@
 //! Crack hiding on the crack scene (`stripmask::sim::crack_metric`): views with every pair of
 //! levels side by side, the terrain covering the screen, magenta behind it. Golden images of
-//! one view per mode follow `tests/golden.rs` (re-bless with `STRIPMASK_BLESS=1`).
+//! one view per mode follow `tests/it/golden.rs` (re-bless with `STRIPMASK_BLESS=1`).
 
 use crate::support;
 

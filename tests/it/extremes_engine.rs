@@ -7,7 +7,7 @@
 //! Nothing may panic or wrap (the `ci` profile keeps overflow checks on), no report value may be
 //! NaN, and the fixed-point path must stay within [`FIXED_VS_FLOAT`] of the f32 path. Depth
 //! order is checked against the resolution of each depth format, and the test computes and
-//! asserts where each one stops resolving. (`raster/tests/extremes.rs` covers the rasterizer
+//! asserts where each one stops resolving. (`raster/tests/it/extremes.rs` covers the rasterizer
 //! alone with raw matrices; these go through the engine's tiles, masks and transforms.)
 
 use std::path::{Path, PathBuf};

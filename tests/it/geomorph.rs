@@ -1,7 +1,7 @@
 //! Geomorphing on the crack scene (`stripmask::sim::crack_metric`): stitched tiles stay
 //! crack-free when morphed, a mask switch pops less, and a morph factor of 0 draws the plain
 //! tiles up to sub-pixel rounding. (Factor 1 giving exactly the coarse surface is checked on the mesh, in
-//! `src/geomorph.rs`.)
+//! `src/engine/geomorph.rs`.)
 
 use crate::support::crack_scene;
 
@@ -54,7 +54,7 @@ fn stitch_stays_crack_free_with_geomorph_on_views_with_every_level_pair() {
 #[test]
 fn a_morph_factor_of_zero_draws_the_plain_tiles_up_to_subpixel_rounding() {
     // A threshold this small gives every vertex factor 0, so the morphed vertices are the
-    // tile's own, in 1/256 units (checked exactly in src/geomorph.rs). Their transform has the
+    // tile's own, in 1/256 units (checked exactly in src/engine/geomorph.rs). Their transform has the
     // same matrix with a linear part 256 times smaller, whose shared-exponent mantissas keep 8
     // fewer bits: edges move by sub-pixel rounding (measured: 19 % of pixels, mean 0.72 per
     // channel), far less than the morph itself moves them.

@@ -2,7 +2,7 @@
 //! binary that sees only the library's public items). No module imports from a layer above its
 //! own, and no two modules of the library import each other, directly or around a cycle.
 //!
-//! A module here is a layer's direct child (`engine::belts`, `db::archive`, with everything
+//! A module here is a layer's direct child (`engine::paging`, `db::archive`, with everything
 //! below it); comments are not imports.
 
 use std::collections::{BTreeMap, BTreeSet};

@@ -1,6 +1,6 @@
 //! The wireframe (`RenderSettings::wireframe`, the viewer's L key) on the crack scene: every
 //! drawn tile's triangle edges, each once, over the shaded terrain or over a white one; off, the
-//! frame is untouched. Golden image as in `tests/golden.rs` (re-bless with `STRIPMASK_BLESS=1`).
+//! frame is untouched. Golden image as in `tests/it/golden.rs` (re-bless with `STRIPMASK_BLESS=1`).
 
 use crate::support;
 

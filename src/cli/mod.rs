@@ -948,6 +948,7 @@ fn run_build(a: BuildArgs) -> Result<()> {
         texture_image: a.texture,
         codec: a.codec,
         height_quantum: a.height_quantum,
+        ..BuildOptions::default()
     };
     let bar = if a.quiet {
         ProgressBar::hidden()

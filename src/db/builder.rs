@@ -13,7 +13,7 @@ use serde::Serialize;
 use crate::db::archive::{ArchiveWriter, Codec, Header, compress};
 use crate::db::dem::{DemReader, NodataFill};
 use crate::db::texture_gen::{ImageTexture, shaded};
-use crate::db::tile::Tile;
+use crate::db::tile::{Tile, progressive_levels};
 use crate::db::tiling::{BandReader, Tiling};
 use crate::error::{Error, Result};
 
@@ -37,6 +37,9 @@ pub struct BuildOptions {
     /// Metres per height quantum, shared by all tiles so that neighbours agree on their shared
     /// samples; a tile's relief must fit 65535 quanta (4096 m at the default 1/16 m).
     pub height_quantum: f32,
+    /// Progressive levels of every tile stored again as the archive's base, the coarse copy of
+    /// the whole terrain a client fetches first (0: none).
+    pub base_levels: usize,
 }
 
 /// The default height quantum: 1/16 m, finer than the vertical accuracy of any common DEM and a
@@ -54,6 +57,7 @@ impl Default for BuildOptions {
             texture_image: None,
             codec: Codec::Lz4,
             height_quantum: DEFAULT_HEIGHT_QUANTUM,
+            base_levels: 1,
         }
     }
 }
@@ -122,6 +126,7 @@ pub fn build<R: DemReader>(
         min_height: 0.0,
         max_height: 0.0,
         height_quantum: options.height_quantum,
+        base_levels: options.base_levels.min(progressive_levels(s)) as u32,
     };
     let mut writer = ArchiveWriter::create(out, header.clone())?;
     let mut bands = BandReader::new(reader, grid, options.vertical_scale as f32);

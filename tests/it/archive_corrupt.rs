@@ -84,8 +84,22 @@ fn truncated_files_and_corrupt_index_are_named() {
     let e = open_err(&path);
     assert!(e.contains("index checksum"), "{e}");
 
-    // Cut inside the payloads: the index now points past the end.
+    // Cut inside the base, which follows the payloads.
     std::fs::write(&path, &good[..good.len() - 10]).unwrap();
+    let e = open_err(&path);
+    assert!(e.contains("truncated base"), "{e}");
+
+    // Cut inside the payloads: the index now points past the end.
+    std::fs::write(&path, &good).unwrap();
+    let reader = ArchiveReader::open(FileSource::open(&path).unwrap()).unwrap();
+    let payload_end = reader
+        .index()
+        .iter()
+        .map(|e| e.offset + e.stored_len())
+        .max()
+        .unwrap();
+    drop(reader);
+    std::fs::write(&path, &good[..payload_end as usize - 10]).unwrap();
     let e = open_err(&path);
     assert!(e.contains("points outside"), "{e}");
 }
@@ -125,4 +139,23 @@ fn a_tile_whose_bytes_changed_fails_its_checksum_and_others_still_read() {
     for (tx, ty) in [(0, 0), (0, 1), (1, 1)] {
         reader.tile(tx, ty).unwrap();
     }
+}
+
+#[test]
+fn a_changed_byte_of_the_base_fails_its_checksum_by_tile_and_level() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = small_archive(dir.path());
+    let len = std::fs::metadata(&path).unwrap().len() as usize;
+    // The last byte of the file is the last tile's base chunk.
+    rewrite(&path, |b| b[len - 1] ^= 0x5a);
+    let reader = ArchiveReader::open(FileSource::open(&path).unwrap()).unwrap();
+    let last = reader.index().len() - 1;
+    match reader.base() {
+        Err(Error::Checksum { tile, level, .. }) => assert_eq!((tile, level), (last, 0)),
+        other => panic!("expected a checksum error, got {other:?}"),
+    }
+    // The tile's own chunk, in the payloads, is intact.
+    let x = last % reader.header().tiles_x as usize;
+    let y = last / reader.header().tiles_x as usize;
+    assert!(reader.tile(x, y).is_ok());
 }

@@ -91,7 +91,21 @@ fn the_index_finds_tiles_in_o1_and_the_main_file_is_header_plus_index() {
         assert_eq!(e.offset, next, "payloads are contiguous in tile order");
         next += e.stored_len();
     }
-    assert_eq!(next, std::fs::metadata(&path).unwrap().len());
+    // Then the base: every tile's first level again, in tile order.
+    assert_eq!(h.base_levels, 1);
+    let base: u64 = reader.index().iter().map(|e| e.prefix_len(1)).sum();
+    assert_eq!(next + base, std::fs::metadata(&path).unwrap().len());
+    let (tiles, stored) = reader.base().unwrap();
+    assert_eq!(stored, base);
+    assert_eq!(tiles.len(), 15);
+    for (i, tile) in tiles.iter().enumerate() {
+        let (x, y) = (i % h.tiles_x as usize, i / h.tiles_x as usize);
+        assert_eq!(
+            *tile,
+            reader.tile_levels(x, y, 1).unwrap().0,
+            "base tile {i}"
+        );
+    }
     assert!(!dir.path().join("synthetic.smdb.partial").exists());
 }
 

@@ -9,10 +9,13 @@
 //!   the end u32 of its chunk (stored bytes from the tile's offset) and the crc32 u32 of the
 //!   chunk's stored bytes; then the crc32 of the index;
 //! * the payloads: each tile's progressive chunks ([`crate::db::tile`]), coarse first, each
-//!   compressed on its own as the header's codec says, so any one range decodes alone.
+//!   compressed on its own as the header's codec says, so any one range decodes alone;
+//! * the base: the first [`Header::base_levels`] chunks of every tile again, in tile order, so
+//!   that a client gets a coarse copy of the whole terrain with one more request.
 //!
-//! A client reads the header and the index (the paper's "main file") in two range requests, then
-//! any range of levels of any tile in one more: tile `(tx, ty)` is entry `ty * tiles_x + tx`.
+//! A client reads the header and the index (the paper's "main file") in two range requests, the
+//! base in one, then any range of levels of any tile in one more: tile `(tx, ty)` is entry
+//! `ty * tiles_x + tx`.
 
 mod reader;
 mod writer;
@@ -30,8 +33,8 @@ pub use writer::ArchiveWriter;
 
 /// The first 8 bytes of every archive.
 pub const MAGIC: [u8; 8] = *b"SMDB\r\n\x1a\n";
-/// The format version this crate writes and reads.
-pub const VERSION: u32 = 3;
+/// The format version this crate writes; it reads version 3 too (version 4 without a base).
+pub const VERSION: u32 = 4;
 /// Bytes in the header.
 pub const HEADER_LEN: usize = 96;
 /// The most tiles an archive may hold.
@@ -102,6 +105,9 @@ pub struct Header {
     pub max_height: f32,
     /// Metres per height quantum, the same in every tile (see [`crate::db::tile`]).
     pub height_quantum: f32,
+    /// Progressive levels of every tile stored again after the payloads, as the base (0: no
+    /// base).
+    pub base_levels: u32,
 }
 
 impl Header {
@@ -154,7 +160,7 @@ impl Header {
             self.codec.id(),
             self.source_width,
             self.source_height,
-            0,
+            self.base_levels,
         ] {
             b.extend_from_slice(&v.to_le_bytes());
         }
@@ -197,9 +203,9 @@ impl Header {
                  {VERSION} (progressive levels): rebuild it with `stripmask build`"
             )));
         }
-        if version != VERSION {
+        if version != VERSION && version != 3 {
             return Err(bad(format!(
-                "archive version {version}, this build reads version {VERSION}"
+                "archive version {version}, this build reads versions 3 and {VERSION}"
             )));
         }
         if u(12) as usize != HEADER_LEN {
@@ -226,7 +232,15 @@ impl Header {
             min_height: g(80),
             max_height: g(84),
             height_quantum: g(88),
+            // Version 3 kept the field reserved, always 0: no base.
+            base_levels: u(44),
         };
+        if version == 3 && h.base_levels != 0 {
+            return Err(bad(format!(
+                "a version 3 archive has no base, but the header says {} levels",
+                h.base_levels
+            )));
+        }
         let count = h.tiles_x as usize * h.tiles_y as usize;
         if count == 0 || count > MAX_TILES {
             return Err(bad(format!(
@@ -243,6 +257,13 @@ impl Header {
                 h.tiles_x,
                 h.tiles_y,
                 h.index_len()
+            )));
+        }
+        if h.base_levels as usize > h.levels() {
+            return Err(bad(format!(
+                "a base of {} levels, but tiles have {}",
+                h.base_levels,
+                h.levels()
             )));
         }
         let t = h.texture_size as usize;
@@ -286,6 +307,11 @@ pub struct LevelEntry {
 }
 
 impl IndexEntry {
+    /// Stored bytes of the first `levels` chunks (what the base holds of this tile).
+    pub fn prefix_len(&self, levels: usize) -> u64 {
+        self.start_of(levels)
+    }
+
     /// Stored bytes of the whole tile.
     pub fn stored_len(&self) -> u64 {
         self.levels.last().map_or(0, |l| u64::from(l.end))
@@ -307,6 +333,18 @@ impl IndexEntry {
             g => u64::from(self.levels[g - 1].end),
         }
     }
+}
+
+/// Where the base lies, given the index: right after the last payload, each tile's first
+/// `base_levels` chunks in tile order. Returns (file offset, length).
+pub fn base_range(index: &[IndexEntry], base_levels: usize) -> (u64, u64) {
+    let end = index
+        .iter()
+        .map(|e| e.offset + e.stored_len())
+        .max()
+        .unwrap_or(0);
+    let len = index.iter().map(|e| e.prefix_len(base_levels)).sum();
+    (end, len)
 }
 
 /// Serialises the index with its trailing crc32.

@@ -2,7 +2,7 @@
 
 use std::ops::Range;
 
-use super::{HEADER_LEN, Header, IndexEntry, decompress, parse_index};
+use super::{HEADER_LEN, Header, IndexEntry, base_range, decompress, parse_index};
 use crate::db::source::TileSource;
 use crate::db::tile::Tile;
 use crate::error::{Error, Result};
@@ -57,6 +57,19 @@ impl<S: TileSource> ArchiveReader<S> {
             let bytes = source.read_range(HEADER_LEN as u64, header.index_len() as u64)?;
             parse_index(&bytes, &header, Some(file_len), &name)
         })?;
+        let (base_offset, base_len) = base_range(&index, header.base_levels as usize);
+        if base_offset
+            .checked_add(base_len)
+            .is_none_or(|end| end > file_len)
+        {
+            return Err(Error::invalid(
+                &name,
+                format!(
+                    "truncated base: {base_len} bytes at offset {base_offset} of a \
+                     {file_len}-byte file"
+                ),
+            ));
+        }
         Ok(ArchiveReader {
             source,
             header,
@@ -151,22 +164,93 @@ impl<S: TileSource> ArchiveReader<S> {
         let read = self.read_levels(x, y, 0..levels)?;
         let label = format!("{} tile {i}", self.name());
         let chunks: Vec<&[u8]> = read.chunks.iter().map(Vec::as_slice).collect();
+        Ok((self.decode(&chunks, &label)?, read.stored_bytes))
+    }
+
+    /// The tile that `chunks` (raw, coarse first from level 0) make, in the archive's height
+    /// quantum; `label` names it in errors.
+    fn decode(&self, chunks: &[&[u8]], label: &str) -> Result<Tile> {
         let tile = Tile::from_levels(
-            &chunks,
+            chunks,
             self.header.tile_size as usize,
             self.header.texture_size as usize,
-            &label,
+            label,
         )?;
         if tile.quantum != self.header.height_quantum {
             return Err(Error::invalid(
-                &label,
+                label,
                 format!(
                     "height quantum {} differs from the archive's {}",
                     tile.quantum, self.header.height_quantum
                 ),
             ));
         }
-        Ok((tile, read.stored_bytes))
+        Ok(tile)
+    }
+
+    /// The base: the first [`Header::base_levels`] levels of every tile, row-major, fetched
+    /// with one source read (one HTTP Range request), every chunk checked against its crc32 in
+    /// the index, and the stored bytes read. Empty when the archive has no base.
+    pub fn base(&self) -> Result<(Vec<Tile>, u64)> {
+        let levels = self.header.base_levels as usize;
+        if levels == 0 {
+            return Ok((Vec::new(), 0));
+        }
+        let (offset, length) = base_range(&self.index, levels);
+        let name = self.name();
+        let stored = retry(self.attempts, || {
+            let bytes = self.source.read_range(offset, length)?;
+            if bytes.len() as u64 != length {
+                return Err(Error::invalid(
+                    name,
+                    format!(
+                        "base: read {} bytes at offset {offset}, {length} expected",
+                        bytes.len()
+                    ),
+                ));
+            }
+            let mut at = 0usize;
+            for (i, entry) in self.index.iter().enumerate() {
+                for g in 0..levels {
+                    let len = entry.range(g..g + 1).1 as usize;
+                    let actual = crc32fast::hash(&bytes[at..at + len]);
+                    let expected = entry.levels[g].crc32;
+                    if actual != expected {
+                        return Err(Error::Checksum {
+                            name: name.to_string(),
+                            tile: i,
+                            level: g,
+                            expected,
+                            actual,
+                            attempts: 1,
+                        });
+                    }
+                    at += len;
+                }
+            }
+            Ok(bytes)
+        })?;
+        let mut at = 0usize;
+        let mut tiles = Vec::with_capacity(self.index.len());
+        for (i, entry) in self.index.iter().enumerate() {
+            let label = format!("{name} base tile {i}");
+            let chunks = (0..levels)
+                .map(|g| {
+                    let len = entry.range(g..g + 1).1 as usize;
+                    let raw = decompress(
+                        &stored[at..at + len],
+                        self.header.codec,
+                        self.header.level_payload_size(g),
+                        &label,
+                    );
+                    at += len;
+                    raw
+                })
+                .collect::<Result<Vec<_>>>()?;
+            let chunks: Vec<&[u8]> = chunks.iter().map(Vec::as_slice).collect();
+            tiles.push(self.decode(&chunks, &label)?);
+        }
+        Ok((tiles, length))
     }
 
     /// Tile `(x, y)` whole, fetched in one source read, verified and decoded.

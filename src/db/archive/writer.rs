@@ -8,8 +8,9 @@ use super::{Header, IndexEntry, LevelEntry, index_to_bytes};
 use crate::error::{Error, Result};
 
 /// Writes an archive: header and index placeholders first, then tiles in any order (each its
-/// progressive chunks, coarse first, contiguous), then the
-/// real index and header. The file appears under its final name only when [`finish`] succeeds.
+/// progressive chunks, coarse first, contiguous), then the base (the first chunks of every
+/// tile, kept until then) and the real index and header. The file appears under its final name
+/// only when [`finish`] succeeds.
 ///
 /// [`finish`]: ArchiveWriter::finish
 pub struct ArchiveWriter {
@@ -19,6 +20,8 @@ pub struct ArchiveWriter {
     file: Option<BufWriter<File>>,
     header: Header,
     entries: Vec<Option<IndexEntry>>,
+    /// Each tile's first `header.base_levels` stored chunks, for the base.
+    base: Vec<Vec<u8>>,
     position: u64,
 }
 
@@ -40,6 +43,7 @@ impl ArchiveWriter {
             partial,
             file: Some(file),
             entries: vec![None; header.tile_count()],
+            base: vec![Vec::new(); header.tile_count()],
             header,
             position: start,
         })
@@ -72,6 +76,7 @@ impl ArchiveWriter {
                 crc32: crc32fast::hash(chunk),
             });
         }
+        self.base[index] = chunks[..self.header.base_levels as usize].concat();
         self.entries[index] = Some(IndexEntry {
             offset: self.position,
             levels,
@@ -80,8 +85,8 @@ impl ArchiveWriter {
         Ok(())
     }
 
-    /// Writes the index and the header with the height range, and renames the file into place.
-    /// Returns the archive's length in bytes.
+    /// Writes the base, the index and the header with the height range, and renames the file
+    /// into place. Returns the archive's length in bytes.
     pub fn finish(mut self, min_height: f32, max_height: f32) -> Result<u64> {
         let name = self.partial.display().to_string();
         let entries: Vec<IndexEntry> = self
@@ -97,6 +102,10 @@ impl ArchiveWriter {
         self.header.max_height = max_height;
         let io = |e| Error::io(&name, e);
         let mut file = self.file.take().expect("writer not finished");
+        for base in &self.base {
+            file.write_all(base).map_err(io)?;
+            self.position += base.len() as u64;
+        }
         file.seek(SeekFrom::Start(0)).map_err(io)?;
         file.write_all(&self.header.to_bytes()).map_err(io)?;
         file.write_all(&index_to_bytes(&entries)).map_err(io)?;

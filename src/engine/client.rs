@@ -70,6 +70,9 @@ pub struct EngineSettings {
     pub threads: usize,
     /// Whole tiles in belts (the paper) or progressive levels by importance.
     pub streaming: Streaming,
+    /// Keep the archive's coarse base (every tile's first levels) resident, fetched first and
+    /// drawn wherever no finer copy of a tile is held, so that no view of the terrain is empty.
+    pub coarse_base: bool,
 }
 
 impl Default for EngineSettings {
@@ -90,6 +93,7 @@ impl Default for EngineSettings {
             clearance: 20.0,
             threads: 0,
             streaming: Streaming::Belts,
+            coarse_base: true,
         }
     }
 }
@@ -107,6 +111,9 @@ pub struct FrameReport {
     pub rendered_tiles: usize,
     /// The drawn tiles with their visual importance and mask level.
     pub rendered: Vec<RenderedTile>,
+    /// Holes: tiles of the terrain the view meets (their boxes at the archive's height range
+    /// meet the frustum) with nothing to draw, neither a paged copy nor the base's.
+    pub holes: usize,
     /// What the rasterizer did.
     pub draw: DrawStats,
     /// What the wireframe's lines did (zero when it is off).
@@ -170,6 +177,9 @@ impl Engine {
         let mut loader = ArchiveLoader::new(reader, settings.light, focal_px, settings.cracks);
         if let Some(budget) = settings.texture_budget_bytes {
             loader.fit_texture_budget(settings.memory_limit_bytes, budget);
+        }
+        if settings.coarse_base {
+            choose_base(&mut loader, &settings);
         }
         let grid = Grid::new(header.tiles_x, header.tiles_y)?;
         let mut config = PagerConfig::new(settings.memory_limit_bytes, settings.pager_mode);
@@ -351,6 +361,13 @@ impl Engine {
             ),
         };
         let rendered = plan.rendered(&camera, height, self.settings.clearance);
+        let holes = holes(
+            inputs.pager.resident(),
+            self.grid,
+            &self.terrain,
+            &camera,
+            aspect,
+        );
         let mut draws = plan.draws();
         let bookkeeping_seconds = started.elapsed().as_secs_f64();
 
@@ -381,6 +398,7 @@ impl Engine {
             triangles,
             rendered_tiles,
             rendered,
+            holes,
             draw: drawn.triangles,
             wireframe: drawn.lines,
             bookkeeping_seconds,
@@ -455,7 +473,7 @@ impl Engine {
     }
 
     /// Near plane from the height above the ground (depth precision where it matters), far
-    /// plane at the farthest loaded tile (nothing beyond it can be drawn). The near plane stays
+    /// plane at the farthest drawable tile (nothing beyond it can be drawn). The near plane stays
     /// below the eye's height, or the ground under the lower screen edge would be clipped away
     /// (down to a millimetre: an eye a centimetre above the ground still sees the ground).
     fn fit_depth_range(&self, camera: &mut Camera) {
@@ -467,7 +485,7 @@ impl Engine {
         let far = self
             .pager
             .resident()
-            .tiles()
+            .drawable()
             .map(|(id, tile)| {
                 let (lo, hi) =
                     self.terrain
@@ -538,10 +556,16 @@ fn plan_frame<'p>(
     if morph {
         refuse_partial_tiles(partial.map(|&(id, tile, _)| (id, tile)))?;
     }
-    // Partial tiles draw powers-of-two levels only, which the engine's masks are whenever tiles
-    // stream progressively: a level whose `l + 1` is not a multiple of a drawn neighbour's
-    // stride needs border samples that neighbour lacks.
-    debug_assert!(partial.is_none() || inputs.masks.level_set() == LevelSet::PowerOfTwo);
+    // Partial tiles holding more than their corners draw powers-of-two levels only, which the
+    // engine's masks are whenever such tiles are resident (see `choose_base`): a level whose
+    // `l + 1` is not a multiple of a drawn neighbour's stride needs border samples that
+    // neighbour lacks.
+    debug_assert!(
+        inputs.masks.level_set() == LevelSet::PowerOfTwo
+            || visible
+                .iter()
+                .all(|(_, t, _)| t.is_complete() || t.levels == 1)
+    );
     let finest: Vec<usize> = visible
         .iter()
         .map(|(_, tile, _)| tile.finest_mask_level())
@@ -681,7 +705,7 @@ fn cull<'p>(
     let frustum = Frustum::from_view_projection(&camera.view_projection(aspect));
     let mut visible = Vec::new();
     let mut measures = Vec::new();
-    for (id, tile) in resident.tiles() {
+    for (id, tile) in resident.drawable() {
         let (lo, hi) = terrain.tile_box(id.x, id.y, f64::from(tile.min), f64::from(tile.max));
         let aabb = Aabb::new(lo - camera.position, hi - camera.position);
         if frustum.intersects(&aabb) {
@@ -748,6 +772,22 @@ fn view_tiles<'a>(
         })
 }
 
+/// The tiles of the terrain the view of `camera` meets that have nothing to draw.
+fn holes(
+    resident: &Residency<ResidentTile>,
+    grid: Grid,
+    terrain: &TerrainFrame,
+    camera: &Camera,
+    aspect: f64,
+) -> usize {
+    let Some(center) = grid.locate(terrain.tile_position(camera.position), true) else {
+        return 0;
+    };
+    view_tiles(grid, terrain, center, grid.max_ring(center), camera, aspect)
+        .filter(|&id| resident.get(id).is_none())
+        .count()
+}
+
 /// The predicted view's wishes: the resident tiles its (pulled-back) frustum meets, weighed
 /// from the predicted eye, given the levels this frame's budget would buy them there, at half
 /// their importance (a guess counts less than what is on screen).
@@ -778,6 +818,24 @@ fn predicted_wants(inputs: &FrameInputs<'_>, view: &PredictedView, aspect: f64) 
             predicted: true,
         })
         .collect()
+}
+
+/// The most of the memory limit the base may take: the rest is for paging.
+const BASE_SHARE: usize = 2;
+
+/// How many levels of the archive's base the engine keeps: all of them when partial tiles draw
+/// powers-of-two masks (progressive streaming, `--pow2-masks`), else one level (a base tile
+/// holding only its corners is the coarsest level of every mask set, so it stitches to any
+/// neighbour); fewer while the base would take more than half the memory limit, none when even
+/// one level would.
+fn choose_base(loader: &mut ArchiveLoader, settings: &EngineSettings) {
+    let progressive = matches!(settings.streaming, Streaming::Progressive(_))
+        || settings.level_set == LevelSet::PowerOfTwo;
+    let levels = if progressive { usize::MAX } else { 1 };
+    let mut kept = loader.use_base(levels);
+    while kept > 0 && loader.base_bytes() > settings.memory_limit_bytes / BASE_SHARE {
+        kept = loader.use_base(kept - 1);
+    }
 }
 
 /// Progressive streaming draws partial tiles, which geomorphing cannot, and its textures follow

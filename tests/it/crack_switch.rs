@@ -27,14 +27,30 @@ fn render(engine: &mut Engine, view: usize) -> Vec<u8> {
     fb.to_rgba_image().into_raw()
 }
 
-/// The pager counts exactly the bytes its tiles hold (no fetch in flight), within the limit,
-/// and every tile holds the vertices of `mode`.
+/// The pager counts exactly the bytes its tiles and its base hold (no fetch in flight), within
+/// the limit, and every tile holds the vertices of `mode`.
 fn assert_exact_accounting(engine: &Engine, mode: CrackMode) {
     let pager = engine.pager();
     let stats = pager.stats();
     assert_eq!(stats.fetching, 0, "{mode:?}: nothing in flight");
     let held: usize = pager.tiles().map(|(_, t)| t.bytes()).sum();
-    assert_eq!(stats.memory_bytes, held, "{mode:?}: accounted = held");
+    let mut base = 0;
+    for (id, _) in pager.drawable() {
+        let tile = pager.base_tile(id).expect("the base holds every tile");
+        assert_eq!(
+            tile.vertices.len(),
+            4 + mode.extra_vertices(2),
+            "{mode:?}: base {id}"
+        );
+        base += tile.bytes();
+    }
+    assert!(stats.base_tiles > 0, "{mode:?}: the base is resident");
+    assert_eq!(stats.base_bytes, base, "{mode:?}: the base's bytes");
+    assert_eq!(
+        stats.memory_bytes,
+        held + base,
+        "{mode:?}: accounted = held"
+    );
     assert!(stats.memory_bytes <= stats.memory_limit_bytes, "{mode:?}");
     let grid = TILE_SIZE * TILE_SIZE;
     for (id, tile) in pager.tiles() {
@@ -104,11 +120,15 @@ fn a_mode_that_holds_more_than_the_limit_evicts_the_farthest_tiles() {
     // Room for 50 tiles without skirts, a square of 7 x 7 belts; with skirts it does not fit.
     let plain = tile_bytes(CrackMode::None);
     assert!(tile_bytes(CrackMode::Skirts) > plain);
+    let mut fb = frame();
+    let mut unbound = scene.engine(CrackMode::None, SIZE).unwrap();
+    scene.render(&mut unbound, 9, &mut fb).unwrap();
+    let base = unbound.pager().stats().base_bytes;
+    // Room for the base and 50 whole tiles.
     let mut settings = CrackScene::settings(CrackMode::None);
-    settings.memory_limit_bytes = 50 * plain;
+    settings.memory_limit_bytes = base + 50 * plain;
     let source = source::open(&scene.archive.display().to_string()).unwrap();
     let mut engine = Engine::new(source, settings, SIZE.1).unwrap();
-    let mut fb = frame();
     for _ in 0..3 {
         scene.render(&mut engine, 9, &mut fb).unwrap();
     }
@@ -164,6 +184,8 @@ fn tiles_in_flight_during_a_switch_arrive_in_the_new_mode() {
     let source = source::open(&scene.archive.display().to_string()).unwrap();
     let mut engine = Engine::new(source, settings, SIZE.1).unwrap();
     let mut fb = frame();
+    // The first frame fetches the base, the second the tiles.
+    scene.render(&mut engine, 9, &mut fb).unwrap();
     scene.render(&mut engine, 9, &mut fb).unwrap();
     assert!(engine.pager().stats().fetching > 0, "fetches in flight");
     engine.set_cracks(CrackMode::Skirts);

@@ -11,6 +11,7 @@ mod archive_texture_codecs;
 mod cli_build_info;
 mod cli_demo;
 mod cli_serve;
+mod coarse_base;
 mod crack_switch;
 mod cracks;
 mod dem_formats;

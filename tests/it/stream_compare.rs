@@ -62,7 +62,8 @@ fn every_link_and_strategy_gets_a_row_and_progressive_tiles_cost_fewer_bytes() {
             .first_frame_s
             .unwrap()
     };
-    assert!(slow(Strategy::Progressive) < slow(Strategy::Belts));
+    // Both draw the base first; whole tiles never come sooner than it.
+    assert!(slow(Strategy::Progressive) <= slow(Strategy::Belts));
     let markdown = write(&options.out, &results, &options).unwrap();
     for s in Strategy::ALL {
         assert_eq!(markdown.matches(&format!("| {} |", s.name())).count(), 3);

@@ -15,9 +15,10 @@
 use std::marker::PhantomData;
 use std::sync::Arc;
 
+use super::base::BaseTiles;
 use super::belts::{self, Plan};
 use super::ledger::Fetch;
-use super::worker::{Job, Request};
+use super::worker::Job;
 use super::{Pager, PagerConfig, PagerMode, Strategy};
 use crate::db::grid::{Grid, TileId};
 use crate::error::Result;
@@ -45,6 +46,15 @@ pub trait TileLoader: Send + Sync + 'static {
         let _ = ring;
         self.loaded_bytes(tile)
     }
+    /// Bytes the coarse base will hold (every tile's first levels, resident for good), known
+    /// before it is fetched; 0, the default, when there is none.
+    fn base_bytes(&self) -> usize {
+        0
+    }
+    /// Fetches the coarse base ([`super::base`]), and the bytes downloaded.
+    fn load_base(&self) -> Result<(BaseTiles<Self::Loaded>, u64)> {
+        Ok((Vec::new(), 0))
+    }
 }
 
 /// The paper's strategy: whole tiles, Algorithm 1 choosing the next fetches. It keeps no state
@@ -53,12 +63,6 @@ pub struct Belts<L>(PhantomData<fn() -> L>);
 
 /// Pages whole tiles in belts around the viewpoint under a memory limit (see the module doc).
 pub type BeltPager<L> = Pager<Belts<L>>;
-
-impl Request for Fetch {
-    fn tile(&self) -> TileId {
-        self.id
-    }
-}
 
 impl<L: TileLoader> Strategy for Belts<L> {
     type Loader = L;
@@ -70,13 +74,31 @@ impl<L: TileLoader> Strategy for Belts<L> {
         Arc::new(move |fetch: Fetch| loader.load(fetch.id, fetch.ring))
     }
 
+    fn base_bytes(loader: &L) -> usize {
+        loader.base_bytes()
+    }
+
+    fn load_base(loader: &L) -> Result<(BaseTiles<L::Loaded>, u64)> {
+        loader.load_base()
+    }
+
+    fn tile_bytes(loader: &L, tile: &L::Loaded) -> usize {
+        loader.loaded_bytes(tile)
+    }
+
+    fn refit_base(loader: &L, tile: &mut L::Loaded) -> usize {
+        loader.refit(tile, 0)
+    }
+
     /// Takes in arrived tiles, shrinks tiles that are now farther, evicts and schedules.
     fn update(pager: &mut BeltPager<L>, viewer: (f64, f64)) {
         for (fetch, result) in pager.begin(viewer) {
             pager.integrate(fetch, result);
         }
         pager.shrink();
-        if let PagerMode::Stepped { fetches_per_update } = pager.mode {
+        if pager.base_pending() {
+            // The base comes first.
+        } else if let PagerMode::Stepped { fetches_per_update } = pager.mode {
             // One fetch at a time, re-planning after each arrival: a run is reproducible.
             for _ in 0..fetches_per_update {
                 let plan = pager.plan(1);

@@ -79,13 +79,16 @@ impl Default for RetryPolicy {
 }
 
 /// The accounting of Algorithm 1: every tile that holds or will hold memory, the accounted bytes
-/// (held copies plus reservations of fetches in flight) and their peak, under a fixed limit.
+/// (the base, held copies and reservations of fetches in flight) and their peak, under a fixed
+/// limit.
 #[derive(Clone, Debug)]
 pub struct Ledger {
     grid: Grid,
     limit: usize,
     retry: RetryPolicy,
     records: BTreeMap<TileId, Record>,
+    /// Bytes of the base (the coarse copy of every tile), or of its fetch in flight.
+    base: usize,
     memory: usize,
     peak: usize,
 }
@@ -98,9 +101,38 @@ impl Ledger {
             limit,
             retry,
             records: BTreeMap::new(),
+            base: 0,
             memory: 0,
             peak: 0,
         }
+    }
+
+    /// Bytes accounted for the base.
+    pub fn base(&self) -> usize {
+        self.base
+    }
+
+    /// Accounts `bytes` for the base instead of what it had: a reservation before it is
+    /// fetched, what it holds once it arrived or was refit, 0 when it is dropped. Fails (and
+    /// changes nothing) when that would take the accounted bytes over the limit.
+    pub fn set_base(&mut self, bytes: usize) -> Result<()> {
+        let memory = (self.memory - self.base)
+            .checked_add(bytes)
+            .filter(|&m| m <= self.limit)
+            .ok_or_else(|| {
+                Error::invalid(
+                    "the base",
+                    format!(
+                        "{bytes} bytes do not fit: {} of {} bytes are accounted without it",
+                        self.memory - self.base,
+                        self.limit
+                    ),
+                )
+            })?;
+        self.base = bytes;
+        self.memory = memory;
+        self.peak = self.peak.max(memory);
+        Ok(())
     }
 
     /// The grid.
@@ -113,7 +145,7 @@ impl Ledger {
         self.limit
     }
 
-    /// Accounted bytes: held copies plus reservations of fetches in flight.
+    /// Accounted bytes: the base, held copies and reservations of fetches in flight.
     pub fn memory(&self) -> usize {
         self.memory
     }
@@ -374,4 +406,10 @@ pub struct Fetch {
     pub ring: u32,
     /// Bytes the loader predicts it will hold at that ring.
     pub bytes: usize,
+}
+
+impl std::fmt::Display for Fetch {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.id.fmt(f)
+    }
 }

@@ -6,7 +6,6 @@
 use std::collections::VecDeque;
 use std::sync::Arc;
 
-use super::ledger::Ledger;
 use super::worker::{self, Arrival, Job, Request, Worker};
 use super::{PagerMode, TransferClock};
 use crate::error::{Error, Result};
@@ -22,9 +21,11 @@ struct Pending<R, T> {
 pub struct Received<R, T> {
     /// Requests and their results, in arrival order.
     pub arrivals: Vec<(R, Result<(T, u64)>)>,
-    /// What went wrong with the fetch thread: it stopped (every request in flight failed in the
-    /// ledger, and a new thread was started), and starting the new one failed.
+    /// What went wrong with the fetch thread: it stopped (a new thread was started), and
+    /// starting the new one failed.
     pub errors: Vec<Error>,
+    /// Whether the requests in flight were lost with a stopped fetch thread: they never arrive.
+    pub lost: bool,
 }
 
 /// A fetch thread or this thread, and the simulated link's clock.
@@ -79,7 +80,7 @@ impl<R: Request, T: Send + 'static> Link<R, T> {
         match &self.worker {
             Some(worker) => worker.send(request),
             None => Err(Error::invalid(
-                request.tile().to_string(),
+                request.to_string(),
                 "no fetch thread is running",
             )),
         }
@@ -109,12 +110,12 @@ impl<R: Request, T: Send + 'static> Link<R, T> {
     }
 
     /// Every scheduled result due by `time`, then every result the fetch thread sent. If the
-    /// thread is gone, its requests in flight fail in `ledger` (update `now`) and a new thread
-    /// starts.
-    pub fn receive(&mut self, time: f64, ledger: &mut Ledger, now: u64) -> Received<R, T> {
+    /// thread is gone, its requests in flight are lost and a new thread starts.
+    pub fn receive(&mut self, time: f64) -> Received<R, T> {
         let mut received = Received {
             arrivals: Vec::new(),
             errors: Vec::new(),
+            lost: false,
         };
         while self.pending.front().is_some_and(|p| p.due <= time) {
             let p = self.pending.pop_front().expect("checked");
@@ -135,7 +136,7 @@ impl<R: Request, T: Send + 'static> Link<R, T> {
             }
         }
         if !received.errors.is_empty() {
-            ledger.fail_in_flight(now);
+            received.lost = true;
             match Worker::spawn(Arc::clone(&self.job)) {
                 Ok(worker) => self.worker = Some(worker),
                 Err(e) => {

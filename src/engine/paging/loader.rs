@@ -41,6 +41,8 @@ pub struct ArchiveLoader {
     bias: AtomicUsize,
     /// The memory limit and texture budget the bias was fitted to, if any.
     texture_fit: Option<(usize, usize)>,
+    /// Levels of the archive's base every tile keeps resident (0: no base).
+    base_levels: usize,
 }
 
 impl ArchiveLoader {
@@ -60,7 +62,46 @@ impl ArchiveLoader {
             cracks: AtomicU8::new(mode_index(cracks)),
             bias: AtomicUsize::new(0),
             texture_fit: None,
+            base_levels: 0,
         }
+    }
+
+    /// Keeps the first `levels` levels of the archive's base resident (at most what it stores;
+    /// 0: no base). Returns the levels kept.
+    pub fn use_base(&mut self, levels: usize) -> usize {
+        self.base_levels = levels.min(self.reader.header().base_levels as usize);
+        self.base_levels
+    }
+
+    /// Bytes the base holds once resident: every tile at the base's levels.
+    pub fn base_bytes(&self) -> usize {
+        match self.base_levels {
+            0 => 0,
+            levels => {
+                self.reader.header().tile_count() * LevelLoader::predicted_bytes(self, levels)
+            }
+        }
+    }
+
+    /// The base, resident: every tile at the base's levels, and the stored bytes read.
+    fn load_base(&self) -> Result<(Vec<(TileId, ResidentTile)>, u64)> {
+        if self.base_levels == 0 {
+            return Ok((Vec::new(), 0));
+        }
+        let h = self.reader.header();
+        let (tiles, stored) = self.reader.base()?;
+        let tiles_x = h.tiles_x as usize;
+        let resident = tiles
+            .into_iter()
+            .enumerate()
+            .map(|(i, tile)| {
+                let id = TileId::new((i % tiles_x) as u32, (i / tiles_x) as u32);
+                let tile = tile.truncated(self.base_levels.min(tile.levels));
+                let resident = ResidentTile::new(&tile, 0, h.spacing, &self.light, self.cracks());
+                (id, resident)
+            })
+            .collect();
+        Ok((resident, stored))
     }
 
     /// Coarsens textures until those of the largest square of belts that fits `memory_limit`
@@ -191,6 +232,14 @@ impl TileLoader for ArchiveLoader {
         tile.set_cracks(self.cracks(), self.reader.header().height_quantum);
         tile.coarsen_texture(self.texture_base(ring))
     }
+
+    fn base_bytes(&self) -> usize {
+        ArchiveLoader::base_bytes(self)
+    }
+
+    fn load_base(&self) -> Result<(Vec<(TileId, ResidentTile)>, u64)> {
+        ArchiveLoader::load_base(self)
+    }
 }
 
 /// Levels of one tile fetched by the stream pager and not yet merged: their raw chunks.
@@ -305,5 +354,13 @@ impl LevelLoader for ArchiveLoader {
 
     fn refit(&self, tile: &mut ResidentTile) -> usize {
         tile.set_cracks(self.cracks(), self.reader.header().height_quantum)
+    }
+
+    fn base_bytes(&self) -> usize {
+        ArchiveLoader::base_bytes(self)
+    }
+
+    fn load_base(&self) -> Result<(Vec<(TileId, ResidentTile)>, u64)> {
+        ArchiveLoader::load_base(self)
     }
 }

@@ -9,6 +9,7 @@
 //! [`PagerMode::Simulated`]). Each keeps only what differs: what to fetch next and how an
 //! arrival joins the resident tile. The engine drives either through the [`Paging`] trait.
 
+mod base;
 mod belt_pager;
 pub mod belts;
 mod ledger;
@@ -33,6 +34,7 @@ pub use worker::{Job, Request};
 use crate::db::grid::{Grid, TileId};
 use crate::engine::resident::ResidentTile;
 use crate::error::{Error, Result};
+use base::{BaseFetch, BaseRequest, BaseTiles};
 
 /// How fetches run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -159,13 +161,19 @@ pub struct PagerStats {
     pub errors: u64,
     /// Tiles whose last fetch failed.
     pub failed_tiles: usize,
+    /// Tiles of the base (every tile once it arrived; 0 without one).
+    pub base_tiles: usize,
+    /// Bytes the base holds, or has reserved while on its way (part of `memory_bytes`).
+    pub base_bytes: usize,
 }
 
-/// What a pager holds, whichever its strategy: the ledger, the resident tiles, where the
-/// viewpoint is, the pager's clock and its counters.
+/// What a pager holds, whichever its strategy: the ledger, the resident tiles and the base,
+/// where the viewpoint is, the pager's clock and its counters.
 pub struct Residency<T> {
     ledger: Ledger,
     tiles: BTreeMap<TileId, T>,
+    /// The coarse copy of every tile, once it arrived ([`base`]).
+    base: BTreeMap<TileId, T>,
     mode: PagerMode,
     nearest_when_off: bool,
     center: Option<TileId>,
@@ -188,6 +196,7 @@ impl<T> Residency<T> {
         Residency {
             ledger: Ledger::new(grid, config.memory_limit_bytes, config.retry),
             tiles: BTreeMap::new(),
+            base: BTreeMap::new(),
             mode: config.mode,
             nearest_when_off: config.nearest_when_off,
             center: None,
@@ -210,14 +219,37 @@ impl<T> Residency<T> {
         self.center
     }
 
-    /// The resident tiles, row-major: the complete square and the cache.
+    /// The paged tiles, row-major: the complete square and the cache (not the base).
     pub fn tiles(&self) -> impl Iterator<Item = (TileId, &T)> {
         self.tiles.iter().map(|(id, t)| (*id, t))
     }
 
-    /// The resident copy of `id`, if any.
+    /// What can be drawn of every tile, row-major: its paged copy, or else its base copy.
+    pub fn drawable(&self) -> Box<dyn Iterator<Item = (TileId, &T)> + '_> {
+        if self.base.is_empty() {
+            Box::new(self.tiles())
+        } else {
+            Box::new(
+                self.base
+                    .iter()
+                    .map(|(id, b)| (*id, self.tiles.get(id).unwrap_or(b))),
+            )
+        }
+    }
+
+    /// The best copy of `id` there is: paged, or else from the base.
     pub fn get(&self, id: TileId) -> Option<&T> {
+        self.tiles.get(&id).or_else(|| self.base.get(&id))
+    }
+
+    /// The paged copy of `id`, if any.
+    pub fn paged(&self, id: TileId) -> Option<&T> {
         self.tiles.get(&id)
+    }
+
+    /// The base copy of `id`, if the base has arrived.
+    pub fn base_tile(&self, id: TileId) -> Option<&T> {
+        self.base.get(&id)
     }
 
     /// The accounting: what every tile holds or has reserved.
@@ -280,6 +312,8 @@ impl<T> Residency<T> {
             evictions: self.evictions,
             errors: self.errors,
             failed_tiles: self.ledger.failed_tiles(),
+            base_tiles: self.base.len(),
+            base_bytes: self.ledger.base(),
         }
     }
 
@@ -300,7 +334,10 @@ impl<T> Residency<T> {
         &mut self,
         link: &mut Link<R, P>,
     ) -> Vec<(R, Result<(P, u64)>)> {
-        let received = link.receive(self.time, &mut self.ledger, self.now);
+        let received = link.receive(self.time);
+        if received.lost {
+            self.ledger.fail_in_flight(self.now);
+        }
         for e in received.errors {
             self.record_error(e.to_string());
         }
@@ -401,6 +438,14 @@ pub trait Strategy: Sized + Send + 'static {
     type Piece: Send + 'static;
     /// The fetch thread's job for `loader`.
     fn job(loader: Arc<Self::Loader>) -> Job<Self::Request, Self::Piece>;
+    /// Bytes the coarse base will hold, known before it is fetched (0: no base).
+    fn base_bytes(loader: &Self::Loader) -> usize;
+    /// Fetches the coarse base: every tile's first levels, and the bytes downloaded.
+    fn load_base(loader: &Self::Loader) -> Result<(BaseTiles<Self::Tile>, u64)>;
+    /// Bytes a resident tile holds.
+    fn tile_bytes(loader: &Self::Loader, tile: &Self::Tile) -> usize;
+    /// Brings a tile of the base to the loader's current settings; returns its bytes.
+    fn refit_base(loader: &Self::Loader, tile: &mut Self::Tile) -> usize;
     /// Once per frame: takes in arrivals and plans.
     fn update(pager: &mut Pager<Self>, viewer: (f64, f64));
     /// Refits every resident tile after the loader's settings changed.
@@ -432,6 +477,7 @@ pub struct Pager<S: Strategy> {
     mode: PagerMode,
     resident: Residency<S::Tile>,
     link: Link<S::Request, S::Piece>,
+    base: BaseFetch<S::Tile>,
     strategy: S,
 }
 
@@ -446,11 +492,19 @@ impl<S: Strategy> Pager<S> {
     ) -> Result<Self> {
         let loader = Arc::new(loader);
         let link = config.mode.link(S::job(Arc::clone(&loader)))?;
+        let base_loader = Arc::clone(&loader);
+        let base = BaseFetch::new(
+            Arc::new(move |_: BaseRequest| S::load_base(&base_loader)),
+            S::base_bytes(&loader),
+            config.mode,
+            config.retry,
+        )?;
         Ok(Pager {
             loader,
             mode: config.mode,
             resident: Residency::new(grid, &config),
             link,
+            base,
             strategy,
         })
     }
@@ -474,6 +528,7 @@ impl<S: Strategy> Pager<S> {
     /// Times transfers in [`PagerMode::Simulated`]; without one they take no time and a tile
     /// arrives at the update after its fetch.
     pub fn set_transfer_clock(&mut self, clock: Arc<dyn TransferClock>) {
+        self.base.set_transfer_clock(Arc::clone(&clock));
         self.link.set_transfer_clock(clock);
     }
 
@@ -485,15 +540,50 @@ impl<S: Strategy> Pager<S> {
     }
 
     /// After the loader's settings changed (for example the crack mode): refits every resident
-    /// tile and accounts what it holds now, never above the limit.
+    /// tile and the base and accounts what they hold now, never above the limit (a base that
+    /// no longer fits is dropped).
     pub fn refit(&mut self) {
         S::refit(self);
+        let r = &mut self.resident;
+        let bytes: usize = r
+            .base
+            .values_mut()
+            .map(|tile| S::refit_base(&self.loader, tile))
+            .sum();
+        // The base comes first: paged tiles, farthest first, make room for its growth.
+        let mut farthest: Vec<TileId> = r
+            .tiles
+            .keys()
+            .copied()
+            .filter(|&id| r.ledger.record(id).fetch.is_none())
+            .collect();
+        farthest.sort_by_key(|&id| r.center.map_or(0, |c| Grid::ring(c, id)));
+        while r.ledger.set_base(bytes).is_err() {
+            let Some(id) = farthest.pop() else {
+                r.base.clear();
+                // Releasing the base always fits.
+                let _ = r.ledger.set_base(0);
+                r.record_error(format!(
+                    "the base was dropped: its {bytes} bytes in this mode do not fit the limit"
+                ));
+                break;
+            };
+            r.evict(id);
+        }
+    }
+
+    /// Whether tile fetches wait for the base's first attempt to come back.
+    fn base_pending(&self) -> bool {
+        self.base.first_pending()
     }
 
     /// The start of an update: finds the tile under `viewer` and takes in every result the
     /// link delivered; returns the arrivals for the strategy to integrate.
     fn begin(&mut self, viewer: (f64, f64)) -> Vec<Outcome<S>> {
         self.resident.begin(viewer);
+        let loader = &*self.loader;
+        self.base
+            .poll(&mut self.resident, |t| S::tile_bytes(loader, t));
         self.resident.receive(&mut self.link)
     }
 
@@ -540,7 +630,7 @@ impl<S: Strategy<Loader = ArchiveLoader, Tile = ResidentTile>> Paging for Pager<
     }
 
     fn refit(&mut self) {
-        S::refit(self);
+        Pager::refit(self);
     }
 
     fn set_time(&mut self, seconds: f64) {
@@ -548,7 +638,7 @@ impl<S: Strategy<Loader = ArchiveLoader, Tile = ResidentTile>> Paging for Pager<
     }
 
     fn set_transfer_clock(&mut self, clock: Arc<dyn TransferClock>) {
-        self.link.set_transfer_clock(clock);
+        Pager::set_transfer_clock(self, clock);
     }
 
     fn request(&mut self, wants: &[stream::Want]) {

@@ -8,14 +8,12 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, Sender, TryRecvError, channel};
 use std::thread::JoinHandle;
 
-use crate::db::grid::TileId;
 use crate::error::{Error, Result};
 
-/// A request the fetch thread can run: it names the tile it is for.
-pub trait Request: Copy + Send + 'static {
-    /// The tile the request fetches.
-    fn tile(&self) -> TileId;
-}
+/// A request the fetch thread can run; its display names what it fetches (errors say it).
+pub trait Request: Copy + Send + std::fmt::Display + 'static {}
+
+impl<R: Copy + Send + std::fmt::Display + 'static> Request for R {}
 
 /// What the fetch thread sends back for one request.
 pub struct Arrival<R, T> {
@@ -73,7 +71,7 @@ impl<R: Request, T: Send + 'static> Worker<R, T> {
         match sent {
             Some(Ok(())) => Ok(()),
             _ => Err(Error::invalid(
-                request.tile().to_string(),
+                request.to_string(),
                 "the fetch thread has stopped",
             )),
         }
@@ -107,7 +105,7 @@ impl<R, T> Drop for Worker<R, T> {
 pub fn run<R: Request, T>(job: &dyn Fn(R) -> Result<(T, u64)>, request: R) -> Result<(T, u64)> {
     catch_unwind(AssertUnwindSafe(|| job(request))).unwrap_or_else(|_| {
         Err(Error::invalid(
-            request.tile().to_string(),
+            request.to_string(),
             "the loader panicked while fetching it",
         ))
     })

@@ -34,6 +34,7 @@ mod queue;
 mod stats;
 
 use std::collections::{BTreeMap, HashMap};
+use std::fmt;
 use std::marker::PhantomData;
 use std::sync::Arc;
 
@@ -41,9 +42,10 @@ pub use predict::{PredictedView, PredictionSettings, Predictor};
 pub use queue::{LevelRequest, Reason, RequestQueue};
 pub use stats::{Delivery, HIT_WINDOW, RENDER_WINDOW, StreamStats};
 
+use super::base::BaseTiles;
 use super::belts;
 use super::ledger::{Fetch, Ledger};
-use super::worker::{Job, Request};
+use super::worker::Job;
 use super::{Pager, PagerConfig, PagerMode, Strategy};
 use crate::db::grid::{Grid, TileId};
 use crate::error::{Error, Result};
@@ -121,6 +123,15 @@ pub trait LevelLoader: Send + Sync + 'static {
     fn refit(&self, tile: &mut Self::Loaded) -> usize {
         self.loaded_bytes(tile)
     }
+    /// Bytes the coarse base will hold (every tile's first levels, resident for good), known
+    /// before it is fetched; 0, the default, when there is none.
+    fn base_bytes(&self) -> usize {
+        0
+    }
+    /// Fetches the coarse base ([`super::base`]), and the bytes downloaded.
+    fn load_base(&self) -> Result<(BaseTiles<Self::Loaded>, u64)> {
+        Ok((Vec::new(), 0))
+    }
 }
 
 /// One tile's wish this frame: `levels` progressive levels, mattering `priority` (its visual
@@ -167,9 +178,9 @@ pub struct LevelFetch {
     want: usize,
 }
 
-impl Request for LevelFetch {
-    fn tile(&self) -> TileId {
-        self.id
+impl fmt::Display for LevelFetch {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} levels {}..{}", self.id, self.have, self.want)
     }
 }
 
@@ -196,6 +207,22 @@ impl<L: LevelLoader> Strategy for Progressive<L> {
         Arc::new(move |f: LevelFetch| loader.fetch(f.id, f.have, f.want))
     }
 
+    fn base_bytes(loader: &L) -> usize {
+        loader.base_bytes()
+    }
+
+    fn load_base(loader: &L) -> Result<(BaseTiles<L::Loaded>, u64)> {
+        loader.load_base()
+    }
+
+    fn tile_bytes(loader: &L, tile: &L::Loaded) -> usize {
+        loader.loaded_bytes(tile)
+    }
+
+    fn refit_base(loader: &L, tile: &mut L::Loaded) -> usize {
+        loader.refit(tile)
+    }
+
     /// Before culling: takes in what arrived and finds the complete square.
     fn update(pager: &mut StreamPager<L>, viewer: (f64, f64)) {
         for (fetch, result) in pager.begin(viewer) {
@@ -204,11 +231,16 @@ impl<L: LevelLoader> Strategy for Progressive<L> {
         let now = pager.resident.time();
         pager.strategy.stats.settle(now);
         // `d_c` at the coarsest level: every tile of belts `0..=d_c` holds a level (or was
-        // given up). With one cost at every ring no held tile counts as needing an upgrade.
+        // given up), which the base gives every tile at once. With one cost at every ring no
+        // held tile counts as needing an upgrade.
         let r = &mut pager.resident;
-        r.complete = r
-            .center
-            .and_then(|c| belts::complete_belts(&r.ledger, c, |_, _| 0));
+        r.complete = r.center.and_then(|c| {
+            if r.base.is_empty() {
+                belts::complete_belts(&r.ledger, c, |_, _| 0)
+            } else {
+                Some(r.ledger.grid().max_ring(c))
+            }
+        });
     }
 
     /// Refits every resident tile and accounts what it holds now, dropping the finest levels of
@@ -245,7 +277,9 @@ impl<L: LevelLoader> Strategy for Progressive<L> {
     }
 
     fn request(pager: &mut StreamPager<L>, wants: &[Want]) {
-        pager.request(wants);
+        if !pager.base_pending() {
+            pager.request(wants);
+        }
     }
 
     fn drawn(pager: &mut StreamPager<L>, drawn: &[(TileId, usize)]) {
@@ -330,10 +364,24 @@ impl<L: LevelLoader> StreamPager<L> {
         &self.strategy.stats
     }
 
-    /// Progressive levels `id` holds (0 when absent).
+    /// Progressive levels `id` holds, in its paged copy or the base (0 when absent).
     pub fn held_levels(&self, id: TileId) -> usize {
         self.resident
             .get(id)
+            .map_or(0, |t| self.loader.held_levels(t))
+    }
+
+    /// Progressive levels of the paged copy of `id` (0 without one).
+    fn paged_levels(&self, id: TileId) -> usize {
+        self.resident
+            .paged(id)
+            .map_or(0, |t| self.loader.held_levels(t))
+    }
+
+    /// Progressive levels the base holds of `id` (0 without a base).
+    fn base_levels(&self, id: TileId) -> usize {
+        self.resident
+            .base_tile(id)
             .map_or(0, |t| self.loader.held_levels(t))
     }
 
@@ -411,11 +459,14 @@ impl<L: LevelLoader> StreamPager<L> {
             if request.levels <= have || !self.can_request(request.id) {
                 continue;
             }
+            // A paged copy grows; without one, the new copy holds every level it asks for
+            // (what the base holds of it stays in the base).
+            let paged = self.paged_levels(request.id);
             let bytes = self.loader.predicted_bytes(request.levels)
-                - if have == 0 {
+                - if paged == 0 {
                     0
                 } else {
-                    self.loader.predicted_bytes(have)
+                    self.loader.predicted_bytes(paged)
                 };
             if !self.make_room(bytes, &request, wanted) {
                 self.strategy.queue.push_back(request);
@@ -431,7 +482,7 @@ impl<L: LevelLoader> StreamPager<L> {
                 ring,
                 bytes,
             };
-            if !self.resident.reserve(fetch, have > 0) {
+            if !self.resident.reserve(fetch, paged > 0) {
                 return false;
             }
             self.strategy.stats.requests += 1;
@@ -470,7 +521,7 @@ impl<L: LevelLoader> StreamPager<L> {
             if free >= bytes {
                 break;
             }
-            let kept = keep.entry(step.id).or_insert(self.held_levels(step.id));
+            let kept = keep.entry(step.id).or_insert(self.paged_levels(step.id));
             if *kept != step.level {
                 continue;
             }
@@ -482,7 +533,7 @@ impl<L: LevelLoader> StreamPager<L> {
         }
         let center = self.resident.center;
         for (id, levels) in keep {
-            if levels == 0 {
+            if levels <= self.base_levels(id) {
                 self.resident.evict(id);
                 continue;
             }
@@ -514,7 +565,9 @@ impl<L: LevelLoader> StreamPager<L> {
             let held = self.loader.held_levels(tile);
             let want = wanted.get(&id);
             let (asked, priority) = want.map_or((0, 0.0), |w| (w.levels, w.priority));
-            for level in (2..=held).rev() {
+            // With a base the paged copy goes whole once it would hold no more than the base.
+            let floor = self.base_levels(id);
+            for level in (floor.max(1) + 1..=held).rev() {
                 let class = if level > asked {
                     RoomClass::Unasked
                 } else if priority < request.priority {
@@ -532,7 +585,7 @@ impl<L: LevelLoader> StreamPager<L> {
                     saved,
                 });
             }
-            if ring(id) > square && want.is_none() {
+            if floor == 0 && ring(id) > square && want.is_none() {
                 // Its finer levels are steps of their own (it is asked for none), so evicting
                 // it saves what is left once they are gone.
                 let fine = predicted(held) - predicted(1);

@@ -31,6 +31,8 @@
 
 #![warn(missing_docs)]
 
+mod batch;
+mod bin;
 mod clip;
 mod draw;
 mod edge;
@@ -42,11 +44,15 @@ mod matrix;
 mod pipeline;
 mod pixel;
 mod sampler;
+mod setup;
+mod shade;
 mod state;
 mod target;
 mod texture;
+mod tile_view;
 mod vertex;
 
+pub use batch::Batch;
 pub use draw::{DrawStats, Rasterizer};
 pub use error::RasterError;
 pub use framebuffer::{ColorBuffer, ColorFormat, DepthBuffer, DepthFormat, Framebuffer};
@@ -57,7 +63,7 @@ pub use state::{
     Compare, CullMode, DepthMode, Fog, FrontFace, Perspective, Precision, Rect, RenderState,
     Shading, TextureBinding,
 };
-pub use target::{DrawTarget, RasterTarget, count_triangles};
+pub use target::{DrawBatch, DrawTarget, RasterTarget, count_triangles};
 pub use texture::{
     Filter, MipFilter, MipLevel, Sampler, Texels, Texture, TextureFormat, Wrap, box_mip_chain,
 };

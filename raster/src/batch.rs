@@ -240,8 +240,9 @@ fn flush_with<P: Shade>(
         let chunks = &mut stages.chunks[..pieces];
         let piece = range.len().div_ceil(pieces);
         let transformed = &stages.transformed;
-        let set_up_piece = |k: usize, out: &mut ChunkOut<P::Triangle>| {
+        let set_up_piece = |k: usize, out: &mut ChunkOut<P>| {
             out.tris.clear();
+            out.planes.clear();
             out.bins.reset(&grid);
             let from = range.start + k * piece;
             let part = from..(from + piece).min(range.end);
@@ -323,7 +324,7 @@ fn vertex_stage<P: Pipeline>(
 /// Draws every tile that has triangles, in parallel. Returns the fragments written.
 fn raster_tiles<P: Shade>(
     fb: &mut Framebuffer,
-    chunks: &[ChunkOut<P::Triangle>],
+    chunks: &[ChunkOut<P>],
     draws: &[DrawShade],
     grid: &TileGrid,
     threads: usize,

@@ -49,7 +49,7 @@ pub struct Rasterizer {
 /// One pipeline's scratch: transformed vertices and set-up chunks.
 pub(crate) struct Stages<P: Pipeline> {
     pub transformed: Vec<Transformed<P>>,
-    pub chunks: Vec<ChunkOut<P::Triangle>>,
+    pub chunks: Vec<ChunkOut<P>>,
 }
 
 impl<P: Pipeline> Default for Stages<P> {

@@ -135,6 +135,12 @@ impl Coverage {
         })
     }
 
+    /// Vertex 0 in sub-pixels: the origin of the triangle's attribute planes.
+    #[inline]
+    pub fn origin(&self) -> [i64; 2] {
+        self.v[0].map(i64::from)
+    }
+
     /// Calls `span(y, x_start, x_end)` for every row of `from..to` that the triangle owns pixels
     /// in, with the row's whole run of owned pixels `x_start..x_end` (inside the rectangle, not
     /// cut to any tile): the same runs whatever the caller's window.

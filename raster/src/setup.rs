@@ -45,16 +45,19 @@ pub(crate) struct DrawSetup<'a, 't> {
     pub scissor: Rect,
 }
 
-/// One set-up chunk: its triangles in submission order and the tiles they touch.
-pub(crate) struct ChunkOut<T> {
-    pub tris: Vec<T>,
+/// One set-up chunk: its triangles in submission order, the planes kept beside them, and the
+/// tiles they touch.
+pub(crate) struct ChunkOut<P: Pipeline> {
+    pub tris: Vec<P::Triangle>,
+    pub planes: Vec<P::Plane>,
     pub bins: Bins,
 }
 
-impl<T> Default for ChunkOut<T> {
+impl<P: Pipeline> Default for ChunkOut<P> {
     fn default() -> Self {
         Self {
             tris: Vec::new(),
+            planes: Vec::new(),
             bins: Bins::default(),
         }
     }
@@ -68,7 +71,7 @@ pub(crate) fn set_up<P: Pipeline>(
     setup: &DrawSetup,
     consts: &P::Consts,
     grid: &TileGrid,
-    out: &mut ChunkOut<P::Triangle>,
+    out: &mut ChunkOut<P>,
 ) {
     let s = setup.scissor;
     let clip_rect = PixelRect {
@@ -79,7 +82,7 @@ pub(crate) fn set_up<P: Pipeline>(
     };
     let cull = setup.state.cull;
     let ccw_front = setup.state.front_face == FrontFace::Ccw;
-    let setup_one = |s: [&P::Screen; 3], out: &mut ChunkOut<P::Triangle>| {
+    let setup_one = |s: [&P::Screen; 3], out: &mut ChunkOut<P>| {
         let p = s.map(P::xy);
         let area2 =
             (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
@@ -98,7 +101,8 @@ pub(crate) fn set_up<P: Pipeline>(
         };
         if let Some(cov) = Coverage::new(p, clip_rect) {
             out.bins.insert(grid, cov.rect, out.tris.len() as u32);
-            out.tris.push(P::triangle(s, area2, cov, setup.attrs, draw));
+            let t = P::triangle(s, area2, cov, setup.attrs, draw, &mut out.planes);
+            out.tris.push(t);
         }
     };
     for t in triangles {

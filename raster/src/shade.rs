@@ -3,8 +3,8 @@
 //! texel type, shading, fog). A feature a draw does not use is not in its loop.
 
 use crate::edge::PixelRect;
-use crate::pipeline::fixed::{self, FixedPipeline, FixedTriangle, Span};
-use crate::pipeline::float::{self, FloatPipeline, FloatTriangle};
+use crate::pipeline::fixed::{self, AttrPlane, FixedPipeline, FixedTriangle, Span};
+use crate::pipeline::float::{self, FloatPipeline, FloatPlane, FloatTriangle};
 use crate::pipeline::{Attributes, Pipeline, Setup, TexMode};
 use crate::pixel::{Depth16, Depth32, DepthFormat, NoDepth, PixelFormat, Rgb565, Rgba8888};
 use crate::sampler::{Bilinear, Filtering, Nearest, NoTexture, TexViews, ViewOf};
@@ -42,15 +42,21 @@ pub(crate) struct DrawShade<'a, 't> {
 
 /// A pipeline's pixel stage.
 pub(crate) trait Shade: Pipeline {
-    /// Draws the triangles `list` (indices into `tris`, all of draw `draw`) into `tile`.
-    /// Returns the fragments that passed the depth test.
-    fn run(draw: &DrawShade, tris: &[Self::Triangle], list: &[u32], tile: &mut TileTarget) -> u64;
+    /// Draws the triangles `list` (indices into `tris`, all of draw `draw`, with their planes
+    /// in `planes`) into `tile`. Returns the fragments that passed the depth test.
+    fn run(
+        draw: &DrawShade,
+        tris: &[Self::Triangle],
+        planes: &[Self::Plane],
+        list: &[u32],
+        tile: &mut TileTarget,
+    ) -> u64;
 }
 
 /// Draws tile `t` from the chunks' lists, in submission order. Returns the fragments written.
 pub(crate) fn raster_tile<P: Shade>(
     t: usize,
-    chunks: &[ChunkOut<P::Triangle>],
+    chunks: &[ChunkOut<P>],
     draws: &[DrawShade],
     tile: &mut TileTarget,
 ) -> u64 {
@@ -64,7 +70,13 @@ pub(crate) fn raster_tile<P: Shade>(
             while e < list.len() && chunk.tris[list[e] as usize].draw() == d {
                 e += 1;
             }
-            fragments += P::run(&draws[d as usize], &chunk.tris, &list[k..e], tile);
+            fragments += P::run(
+                &draws[d as usize],
+                &chunk.tris,
+                &chunk.planes,
+                &list[k..e],
+                tile,
+            );
             k = e;
         }
     }
@@ -128,8 +140,21 @@ fn spans<P: PixelFormat, D: DepthFormat, T: Setup>(
 }
 
 impl Shade for FixedPipeline {
-    fn run(draw: &DrawShade, tris: &[FixedTriangle], list: &[u32], tile: &mut TileTarget) -> u64 {
-        with_formats!(tile, draw.attrs.depth, fixed_texture, draw, tris, list)
+    fn run(
+        draw: &DrawShade,
+        tris: &[FixedTriangle],
+        planes: &[AttrPlane],
+        list: &[u32],
+        tile: &mut TileTarget,
+    ) -> u64 {
+        with_formats!(
+            tile,
+            draw.attrs.depth,
+            fixed_texture,
+            draw,
+            (tris, planes),
+            list
+        )
     }
 }
 
@@ -139,7 +164,7 @@ fn fixed_texture<'r, 'v, P: PixelFormat, D: DepthFormat>(
     color: &'r mut TileView<'v, P::Pixel>,
     depth: Option<&'r mut TileView<'v, D::Value>>,
     draw: &'r DrawShade,
-    tris: &'r [FixedTriangle],
+    tris: (&'r [FixedTriangle], &'r [AttrPlane]),
     list: &'r [u32],
 ) -> u64 {
     let binding = draw
@@ -164,7 +189,7 @@ type FixedArgs<'r, 'v, 'c, 'x, P, D> = (
     &'r mut TileView<'v, <P as PixelFormat>::Pixel>,
     Option<&'r mut TileView<'v, <D as DepthFormat>::Value>>,
     &'r DrawShade<'c, 'x>,
-    &'r [FixedTriangle],
+    (&'r [FixedTriangle], &'r [AttrPlane]),
     &'r [u32],
 );
 
@@ -173,12 +198,12 @@ fn fixed_flags<P: PixelFormat, D: DepthFormat, F: Filtering>(
     args: FixedArgs<'_, '_, '_, '_, P, D>,
 ) -> u64 {
     fn run<P: PixelFormat, D: DepthFormat, F: Filtering, const SHADE: bool, const FOG: bool>(
-        (rect, color, depth, draw, tris, list): FixedArgs<'_, '_, '_, '_, P, D>,
+        (rect, color, depth, draw, (tris, planes), list): FixedArgs<'_, '_, '_, '_, P, D>,
     ) -> u64 {
         let views = F::Texel::select(draw.views);
         let attrs = draw.attrs;
         spans::<P, D, _>(rect, color, depth, tris, list, |t, span| {
-            fixed::shade_row::<P, D, F, SHADE, FOG>(t, span, views.get(t.level()), attrs)
+            fixed::shade_row::<P, D, F, SHADE, FOG>(t, planes, span, views.get(t.level()), attrs)
         })
     }
     match (args.3.attrs.shade, args.3.attrs.fog) {
@@ -190,7 +215,13 @@ fn fixed_flags<P: PixelFormat, D: DepthFormat, F: Filtering>(
 }
 
 impl Shade for FloatPipeline {
-    fn run(draw: &DrawShade, tris: &[FloatTriangle], list: &[u32], tile: &mut TileTarget) -> u64 {
+    fn run(
+        draw: &DrawShade,
+        tris: &[FloatTriangle],
+        _planes: &[FloatPlane],
+        list: &[u32],
+        tile: &mut TileTarget,
+    ) -> u64 {
         with_formats!(tile, draw.attrs.depth, float_spans, draw, tris, list)
     }
 }

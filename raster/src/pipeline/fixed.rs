@@ -147,6 +147,7 @@ impl Pipeline for FixedPipeline {
     type Clip = FixedClip;
     type Screen = FixedScreen;
     type Triangle = FixedTriangle;
+    type Plane = AttrPlane;
     type Consts = FixedConsts;
 
     fn consts(transform: &Transform, vp: &Viewport, fog: Option<Fog>) -> FixedConsts {
@@ -180,14 +181,16 @@ impl Pipeline for FixedPipeline {
         s.xy
     }
 
+    #[inline]
     fn triangle(
         v: [&FixedScreen; 3],
         area2: i64,
         coverage: Coverage,
         attrs: &Attributes,
         draw: u32,
+        planes: &mut Vec<AttrPlane>,
     ) -> FixedTriangle {
-        FixedTriangle::new(v, area2, coverage, attrs, draw)
+        FixedTriangle::new(v, area2, coverage, attrs, draw, planes)
     }
 }
 
@@ -334,20 +337,18 @@ impl Geometry {
     }
 }
 
-/// A triangle ready for its rows.
+/// A triangle ready for its rows: 64 bytes, with its attribute planes beside it in the set-up
+/// chunk's plane list, only those its draw uses, in the order depth, colour (one plane for grey
+/// vertices, else three), fog, texture (`u, v`, or `s, t, q` under perspective).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct FixedTriangle {
     pub coverage: Coverage,
-    origin: [i64; 2],
-    depth: AttrPlane,
-    color: [AttrPlane; 3],
-    fog: AttrPlane,
-    /// `s, t, q` (perspective) or `u, v, -` (affine).
-    tex: [AttrPlane; 3],
+    /// Index of its first plane in the chunk's planes.
+    planes: u32,
     /// This triangle's texture interpolation (see `Attributes::tex_mode_for`).
     tex_mode: TexMode,
     level: u8,
-    /// The three colour planes are one (grey vertices): rows step one channel.
+    /// One colour plane serves the three channels (grey vertices): rows step one channel.
     grey: bool,
     /// Every plane is narrow and on the pixel grid: rows start from `AttrPlane::at_pixel`
     /// (otherwise from `AttrPlane::at`).
@@ -357,56 +358,56 @@ pub(crate) struct FixedTriangle {
 }
 
 impl FixedTriangle {
-    /// Sets up `v` (positive orientation, `area2 > 0`).
+    /// Sets up `v` (positive orientation, `area2 > 0`), appending its planes to `planes`.
+    #[inline]
     pub fn new(
         v: [&FixedScreen; 3],
         area2: i64,
         coverage: Coverage,
         a: &Attributes,
         draw: u32,
+        planes: &mut Vec<AttrPlane>,
     ) -> Self {
-        let empty = AttrPlane::default();
+        let first = planes.len();
+        let mut t = Self {
+            coverage,
+            planes: first as u32,
+            tex_mode: TexMode::Off,
+            level: 0,
+            grey: true,
+            narrow: true,
+            draw,
+        };
         if !a.interpolates() {
-            let (color, tex) = ([empty; 3], [empty; 3]);
-            return Self {
-                coverage,
-                origin: v[0].xy,
-                depth: empty,
-                color,
-                fog: empty,
-                tex,
-                tex_mode: TexMode::Off,
-                level: 0,
-                grey: true,
-                narrow: true,
-                draw,
-            };
+            return t;
         }
         let g = Geometry::new(&v, area2);
         let pick = |f: fn(&FixedScreen) -> i64| g.plane([f(v[0]), f(v[1]), f(v[2])]);
-        let depth = if a.depth { pick(|s| s.depth) } else { empty };
-        // Terrain lighting is grey (r = g = b at every vertex): one plane serves all three.
-        let grey = v
-            .iter()
-            .all(|s| s.color[1] == s.color[0] && s.color[2] == s.color[0]);
-        let color = if a.shade {
-            let red = pick(|s| s.color[0]);
-            if grey {
-                [red; 3]
-            } else {
-                [red, pick(|s| s.color[1]), pick(|s| s.color[2])]
+        if a.depth {
+            planes.push(pick(|s| s.depth));
+        }
+        if a.shade {
+            // Terrain lighting is grey (r = g = b at every vertex): one plane serves all three.
+            t.grey = v
+                .iter()
+                .all(|s| s.color[1] == s.color[0] && s.color[2] == s.color[0]);
+            planes.push(pick(|s| s.color[0]));
+            if !t.grey {
+                planes.push(pick(|s| s.color[1]));
+                planes.push(pick(|s| s.color[2]));
             }
-        } else {
-            [empty; 3]
-        };
-        let fog = if a.fog { pick(|s| s.fog) } else { empty };
-        let tex_mode = a.tex_mode_for([v[0].xy, v[1].xy, v[2].xy]);
-        let (tex, level) = match tex_mode {
-            TexMode::Off => ([empty; 3], 0),
-            TexMode::Affine => (
-                [pick(|s| s.uv[0]), pick(|s| s.uv[1]), empty],
-                a.level(texel_area(&v), area2),
-            ),
+        }
+        if a.fog {
+            planes.push(pick(|s| s.fog));
+        }
+        t.tex_mode = a.tex_mode_for([v[0].xy, v[1].xy, v[2].xy]);
+        match t.tex_mode {
+            TexMode::Off => {}
+            TexMode::Affine => {
+                planes.push(pick(|s| s.uv[0]));
+                planes.push(pick(|s| s.uv[1]));
+                t.level = a.level(texel_area(&v), area2);
+            }
             TexMode::Perspective(_) => {
                 // 1/w of the three vertices on one scale, below 2^Q_BITS.
                 let smin = v.iter().map(|s| s.w_shift).min().expect("3 vertices");
@@ -416,47 +417,20 @@ impl FixedTriangle {
                 });
                 let st =
                     |k: usize| g.plane([v[0].uv[k] * q[0], v[1].uv[k] * q[1], v[2].uv[k] * q[2]]);
-                ([st(0), st(1), g.plane(q)], a.level(texel_area(&v), area2))
+                planes.push(st(0));
+                planes.push(st(1));
+                planes.push(g.plane(q));
+                t.level = a.level(texel_area(&v), area2);
             }
-        };
-        let origin = v[0].xy;
-        // Unused planes are empty, so narrow; they are left as they are.
-        let narrow = depth.narrow()
-            && color.iter().all(AttrPlane::narrow)
-            && fog.narrow()
-            && tex.iter().all(AttrPlane::narrow);
-        let (mut depth, mut color, mut fog, mut tex) = (depth, color, fog, tex);
-        if narrow {
-            let grid = |p: &mut AttrPlane, used: bool| {
-                if used {
-                    *p = p.on_grid(origin);
-                }
-            };
-            grid(&mut depth, a.depth);
-            grid(&mut color[0], a.shade);
-            grid(&mut color[1], a.shade && !grey);
-            grid(&mut color[2], a.shade && !grey);
-            if a.shade && grey {
-                color = [color[0]; 3];
+        }
+        let mine = &mut planes[first..];
+        t.narrow = mine.iter().all(AttrPlane::narrow);
+        if t.narrow {
+            for p in mine {
+                *p = p.on_grid(v[0].xy);
             }
-            grid(&mut fog, a.fog);
-            grid(&mut tex[0], tex_mode != TexMode::Off);
-            grid(&mut tex[1], tex_mode != TexMode::Off);
-            grid(&mut tex[2], matches!(tex_mode, TexMode::Perspective(_)));
         }
-        Self {
-            coverage,
-            origin,
-            depth,
-            color,
-            fog,
-            tex,
-            tex_mode,
-            level,
-            grey,
-            narrow,
-            draw,
-        }
+        t
     }
 }
 
@@ -536,16 +510,19 @@ pub(crate) fn shade_row<
     const FOG: bool,
 >(
     tri: &FixedTriangle,
+    planes: &[AttrPlane],
     span: Span<'_, P, D>,
     view: Option<&LevelView<'_, T::Texel>>,
     a: &Attributes,
 ) -> u64 {
-    if !tri.narrow {
-        shade_span::<P, D, T, SHADE, false, FOG, false>(tri, span, view, a)
-    } else if SHADE && tri.grey {
-        shade_span::<P, D, T, true, true, FOG, true>(tri, span, view, a)
-    } else {
-        shade_span::<P, D, T, SHADE, false, FOG, true>(tri, span, view, a)
+    let planes = &planes[tri.planes as usize..];
+    match (tri.narrow, SHADE && tri.grey) {
+        (false, false) => {
+            shade_span::<P, D, T, SHADE, false, FOG, false>(tri, planes, span, view, a)
+        }
+        (false, true) => shade_span::<P, D, T, true, true, FOG, false>(tri, planes, span, view, a),
+        (true, true) => shade_span::<P, D, T, true, true, FOG, true>(tri, planes, span, view, a),
+        (true, false) => shade_span::<P, D, T, SHADE, false, FOG, true>(tri, planes, span, view, a),
     }
 }
 
@@ -562,10 +539,22 @@ fn shade_span<
     const NARROW: bool,
 >(
     tri: &FixedTriangle,
+    planes: &[AttrPlane],
     span: Span<'_, P, D>,
     view: Option<&LevelView<'_, T::Texel>>,
     a: &Attributes,
 ) -> u64 {
+    // The triangle's planes in their order: depth, colour, fog, texture.
+    let color_at = D::ENABLED as usize;
+    let fog_at = color_at
+        + if !SHADE {
+            0
+        } else if GREY {
+            1
+        } else {
+            3
+        };
+    let tex_at = fog_at + FOG as usize;
     let Span {
         y,
         x0,
@@ -579,8 +568,9 @@ fn shade_span<
     debug_assert!(!D::ENABLED || depth.len() == color.len());
     let channels = if GREY { 1 } else { 3 };
     let perspective = matches!(tri.tex_mode, TexMode::Perspective(_));
-    let ox = x0 * SUBPIXEL_ONE + SUBPIXEL_HALF - tri.origin[0];
-    let oy = y * SUBPIXEL_ONE + SUBPIXEL_HALF - tri.origin[1];
+    let origin = tri.coverage.origin();
+    let ox = x0 * SUBPIXEL_ONE + SUBPIXEL_HALF - origin[0];
+    let oy = y * SUBPIXEL_ONE + SUBPIXEL_HALF - origin[1];
     // A plane's value at pixel `x` of the run, as stepping from `x0` reaches it.
     let at = |p: &AttrPlane, x: i64| {
         if NARROW {
@@ -590,7 +580,7 @@ fn shade_span<
         }
     };
     let (mut z, dz) = if D::ENABLED {
-        (at(&tri.depth, xs), tri.depth.dx)
+        (at(&planes[0], xs), planes[0].dx)
     } else {
         (0, 0)
     };
@@ -598,12 +588,12 @@ fn shade_span<
     let mut dc = [0i64; 3];
     if SHADE {
         for k in 0..channels {
-            c[k] = at(&tri.color[k], xs);
-            dc[k] = tri.color[k].dx;
+            c[k] = at(&planes[color_at + k], xs);
+            dc[k] = planes[color_at + k].dx;
         }
     }
     let (mut f, df) = if FOG {
-        (at(&tri.fog, xs), tri.fog.dx)
+        (at(&planes[fog_at], xs), planes[fog_at].dx)
     } else {
         (0, 0)
     };
@@ -622,14 +612,15 @@ fn shade_span<
             let k = (xs - x0) / chunk;
             cs = x0 + k * chunk;
             for j in 0..3 {
-                dacc[j] = tri.tex[j].dx;
-                acc[j] = advance(at(&tri.tex[j], x0), dacc[j].saturating_mul(chunk), k);
+                let p = &planes[tex_at + j];
+                dacc[j] = p.dx;
+                acc[j] = advance(at(p, x0), dacc[j].saturating_mul(chunk), k);
             }
             (u, v) = divide(acc[0], acc[1], acc[2]);
         } else {
             for j in 0..2 {
-                acc[j] = at(&tri.tex[j], xs);
-                dacc[j] = tri.tex[j].dx;
+                acc[j] = at(&planes[tex_at + j], xs);
+                dacc[j] = planes[tex_at + j].dx;
             }
             (u, v) = (acc[0], acc[1]);
         }

@@ -110,6 +110,8 @@ impl Pipeline for FloatPipeline {
     type Clip = FloatClip;
     type Screen = FloatScreen;
     type Triangle = FloatTriangle;
+    /// The reference twin keeps its planes in the triangle.
+    type Plane = FloatPlane;
     type Consts = FloatConsts;
 
     fn consts(transform: &Transform, vp: &Viewport, fog: Option<Fog>) -> FloatConsts {
@@ -143,6 +145,7 @@ impl Pipeline for FloatPipeline {
         coverage: Coverage,
         attrs: &Attributes,
         draw: u32,
+        _planes: &mut Vec<FloatPlane>,
     ) -> FloatTriangle {
         FloatTriangle::new(v, area2, coverage, attrs, draw)
     }
@@ -193,7 +196,7 @@ impl FloatScreen {
 
 /// An attribute plane in pixels: `value(x, y) = base + dx * (x - x0) + dy * (y - y0)`.
 #[derive(Clone, Copy, Debug, Default)]
-struct FloatPlane {
+pub(crate) struct FloatPlane {
     base: f32,
     dx: f32,
     dy: f32,

@@ -158,6 +158,8 @@ pub(crate) trait Pipeline: 'static {
     type Screen: Copy + Default + Send + Sync;
     /// A set-up triangle.
     type Triangle: Setup;
+    /// An attribute plane kept beside the triangles (the fixed pipeline's compact record).
+    type Plane: Copy + Send + Sync;
     /// What the vertex stage of one draw needs: matrix, viewport and guard band, fog.
     type Consts: Send + Sync;
 
@@ -167,12 +169,14 @@ pub(crate) trait Pipeline: 'static {
     fn project(c: &Self::Consts, clip: &Self::Clip) -> Self::Screen;
     /// Snapped sub-pixel position.
     fn xy(s: &Self::Screen) -> [i64; 2];
-    /// Sets up `v` (positive orientation, `area2 > 0`) for draw `draw`.
+    /// Sets up `v` (positive orientation, `area2 > 0`) for draw `draw`; planes kept beside the
+    /// triangle go to `planes`.
     fn triangle(
         v: [&Self::Screen; 3],
         area2: i64,
         coverage: Coverage,
         attrs: &Attributes,
         draw: u32,
+        planes: &mut Vec<Self::Plane>,
     ) -> Self::Triangle;
 }

@@ -160,14 +160,24 @@ impl<'t> Batch<'_, 't> {
             return;
         }
         let r = &mut *self.rasterizer;
-        let threads = r.thread_count();
+        let (threads, tile) = (r.thread_count(), r.tile_size);
         let (rasterized, fragments) = match self.precision {
-            Precision::Fixed => {
-                flush_with::<FixedPipeline>(&mut r.fixed, &r.pending, &self.draws, self.fb, threads)
-            }
-            Precision::Float => {
-                flush_with::<FloatPipeline>(&mut r.float, &r.pending, &self.draws, self.fb, threads)
-            }
+            Precision::Fixed => flush_with::<FixedPipeline>(
+                &mut r.fixed,
+                &r.pending,
+                &self.draws,
+                self.fb,
+                threads,
+                tile,
+            ),
+            Precision::Float => flush_with::<FloatPipeline>(
+                &mut r.float,
+                &r.pending,
+                &self.draws,
+                self.fb,
+                threads,
+                tile,
+            ),
         };
         self.done.rasterized += rasterized;
         self.done.fragments += fragments;
@@ -192,6 +202,7 @@ fn flush_with<P: Shade>(
     draws: &[PendingDraw],
     fb: &mut Framebuffer,
     threads: usize,
+    tile: u32,
 ) -> (u64, u64) {
     let vp = Viewport {
         width: fb.width(),
@@ -208,7 +219,7 @@ fn flush_with<P: Shade>(
         &consts,
         threads,
     );
-    let grid = TileGrid::new(vp.width, vp.height);
+    let grid = TileGrid::new(vp.width, vp.height, tile);
     let setups: Vec<DrawSetup> = draws
         .iter()
         .map(|d| DrawSetup {
@@ -364,5 +375,167 @@ fn raster_tiles<P: Shade>(
         tiles.into_par_iter().map(draw).sum()
     } else {
         tiles.map(draw).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::{DMat4, DVec3};
+
+    use crate::{
+        ColorFormat, DepthFormat, Fog, Framebuffer, Indices, Mesh, Perspective, Precision,
+        Rasterizer, RenderState, Sampler, Shading, Texture, TextureBinding, Topology, Transform,
+        Vertex, Wrap,
+    };
+
+    /// Hills seen from low down: triangles from a fraction of a pixel far away to a hundred
+    /// pixels near the eye, so runs cross tile edges, and strips through the near plane.
+    fn scene() -> (Vec<Vertex>, Vec<Vec<u32>>, Texture, Transform) {
+        let g = 48usize;
+        let mut v = vec![];
+        for j in 0..g {
+            for i in 0..g {
+                let h = ((i as f64 * 0.4).sin() * (j as f64 * 0.3).cos() * 300.0) as i32;
+                let c = (100.0 + 90.0 * (i as f64 * 0.2 + j as f64 * 0.1).sin()) as u8;
+                let light = if (i + j) % 7 == 0 {
+                    [c, 200, 255 - c]
+                } else {
+                    [c; 3]
+                };
+                v.push(Vertex::new(
+                    [i as i32 * 400 - 9600, h, j as i32 * 400 - 9600],
+                    [i as f32 / 6.0, j as f32 / 6.0],
+                    light,
+                ));
+            }
+        }
+        // One strip per row of cells, each its own draw when the scene is split.
+        let strips = (0..g - 1)
+            .map(|j| {
+                (0..g)
+                    .flat_map(|i| [(j * g + i) as u32, ((j + 1) * g + i) as u32])
+                    .collect()
+            })
+            .collect();
+        let texels = (0..32 * 32)
+            .map(|k| {
+                [
+                    (k % 32 * 8) as u8,
+                    (k / 32 * 8) as u8,
+                    ((k * 37) % 256) as u8,
+                    255,
+                ]
+            })
+            .collect();
+        let texture = Texture::from_rgba8(32, 32, texels).unwrap().with_mipmaps();
+        let m = glam::dcamera::rh::proj::directx::perspective(1.2, 4.0 / 3.0, 50.0, 4e4)
+            * glam::dcamera::rh::view::look_at_mat4(
+                DVec3::new(300.0, 700.0, 9000.0),
+                DVec3::new(0.0, 0.0, 0.0),
+                DVec3::Y,
+            )
+            * DMat4::IDENTITY;
+        (v, strips, texture, Transform::new(m).unwrap())
+    }
+
+    /// The scene drawn with `tile`-pixel screen tiles on `threads` threads, its strips grouped
+    /// `per_draw` to a draw, all draws in one batch or (`batched` false) one by one.
+    fn render(
+        state: &RenderState,
+        tile: u32,
+        threads: usize,
+        per_draw: usize,
+        batched: bool,
+    ) -> Framebuffer {
+        let (v, strips, _, transform) = scene();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut fb =
+                Framebuffer::new(200, 150, ColorFormat::Rgba8888, DepthFormat::D32).unwrap();
+            fb.clear([10, 20, 30]);
+            let mut r = Rasterizer::new();
+            r.tile_size = tile;
+            let draws: Vec<Vec<u32>> = strips
+                .chunks(per_draw)
+                .map(|group| group.join(&u32::MAX))
+                .collect();
+            fn mesh<'a>(v: &'a [Vertex], indices: &'a [u32]) -> Mesh<'a> {
+                Mesh {
+                    vertices: v,
+                    indices: Indices::U32(indices),
+                    topology: Topology::TriangleStrip,
+                }
+            }
+            if batched {
+                let mut batch = r.batch(&mut fb);
+                for d in &draws {
+                    batch.draw(&mesh(&v, d), &transform, state).unwrap();
+                }
+                batch.finish();
+            } else {
+                for d in &draws {
+                    r.draw(&mut fb, &mesh(&v, d), &transform, state).unwrap();
+                }
+            }
+            fb
+        })
+    }
+
+    #[test]
+    fn tiles_batches_and_threads_do_not_change_a_byte() {
+        let (_, _, texture, _) = scene();
+        for precision in [Precision::Fixed, Precision::Float] {
+            for perspective in [
+                Perspective::Spans(8),
+                Perspective::Exact,
+                Perspective::Affine,
+            ] {
+                let state = RenderState {
+                    precision,
+                    perspective,
+                    shading: Shading::Gouraud,
+                    texture: Some(TextureBinding::new(
+                        &texture,
+                        Sampler {
+                            wrap: Wrap::Repeat,
+                            ..Sampler::BILINEAR_MIPMAP
+                        },
+                    )),
+                    fog: Some(Fog {
+                        color: [10, 20, 30],
+                        start: 3000.0,
+                        end: 20000.0,
+                    }),
+                    ..RenderState::default()
+                };
+                // One tile for the whole screen, one thread, one draw: no run is ever cut.
+                let whole = render(&state, 1 << 13, 1, usize::MAX, true);
+                assert!(
+                    whole
+                        .to_rgba_image()
+                        .pixels()
+                        .filter(|p| p.0 != [10, 20, 30, 255])
+                        .count()
+                        > 200 * 150 / 2,
+                    "the scene covers most of the screen"
+                );
+                for (tile, threads, per_draw, batched) in [
+                    (64, 1, usize::MAX, true),
+                    (8, 1, 1, true),
+                    (16, 2, 5, true),
+                    (64, 4, 3, true),
+                    (32, 2, 2, false),
+                ] {
+                    assert!(
+                        render(&state, tile, threads, per_draw, batched) == whole,
+                        "{precision:?} {perspective:?}: tiles of {tile}, {threads} threads, \
+                         {per_draw} strips a draw, batched {batched}"
+                    );
+                }
+            }
+        }
     }
 }

@@ -11,24 +11,27 @@ use crate::edge::PixelRect;
 /// 32 KiB, an L1 cache's worth).
 pub(crate) const TILE_SIZE: u32 = 64;
 
-/// The tiles of a framebuffer: `cols x rows` tiles of `TILE_SIZE` pixels, the last column and
-/// row cut at the framebuffer's edge.
+/// The tiles of a framebuffer: `cols x rows` square tiles of `1 << shift` pixels (`TILE_SIZE`
+/// unless a test asks for another), the last column and row cut at the framebuffer's edge.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct TileGrid {
     width: u32,
     height: u32,
     cols: u32,
     rows: u32,
+    shift: u32,
 }
 
 impl TileGrid {
-    /// The tiles of a `width x height` framebuffer.
-    pub fn new(width: u32, height: u32) -> Self {
+    /// The tiles of side `size` (a power of two) of a `width x height` framebuffer.
+    pub fn new(width: u32, height: u32, size: u32) -> Self {
+        assert!(size.is_power_of_two());
         Self {
             width,
             height,
-            cols: width.div_ceil(TILE_SIZE),
-            rows: height.div_ceil(TILE_SIZE),
+            cols: width.div_ceil(size),
+            rows: height.div_ceil(size),
+            shift: size.trailing_zeros(),
         }
     }
 
@@ -40,11 +43,13 @@ impl TileGrid {
     /// The pixels of tile `t` (row-major tile order).
     pub fn rect(&self, t: usize) -> PixelRect {
         let (tx, ty) = (t as u32 % self.cols, t as u32 / self.cols);
+        let size = 1u64 << self.shift;
+        let edge = |i: u32, end: u32| (i as u64 * size).min(end as u64) as i32;
         PixelRect {
-            x0: (tx * TILE_SIZE) as i32,
-            y0: (ty * TILE_SIZE) as i32,
-            x1: ((tx + 1) * TILE_SIZE).min(self.width) as i32,
-            y1: ((ty + 1) * TILE_SIZE).min(self.height) as i32,
+            x0: edge(tx, self.width),
+            y0: edge(ty, self.height),
+            x1: edge(tx + 1, self.width),
+            y1: edge(ty + 1, self.height),
         }
     }
 
@@ -75,7 +80,7 @@ impl Bins {
     #[inline]
     pub fn insert(&mut self, grid: &TileGrid, rect: PixelRect, index: u32) {
         debug_assert!(rect.x0 >= 0 && rect.y0 >= 0 && rect.x0 < rect.x1 && rect.y0 < rect.y1);
-        let shift = TILE_SIZE.trailing_zeros();
+        let shift = grid.shift;
         let (tx0, tx1) = (rect.x0 as u32 >> shift, (rect.x1 as u32 - 1) >> shift);
         let (ty0, ty1) = (rect.y0 as u32 >> shift, (rect.y1 as u32 - 1) >> shift);
         for ty in ty0..=ty1 {
@@ -98,7 +103,7 @@ mod tests {
 
     #[test]
     fn tiles_cover_the_framebuffer_once_with_cut_edges() {
-        let grid = TileGrid::new(150, 70);
+        let grid = TileGrid::new(150, 70, TILE_SIZE);
         assert_eq!((grid.cols, grid.rows, grid.len()), (3, 2, 6));
         let mut hits = vec![0u8; 150 * 70];
         for t in 0..grid.len() {
@@ -123,7 +128,7 @@ mod tests {
 
     #[test]
     fn a_triangle_is_listed_in_every_tile_its_rectangle_touches_in_order() {
-        let grid = TileGrid::new(200, 200);
+        let grid = TileGrid::new(200, 200, TILE_SIZE);
         let mut bins = Bins::default();
         bins.reset(&grid);
         let rect = |x0, y0, x1, y1| PixelRect { x0, y0, x1, y1 };

@@ -8,6 +8,7 @@
 
 use crate::RasterError;
 use crate::batch::Pending;
+use crate::bin::TILE_SIZE;
 use crate::framebuffer::Framebuffer;
 use crate::matrix::Transform;
 use crate::pipeline::Pipeline;
@@ -44,6 +45,8 @@ pub struct Rasterizer {
     pub(crate) fixed: Stages<FixedPipeline>,
     pub(crate) float: Stages<FloatPipeline>,
     threads: Option<usize>,
+    /// Side of the screen tiles, `TILE_SIZE` (tests try others: the picture must not change).
+    pub(crate) tile_size: u32,
 }
 
 /// One pipeline's scratch: transformed vertices and set-up chunks.
@@ -69,6 +72,7 @@ impl Default for Rasterizer {
             fixed: Stages::default(),
             float: Stages::default(),
             threads: None,
+            tile_size: TILE_SIZE,
         }
     }
 }

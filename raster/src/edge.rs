@@ -368,6 +368,62 @@ mod tests {
         }
     }
 
+    /// Runs of both walkers over the whole rectangle of `v` (oriented, non-degenerate).
+    fn walks(v: [[i64; 2]; 3]) -> Option<(Vec<(i64, i64, i64)>, Vec<(i64, i64, i64)>)> {
+        let c = Coverage::new(oriented(v), WINDOW)?;
+        let r = c.rect;
+        let (rows, cols) = ((r.y0 as i64, r.y1 as i64), (r.x0 as i64, r.x1 as i64));
+        let (mut small, mut dda) = (vec![], vec![]);
+        c.walk_small(rows.0, rows.1, cols, |y, a, b| small.push((y, a, b)));
+        c.walk_dda(rows.0, rows.1, cols, |y, a, b| dda.push((y, a, b)));
+        Some((small, dda))
+    }
+
+    proptest::proptest! {
+        /// The small-triangle path (edge functions in i32 lanes) and the general path (exact
+        /// DDAs in i64) give the same runs for every triangle small enough for both.
+        #[test]
+        fn the_small_walk_equals_the_dda(
+            base in (-60 * S..60 * S, -60 * S..60 * S),
+            p in proptest::collection::vec((0..15 * S, 0..15 * S), 3),
+        ) {
+            let v = [0, 1, 2].map(|i| [base.0 + p[i].0, base.1 + p[i].1]);
+            let area = (v[1][0] - v[0][0]) * (v[2][1] - v[0][1]) - (v[2][0] - v[0][0]) * (v[1][1] - v[0][1]);
+            proptest::prop_assume!(area != 0);
+            if let Some((small, dda)) = walks(v) {
+                proptest::prop_assert_eq!(small, dda);
+            }
+        }
+
+        /// Huge (to the guard band), sliver, edge-on and axis-aligned triangles own exactly
+        /// the pixels of the per-pixel test inside the window.
+        #[test]
+        fn extreme_triangles_match_the_per_pixel_test(
+            kind in 0u8..4,
+            a in (-(1i64 << 24)..1 << 24, -(1i64 << 24)..1 << 24),
+            b in (-(1i64 << 24)..1 << 24, -(1i64 << 24)..1 << 24),
+            near in (-30 * S..30 * S, -30 * S..30 * S),
+            t in -4i64..5,
+        ) {
+            let c = [near.0, near.1];
+            let v = match kind {
+                // Two far vertices and one in the window.
+                0 => [[a.0, a.1], [b.0, b.1], c],
+                // Nearly edge-on: the third vertex a few sub-pixels off the line through the
+                // window vertex and a far one.
+                1 => [[a.0, a.1], c, [c[0] + (a.0 - c[0]) / 1024 + t, c[1] + (a.1 - c[1]) / 1024 - t]],
+                // A sliver along a pixel row or column.
+                2 => [c, [c[0] + (a.0 >> 10), c[1] + t], [c[0] - (b.0 >> 12), c[1] + t + 1]],
+                // Axis-aligned right triangle with edges on pixel centres.
+                _ => [c, [c[0] + 7 * S, c[1]], [c[0], c[1] + (t.abs() + 1) * S]],
+            };
+            let area = (v[1][0] - v[0][0]) as i128 * (v[2][1] - v[0][1]) as i128
+                - (v[2][0] - v[0][0]) as i128 * (v[1][1] - v[0][1]) as i128;
+            proptest::prop_assume!(area != 0);
+            proptest::prop_assert_eq!(spans(v), brute(oriented(v)));
+        }
+    }
+
     #[test]
     fn row_window_matches_the_full_walk() {
         let v = [[3, 7], [40 * S + 1, 30 * S + 5], [-20 * S, 13 * S + 9]];

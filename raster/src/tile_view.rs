@@ -65,7 +65,7 @@ mod tests {
 
     #[test]
     fn every_element_belongs_to_exactly_one_tile_row() {
-        let grid = TileGrid::new(150, 70);
+        let grid = TileGrid::new(150, 70, crate::bin::TILE_SIZE);
         let mut buffer = vec![0u32; 150 * 70];
         let mut views = split(&mut buffer, &grid);
         for (t, view) in views.iter_mut().enumerate() {
@@ -90,7 +90,7 @@ mod tests {
     #[test]
     #[should_panic(expected = "outside the tile")]
     fn a_row_outside_the_tile_is_refused() {
-        let grid = TileGrid::new(150, 70);
+        let grid = TileGrid::new(150, 70, crate::bin::TILE_SIZE);
         let mut buffer = vec![0u8; 150 * 70];
         let mut views = split(&mut buffer, &grid);
         views[0].row(0, 60, 65);

@@ -142,6 +142,8 @@ impl GpuTarget {
             readback,
             pending_clear: Some([0; 3]),
             draws: Vec::new(),
+            drawn: Vec::new(),
+            drawn_clear: None,
             ctx,
         })
     }
@@ -165,10 +167,12 @@ impl GpuTarget {
         self.wait()
     }
 
-    /// Runs the last frame again: its clear and every draw since, with the vertices, indices
-    /// and textures uploaded when they were drawn, and waits for the GPU. A frame without
-    /// uploads, for measuring the drawing alone against a renderer that keeps its inputs.
+    /// Runs the last frame again (after the draws still pending): its clear and every draw
+    /// since, with the vertices, indices and textures uploaded when they were drawn, and waits
+    /// for the GPU. A frame without uploads, for measuring the drawing alone against a renderer
+    /// that keeps its inputs.
     pub fn redraw(&mut self) -> Result<(), PlatformError> {
+        self.flush()?;
         self.draws = std::mem::take(&mut self.drawn);
         self.pending_clear = self.drawn_clear;
         self.flush()

@@ -368,8 +368,11 @@ mod tests {
         }
     }
 
+    /// A walk's runs: `(y, x_start, x_end)`.
+    type Runs = Vec<(i64, i64, i64)>;
+
     /// Runs of both walkers over the whole rectangle of `v` (oriented, non-degenerate).
-    fn walks(v: [[i64; 2]; 3]) -> Option<(Vec<(i64, i64, i64)>, Vec<(i64, i64, i64)>)> {
+    fn walks(v: [[i64; 2]; 3]) -> Option<(Runs, Runs)> {
         let c = Coverage::new(oriented(v), WINDOW)?;
         let r = c.rect;
         let (rows, cols) = ((r.y0 as i64, r.y1 as i64), (r.x0 as i64, r.x1 as i64));

@@ -7,9 +7,10 @@
 //! measured frame times differ. They take turns to go first, so that the machine's noise falls
 //! on both alike. For the PocketPC scene and the workstation scene it prints the median frame
 //! times, the median per-frame ratio, and the efficiency `e` of the second core on the row stage
-//! that a thread-aware cost model would need to predict that ratio (the rasterizer splits only
-//! the rows of a tile-sized draw between threads: `frame + triangles` stay on one core, and
-//! `pixels` would take `1 / (1 + e)` of their time on two).
+//! that a thread-aware cost model would need to predict that ratio (`frame + triangles` stay on
+//! one core, and `pixels` would take `1 / (1 + e)` of their time on two). It also prints the
+//! raster share of a frame: the median of the engine's own `draw_seconds` (the tiles' draw
+//! calls and their pixels) over the median frame time, on one thread and on two.
 //!
 //! ```sh
 //! cargo run --release -- demo -q --frames 1    # builds stripmask-demo/puget.smdb
@@ -56,11 +57,13 @@ fn scene(archive: &str, p: &DeviceProfile, frames: usize) -> Result<()> {
     let mut fbs = [new_fb()?, new_fb()?];
     let model = CostModel::HOST;
     let (mut t, mut times) = (0.0, [Vec::new(), Vec::new()]);
+    let mut draws = [Vec::new(), Vec::new()];
     let (mut ratios, mut triangles, mut fragments) = (Vec::new(), 0.0, 0.0);
     let warm_up = 5;
     for k in 0..frames + warm_up {
         let (eye, target) = flight.at(t % flight.duration());
         let mut measured = [0.0; 2];
+        let mut drawing = [0.0; 2];
         let mut drawn = [(0, 0); 2];
         let order = if k % 2 == 0 { [0, 1] } else { [1, 0] };
         for i in order {
@@ -68,6 +71,7 @@ fn scene(archive: &str, p: &DeviceProfile, frames: usize) -> Result<()> {
             let started = Instant::now();
             let report = engines[i].render(&camera, &mut fbs[i])?;
             measured[i] = started.elapsed().as_secs_f64();
+            drawing[i] = report.draw_seconds;
             drawn[i] = (report.draw.triangles, report.draw.fragments);
         }
         assert_eq!(drawn[0], drawn[1], "both engines draw the same frame");
@@ -80,12 +84,15 @@ fn scene(archive: &str, p: &DeviceProfile, frames: usize) -> Result<()> {
         if k >= warm_up {
             times[0].push(measured[0]);
             times[1].push(measured[1]);
+            draws[0].push(drawing[0]);
+            draws[1].push(drawing[1]);
             ratios.push(measured[0] / measured[1]);
             triangles += tris as f64 / frames as f64;
             fragments += frags as f64 / frames as f64;
         }
     }
     let (t1, t2) = (median(&mut times[0]), median(&mut times[1]));
+    let (d1, d2) = (median(&mut draws[0]), median(&mut draws[1]));
     let r = median(&mut ratios);
     let serial = model.frame_s + model.triangle_s * triangles;
     let rows = model.fragment_s * fragments;
@@ -98,6 +105,14 @@ fn scene(archive: &str, p: &DeviceProfile, frames: usize) -> Result<()> {
         "             1 thread {:.3} ms, 2 threads {:.3} ms (medians); median ratio {r:.3}",
         t1 * 1e3,
         t2 * 1e3
+    );
+    println!(
+        "             drawing (raster) 1 thread {:.3} ms = {:.0}% of the frame, 2 threads {:.3} ms = {:.0}%; drawing ratio {:.3}",
+        d1 * 1e3,
+        100.0 * d1 / t1,
+        d2 * 1e3,
+        100.0 * d2 / t2,
+        d1 / d2
     );
     println!(
         "             model on one core: {:.3} ms serial + {:.3} ms rows; second core's row efficiency e = {e:.2}",

@@ -10,21 +10,31 @@
 //! per-pixel test. Two triangles sharing an edge see it with opposite `dy`, so each centre on it
 //! belongs to exactly one of them.
 
+use wide::{CmpGt, i32x8};
+
 use crate::fixed_point::{SUBPIXEL_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE, ceil_div, floor_div};
 
-/// A triangle's owned pixels: its snapped vertices and the rows it owns. Edges are rebuilt when
-/// its rows are walked, so a set-up triangle stays small.
+/// A triangle's owned pixels: its snapped vertices and the pixel rectangle that can hold them.
+/// Edges are rebuilt when its rows are walked, so a set-up triangle stays small.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Coverage {
     /// Vertices in sub-pixels, positive orientation; `|x|, |y| < 2^25` inside the guard band.
     v: [[i32; 2]; 3],
-    /// First row.
-    pub row_start: i32,
-    /// One past the last row.
-    pub row_end: i32,
-    /// For a triangle within `SMALL x SMALL` pixels, the columns of its bounding box: it is
-    /// walked by edge functions over them instead of by DDAs (decided once, at set-up).
-    small_cols: Option<[i32; 2]>,
+    /// The pixels it may own, inside the draw's scissor: columns `x0..x1`, rows `y0..y1` (the
+    /// rows are exact: every one of them holds a pixel centre between the top and bottom vertex).
+    pub rect: PixelRect,
+    /// Within `SMALL x SMALL` pixels: walked by edge functions over its rectangle instead of by
+    /// DDAs (decided once, at set-up).
+    small: bool,
+}
+
+/// A rectangle of pixels, `x0..x1` by `y0..y1`, on screen.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct PixelRect {
+    pub x0: i32,
+    pub y0: i32,
+    pub x1: i32,
+    pub y1: i32,
 }
 
 #[derive(Clone, Copy, Debug, Default)]
@@ -90,10 +100,11 @@ impl Stepper {
 
 impl Coverage {
     /// Coverage of the triangle `v` (sub-pixel x, y) with positive signed area
-    /// `(v1 - v0) x (v2 - v0) > 0`, limited to rows `rows.0 .. rows.1`. `None` when it owns no row.
-    pub fn new(v: [[i64; 2]; 3], rows: (i64, i64)) -> Option<Self> {
-        let ymin = v.iter().map(|p| p[1]).min().expect("3 vertices");
-        let ymax = v.iter().map(|p| p[1]).max().expect("3 vertices");
+    /// `(v1 - v0) x (v2 - v0) > 0`, limited to the pixels of `clip`. `None` when it owns no row
+    /// there (it may still own no pixel: a sliver between two pixel centres).
+    pub fn new(v: [[i64; 2]; 3], clip: PixelRect) -> Option<Self> {
+        let ymin = v[0][1].min(v[1][1]).min(v[2][1]);
+        let ymax = v[0][1].max(v[1][1]).max(v[2][1]);
         // A horizontal edge with dx < 0 has the triangle above it: a bottom edge, which does not
         // own its row.
         let bottom_edge =
@@ -105,43 +116,44 @@ impl Coverage {
         } else {
             floor_div(ymax - SUBPIXEL_HALF, SUBPIXEL_ONE) + 1
         };
-        let (row_start, row_end) = (first.max(rows.0), end.min(rows.1));
-        let xmin = v.iter().map(|p| p[0]).min().expect("3 vertices") >> SUBPIXEL_BITS;
-        let xmax = v.iter().map(|p| p[0]).max().expect("3 vertices") >> SUBPIXEL_BITS;
+        let (y0, y1) = (first.max(clip.y0 as i64), end.min(clip.y1 as i64));
+        let xmin = v[0][0].min(v[1][0]).min(v[2][0]) >> SUBPIXEL_BITS;
+        let xmax = v[0][0].max(v[1][0]).max(v[2][0]) >> SUBPIXEL_BITS;
         let small =
             xmax - xmin < SMALL && (ymax >> SUBPIXEL_BITS) - (ymin >> SUBPIXEL_BITS) < SMALL;
-        (row_start < row_end).then(|| Coverage {
+        // Owned pixel centres lie between the extreme vertices, so these columns hold them all.
+        let (x0, x1) = (xmin.max(clip.x0 as i64), (xmax + 1).min(clip.x1 as i64));
+        (y0 < y1 && x0 < x1).then(|| Coverage {
             v: v.map(|p| p.map(|c| c as i32)),
-            row_start: row_start as i32,
-            row_end: row_end as i32,
-            small_cols: small.then_some([xmin as i32, xmax as i32 + 1]),
+            rect: PixelRect {
+                x0: x0 as i32,
+                y0: y0 as i32,
+                x1: x1 as i32,
+                y1: y1 as i32,
+            },
+            small,
         })
     }
 
-    /// Calls `span(y, x_start, x_end)` for every row from `from` (clamped into the row range) to
-    /// `to`, with `x_start..x_end` clamped to `cols`; empty spans are skipped.
+    /// Vertex 0 in sub-pixels: the origin of the triangle's attribute planes.
     #[inline]
-    pub fn for_each_span(
-        &self,
-        from: i64,
-        to: i64,
-        cols: (i64, i64),
-        span: impl FnMut(i64, i64, i64),
-    ) {
-        let (start, end) = (
-            (self.row_start as i64).max(from),
-            (self.row_end as i64).min(to),
-        );
+    pub fn origin(&self) -> [i64; 2] {
+        self.v[0].map(i64::from)
+    }
+
+    /// Calls `span(y, x_start, x_end)` for every row of `from..to` that the triangle owns pixels
+    /// in, with the row's whole run of owned pixels `x_start..x_end` (inside the rectangle, not
+    /// cut to any tile): the same runs whatever the caller's window.
+    #[inline]
+    pub fn for_each_span(&self, from: i64, to: i64, span: impl FnMut(i64, i64, i64)) {
+        let r = self.rect;
+        let (start, end) = ((r.y0 as i64).max(from), (r.y1 as i64).min(to));
         if start >= end {
             return;
         }
-        if let Some([x0, x1]) = self.small_cols {
-            self.walk_small(
-                start,
-                end,
-                (cols.0.max(x0 as i64), cols.1.min(x1 as i64)),
-                span,
-            );
+        let cols = (r.x0 as i64, r.x1 as i64);
+        if self.small {
+            self.walk_small(start, end, cols, span);
         } else {
             self.walk_dda(start, end, cols, span);
         }
@@ -163,9 +175,9 @@ impl Coverage {
         })
     }
 
-    /// Small triangles: evaluate the edge functions at every pixel of the bounding box, with no
+    /// Small triangles: evaluate the edge functions at every pixel of the rectangle, with no
     /// division and no data-dependent branch. Within `SMALL` pixels each edge value fits in i32
-    /// (`|E| < 2 * (SMALL * 256)^2 < 2^25`), so a row's lanes are computed side by side.
+    /// (`|E| < 2 * (SMALL * 256)^2 < 2^25`), so a row's pixels are tested in lanes, 8 at a time.
     #[inline]
     fn walk_small(
         &self,
@@ -174,27 +186,31 @@ impl Coverage {
         cols: (i64, i64),
         mut span: impl FnMut(i64, i64, i64),
     ) {
-        if cols.0 >= cols.1 {
-            return;
-        }
         let edges = self.edges();
         let xc = cols.0 * SUBPIXEL_ONE + SUBPIXEL_HALF;
         let yc = start * SUBPIXEL_ONE + SUBPIXEL_HALF;
         // E + bias at the first pixel of each row; steps per pixel and per row.
         let mut row =
             edges.map(|(e, bias)| (e.dx * (yc - e.ay) - e.dy * (xc - e.ax) + bias) as i32);
-        let step_x = edges.map(|(e, _)| (-e.dy * SUBPIXEL_ONE) as i32);
         let step_y = edges.map(|(e, _)| (e.dx * SUBPIXEL_ONE) as i32);
+        let lanes =
+            edges.map(|(e, _)| i32x8::from(LANES) * i32x8::splat((-e.dy * SUBPIXEL_ONE) as i32));
         let width = cols.1 - cols.0;
+        debug_assert!((1..=SMALL).contains(&width));
         let columns = (1u32 << width) - 1;
-        // Terrain triangles are a few pixels wide: half the lanes do for most of them.
-        let half = width <= SMALL / 2;
+        // Terrain triangles are a few pixels wide: one group of lanes does for most of them.
+        let groups = if width <= 8 { 1 } else { 2 };
+        let eight = edges.map(|(e, _)| (-e.dy * SUBPIXEL_ONE * 8) as i32);
         for y in start..end {
-            let inside = if half {
-                inside_lanes::<{ SMALL as usize / 2 }>(&row, &step_x)
-            } else {
-                inside_lanes::<{ SMALL as usize }>(&row, &step_x)
-            } & columns;
+            let mut inside = 0;
+            for g in 0..groups {
+                let at = |k: usize| i32x8::splat(row[k] + g * eight[k]) + lanes[k];
+                let all = at(0).cmp_gt(i32x8::ZERO)
+                    & at(1).cmp_gt(i32x8::ZERO)
+                    & at(2).cmp_gt(i32x8::ZERO);
+                inside |= (all.move_mask() as u32) << (8 * g);
+            }
+            let inside = inside & columns;
             if inside != 0 {
                 let x0 = cols.0 + inside.trailing_zeros() as i64;
                 let x1 = cols.0 + (32 - inside.leading_zeros()) as i64;
@@ -250,24 +266,20 @@ impl Coverage {
 /// functions instead of DDAs.
 const SMALL: i64 = 16;
 
-/// One bit per pixel of a row's first `N` columns that lies inside all three edges (`row`: edge
-/// values at the first pixel, `step`: per pixel). The set bits are contiguous because the triangle
-/// is convex.
-#[inline]
-fn inside_lanes<const N: usize>(row: &[i32; 3], step: &[i32; 3]) -> u32 {
-    let mut inside = 0u32;
-    for i in 0..N as i32 {
-        let lane = |k: usize| row[k] + i * step[k] > 0;
-        inside |= ((lane(0) & lane(1) & lane(2)) as u32) << i;
-    }
-    inside
-}
+/// Lane numbers of a group of 8 pixels.
+const LANES: [i32; 8] = [0, 1, 2, 3, 4, 5, 6, 7];
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
     const S: i64 = SUBPIXEL_ONE;
+    const WINDOW: PixelRect = PixelRect {
+        x0: -100,
+        y0: -100,
+        x1: 100,
+        y1: 100,
+    };
 
     /// Reference: the per-pixel edge-function test with the top-left rule.
     fn owns(v: [[i64; 2]; 3], px: i64, py: i64) -> bool {
@@ -292,10 +304,8 @@ mod tests {
     fn spans(v: [[i64; 2]; 3]) -> Vec<(i64, i64)> {
         let v = oriented(v);
         let mut out = vec![];
-        if let Some(c) = Coverage::new(v, (-100, 100)) {
-            c.for_each_span(-100, 100, (-100, 100), |y, a, b| {
-                out.extend((a..b).map(|x| (x, y)))
-            });
+        if let Some(c) = Coverage::new(v, WINDOW) {
+            c.for_each_span(-100, 100, |y, a, b| out.extend((a..b).map(|x| (x, y))));
         }
         out
     }
@@ -358,17 +368,74 @@ mod tests {
         }
     }
 
+    /// A walk's runs: `(y, x_start, x_end)`.
+    type Runs = Vec<(i64, i64, i64)>;
+
+    /// Runs of both walkers over the whole rectangle of `v` (oriented, non-degenerate).
+    fn walks(v: [[i64; 2]; 3]) -> Option<(Runs, Runs)> {
+        let c = Coverage::new(oriented(v), WINDOW)?;
+        let r = c.rect;
+        let (rows, cols) = ((r.y0 as i64, r.y1 as i64), (r.x0 as i64, r.x1 as i64));
+        let (mut small, mut dda) = (vec![], vec![]);
+        c.walk_small(rows.0, rows.1, cols, |y, a, b| small.push((y, a, b)));
+        c.walk_dda(rows.0, rows.1, cols, |y, a, b| dda.push((y, a, b)));
+        Some((small, dda))
+    }
+
+    proptest::proptest! {
+        /// The small-triangle path (edge functions in i32 lanes) and the general path (exact
+        /// DDAs in i64) give the same runs for every triangle small enough for both.
+        #[test]
+        fn the_small_walk_equals_the_dda(
+            base in (-60 * S..60 * S, -60 * S..60 * S),
+            p in proptest::collection::vec((0..15 * S, 0..15 * S), 3),
+        ) {
+            let v = [0, 1, 2].map(|i| [base.0 + p[i].0, base.1 + p[i].1]);
+            let area = (v[1][0] - v[0][0]) * (v[2][1] - v[0][1]) - (v[2][0] - v[0][0]) * (v[1][1] - v[0][1]);
+            proptest::prop_assume!(area != 0);
+            if let Some((small, dda)) = walks(v) {
+                proptest::prop_assert_eq!(small, dda);
+            }
+        }
+
+        /// Huge (to the guard band), sliver, edge-on and axis-aligned triangles own exactly
+        /// the pixels of the per-pixel test inside the window.
+        #[test]
+        fn extreme_triangles_match_the_per_pixel_test(
+            kind in 0u8..4,
+            a in (-(1i64 << 24)..1 << 24, -(1i64 << 24)..1 << 24),
+            b in (-(1i64 << 24)..1 << 24, -(1i64 << 24)..1 << 24),
+            near in (-30 * S..30 * S, -30 * S..30 * S),
+            t in -4i64..5,
+        ) {
+            let c = [near.0, near.1];
+            let v = match kind {
+                // Two far vertices and one in the window.
+                0 => [[a.0, a.1], [b.0, b.1], c],
+                // Nearly edge-on: the third vertex a few sub-pixels off the line through the
+                // window vertex and a far one.
+                1 => [[a.0, a.1], c, [c[0] + (a.0 - c[0]) / 1024 + t, c[1] + (a.1 - c[1]) / 1024 - t]],
+                // A sliver along a pixel row or column.
+                2 => [c, [c[0] + (a.0 >> 10), c[1] + t], [c[0] - (b.0 >> 12), c[1] + t + 1]],
+                // Axis-aligned right triangle with edges on pixel centres.
+                _ => [c, [c[0] + 7 * S, c[1]], [c[0], c[1] + (t.abs() + 1) * S]],
+            };
+            let area = (v[1][0] - v[0][0]) as i128 * (v[2][1] - v[0][1]) as i128
+                - (v[2][0] - v[0][0]) as i128 * (v[1][1] - v[0][1]) as i128;
+            proptest::prop_assume!(area != 0);
+            proptest::prop_assert_eq!(spans(v), brute(oriented(v)));
+        }
+    }
+
     #[test]
     fn row_window_matches_the_full_walk() {
         let v = [[3, 7], [40 * S + 1, 30 * S + 5], [-20 * S, 13 * S + 9]];
-        let c = Coverage::new(v, (-100, 100)).unwrap();
+        let c = Coverage::new(v, WINDOW).unwrap();
         let mut full = vec![];
-        c.for_each_span(-100, 100, (-100, 100), |y, a, b| full.push((y, a, b)));
+        c.for_each_span(-100, 100, |y, a, b| full.push((y, a, b)));
         let mut banded = vec![];
         for band in (-100..100).step_by(7) {
-            c.for_each_span(band, band + 7, (-100, 100), |y, a, b| {
-                banded.push((y, a, b))
-            });
+            c.for_each_span(band, band + 7, |y, a, b| banded.push((y, a, b)));
         }
         assert_eq!(full, banded);
     }

@@ -29,6 +29,8 @@
 //! assert_eq!(stats.fragments, 64 * 64);
 //! ```
 
+mod batch;
+mod bin;
 mod clip;
 mod draw;
 mod edge;
@@ -40,11 +42,15 @@ mod matrix;
 mod pipeline;
 mod pixel;
 mod sampler;
+mod setup;
+mod shade;
 mod state;
 mod target;
 mod texture;
+mod tile_view;
 mod vertex;
 
+pub use batch::Batch;
 pub use draw::{DrawStats, Rasterizer};
 pub use error::RasterError;
 pub use framebuffer::{ColorBuffer, ColorFormat, DepthBuffer, DepthFormat, Framebuffer};
@@ -55,7 +61,7 @@ pub use state::{
     Compare, CullMode, DepthMode, Fog, FrontFace, Perspective, Precision, Rect, RenderState,
     Shading, TextureBinding,
 };
-pub use target::{DrawTarget, RasterTarget, count_triangles};
+pub use target::{DrawBatch, DrawTarget, RasterTarget, count_triangles};
 pub use texture::{
     Filter, MipFilter, MipLevel, Sampler, Texels, Texture, TextureFormat, Wrap, box_mip_chain,
 };

@@ -9,9 +9,9 @@
 
 use glam::{DMat4, DVec3};
 use stripmask_raster::{
-    CullMode, DepthMode, DrawStats, DrawTarget, Fog, Indices, LineDepth, LineState, LineStats,
-    Mesh, Perspective, Precision, RasterError, RenderState, Sampler, Shading, TextureBinding,
-    Topology, Transform,
+    CullMode, DepthMode, DrawBatch, DrawStats, DrawTarget, Fog, Indices, LineDepth, LineState,
+    LineStats, Mesh, Perspective, Precision, RasterError, RenderState, Sampler, Shading,
+    TextureBinding, Topology, Transform,
 };
 
 use crate::db::tile::PartialGrid;
@@ -245,69 +245,73 @@ pub fn draw_tiles<T: DrawTarget>(
         Wireframe::Only => (&surface, None),
         Wireframe::Off | Wireframe::Over => (settings, fog),
     };
-    let mut stats = DrawStats::default();
-    let mut lines = LineStats::default();
-    if shadows && !settings.depth_test {
-        stats += draw_shadows(target, camera, terrain, tiles, aspect, settings, fog)?;
-    }
-    let mut morph = match meshes.morph {
-        Some(morpher) => Some((
-            morpher.view(camera, terrain, height),
-            FrameTransform::subdivided(camera, terrain, aspect, geomorph::SUBDIVISION)?,
-            morpher,
-        )),
-        None => None,
-    };
-    let mode = meshes.cracks.mode();
-    let mut frame_held = PartialMeshes::new();
-    let held = meshes.partial.unwrap_or(&mut frame_held);
-    for t in tiles.iter() {
-        let stride = t.tile.stride();
-        let (indices, topology) = if stride == 1 {
-            meshes.cracks.tile(meshes.masks, t.level, t.neighbours)
-        } else {
-            let (masks, cracks) = held.get(mode, t.tile.side());
-            let neighbours = t.neighbours.map(|n| compact_level(n, stride));
-            cracks.tile(masks, compact_level(t.level, stride), neighbours)
-        };
-        let (vertices, tile_transform) = match &mut morph {
-            Some((view, fine, morpher)) if stride == 1 => (
-                morpher.tile(view, &t.tile.vertices, (t.x, t.y)),
-                fine.tile(t.x, t.y)?,
-            ),
-            _ => (&t.tile.vertices[..], transform.tile(t.x, t.y)?),
-        };
-        let mesh = Mesh {
-            vertices,
-            indices,
-            topology,
-        };
-        stats += target.draw(&mesh, &tile_transform, &tile_state(settings, fog, t))?;
-        if let Some(wire) = &wire {
-            lines += target.draw_edges(&mesh, &tile_transform, wire)?;
+    // One batch for the frame's draws: the CPU rasterizer sets them up and bins them into
+    // screen tiles together, instead of paying for threads and tiles per tile draw.
+    let ((stats, lines), done) = target.batch(|target| {
+        let mut stats = DrawStats::default();
+        let mut lines = LineStats::default();
+        if shadows && !settings.depth_test {
+            stats += draw_shadows(target, camera, terrain, tiles, aspect, settings, fog)?;
         }
-    }
-    if shadows && settings.depth_test {
-        stats += draw_shadows(target, camera, terrain, tiles, aspect, settings, fog)?;
-    }
-    Ok(TilesDrawn {
-        triangles: stats,
-        lines,
-    })
+        let mut morph = match meshes.morph {
+            Some(morpher) => Some((
+                morpher.view(camera, terrain, height),
+                FrameTransform::subdivided(camera, terrain, aspect, geomorph::SUBDIVISION)?,
+                morpher,
+            )),
+            None => None,
+        };
+        let mode = meshes.cracks.mode();
+        let mut frame_held = PartialMeshes::new();
+        let held = meshes.partial.unwrap_or(&mut frame_held);
+        for t in tiles.iter() {
+            let stride = t.tile.stride();
+            let (indices, topology) = if stride == 1 {
+                meshes.cracks.tile(meshes.masks, t.level, t.neighbours)
+            } else {
+                let (masks, cracks) = held.get(mode, t.tile.side());
+                let neighbours = t.neighbours.map(|n| compact_level(n, stride));
+                cracks.tile(masks, compact_level(t.level, stride), neighbours)
+            };
+            let (vertices, tile_transform) = match &mut morph {
+                Some((view, fine, morpher)) if stride == 1 => (
+                    morpher.tile(view, &t.tile.vertices, (t.x, t.y)),
+                    fine.tile(t.x, t.y)?,
+                ),
+                _ => (&t.tile.vertices[..], transform.tile(t.x, t.y)?),
+            };
+            let mesh = Mesh {
+                vertices,
+                indices,
+                topology,
+            };
+            stats += target.draw(&mesh, &tile_transform, &tile_state(settings, fog, t))?;
+            if let Some(wire) = &wire {
+                lines += target.draw_edges(&mesh, &tile_transform, wire)?;
+            }
+        }
+        if shadows && settings.depth_test {
+            stats += draw_shadows(target, camera, terrain, tiles, aspect, settings, fog)?;
+        }
+        Ok((stats, lines))
+    })?;
+    let mut triangles = stats;
+    triangles += done;
+    Ok(TilesDrawn { triangles, lines })
 }
 
 /// Draws the shadow quad of every tile in `tiles` ([`crate::engine::cracks::shadow`]), in their order,
 /// with each tile's render state; a quad that grazes or lies beyond the subdivided transform's
 /// reach is skipped.
-fn draw_shadows<T: DrawTarget>(
-    target: &mut T,
+fn draw_shadows<'t, E: From<RasterError>>(
+    target: &mut dyn DrawBatch<'t, Error = E>,
     camera: &Camera,
     terrain: &TerrainFrame,
-    tiles: &[TileDraw<'_>],
+    tiles: &[TileDraw<'t>],
     aspect: f64,
     settings: &RenderSettings,
     fog: Option<Fog>,
-) -> Result<DrawStats, T::Error> {
+) -> Result<DrawStats, E> {
     let fine = FrameTransform::subdivided(camera, terrain, aspect, shadow::SUBDIVISION)?;
     let mut stats = DrawStats::default();
     for t in tiles {

@@ -65,6 +65,9 @@ pub struct GpuTarget {
     /// The clear colour the next pass starts with (`None`: keep the picture).
     pending_clear: Option<[u8; 3]>,
     draws: Vec<PendingDraw>,
+    /// The draws run since the last clear, with that clear, kept for [`GpuTarget::redraw`].
+    drawn: Vec<PendingDraw>,
+    drawn_clear: Option<[u8; 3]>,
 }
 
 /// Bytes per row of the readback buffer: 4 per pixel, padded as copies require.
@@ -139,6 +142,8 @@ impl GpuTarget {
             readback,
             pending_clear: Some([0; 3]),
             draws: Vec::new(),
+            drawn: Vec::new(),
+            drawn_clear: None,
             ctx,
         })
     }
@@ -160,6 +165,17 @@ impl GpuTarget {
         self.encode_pass(&mut encoder);
         self.ctx.queue.submit([encoder.finish()]);
         self.wait()
+    }
+
+    /// Runs the last frame again (after the draws still pending): its clear and every draw
+    /// since, with the vertices, indices and textures uploaded when they were drawn, and waits
+    /// for the GPU. A frame without uploads, for measuring the drawing alone against a renderer
+    /// that keeps its inputs.
+    pub fn redraw(&mut self) -> Result<(), PlatformError> {
+        self.flush()?;
+        self.draws = std::mem::take(&mut self.drawn);
+        self.pending_clear = self.drawn_clear;
+        self.flush()
     }
 
     /// The picture as an RGBA image, after the recorded draws (RGB565 targets truncated to
@@ -289,7 +305,11 @@ impl GpuTarget {
             pass.draw_indexed(0..d.count, 0, 0..1);
         }
         drop(pass);
-        self.draws.clear();
+        if clear.is_some() {
+            self.drawn.clear();
+            self.drawn_clear = clear;
+        }
+        self.drawn.append(&mut self.draws);
     }
 
     /// The per-draw uniforms, laid out as `Draw` in `shader.wgsl`.

@@ -400,3 +400,23 @@ fn bad_input_is_refused_as_the_cpu_refuses_it() {
         Err(PlatformError::Raster(RasterError::FramebufferSize { .. }))
     ));
 }
+
+#[test]
+fn a_redraw_repeats_the_last_frame() {
+    let Some(mut gpu) = gpu(320, 240, ColorFormat::Rgba8888, DepthFormat::D32) else {
+        return;
+    };
+    let s = scene::terrain(72, 320, 240);
+    let (_, first) = render_both(
+        &mut gpu,
+        ColorFormat::Rgba8888,
+        DepthFormat::D32,
+        [150, 180, 220],
+        &[(s.mesh(), s.transform, s.state())],
+    );
+    gpu.redraw().unwrap();
+    assert!(gpu.read_image().unwrap() == first, "the same frame again");
+    gpu.redraw().unwrap();
+    gpu.redraw().unwrap();
+    assert!(gpu.read_image().unwrap() == first, "and again");
+}

@@ -10,11 +10,11 @@ use crate::fixed_point::{
     ATTR_FRAC_BITS, DEPTH_ONE, GUARD_BAND_PX, Q_BITS, SUBPIXEL_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE,
     TEXCOORD_LIMIT, normalise_positive, saturate_i64, shift_round,
 };
-use crate::matrix::FixedMat4;
-use crate::pipeline::{Attributes, RowTarget, Setup, TexMode, Viewport};
+use crate::matrix::{FixedMat4, Transform};
+use crate::pipeline::{Attributes, Pipeline, Setup, TexMode, Viewport};
 use crate::pixel::{DepthFormat, PixelFormat, fog_blend, modulate};
 use crate::sampler::{Filtering, LevelView};
-use crate::state::Compare;
+use crate::state::{Compare, Fog};
 use crate::vertex::Vertex;
 
 /// Most fractional bits of the clip-interpolation parameter.
@@ -130,6 +130,68 @@ impl FixedScreen {
 pub(crate) struct FixedFog {
     pub start: i64,
     pub end: i64,
+}
+
+/// The integer pipeline's stages.
+pub(crate) struct FixedPipeline;
+
+/// What the fixed vertex stage of one draw needs.
+pub(crate) struct FixedConsts {
+    matrix: FixedMat4,
+    vp: Viewport,
+    space: FixedSpace,
+    fog: Option<FixedFog>,
+}
+
+impl Pipeline for FixedPipeline {
+    type Clip = FixedClip;
+    type Screen = FixedScreen;
+    type Triangle = FixedTriangle;
+    type Plane = AttrPlane;
+    type Consts = FixedConsts;
+
+    fn consts(transform: &Transform, vp: &Viewport, fog: Option<Fog>) -> FixedConsts {
+        FixedConsts {
+            matrix: transform.fixed,
+            vp: *vp,
+            space: FixedSpace::new(vp),
+            fog: fog.map(|f| FixedFog {
+                start: transform.fixed.scale_length(f.start),
+                end: transform.fixed.scale_length(f.end),
+            }),
+        }
+    }
+
+    fn space(c: &FixedConsts) -> &FixedSpace {
+        &c.space
+    }
+
+    #[inline]
+    fn clip(c: &FixedConsts, v: &Vertex) -> FixedClip {
+        FixedClip::from_vertex(v, &c.matrix)
+    }
+
+    #[inline]
+    fn project(c: &FixedConsts, clip: &FixedClip) -> FixedScreen {
+        FixedScreen::project(clip, &c.vp, c.fog)
+    }
+
+    #[inline]
+    fn xy(s: &FixedScreen) -> [i64; 2] {
+        s.xy
+    }
+
+    #[inline]
+    fn triangle(
+        v: [&FixedScreen; 3],
+        area2: i64,
+        coverage: Coverage,
+        attrs: &Attributes,
+        draw: u32,
+        planes: &mut Vec<AttrPlane>,
+    ) -> FixedTriangle {
+        FixedTriangle::new(v, area2, coverage, attrs, draw, planes)
+    }
 }
 
 impl FixedScreen {
@@ -275,70 +337,77 @@ impl Geometry {
     }
 }
 
-/// A triangle ready for its rows.
+/// A triangle ready for its rows: 64 bytes, with its attribute planes beside it in the set-up
+/// chunk's plane list, only those its draw uses, in the order depth, colour (one plane for grey
+/// vertices, else three), fog, texture (`u, v`, or `s, t, q` under perspective).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct FixedTriangle {
     pub coverage: Coverage,
-    origin: [i64; 2],
-    depth: AttrPlane,
-    color: [AttrPlane; 3],
-    fog: AttrPlane,
-    /// `s, t, q` (perspective) or `u, v, -` (affine).
-    tex: [AttrPlane; 3],
+    /// Index of its first plane in the chunk's planes.
+    planes: u32,
     /// This triangle's texture interpolation (see `Attributes::tex_mode_for`).
     tex_mode: TexMode,
     level: u8,
-    /// The three colour planes are one (grey vertices): rows step one channel.
+    /// One colour plane serves the three channels (grey vertices): rows step one channel.
     grey: bool,
     /// Every plane is narrow and on the pixel grid: rows start from `AttrPlane::at_pixel`
     /// (otherwise from `AttrPlane::at`).
     narrow: bool,
+    /// The draw it belongs to.
+    draw: u32,
 }
 
 impl FixedTriangle {
-    /// Sets up `v` (positive orientation, `area2 > 0`).
-    pub fn new(v: [&FixedScreen; 3], area2: i64, coverage: Coverage, a: &Attributes) -> Self {
-        let empty = AttrPlane::default();
+    /// Sets up `v` (positive orientation, `area2 > 0`), appending its planes to `planes`.
+    #[inline]
+    pub fn new(
+        v: [&FixedScreen; 3],
+        area2: i64,
+        coverage: Coverage,
+        a: &Attributes,
+        draw: u32,
+        planes: &mut Vec<AttrPlane>,
+    ) -> Self {
+        let first = planes.len();
+        let mut t = Self {
+            coverage,
+            planes: first as u32,
+            tex_mode: TexMode::Off,
+            level: 0,
+            grey: true,
+            narrow: true,
+            draw,
+        };
         if !a.interpolates() {
-            let (color, tex) = ([empty; 3], [empty; 3]);
-            return Self {
-                coverage,
-                origin: v[0].xy,
-                depth: empty,
-                color,
-                fog: empty,
-                tex,
-                tex_mode: TexMode::Off,
-                level: 0,
-                grey: true,
-                narrow: true,
-            };
+            return t;
         }
         let g = Geometry::new(&v, area2);
         let pick = |f: fn(&FixedScreen) -> i64| g.plane([f(v[0]), f(v[1]), f(v[2])]);
-        let depth = if a.depth { pick(|s| s.depth) } else { empty };
-        // Terrain lighting is grey (r = g = b at every vertex): one plane serves all three.
-        let grey = v
-            .iter()
-            .all(|s| s.color[1] == s.color[0] && s.color[2] == s.color[0]);
-        let color = if a.shade {
-            let red = pick(|s| s.color[0]);
-            if grey {
-                [red; 3]
-            } else {
-                [red, pick(|s| s.color[1]), pick(|s| s.color[2])]
+        if a.depth {
+            planes.push(pick(|s| s.depth));
+        }
+        if a.shade {
+            // Terrain lighting is grey (r = g = b at every vertex): one plane serves all three.
+            t.grey = v
+                .iter()
+                .all(|s| s.color[1] == s.color[0] && s.color[2] == s.color[0]);
+            planes.push(pick(|s| s.color[0]));
+            if !t.grey {
+                planes.push(pick(|s| s.color[1]));
+                planes.push(pick(|s| s.color[2]));
             }
-        } else {
-            [empty; 3]
-        };
-        let fog = if a.fog { pick(|s| s.fog) } else { empty };
-        let tex_mode = a.tex_mode_for([v[0].xy, v[1].xy, v[2].xy]);
-        let (tex, level) = match tex_mode {
-            TexMode::Off => ([empty; 3], 0),
-            TexMode::Affine => (
-                [pick(|s| s.uv[0]), pick(|s| s.uv[1]), empty],
-                a.level(texel_area(&v), area2),
-            ),
+        }
+        if a.fog {
+            planes.push(pick(|s| s.fog));
+        }
+        t.tex_mode = a.tex_mode_for([v[0].xy, v[1].xy, v[2].xy]);
+        match t.tex_mode {
+            TexMode::Off => {}
+            TexMode::Affine => {
+                planes.push(pick(|s| s.uv[0]));
+                planes.push(pick(|s| s.uv[1]));
+                t.level = a.level(texel_area(&v), area2);
+            }
             TexMode::Perspective(_) => {
                 // 1/w of the three vertices on one scale, below 2^Q_BITS.
                 let smin = v.iter().map(|s| s.w_shift).min().expect("3 vertices");
@@ -348,46 +417,20 @@ impl FixedTriangle {
                 });
                 let st =
                     |k: usize| g.plane([v[0].uv[k] * q[0], v[1].uv[k] * q[1], v[2].uv[k] * q[2]]);
-                ([st(0), st(1), g.plane(q)], a.level(texel_area(&v), area2))
+                planes.push(st(0));
+                planes.push(st(1));
+                planes.push(g.plane(q));
+                t.level = a.level(texel_area(&v), area2);
             }
-        };
-        let origin = v[0].xy;
-        // Unused planes are empty, so narrow; they are left as they are.
-        let narrow = depth.narrow()
-            && color.iter().all(AttrPlane::narrow)
-            && fog.narrow()
-            && tex.iter().all(AttrPlane::narrow);
-        let (mut depth, mut color, mut fog, mut tex) = (depth, color, fog, tex);
-        if narrow {
-            let grid = |p: &mut AttrPlane, used: bool| {
-                if used {
-                    *p = p.on_grid(origin);
-                }
-            };
-            grid(&mut depth, a.depth);
-            grid(&mut color[0], a.shade);
-            grid(&mut color[1], a.shade && !grey);
-            grid(&mut color[2], a.shade && !grey);
-            if a.shade && grey {
-                color = [color[0]; 3];
+        }
+        let mine = &mut planes[first..];
+        t.narrow = mine.iter().all(AttrPlane::narrow);
+        if t.narrow {
+            for p in mine {
+                *p = p.on_grid(v[0].xy);
             }
-            grid(&mut fog, a.fog);
-            grid(&mut tex[0], tex_mode != TexMode::Off);
-            grid(&mut tex[1], tex_mode != TexMode::Off);
-            grid(&mut tex[2], matches!(tex_mode, TexMode::Perspective(_)));
         }
-        Self {
-            coverage,
-            origin,
-            depth,
-            color,
-            fog,
-            tex,
-            tex_mode,
-            level,
-            grey,
-            narrow,
-        }
+        t
     }
 }
 
@@ -403,6 +446,9 @@ impl Setup for FixedTriangle {
     }
     fn level(&self) -> usize {
         self.level as usize
+    }
+    fn draw(&self) -> u32 {
+        self.draw
     }
 }
 
@@ -434,8 +480,27 @@ fn div_small(d: i64, n: i64) -> i64 {
     ((d as i128 * RECIPROCALS[n as usize] as i128) >> 32) as i64
 }
 
-/// Shades the pixels `x0..x1` of row `y`. Returns the fragments that passed the depth test.
-#[allow(clippy::too_many_arguments)]
+/// A plane's accumulator `k` chunks of `step` after `start`, as repeated saturating additions
+/// would leave it (the steps share one sign, so the sum saturates once and stays there).
+#[inline]
+fn advance(start: i64, step: i64, k: i64) -> i64 {
+    saturate_i64(start as i128 + step as i128 * k as i128)
+}
+
+/// One row's run of a triangle: it owns pixels `x0..x1` of row `y`, and `color` and `depth`
+/// (empty without a depth test) hold pixels `xs..` of them (a tile's part of the run).
+pub(crate) struct Span<'a, P: PixelFormat, D: DepthFormat> {
+    pub y: i64,
+    pub x0: i64,
+    pub x1: i64,
+    pub xs: i64,
+    pub color: &'a mut [P::Pixel],
+    pub depth: &'a mut [D::Value],
+}
+
+/// Shades a span of a row. Every value at a pixel follows from the triangle and the run's start
+/// `x0` alone (perspective chunks are counted from `x0`), never from `xs`: a run cut by a tile
+/// edge gives the bytes it gives whole. Returns the fragments that passed the depth test.
 #[inline]
 pub(crate) fn shade_row<
     P: PixelFormat,
@@ -445,25 +510,24 @@ pub(crate) fn shade_row<
     const FOG: bool,
 >(
     tri: &FixedTriangle,
-    row: &mut RowTarget<'_, P, D>,
+    planes: &[AttrPlane],
+    span: Span<'_, P, D>,
     view: Option<&LevelView<'_, T::Texel>>,
     a: &Attributes,
-    y: i64,
-    x0: i64,
-    x1: i64,
 ) -> u64 {
-    if !tri.narrow {
-        shade_span::<P, D, T, SHADE, false, FOG, false>(tri, row, view, a, y, x0, x1)
-    } else if SHADE && tri.grey {
-        shade_span::<P, D, T, true, true, FOG, true>(tri, row, view, a, y, x0, x1)
-    } else {
-        shade_span::<P, D, T, SHADE, false, FOG, true>(tri, row, view, a, y, x0, x1)
+    let planes = &planes[tri.planes as usize..];
+    match (tri.narrow, SHADE && tri.grey) {
+        (false, false) => {
+            shade_span::<P, D, T, SHADE, false, FOG, false>(tri, planes, span, view, a)
+        }
+        (false, true) => shade_span::<P, D, T, true, true, FOG, false>(tri, planes, span, view, a),
+        (true, true) => shade_span::<P, D, T, true, true, FOG, true>(tri, planes, span, view, a),
+        (true, false) => shade_span::<P, D, T, SHADE, false, FOG, true>(tri, planes, span, view, a),
     }
 }
 
 /// `shade_row` for one variant of the triangle: `GREY` steps one colour channel for all three,
 /// `NARROW` starts the row from `AttrPlane::at_pixel` (see `FixedTriangle::narrow`).
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn shade_span<
     P: PixelFormat,
@@ -475,26 +539,48 @@ fn shade_span<
     const NARROW: bool,
 >(
     tri: &FixedTriangle,
-    row: &mut RowTarget<'_, P, D>,
+    planes: &[AttrPlane],
+    span: Span<'_, P, D>,
     view: Option<&LevelView<'_, T::Texel>>,
     a: &Attributes,
-    y: i64,
-    x0: i64,
-    x1: i64,
 ) -> u64 {
+    // The triangle's planes in their order: depth, colour, fog, texture.
+    let color_at = D::ENABLED as usize;
+    let fog_at = color_at
+        + if !SHADE {
+            0
+        } else if GREY {
+            1
+        } else {
+            3
+        };
+    let tex_at = fog_at + FOG as usize;
+    let Span {
+        y,
+        x0,
+        x1,
+        xs,
+        color,
+        depth,
+    } = span;
+    let xe = xs + color.len() as i64;
+    debug_assert!(x0 <= xs && xs < xe && xe <= x1);
+    debug_assert!(!D::ENABLED || depth.len() == color.len());
     let channels = if GREY { 1 } else { 3 };
     let perspective = matches!(tri.tex_mode, TexMode::Perspective(_));
-    let ox = x0 * SUBPIXEL_ONE + SUBPIXEL_HALF - tri.origin[0];
-    let oy = y * SUBPIXEL_ONE + SUBPIXEL_HALF - tri.origin[1];
-    let start = |p: &AttrPlane| {
+    let origin = tri.coverage.origin();
+    let ox = x0 * SUBPIXEL_ONE + SUBPIXEL_HALF - origin[0];
+    let oy = y * SUBPIXEL_ONE + SUBPIXEL_HALF - origin[1];
+    // A plane's value at pixel `x` of the run, as stepping from `x0` reaches it.
+    let at = |p: &AttrPlane, x: i64| {
         if NARROW {
-            p.at_pixel(x0, y)
+            p.at_pixel(x, y)
         } else {
-            p.at(ox, oy)
+            p.at(ox, oy).wrapping_add(p.dx.wrapping_mul(x - x0))
         }
     };
     let (mut z, dz) = if D::ENABLED {
-        (start(&tri.depth), tri.depth.dx)
+        (at(&planes[0], xs), planes[0].dx)
     } else {
         (0, 0)
     };
@@ -502,45 +588,56 @@ fn shade_span<
     let mut dc = [0i64; 3];
     if SHADE {
         for k in 0..channels {
-            c[k] = start(&tri.color[k]);
-            dc[k] = tri.color[k].dx;
+            c[k] = at(&planes[color_at + k], xs);
+            dc[k] = planes[color_at + k].dx;
         }
     }
     let (mut f, df) = if FOG {
-        (start(&tri.fog), tri.fog.dx)
+        (at(&planes[fog_at], xs), planes[fog_at].dx)
     } else {
         (0, 0)
     };
-    // Texture state: accumulators for s, t, q (or u, v) and the chunk length.
+    // Texture state: accumulators for s, t, q (or u, v) at the chunk start `cs`, the chunk
+    // length, and (u, v) in 16.32 at `cs`.
     let mut acc = [0i64; 3];
     let mut dacc = [0i64; 3];
     let chunk = match tri.tex_mode {
         TexMode::Perspective(n) => n as i64,
         _ => i64::MAX,
     };
-    if T::ENABLED {
-        for k in 0..if perspective { 3 } else { 2 } {
-            acc[k] = start(&tri.tex[k]);
-            dacc[k] = tri.tex[k].dx;
-        }
-    }
-    // (u, v) in 16.32 at the current pixel and its per-pixel step within the chunk.
+    let mut cs = xs;
     let (mut u, mut v) = (0i64, 0i64);
     if T::ENABLED {
-        (u, v) = if perspective {
-            divide(acc[0], acc[1], acc[2])
+        if perspective {
+            let k = (xs - x0) / chunk;
+            cs = x0 + k * chunk;
+            for j in 0..3 {
+                let p = &planes[tex_at + j];
+                dacc[j] = p.dx;
+                acc[j] = advance(at(p, x0), dacc[j].saturating_mul(chunk), k);
+            }
+            (u, v) = divide(acc[0], acc[1], acc[2]);
         } else {
-            (acc[0], acc[1])
-        };
+            for j in 0..2 {
+                acc[j] = at(&planes[tex_at + j], xs);
+                dacc[j] = planes[tex_at + j].dx;
+            }
+            (u, v) = (acc[0], acc[1]);
+        }
     }
     let mut passed = 0;
-    let mut x = x0;
-    while x < x1 {
-        let n = chunk.min(x1 - x);
+    let mut x = xs;
+    while x < xe {
+        let ce = if perspective {
+            (cs + chunk).min(x1)
+        } else {
+            x1
+        };
         let (mut du, mut dv) = (0i64, 0i64);
         let mut chunk_end = (0i64, 0i64);
         if T::ENABLED {
             if perspective {
+                let n = ce - cs;
                 for k in 0..3 {
                     acc[k] = acc[k].saturating_add(dacc[k].saturating_mul(n));
                 }
@@ -551,19 +648,22 @@ fn shade_span<
                 (du, dv) = (dacc[0], dacc[1]);
             }
         }
-        let (mut cu, mut cv) = (u, v);
-        for px in x..x + n {
-            let i = px as usize;
+        let (mut cu, mut cv) = (
+            u.wrapping_add(du.wrapping_mul(x - cs)),
+            v.wrapping_add(dv.wrapping_mul(x - cs)),
+        );
+        let end = ce.min(xe);
+        for i in (x - xs) as usize..(end - xs) as usize {
             let visible = if D::ENABLED {
                 let d = D::quantise((z >> ATTR_FRAC_BITS).clamp(0, u32::MAX as i64) as u32);
-                let stored = row.depth[i];
+                let stored = depth[i];
                 let pass = match a.compare {
                     Compare::Always => true,
                     Compare::Less => d < stored,
                     Compare::LessEqual => d <= stored,
                 };
                 if pass && a.depth_write {
-                    row.depth[i] = d;
+                    depth[i] = d;
                 }
                 pass
             } else {
@@ -584,7 +684,7 @@ fn shade_span<
                 if FOG {
                     rgb = fog_blend(rgb, a.fog_color, (f >> ATTR_FRAC_BITS).clamp(0, 256) as u32);
                 }
-                row.color[i] = P::pack(rgb);
+                color[i] = P::pack(rgb);
                 passed += 1;
             }
             if D::ENABLED {
@@ -601,8 +701,11 @@ fn shade_span<
             cu = cu.wrapping_add(du);
             cv = cv.wrapping_add(dv);
         }
-        (u, v) = if perspective { chunk_end } else { (cu, cv) };
-        x += n;
+        if perspective {
+            (u, v) = chunk_end;
+        }
+        cs = ce;
+        x = end;
     }
     passed
 }

@@ -8,7 +8,8 @@ use crate::clip::{ClipVertex, Plane};
 use crate::edge::Coverage;
 use crate::fixed_point::{GUARD_BAND_PX, SUBPIXEL_ONE, TEXCOORD_LIMIT};
 use crate::matrix::Transform;
-use crate::pipeline::{Attributes, RowTarget, Setup, TexMode, Viewport};
+use crate::pipeline::fixed::Span;
+use crate::pipeline::{Attributes, Pipeline, Setup, TexMode, Viewport};
 use crate::pixel::{DepthFormat, PixelFormat, fog_blend, modulate};
 use crate::sampler::{Bilinear, Filtering, Nearest, ViewOf};
 use crate::state::{Compare, Fog};
@@ -94,6 +95,62 @@ impl ClipVertex for FloatClip {
     }
 }
 
+/// The f32 reference pipeline's stages.
+pub(crate) struct FloatPipeline;
+
+/// What the float vertex stage of one draw needs.
+pub(crate) struct FloatConsts {
+    transform: Transform,
+    vp: Viewport,
+    space: FloatSpace,
+    fog: Option<Fog>,
+}
+
+impl Pipeline for FloatPipeline {
+    type Clip = FloatClip;
+    type Screen = FloatScreen;
+    type Triangle = FloatTriangle;
+    /// The reference twin keeps its planes in the triangle.
+    type Plane = FloatPlane;
+    type Consts = FloatConsts;
+
+    fn consts(transform: &Transform, vp: &Viewport, fog: Option<Fog>) -> FloatConsts {
+        FloatConsts {
+            transform: *transform,
+            vp: *vp,
+            space: FloatSpace::new(vp),
+            fog,
+        }
+    }
+
+    fn space(c: &FloatConsts) -> &FloatSpace {
+        &c.space
+    }
+
+    fn clip(c: &FloatConsts, v: &Vertex) -> FloatClip {
+        FloatClip::from_vertex(v, &c.transform)
+    }
+
+    fn project(c: &FloatConsts, clip: &FloatClip) -> FloatScreen {
+        FloatScreen::project(clip, &c.vp, c.fog)
+    }
+
+    fn xy(s: &FloatScreen) -> [i64; 2] {
+        s.xy
+    }
+
+    fn triangle(
+        v: [&FloatScreen; 3],
+        area2: i64,
+        coverage: Coverage,
+        attrs: &Attributes,
+        draw: u32,
+        _planes: &mut Vec<FloatPlane>,
+    ) -> FloatTriangle {
+        FloatTriangle::new(v, area2, coverage, attrs, draw)
+    }
+}
+
 /// A projected vertex.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct FloatScreen {
@@ -139,7 +196,7 @@ impl FloatScreen {
 
 /// An attribute plane in pixels: `value(x, y) = base + dx * (x - x0) + dy * (y - y0)`.
 #[derive(Clone, Copy, Debug, Default)]
-struct FloatPlane {
+pub(crate) struct FloatPlane {
     base: f32,
     dx: f32,
     dy: f32,
@@ -164,10 +221,18 @@ pub(crate) struct FloatTriangle {
     /// This triangle's texture interpolation (see `Attributes::tex_mode_for`).
     tex_mode: TexMode,
     level: u8,
+    /// The draw it belongs to.
+    draw: u32,
 }
 
 impl FloatTriangle {
-    pub fn new(v: [&FloatScreen; 3], area2: i64, coverage: Coverage, a: &Attributes) -> Self {
+    pub fn new(
+        v: [&FloatScreen; 3],
+        area2: i64,
+        coverage: Coverage,
+        a: &Attributes,
+        draw: u32,
+    ) -> Self {
         let px = |s: &FloatScreen| {
             [
                 s.xy[0] as f32 / SUBPIXEL_ONE as f32,
@@ -217,6 +282,7 @@ impl FloatTriangle {
             tex,
             tex_mode,
             level,
+            draw,
         }
     }
 }
@@ -233,6 +299,9 @@ impl Setup for FloatTriangle {
     }
     fn level(&self) -> usize {
         self.level as usize
+    }
+    fn draw(&self) -> u32 {
+        self.draw
     }
 }
 
@@ -257,17 +326,22 @@ fn to_q16(u: f32) -> i64 {
     (u * 65536.0) as i64
 }
 
-/// Shades the pixels `x0..x1` of row `y`. Returns the fragments that passed the depth test.
-#[allow(clippy::too_many_arguments)]
+/// Shades a span of a row (see `fixed::shade_row`: values depend on the run `x0..x1`, not on
+/// the part drawn). Returns the fragments that passed the depth test.
 pub(crate) fn shade_row<P: PixelFormat, D: DepthFormat>(
     tri: &FloatTriangle,
-    row: &mut RowTarget<'_, P, D>,
+    span: Span<'_, P, D>,
     texture: Option<(&MipLevel, Sampler)>,
     a: &Attributes,
-    y: i64,
-    x0: i64,
-    x1: i64,
 ) -> u64 {
+    let Span {
+        y,
+        x0,
+        x1,
+        xs,
+        color,
+        depth,
+    } = span;
     let oy = y as f32 + 0.5 - tri.origin[1];
     let ox = |x: i64| x as f32 + 0.5 - tri.origin[0];
     let exact_uv = |x: i64| {
@@ -276,22 +350,21 @@ pub(crate) fn shade_row<P: PixelFormat, D: DepthFormat>(
         (tri.tex[0].at(o, oy) / q, tri.tex[1].at(o, oy) / q)
     };
     let mut passed = 0;
-    for x in x0..x1 {
+    for (i, x) in (xs..xs + color.len() as i64).enumerate() {
         let o = ox(x);
-        let i = x as usize;
         if D::ENABLED {
             let d =
                 D::quantise((tri.depth.at(o, oy).clamp(0.0, 1.0) as f64 * u32::MAX as f64) as u32);
             let pass = match a.compare {
                 Compare::Always => true,
-                Compare::Less => d < row.depth[i],
-                Compare::LessEqual => d <= row.depth[i],
+                Compare::Less => d < depth[i],
+                Compare::LessEqual => d <= depth[i],
             };
             if !pass {
                 continue;
             }
             if a.depth_write {
-                row.depth[i] = d;
+                depth[i] = d;
             }
         }
         let mut rgb = if a.shade {
@@ -324,7 +397,7 @@ pub(crate) fn shade_row<P: PixelFormat, D: DepthFormat>(
                 (tri.fog.at(o, oy).clamp(0.0, 1.0) * 256.0) as u32,
             );
         }
-        row.color[i] = P::pack(rgb);
+        color[i] = P::pack(rgb);
         passed += 1;
     }
     passed

@@ -5,11 +5,13 @@
 pub(crate) mod fixed;
 pub(crate) mod float;
 
+use crate::clip::ClipVertex;
 use crate::edge::Coverage;
 use crate::fixed_point::{GUARD_BAND_PX, SUBPIXEL_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE};
-use crate::pixel::{DepthFormat, PixelFormat};
-use crate::state::{Compare, DepthMode, Perspective, RenderState, Shading};
+use crate::matrix::Transform;
+use crate::state::{Compare, DepthMode, Fog, Perspective, RenderState, Shading};
 use crate::texture::{MipFilter, Texture};
+use crate::vertex::Vertex;
 
 /// The full-framebuffer viewport.
 #[derive(Clone, Copy, Debug)]
@@ -138,15 +140,43 @@ impl<'t> Attributes<'t> {
     }
 }
 
-/// One row of the target: full-width colour and depth slices (depth empty without a depth test).
-pub(crate) struct RowTarget<'a, P: PixelFormat, D: DepthFormat> {
-    pub color: &'a mut [P::Pixel],
-    pub depth: &'a mut [D::Value],
-}
-
 /// A set-up triangle of either pipeline.
 pub(crate) trait Setup: Send + Sync {
     fn coverage(&self) -> &Coverage;
     /// Mip level the triangle samples.
     fn level(&self) -> usize;
+    /// The draw it belongs to (an index into the batch's draws).
+    fn draw(&self) -> u32;
+}
+
+/// One precision's stages, so that both pipelines share the draw's control flow (batching,
+/// set-up in chunks, binning, tiles).
+pub(crate) trait Pipeline: 'static {
+    /// A vertex in clip space.
+    type Clip: ClipVertex + Send + Sync;
+    /// A projected vertex.
+    type Screen: Copy + Default + Send + Sync;
+    /// A set-up triangle.
+    type Triangle: Setup;
+    /// An attribute plane kept beside the triangles (the fixed pipeline's compact record).
+    type Plane: Copy + Send + Sync;
+    /// What the vertex stage of one draw needs: matrix, viewport and guard band, fog.
+    type Consts: Send + Sync;
+
+    fn consts(transform: &Transform, vp: &Viewport, fog: Option<Fog>) -> Self::Consts;
+    fn space(c: &Self::Consts) -> &<Self::Clip as ClipVertex>::Space;
+    fn clip(c: &Self::Consts, v: &Vertex) -> Self::Clip;
+    fn project(c: &Self::Consts, clip: &Self::Clip) -> Self::Screen;
+    /// Snapped sub-pixel position.
+    fn xy(s: &Self::Screen) -> [i64; 2];
+    /// Sets up `v` (positive orientation, `area2 > 0`) for draw `draw`; planes kept beside the
+    /// triangle go to `planes`.
+    fn triangle(
+        v: [&Self::Screen; 3],
+        area2: i64,
+        coverage: Coverage,
+        attrs: &Attributes,
+        draw: u32,
+        planes: &mut Vec<Self::Plane>,
+    ) -> Self::Triangle;
 }

@@ -20,14 +20,7 @@ impl<T: ViewOf> Filtering for Bilinear<T> {
         let (x, y) = (tu >> 16, tv >> 16);
         let fx = ((tu >> 8) & 255) as u32;
         let fy = ((tv >> 8) & 255) as u32;
-        let ((x0, x1), (y0, y1)) = (view.column_pair(x), view.row_pair(y));
-        let t = [
-            view.texel(x0, y0),
-            view.texel(x1, y0),
-            view.texel(x0, y1),
-            view.texel(x1, y1),
-        ];
-        T::blend(t, fx, fy)
+        T::blend(view.quad(x, y), fx, fy)
     }
 }
 
@@ -37,13 +30,7 @@ mod tests {
     use crate::texture::Wrap;
 
     fn view(texels: &[u16], wrap: Wrap) -> LevelView<'_, u16> {
-        LevelView {
-            texels,
-            width: 2,
-            height: 2,
-            width_shift: 1,
-            wrap,
-        }
+        LevelView::new(texels, 2, 2, wrap)
     }
 
     #[test]
@@ -70,16 +57,33 @@ mod tests {
     }
 
     #[test]
+    fn quads_read_the_wrapped_texels_at_every_offset() {
+        let t: Vec<u16> = (0..8 * 4).collect();
+        for wrap in [Wrap::Clamp, Wrap::Repeat] {
+            let v = LevelView::new(&t, 8, 4, wrap);
+            for y in -20..20 {
+                for x in -20..20 {
+                    let at = |x: i64, y: i64| t[(v.row(y) * 8 + v.column(x)) as usize];
+                    let expected = [at(x, y), at(x + 1, y), at(x, y + 1), at(x + 1, y + 1)];
+                    assert_eq!(v.quad(x, y), expected, "{wrap:?} {x},{y}");
+                    assert_eq!(v.fetch(x, y), at(x, y));
+                }
+            }
+        }
+    }
+
+    #[test]
+    #[should_panic]
+    fn a_view_whose_texels_do_not_fill_it_is_refused() {
+        let t = [0u16; 7];
+        let _ = LevelView::new(&t, 4, 2, Wrap::Repeat);
+    }
+
+    #[test]
     fn wrapped_pairs_equal_wrapping_each_coordinate() {
         let t = [0u16; 16 * 4];
         for wrap in [Wrap::Clamp, Wrap::Repeat] {
-            let v = LevelView {
-                texels: &t,
-                width: 16,
-                height: 4,
-                width_shift: 4,
-                wrap,
-            };
+            let v = LevelView::new(&t, 16, 4, wrap);
             for k in -40..40 {
                 assert_eq!(
                     v.column_pair(k),

@@ -8,7 +8,7 @@ pub(crate) use nearest::Nearest;
 
 use crate::fixed_point::TEXCOORD_LIMIT;
 use crate::pixel::rgb565_to_rgb;
-use crate::texture::{MipLevel, Texels, Wrap};
+use crate::texture::{MipLevel, Texels, Texture, TextureFormat, Wrap};
 
 /// Keeps a 16.16 coordinate within `TEXCOORD_LIMIT`, so `u * width` cannot overflow whatever a
 /// degenerate triangle interpolates.
@@ -69,14 +69,30 @@ impl Texel for [u8; 4] {
     }
 }
 
-/// One mip level as the inner loop sees it.
+/// One mip level as the inner loop sees it: `width x height` texels (powers of two), row-major.
 #[derive(Clone, Copy)]
 pub(crate) struct LevelView<'a, T> {
-    pub texels: &'a [T],
+    texels: &'a [T],
     pub width: i64,
     pub height: i64,
-    pub width_shift: u32,
+    width_shift: u32,
     pub wrap: Wrap,
+}
+
+impl<'a, T> LevelView<'a, T> {
+    /// A view of `texels`, which must hold `width x height` texels with power-of-two sides: the
+    /// texel reads below rely on it.
+    pub fn new(texels: &'a [T], width: u32, height: u32, wrap: Wrap) -> Self {
+        assert!(width.is_power_of_two() && height.is_power_of_two());
+        assert_eq!(texels.len(), width as usize * height as usize);
+        Self {
+            texels,
+            width: width as i64,
+            height: height as i64,
+            width_shift: width.trailing_zeros(),
+            wrap,
+        }
+    }
 }
 
 impl<'a, T: Texel> LevelView<'a, T> {
@@ -124,32 +140,73 @@ impl<'a, T: Texel> LevelView<'a, T> {
         }
     }
 
-    /// The texel at an already wrapped column and row.
+    /// The texel at column `x`, row `y`, wrapped into the level.
     #[inline]
-    pub fn texel(&self, column: i64, row: i64) -> T {
-        self.texels[((row << self.width_shift) + column) as usize]
+    pub fn fetch(&self, x: i64, y: i64) -> T {
+        let i = ((self.row(y) << self.width_shift) + self.column(x)) as usize;
+        debug_assert!(i < self.texels.len());
+        // SAFETY: `column` and `row` return `0..width` and `0..height`, and `new` checked that
+        // the view holds `width * height` texels with `width == 1 << width_shift`.
+        unsafe { *self.texels.get_unchecked(i) }
     }
 
-    /// The colour at `(x, y)`, wrapped.
+    /// The 2x2 texels whose top-left is column `x`, row `y`, each wrapped into the level:
+    /// `[top-left, top-right, bottom-left, bottom-right]`.
     #[inline]
-    pub fn fetch(&self, x: i64, y: i64) -> [u8; 3] {
-        self.texel(self.column(x), self.row(y)).rgb()
+    pub fn quad(&self, x: i64, y: i64) -> [T; 4] {
+        let ((x0, x1), (y0, y1)) = (self.column_pair(x), self.row_pair(y));
+        let (r0, r1) = (y0 << self.width_shift, y1 << self.width_shift);
+        [r0 + x0, r0 + x1, r1 + x0, r1 + x1].map(|i| {
+            debug_assert!((0..self.texels.len() as i64).contains(&i));
+            // SAFETY: the pairs lie in `0..width` and `0..height` (`column_pair`, `row_pair`),
+            // and `new` checked that the view holds `width * height` texels with
+            // `width == 1 << width_shift`.
+            unsafe { *self.texels.get_unchecked(i as usize) }
+        })
     }
 }
 
 /// Borrows a level's texels in the storage type `T`; `None` when the level holds another type.
 pub(crate) trait ViewOf: Texel {
     fn view(level: &MipLevel, wrap: Wrap) -> Option<LevelView<'_, Self>>;
+    /// A draw's views when its texels are of this type (empty otherwise).
+    fn select<'a, 't>(views: &'a TexViews<'t>) -> &'a [LevelView<'t, Self>];
+}
+
+/// A draw's texture levels as the inner loop reads them, built once per draw.
+pub(crate) enum TexViews<'t> {
+    /// No texture.
+    None,
+    /// RGB565 levels.
+    Rgb565(Vec<LevelView<'t, u16>>),
+    /// RGBA8888 levels.
+    Rgba8888(Vec<LevelView<'t, [u8; 4]>>),
+}
+
+impl<'t> TexViews<'t> {
+    /// The views of `texture`'s levels, wrapped as `wrap` says.
+    pub fn new(texture: &'t Texture, wrap: Wrap) -> Self {
+        match texture.format() {
+            TextureFormat::Rgb565 => TexViews::Rgb565(
+                texture
+                    .levels()
+                    .iter()
+                    .map(|l| u16::view(l, wrap).expect("one texel type per texture"))
+                    .collect(),
+            ),
+            TextureFormat::Rgba8888 => TexViews::Rgba8888(
+                texture
+                    .levels()
+                    .iter()
+                    .map(|l| <[u8; 4]>::view(l, wrap).expect("one texel type per texture"))
+                    .collect(),
+            ),
+        }
+    }
 }
 
 fn view_parts<'a, T>(level: &'a MipLevel, texels: &'a [T], wrap: Wrap) -> LevelView<'a, T> {
-    LevelView {
-        texels,
-        width: level.width() as i64,
-        height: level.height() as i64,
-        width_shift: level.width().trailing_zeros(),
-        wrap,
-    }
+    LevelView::new(texels, level.width(), level.height(), wrap)
 }
 
 impl ViewOf for u16 {
@@ -159,6 +216,12 @@ impl ViewOf for u16 {
             Texels::Rgba8888(_) => None,
         }
     }
+    fn select<'a, 't>(views: &'a TexViews<'t>) -> &'a [LevelView<'t, u16>] {
+        match views {
+            TexViews::Rgb565(v) => v,
+            _ => &[],
+        }
+    }
 }
 
 impl ViewOf for [u8; 4] {
@@ -166,6 +229,12 @@ impl ViewOf for [u8; 4] {
         match level.texels() {
             Texels::Rgba8888(t) => Some(view_parts(level, t, wrap)),
             Texels::Rgb565(_) => None,
+        }
+    }
+    fn select<'a, 't>(views: &'a TexViews<'t>) -> &'a [LevelView<'t, [u8; 4]>] {
+        match views {
+            TexViews::Rgba8888(v) => v,
+            _ => &[],
         }
     }
 }

@@ -15,5 +15,6 @@ impl<T: ViewOf> Filtering for Nearest<T> {
     fn sample(view: &LevelView<'_, T>, u: i64, v: i64) -> [u8; 3] {
         let (u, v) = (clamp_coord(u), clamp_coord(v));
         view.fetch((u * view.width) >> 16, (v * view.height) >> 16)
+            .rgb()
     }
 }

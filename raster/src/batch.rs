@@ -1,0 +1,541 @@
+//! A batch of draws rasterized together: one frame's draw calls (the terrain engine makes
+//! hundreds, one per tile) share the threads and the screen tiles instead of each paying for
+//! its own.
+//!
+//! A draw call only assembles its triangles and copies the vertices they use. When enough
+//! triangles are pending (or the batch ends) they are flushed: the vertex stage runs once per
+//! vertex, set-up runs in chunks on every thread and bins each triangle into the screen tiles it
+//! touches, and then every tile is drawn by one thread, its triangles in submission order. A
+//! pixel's bytes depend only on the triangles that cover it, in that order: neither the thread
+//! count nor the batching changes a byte.
+
+use rayon::prelude::*;
+
+use crate::RasterError;
+use crate::bin::TileGrid;
+use crate::clip::ClipVertex;
+use crate::draw::{DrawStats, Rasterizer, Stages};
+use crate::framebuffer::{ColorBuffer, DepthBuffer, Framebuffer};
+use crate::lines::{LineState, LineStats};
+use crate::matrix::Transform;
+use crate::pipeline::fixed::FixedPipeline;
+use crate::pipeline::float::FloatPipeline;
+use crate::pipeline::{Attributes, Pipeline, TexMode, Viewport};
+use crate::sampler::TexViews;
+use crate::setup::{ChunkOut, DrawSetup, Transformed, by_draw, set_up};
+use crate::shade::{ColorTile, DepthTile, DrawShade, Shade, TileTarget, raster_tile};
+use crate::state::{Precision, Rect, RenderState};
+use crate::tile_view::split;
+use crate::vertex::{Mesh, Vertex};
+
+/// Pending triangles that trigger a flush after a draw.
+const FLUSH_TRIANGLES: usize = 1 << 16;
+/// Triangles set up and drawn per pass of a flush: enough to keep every thread busy on many
+/// tiles, few enough that their set-up data stays in cache.
+const RASTER_BATCH: usize = 16 * 1024;
+/// Triangles per unit of parallel set-up work.
+const SETUP_CHUNK: usize = 1024;
+/// Vertices per unit of parallel vertex work.
+const VERTEX_CHUNK: usize = 2048;
+/// Below this many vertices the vertex stage runs on the calling thread.
+const PARALLEL_MIN: usize = 4096;
+
+/// The geometry of the pending draws: copies of the vertices they use, and their triangles as
+/// indices into those copies.
+#[derive(Debug, Default)]
+pub(crate) struct Pending {
+    pub vertices: Vec<Vertex>,
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// One pending draw: its state and where its vertices and triangles start.
+struct PendingDraw<'t> {
+    state: RenderState<'t>,
+    attrs: Attributes<'t>,
+    scissor: Rect,
+    transform: Transform,
+    views: TexViews<'t>,
+    first_vertex: usize,
+    first_triangle: usize,
+}
+
+/// Draws into one framebuffer that are rasterized together (see the module documentation).
+///
+/// Made by [`Rasterizer::batch`]. Each [`Batch::draw`] returns the triangles it assembled;
+/// the triangles rasterized and the fragments written are counted when the batch ends
+/// ([`Batch::finish`], or when it is dropped). The textures of a batch's draws are borrowed
+/// until then.
+pub struct Batch<'r, 't> {
+    rasterizer: &'r mut Rasterizer,
+    fb: &'r mut Framebuffer,
+    draws: Vec<PendingDraw<'t>>,
+    precision: Precision,
+    done: DrawStats,
+}
+
+impl Rasterizer {
+    /// Starts a batch of draws into `fb`: the draws of a frame (the engine's tiles) rasterized
+    /// together, with the same bytes as drawing them one by one.
+    pub fn batch<'r, 't>(&'r mut self, fb: &'r mut Framebuffer) -> Batch<'r, 't> {
+        Batch {
+            rasterizer: self,
+            fb,
+            draws: Vec::new(),
+            precision: Precision::Fixed,
+            done: DrawStats::default(),
+        }
+    }
+}
+
+impl<'t> Batch<'_, 't> {
+    /// Adds `mesh` to the batch. Returns its assembled triangles; its pixels are drawn later,
+    /// in submission order. An index out of range fails the draw, and nothing of it is drawn.
+    pub fn draw(
+        &mut self,
+        mesh: &Mesh,
+        transform: &Transform,
+        state: &RenderState<'t>,
+    ) -> Result<DrawStats, RasterError> {
+        let scissor = Rect::scissor_on(state.scissor, self.fb.width(), self.fb.height())?;
+        if state.precision != self.precision {
+            self.flush();
+            self.precision = state.precision;
+        }
+        let r = &mut *self.rasterizer;
+        let (first_vertex, first_triangle) = (r.pending.vertices.len(), r.pending.triangles.len());
+        let triangles = r.gather.append(mesh, &mut r.pending)?;
+        let stats = DrawStats {
+            triangles: triangles as u64,
+            ..DrawStats::default()
+        };
+        if triangles == 0 || scissor.x0 == scissor.x1 || scissor.y0 == scissor.y1 {
+            r.pending.vertices.truncate(first_vertex);
+            r.pending.triangles.truncate(first_triangle);
+            return Ok(stats);
+        }
+        let has_depth = !matches!(self.fb.depth(), DepthBuffer::None);
+        let attrs = Attributes::new(state, has_depth);
+        let views = match state.texture {
+            Some(b) if attrs.tex != TexMode::Off => TexViews::new(b.texture, b.sampler.wrap),
+            _ => TexViews::None,
+        };
+        self.draws.push(PendingDraw {
+            state: *state,
+            attrs,
+            scissor,
+            transform: *transform,
+            views,
+            first_vertex,
+            first_triangle,
+        });
+        if r.pending.triangles.len() >= FLUSH_TRIANGLES {
+            self.flush();
+        }
+        Ok(stats)
+    }
+
+    /// Draws the edges of `mesh`'s triangles as lines (see [`Rasterizer::draw_edges`]), over
+    /// everything drawn before them in the batch.
+    pub fn draw_edges(
+        &mut self,
+        mesh: &Mesh,
+        transform: &Transform,
+        state: &LineState,
+    ) -> Result<LineStats, RasterError> {
+        self.flush();
+        self.rasterizer.draw_edges(self.fb, mesh, transform, state)
+    }
+
+    /// Draws what is pending and returns what the batch's draws rasterized: the triangles
+    /// that reached the tiles and the fragments written (`triangles` is 0: each draw returned
+    /// its own).
+    pub fn finish(mut self) -> DrawStats {
+        self.flush();
+        self.done
+    }
+
+    /// Draws every pending triangle.
+    fn flush(&mut self) {
+        if self.draws.is_empty() {
+            return;
+        }
+        let r = &mut *self.rasterizer;
+        let (threads, tile) = (r.thread_count(), r.tile_size);
+        let (rasterized, fragments) = match self.precision {
+            Precision::Fixed => flush_with::<FixedPipeline>(
+                &mut r.fixed,
+                &r.pending,
+                &self.draws,
+                self.fb,
+                threads,
+                tile,
+            ),
+            Precision::Float => flush_with::<FloatPipeline>(
+                &mut r.float,
+                &r.pending,
+                &self.draws,
+                self.fb,
+                threads,
+                tile,
+            ),
+        };
+        self.done.rasterized += rasterized;
+        self.done.fragments += fragments;
+        r.pending.vertices.clear();
+        r.pending.triangles.clear();
+        self.draws.clear();
+    }
+}
+
+impl Drop for Batch<'_, '_> {
+    /// A batch dropped without [`Batch::finish`] still draws its pixels.
+    fn drop(&mut self) {
+        self.flush();
+    }
+}
+
+/// Vertex stage, then set-up and tiles pass by pass. Returns the triangles rasterized and the
+/// fragments written.
+fn flush_with<P: Shade>(
+    stages: &mut Stages<P>,
+    pending: &Pending,
+    draws: &[PendingDraw],
+    fb: &mut Framebuffer,
+    threads: usize,
+    tile: u32,
+) -> (u64, u64) {
+    let vp = Viewport {
+        width: fb.width(),
+        height: fb.height(),
+    };
+    let consts: Vec<P::Consts> = draws
+        .iter()
+        .map(|d| P::consts(&d.transform, &vp, d.state.fog))
+        .collect();
+    vertex_stage::<P>(
+        &mut stages.transformed,
+        &pending.vertices,
+        draws,
+        &consts,
+        threads,
+    );
+    let grid = TileGrid::new(vp.width, vp.height, tile);
+    let setups: Vec<DrawSetup> = draws
+        .iter()
+        .map(|d| DrawSetup {
+            state: &d.state,
+            attrs: &d.attrs,
+            scissor: d.scissor,
+        })
+        .collect();
+    let shades: Vec<DrawShade> = draws
+        .iter()
+        .map(|d| DrawShade {
+            state: &d.state,
+            attrs: &d.attrs,
+            views: &d.views,
+        })
+        .collect();
+    let (mut rasterized, mut fragments) = (0, 0);
+    let n = pending.triangles.len();
+    for start in (0..n).step_by(RASTER_BATCH) {
+        let range = start..(start + RASTER_BATCH).min(n);
+        let pieces = if threads > 1 {
+            range.len().div_ceil(SETUP_CHUNK)
+        } else {
+            1
+        };
+        if stages.chunks.len() < pieces {
+            stages.chunks.resize_with(pieces, ChunkOut::default);
+        }
+        let chunks = &mut stages.chunks[..pieces];
+        let piece = range.len().div_ceil(pieces);
+        let transformed = &stages.transformed;
+        let set_up_piece = |k: usize, out: &mut ChunkOut<P>| {
+            out.tris.clear();
+            out.planes.clear();
+            out.bins.reset(&grid);
+            let from = range.start + k * piece;
+            let part = from..(from + piece).min(range.end);
+            by_draw(
+                draws.len(),
+                |d| draws[d].first_triangle,
+                part,
+                |d, part| {
+                    set_up::<P>(
+                        &pending.triangles[part],
+                        transformed,
+                        d as u32,
+                        &setups[d],
+                        &consts[d],
+                        &grid,
+                        out,
+                    )
+                },
+            );
+        };
+        if pieces > 1 {
+            chunks
+                .par_iter_mut()
+                .enumerate()
+                .for_each(|(k, out)| set_up_piece(k, out));
+        } else {
+            set_up_piece(0, &mut chunks[0]);
+        }
+        rasterized += chunks.iter().map(|c| c.tris.len() as u64).sum::<u64>();
+        fragments += raster_tiles::<P>(fb, chunks, &shades, &grid, threads);
+    }
+    (rasterized, fragments)
+}
+
+/// Runs the vertex stage over the pending vertices, each with its draw's transform.
+fn vertex_stage<P: Pipeline>(
+    out: &mut Vec<Transformed<P>>,
+    vertices: &[Vertex],
+    draws: &[PendingDraw],
+    consts: &[P::Consts],
+    threads: usize,
+) {
+    out.clear();
+    out.resize(vertices.len(), Transformed::default());
+    let work = |start: usize, chunk: &mut [Transformed<P>]| {
+        by_draw(
+            draws.len(),
+            |d| draws[d].first_vertex,
+            start..start + chunk.len(),
+            |d, part| {
+                let c = &consts[d];
+                let outs = &mut chunk[part.start - start..part.end - start];
+                for (o, v) in outs.iter_mut().zip(&vertices[part]) {
+                    let clip = P::clip(c, v);
+                    let outcode = clip.outcode(P::space(c));
+                    let screen = if outcode == 0 {
+                        P::project(c, &clip)
+                    } else {
+                        P::Screen::default()
+                    };
+                    *o = Transformed {
+                        clip,
+                        outcode,
+                        screen,
+                    };
+                }
+            },
+        )
+    };
+    if threads > 1 && vertices.len() >= PARALLEL_MIN {
+        out.par_chunks_mut(VERTEX_CHUNK)
+            .enumerate()
+            .for_each(|(k, chunk)| work(k * VERTEX_CHUNK, chunk));
+    } else {
+        work(0, out);
+    }
+}
+
+/// Draws every tile that has triangles, in parallel. Returns the fragments written.
+fn raster_tiles<P: Shade>(
+    fb: &mut Framebuffer,
+    chunks: &[ChunkOut<P>],
+    draws: &[DrawShade],
+    grid: &TileGrid,
+    threads: usize,
+) -> u64 {
+    let (color, depth) = fb.buffers_mut();
+    let colors: Vec<ColorTile> = match color {
+        ColorBuffer::Rgb565(c) => split(c, grid).into_iter().map(ColorTile::Rgb565).collect(),
+        ColorBuffer::Rgba8888(c) => split(c, grid)
+            .into_iter()
+            .map(ColorTile::Rgba8888)
+            .collect(),
+    };
+    let depths: Vec<DepthTile> = match depth {
+        DepthBuffer::None => (0..grid.len()).map(|_| DepthTile::None).collect(),
+        DepthBuffer::D16(d) => split(d, grid).into_iter().map(DepthTile::D16).collect(),
+        DepthBuffer::D32(d) => split(d, grid).into_iter().map(DepthTile::D32).collect(),
+    };
+    let tiles = colors
+        .into_iter()
+        .zip(depths)
+        .enumerate()
+        .filter(|(t, _)| chunks.iter().any(|c| !c.bins.list(*t).is_empty()))
+        .map(|(t, (color, depth))| {
+            (
+                t,
+                TileTarget {
+                    rect: grid.rect(t),
+                    color,
+                    depth,
+                },
+            )
+        });
+    let draw =
+        |(t, mut target): (usize, TileTarget)| raster_tile::<P>(t, chunks, draws, &mut target);
+    if threads > 1 {
+        let tiles: Vec<_> = tiles.collect();
+        tiles.into_par_iter().map(draw).sum()
+    } else {
+        tiles.map(draw).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::{DMat4, DVec3};
+
+    use crate::{
+        ColorFormat, DepthFormat, Fog, Framebuffer, Indices, Mesh, Perspective, Precision,
+        Rasterizer, RenderState, Sampler, Shading, Texture, TextureBinding, Topology, Transform,
+        Vertex, Wrap,
+    };
+
+    /// Hills seen from low down: triangles from a fraction of a pixel far away to a hundred
+    /// pixels near the eye, so runs cross tile edges, and strips through the near plane.
+    fn scene() -> (Vec<Vertex>, Vec<Vec<u32>>, Texture, Transform) {
+        let g = 48usize;
+        let mut v = vec![];
+        for j in 0..g {
+            for i in 0..g {
+                let h = ((i as f64 * 0.4).sin() * (j as f64 * 0.3).cos() * 300.0) as i32;
+                let c = (100.0 + 90.0 * (i as f64 * 0.2 + j as f64 * 0.1).sin()) as u8;
+                let light = if (i + j) % 7 == 0 {
+                    [c, 200, 255 - c]
+                } else {
+                    [c; 3]
+                };
+                v.push(Vertex::new(
+                    [i as i32 * 400 - 9600, h, j as i32 * 400 - 9600],
+                    [i as f32 / 6.0, j as f32 / 6.0],
+                    light,
+                ));
+            }
+        }
+        // One strip per row of cells, each its own draw when the scene is split.
+        let strips = (0..g - 1)
+            .map(|j| {
+                (0..g)
+                    .flat_map(|i| [(j * g + i) as u32, ((j + 1) * g + i) as u32])
+                    .collect()
+            })
+            .collect();
+        let texels = (0..32 * 32)
+            .map(|k| {
+                [
+                    (k % 32 * 8) as u8,
+                    (k / 32 * 8) as u8,
+                    ((k * 37) % 256) as u8,
+                    255,
+                ]
+            })
+            .collect();
+        let texture = Texture::from_rgba8(32, 32, texels).unwrap().with_mipmaps();
+        let m = glam::dcamera::rh::proj::directx::perspective(1.2, 4.0 / 3.0, 50.0, 4e4)
+            * glam::dcamera::rh::view::look_at_mat4(
+                DVec3::new(300.0, 700.0, 9000.0),
+                DVec3::new(0.0, 0.0, 0.0),
+                DVec3::Y,
+            )
+            * DMat4::IDENTITY;
+        (v, strips, texture, Transform::new(m).unwrap())
+    }
+
+    /// The scene drawn with `tile`-pixel screen tiles on `threads` threads, its strips grouped
+    /// `per_draw` to a draw, all draws in one batch or (`batched` false) one by one.
+    fn render(
+        state: &RenderState,
+        tile: u32,
+        threads: usize,
+        per_draw: usize,
+        batched: bool,
+    ) -> Framebuffer {
+        let (v, strips, _, transform) = scene();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut fb =
+                Framebuffer::new(200, 150, ColorFormat::Rgba8888, DepthFormat::D32).unwrap();
+            fb.clear([10, 20, 30]);
+            let mut r = Rasterizer::new();
+            r.tile_size = tile;
+            let draws: Vec<Vec<u32>> = strips
+                .chunks(per_draw)
+                .map(|group| group.join(&u32::MAX))
+                .collect();
+            fn mesh<'a>(v: &'a [Vertex], indices: &'a [u32]) -> Mesh<'a> {
+                Mesh {
+                    vertices: v,
+                    indices: Indices::U32(indices),
+                    topology: Topology::TriangleStrip,
+                }
+            }
+            if batched {
+                let mut batch = r.batch(&mut fb);
+                for d in &draws {
+                    batch.draw(&mesh(&v, d), &transform, state).unwrap();
+                }
+                batch.finish();
+            } else {
+                for d in &draws {
+                    r.draw(&mut fb, &mesh(&v, d), &transform, state).unwrap();
+                }
+            }
+            fb
+        })
+    }
+
+    #[test]
+    fn tiles_batches_and_threads_do_not_change_a_byte() {
+        let (_, _, texture, _) = scene();
+        for precision in [Precision::Fixed, Precision::Float] {
+            for perspective in [
+                Perspective::Spans(8),
+                Perspective::Exact,
+                Perspective::Affine,
+            ] {
+                let state = RenderState {
+                    precision,
+                    perspective,
+                    shading: Shading::Gouraud,
+                    texture: Some(TextureBinding::new(
+                        &texture,
+                        Sampler {
+                            wrap: Wrap::Repeat,
+                            ..Sampler::BILINEAR_MIPMAP
+                        },
+                    )),
+                    fog: Some(Fog {
+                        color: [10, 20, 30],
+                        start: 3000.0,
+                        end: 20000.0,
+                    }),
+                    ..RenderState::default()
+                };
+                // One tile for the whole screen, one thread, one draw: no run is ever cut.
+                let whole = render(&state, 1 << 13, 1, usize::MAX, true);
+                assert!(
+                    whole
+                        .to_rgba_image()
+                        .pixels()
+                        .filter(|p| p.0 != [10, 20, 30, 255])
+                        .count()
+                        > 200 * 150 / 2,
+                    "the scene covers most of the screen"
+                );
+                for (tile, threads, per_draw, batched) in [
+                    (64, 1, usize::MAX, true),
+                    (8, 1, 1, true),
+                    (16, 2, 5, true),
+                    (64, 4, 3, true),
+                    (32, 2, 2, false),
+                ] {
+                    assert!(
+                        render(&state, tile, threads, per_draw, batched) == whole,
+                        "{precision:?} {perspective:?}: tiles of {tile}, {threads} threads, \
+                         {per_draw} strips a draw, batched {batched}"
+                    );
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,98 @@
+//! A framebuffer's tiles as disjoint mutable views, so that threads draw different tiles of the
+//! same rows at once.
+//!
+//! Slices cannot split a row-major buffer into rectangles, so a view keeps a pointer to the
+//! buffer and hands out one row of its rectangle at a time. This is the crate's only `unsafe`:
+//! the views of one buffer come from one `split` of an exclusive borrow, and their rectangles
+//! do not overlap (tested), so no two views ever reach the same element.
+
+use std::marker::PhantomData;
+
+use crate::bin::TileGrid;
+use crate::edge::PixelRect;
+
+/// The pixels of one tile of a row-major `width`-wide buffer.
+pub(crate) struct TileView<'a, T> {
+    base: *mut T,
+    width: usize,
+    rect: PixelRect,
+    _buffer: PhantomData<&'a mut [T]>,
+}
+
+// SAFETY: a view is an exclusive borrow of its rectangle's elements (see `split`), like a
+// `&mut [T]`, which is `Send` when `T` is.
+unsafe impl<T: Send> Send for TileView<'_, T> {}
+
+impl<T> TileView<'_, T> {
+    /// Columns `x0..x1` of row `y` (screen coordinates, inside the tile).
+    #[inline]
+    pub fn row(&mut self, y: i64, x0: i64, x1: i64) -> &mut [T] {
+        let r = self.rect;
+        assert!(
+            (r.y0 as i64..r.y1 as i64).contains(&y)
+                && r.x0 as i64 <= x0
+                && x0 <= x1
+                && x1 <= r.x1 as i64,
+            "row {y}, columns {x0}..{x1} outside the tile {r:?}"
+        );
+        let start = y as usize * self.width + x0 as usize;
+        // SAFETY: the asserted range lies inside this view's rectangle, which `split` checked to
+        // lie inside the buffer; rectangles of views from one split are disjoint, and `&mut self`
+        // lets the caller hold one row of this view at a time, so the slice aliases nothing.
+        unsafe { std::slice::from_raw_parts_mut(self.base.add(start), (x1 - x0) as usize) }
+    }
+}
+
+/// Splits `buffer` (the row-major pixels of `grid`'s framebuffer) into one view per tile, in
+/// tile order.
+pub(crate) fn split<'a, T>(buffer: &'a mut [T], grid: &TileGrid) -> Vec<TileView<'a, T>> {
+    let (width, height) = grid.size();
+    assert_eq!(buffer.len(), width as usize * height as usize);
+    let base = buffer.as_mut_ptr();
+    (0..grid.len())
+        .map(|t| TileView {
+            base,
+            width: width as usize,
+            rect: grid.rect(t),
+            _buffer: PhantomData,
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_element_belongs_to_exactly_one_tile_row() {
+        let grid = TileGrid::new(150, 70, crate::bin::TILE_SIZE);
+        let mut buffer = vec![0u32; 150 * 70];
+        let mut views = split(&mut buffer, &grid);
+        for (t, view) in views.iter_mut().enumerate() {
+            let r = grid.rect(t);
+            for y in r.y0 as i64..r.y1 as i64 {
+                for (x, p) in view.row(y, r.x0 as i64, r.x1 as i64).iter_mut().enumerate() {
+                    *p += 1 + (y * 1000 + r.x0 as i64 + x as i64) as u32;
+                }
+            }
+        }
+        drop(views);
+        for (i, &p) in buffer.iter().enumerate() {
+            let (x, y) = (i % 150, i / 150);
+            assert_eq!(
+                p,
+                1 + (y * 1000 + x) as u32,
+                "pixel {x},{y} written once, by its tile"
+            );
+        }
+    }
+
+    #[test]
+    #[should_panic(expected = "outside the tile")]
+    fn a_row_outside_the_tile_is_refused() {
+        let grid = TileGrid::new(150, 70, crate::bin::TILE_SIZE);
+        let mut buffer = vec![0u8; 150 * 70];
+        let mut views = split(&mut buffer, &grid);
+        views[0].row(0, 60, 65);
+    }
+}

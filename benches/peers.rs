@@ -26,13 +26,13 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use stripmask::camera::Camera;
+use stripmask::engine::camera::Camera;
 use stripmask::engine::{Engine, EngineSettings};
-use stripmask::flight::{Builtin, Flight};
-use stripmask::pager::PagerMode;
-use stripmask::profile::DeviceProfile;
-use stripmask::source;
-use stripmask::terrain::TerrainFrame;
+use stripmask::sim::flight::{Builtin, Flight};
+use stripmask::engine::paging::PagerMode;
+use stripmask::sim::device::DeviceProfile;
+use stripmask::db::source;
+use stripmask::engine::terrain::TerrainFrame;
 use stripmask_raster::Framebuffer;
 
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
@@ -62,28 +62,28 @@ fn archive() -> Result<PathBuf> {
     if let Ok(path) = std::env::var("STRIPMASK_ARCHIVE") {
         return Ok(path.into());
     }
-    let demo = Path::new("stripmask-demo").join(stripmask::demo::ARCHIVE);
+    let demo = Path::new("stripmask-demo").join(stripmask::sim::demo::ARCHIVE);
     if demo.exists() {
         return Ok(demo);
     }
-    let built = Path::new("target/peers").join(stripmask::demo::ARCHIVE);
+    let built = Path::new("target/peers").join(stripmask::sim::demo::ARCHIVE);
     if !built.exists() {
         std::fs::create_dir_all("target/peers")?;
-        let dem = stripmask::dem::open(
-            Path::new(stripmask::demo::DEM),
-            &stripmask::dem::OpenOptions {
+        let dem = stripmask::db::dem::open(
+            Path::new(stripmask::sim::demo::DEM),
+            &stripmask::db::dem::OpenOptions {
                 format: None,
                 raw: None,
                 nodata: None,
             },
         )?;
-        let options = stripmask::builder::BuildOptions {
-            tile_size: stripmask::demo::TILE_SIZE,
-            spacing: Some(stripmask::demo::SPACING),
-            vertical_scale: stripmask::demo::VERTICAL_SCALE,
-            ..stripmask::builder::BuildOptions::default()
+        let options = stripmask::db::builder::BuildOptions {
+            tile_size: stripmask::sim::demo::TILE_SIZE,
+            spacing: Some(stripmask::sim::demo::SPACING),
+            vertical_scale: stripmask::sim::demo::VERTICAL_SCALE,
+            ..stripmask::db::builder::BuildOptions::default()
         };
-        stripmask::builder::build(dem, &built, &options, &|_, _| {})?;
+        stripmask::db::builder::build(dem, &built, &options, &|_, _| {})?;
     }
     Ok(built)
 }
@@ -108,7 +108,7 @@ fn engine(archive: &Path, p: &DeviceProfile, threads: usize) -> Result<Engine> {
 /// The views' cameras, with every tile they need loaded (a frame drawn from each, twice).
 fn views(archive: &Path, engine: &mut Engine, p: &DeviceProfile) -> Result<Vec<Camera>> {
     let reader =
-        stripmask::archive::ArchiveReader::open(source::open(&archive.to_string_lossy())?)?;
+        stripmask::db::archive::ArchiveReader::open(source::open(&archive.to_string_lossy())?)?;
     let flight = Flight::builtin(Builtin::Diagonal, &TerrainFrame::new(reader.header()));
     let cameras: Vec<Camera> = (0..VIEWS)
         .map(|k| {

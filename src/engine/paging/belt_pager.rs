@@ -51,7 +51,7 @@ pub trait TileLoader: Send + Sync + 'static {
     fn base_bytes(&self) -> usize {
         0
     }
-    /// Fetches the coarse base ([`super::base`]), and the bytes downloaded.
+    /// Fetches the coarse base (every tile's first levels), and the bytes downloaded.
     fn load_base(&self) -> Result<(BaseTiles<Self::Loaded>, u64)> {
         Ok((Vec::new(), 0))
     }

@@ -128,7 +128,7 @@ pub trait LevelLoader: Send + Sync + 'static {
     fn base_bytes(&self) -> usize {
         0
     }
-    /// Fetches the coarse base ([`super::base`]), and the bytes downloaded.
+    /// Fetches the coarse base (every tile's first levels), and the bytes downloaded.
     fn load_base(&self) -> Result<(BaseTiles<Self::Loaded>, u64)> {
         Ok((Vec::new(), 0))
     }

@@ -1,0 +1,114 @@
+//! `stripmask demo`: the paper's PocketPC flyover in one command, headless or in a window.
+
+use std::path::PathBuf;
+
+use clap::Args;
+use stripmask::error::{Error, Result};
+use stripmask::sim::demo::DemoOptions;
+use stripmask::sim::device::{DeviceProfile, Overrides};
+use stripmask::sim::fly::{Length, LiveView};
+use stripmask_platform::Presenter;
+
+use super::args::{ClockArg, StreamingArgs};
+
+#[derive(Args, Debug)]
+pub(super) struct DemoArgs {
+    /// Output folder: archive, stats.csv, frames and plots.
+    #[arg(long, default_value = "stripmask-demo")]
+    pub(super) out: PathBuf,
+    /// The elevation model (default: examples/data/puget_sound_1k_height.png).
+    #[arg(long)]
+    pub(super) dem: Option<PathBuf>,
+    /// Device profile: pocketpc, workstation or native.
+    #[arg(long, default_value = "pocketpc")]
+    pub(super) profile: String,
+    /// A TOML device profile instead of a built-in one.
+    #[arg(long, conflicts_with = "profile")]
+    pub(super) profile_file: Option<PathBuf>,
+    /// simulated (reproducible, the default) or wall (measured frame costs).
+    #[arg(long, value_enum, default_value_t = ClockArg::Simulated)]
+    pub(super) clock: ClockArg,
+    /// Stop after N frames (default: the whole flight).
+    #[arg(long, conflicts_with = "seconds")]
+    pub(super) frames: Option<u64>,
+    /// Stop after S seconds of flight time.
+    #[arg(long)]
+    pub(super) seconds: Option<f64>,
+    /// Keep one frame in K as PNG (0: none).
+    #[arg(long, default_value_t = 10)]
+    pub(super) every: u64,
+    /// Also show the flight live in a window, at the device's pace (Esc ends it early).
+    #[arg(long)]
+    pub(super) window: bool,
+    #[command(flatten)]
+    pub(super) streaming: StreamingArgs,
+    /// No progress bar.
+    #[arg(short, long)]
+    pub(super) quiet: bool,
+}
+
+pub(super) fn run(a: DemoArgs) -> Result<()> {
+    let options = DemoOptions {
+        out: a.out,
+        dem: a.dem,
+        profile: DeviceProfile::resolve(
+            &a.profile,
+            a.profile_file.as_deref(),
+            &Overrides::default(),
+        )?,
+        simulated: a.clock == ClockArg::Simulated,
+        length: match (a.frames, a.seconds) {
+            (Some(n), _) => Some(Length::Frames(n)),
+            (None, Some(s)) => Some(Length::Seconds(s)),
+            (None, None) => None,
+        },
+        every: a.every,
+        progress: !a.quiet,
+        streaming: a.streaming.resolve()?,
+    };
+    if !a.window {
+        println!("{}", stripmask::sim::demo::run(&options)?);
+        return Ok(());
+    }
+    let p = &options.profile;
+    // A handheld's screen is small on a desktop: scale the window up to about 960 pixels wide.
+    let scale = (960 / p.width).max(1);
+    match open_window("stripmask demo", p.width * scale, p.height * scale) {
+        Ok(mut window) => {
+            let live = LiveView {
+                presenter: window.as_mut(),
+                real_time: true,
+            };
+            println!("{}", stripmask::sim::demo::run_live(&options, Some(live))?);
+            Ok(())
+        }
+        Err(problem) => {
+            eprintln!("stripmask demo: --window: {problem}; running headless");
+            println!("{}", stripmask::sim::demo::run(&options)?);
+            Err(Error::Usage(format!(
+                "--window: {problem} (the demo ran headless and wrote its outputs)"
+            )))
+        }
+    }
+}
+
+/// A window for live frames, or why there is none.
+#[cfg(feature = "window")]
+pub(super) fn open_window(
+    title: &str,
+    width: u32,
+    height: u32,
+) -> std::result::Result<Box<dyn Presenter>, String> {
+    stripmask_platform::WindowPresenter::open(title, width, height)
+        .map(|w| Box::new(w) as Box<dyn Presenter>)
+        .map_err(|e| e.to_string())
+}
+
+#[cfg(not(feature = "window"))]
+pub(super) fn open_window(
+    _: &str,
+    _: u32,
+    _: u32,
+) -> std::result::Result<Box<dyn Presenter>, String> {
+    Err("this stripmask was built without the `window` feature".into())
+}

@@ -1,0 +1,58 @@
+//! `stripmask fb`: the viewer on the Linux framebuffer.
+
+use std::path::PathBuf;
+
+use clap::Args;
+use stripmask::error::{Error, Result};
+
+use super::view::ViewArgs;
+#[cfg(all(feature = "fbdev", target_os = "linux"))]
+use super::view::{report_view, viewer_options};
+#[cfg(all(feature = "fbdev", target_os = "linux"))]
+use super::viewer;
+
+#[derive(Args, Debug)]
+pub(super) struct FbArgs {
+    #[command(flatten)]
+    pub(super) view: ViewArgs,
+    /// The framebuffer device.
+    #[arg(long, default_value = "/dev/fb0")]
+    pub(super) device: PathBuf,
+    /// Fit a frame that differs from the screen: centre it, or scale it to fill.
+    #[arg(long, value_enum, default_value_t = FitArg::Center)]
+    pub(super) fit: FitArg,
+    /// An evdev keyboard (e.g. /dev/input/event0) to fly with the viewer's keys.
+    #[arg(long)]
+    pub(super) input: Option<PathBuf>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub(super) enum FitArg {
+    Center,
+    Scale,
+}
+
+#[cfg(all(feature = "fbdev", target_os = "linux"))]
+pub(super) fn run(a: FbArgs) -> Result<()> {
+    let options = viewer_options(&a.view)?;
+    let fit = match a.fit {
+        FitArg::Center => stripmask_platform::Fit::Center,
+        FitArg::Scale => stripmask_platform::Fit::Scale,
+    };
+    let mut screen = stripmask_platform::FbPresenter::open(&a.device, fit)
+        .map_err(|e| Error::Usage(e.to_string()))?;
+    if let Some(path) = &a.input {
+        let keyboard =
+            stripmask_platform::EvdevInput::open(path).map_err(|e| Error::Usage(e.to_string()))?;
+        screen = screen.with_input(keyboard);
+    }
+    report_view(viewer::run(&mut screen, &options)?);
+    Ok(())
+}
+
+#[cfg(not(all(feature = "fbdev", target_os = "linux")))]
+pub(super) fn run(_: FbArgs) -> Result<()> {
+    Err(Error::Usage(
+        "this stripmask was built without the `fbdev` feature (Linux only)".into(),
+    ))
+}

@@ -1,0 +1,19 @@
+//! `stripmask report`: the plots of a flight's statistics.
+
+use std::path::PathBuf;
+
+use clap::Args;
+use stripmask::error::Result;
+
+#[derive(Args, Debug)]
+pub(super) struct ReportArgs {
+    /// A folder holding stats.csv (what `fly` or `demo` wrote).
+    pub(super) dir: PathBuf,
+}
+
+pub(super) fn run(a: ReportArgs) -> Result<()> {
+    for path in stripmask::sim::report::draw(&a.dir)? {
+        println!("{}", path.display());
+    }
+    Ok(())
+}

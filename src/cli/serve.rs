@@ -1,0 +1,61 @@
+//! `stripmask serve`: one archive over HTTP with byte ranges.
+
+use std::io::Write;
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::time::Duration;
+
+use clap::Args;
+use stripmask::db::server::Server;
+use stripmask::db::source::throttle::LinkProfile;
+use stripmask::error::{Error, Result};
+
+#[derive(Args, Debug)]
+pub(super) struct ServeArgs {
+    /// The archive to serve.
+    pub(super) file: PathBuf,
+    /// Address to listen on (port 0 picks a free port).
+    #[arg(long, default_value = "127.0.0.1:0")]
+    pub(super) listen: SocketAddr,
+    /// Simulated bandwidth per connection, kilobits per second.
+    #[arg(long)]
+    pub(super) bandwidth_kbps: Option<f64>,
+    /// Simulated latency before each answer, milliseconds.
+    #[arg(long, default_value_t = 0)]
+    pub(super) latency_ms: u64,
+    /// Each answer's latency varies within ± this many milliseconds.
+    #[arg(long, default_value_t = 0)]
+    pub(super) jitter_ms: u64,
+    /// Fraction of requests answered 503, 0..1.
+    #[arg(long, default_value_t = 0.0)]
+    pub(super) drop_rate: f64,
+    /// Seed of the latency and drop decisions.
+    #[arg(long, default_value_t = 1)]
+    pub(super) seed: u64,
+}
+
+pub(super) fn run(a: ServeArgs) -> Result<()> {
+    if !(0.0..=1.0).contains(&a.drop_rate) {
+        return Err(Error::Usage(format!(
+            "--drop-rate {} is not between 0 and 1",
+            a.drop_rate
+        )));
+    }
+    if let Some(b) = a.bandwidth_kbps.filter(|b| !(b.is_finite() && *b > 0.0)) {
+        return Err(Error::Usage(format!(
+            "--bandwidth-kbps {b} must be positive"
+        )));
+    }
+    let profile = LinkProfile {
+        bandwidth_kbps: a.bandwidth_kbps,
+        latency: Duration::from_millis(a.latency_ms),
+        jitter: Duration::from_millis(a.jitter_ms),
+        drop_rate: a.drop_rate,
+        seed: a.seed,
+    };
+    let server = Server::start(&a.file, a.listen, profile)?;
+    println!("{}", server.url());
+    let _ = std::io::stdout().flush();
+    server.wait();
+    Ok(())
+}

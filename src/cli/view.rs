@@ -1,0 +1,70 @@
+//! `stripmask view`: the viewer in a desktop window; the options it shares with `fb`.
+
+use clap::Args;
+#[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
+use stripmask::engine::paging::PagerMode;
+use stripmask::error::{Error, Result};
+
+use super::args::SceneArgs;
+#[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
+use super::viewer::{self, ViewerOptions, ViewerSummary};
+
+/// What `view` and `fb` show: a window, or the Linux framebuffer.
+#[derive(Args, Debug)]
+pub(super) struct ViewArgs {
+    /// An archive file or http:// URL.
+    pub(super) source: String,
+    /// Stop after N frames (default: until Esc, the window closing, or Ctrl-C).
+    #[arg(long)]
+    pub(super) frames: Option<u64>,
+    /// Start with the HUD off (H toggles it).
+    #[arg(long)]
+    pub(super) no_hud: bool,
+    #[command(flatten)]
+    pub(super) scene: SceneArgs,
+}
+
+#[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
+pub(super) fn viewer_options(a: &ViewArgs) -> Result<ViewerOptions> {
+    let scene = a.scene.resolve(&a.source)?;
+    let mut engine = scene.engine;
+    engine.pager_mode = PagerMode::Threaded { queue_depth: 4 };
+    Ok(ViewerOptions {
+        source: a.source.clone(),
+        size: scene.size,
+        color: scene.color,
+        depth: scene.depth,
+        engine,
+        hud: !a.no_hud,
+        flight: scene.flight,
+        frames: a.frames,
+    })
+}
+
+#[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
+pub(super) fn report_view(s: ViewerSummary) {
+    println!(
+        "{} frames in {:.1} s ({:.1} fps)",
+        s.frames,
+        s.seconds,
+        s.frames as f64 / s.seconds.max(1e-9)
+    );
+}
+
+#[cfg(feature = "window")]
+pub(super) fn run(a: ViewArgs) -> Result<()> {
+    let options = viewer_options(&a)?;
+    let (w, h) = options.size;
+    let mut window =
+        stripmask_platform::WindowPresenter::open(&format!("stripmask: {}", a.source), w, h)
+            .map_err(|e| Error::Usage(e.to_string()))?;
+    report_view(viewer::run(&mut window, &options)?);
+    Ok(())
+}
+
+#[cfg(not(feature = "window"))]
+pub(super) fn run(_: ViewArgs) -> Result<()> {
+    Err(Error::Usage(
+        "this stripmask was built without the `window` feature".into(),
+    ))
+}

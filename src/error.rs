@@ -1,8 +1,13 @@
-//! The crate's one error type: every message names the file (or URL) and the problem.
+//! The crate's one error type: every message names the file, URL or setting, and the problem.
 
+use std::fmt::Display;
 use std::io;
 
-/// Errors from reading DEMs, building and reading archives, and fetching tiles.
+use stripmask_platform::PlatformError;
+use stripmask_raster::RasterError;
+
+/// Errors from reading DEMs, building and reading archives, fetching tiles, and from settings
+/// that are out of range or do not go together.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
     /// An operating-system I/O error on a named file or URL.
@@ -48,9 +53,42 @@ pub enum Error {
         /// What went wrong.
         problem: String,
     },
-    /// The command line or build options are inconsistent.
-    #[error("{0}")]
-    Usage(String),
+    /// A setting outside the values it may take: a build option, an engine or device setting,
+    /// a command-line option.
+    #[error("{name} {value}: expected {expected}")]
+    InvalidSetting {
+        /// The setting, as its user spells it (`tile size`, `--queue`).
+        name: &'static str,
+        /// The value given.
+        value: String,
+        /// What it may be, in words.
+        expected: String,
+    },
+    /// Two settings, each valid alone, that do not go together.
+    #[error("{first} and {second} do not go together: {reason}")]
+    Conflict {
+        /// One setting.
+        first: &'static str,
+        /// The other.
+        second: &'static str,
+        /// Why not, and what to change.
+        reason: String,
+    },
+    /// A command this build of stripmask was made without: a cargo feature left out, or one
+    /// for another platform.
+    #[error("{command} needs {needs}, which this stripmask was built without")]
+    Unsupported {
+        /// The command, as typed (`stripmask view`).
+        command: &'static str,
+        /// What it needs, naming the cargo feature.
+        needs: &'static str,
+    },
+    /// The rasterizer refused its inputs (a framebuffer size, a transform).
+    #[error("rasterizer: {0}")]
+    Raster(#[from] RasterError),
+    /// A presenter or an input device failed: a window, the framebuffer, PNG frames, the GPU.
+    #[error(transparent)]
+    Platform(#[from] PlatformError),
 }
 
 /// Result with the crate's [`Error`].
@@ -63,6 +101,21 @@ impl Error {
             name: name.into(),
             source,
         }
+    }
+
+    /// An [`Error::InvalidSetting`]: `name` is `value`, which is not what it may be.
+    pub fn setting(name: &'static str, value: impl Display, expected: impl Into<String>) -> Self {
+        Error::InvalidSetting {
+            name,
+            value: value.to_string(),
+            expected: expected.into(),
+        }
+    }
+
+    /// Whether the error is about the settings given (out of range, or not going together)
+    /// rather than about a file, a link or a device: on the command line, a usage error.
+    pub fn is_usage(&self) -> bool {
+        matches!(self, Error::InvalidSetting { .. } | Error::Conflict { .. })
     }
 
     /// An [`Error::Invalid`] for `name` with the problem in words.

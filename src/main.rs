@@ -6,13 +6,20 @@ use std::process::ExitCode;
 
 use clap::Parser;
 
+/// Exit status of an error about the command line itself, as clap's own.
+const USAGE: u8 = 2;
+
 fn main() -> ExitCode {
     let args = cli::Cli::parse();
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");
-            ExitCode::FAILURE
+            if e.is_usage() {
+                ExitCode::from(USAGE)
+            } else {
+                ExitCode::FAILURE
+            }
         }
     }
 }

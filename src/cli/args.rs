@@ -50,14 +50,9 @@ impl StreamingArgs {
             return Ok(Streaming::Belts);
         }
         if self.queue == 0 {
-            return Err(Error::Usage("--queue must be at least 1".into()));
+            return Err(Error::setting("--queue", 0, "at least 1"));
         }
-        if !(self.predict_seconds > 0.0 && self.predict_seconds.is_finite()) {
-            return Err(Error::Usage(format!(
-                "--predict-seconds {} must be a positive number",
-                self.predict_seconds
-            )));
-        }
+        positive("--predict-seconds", self.predict_seconds)?;
         Ok(Streaming::Progressive(StreamSettings {
             queue_capacity: self.queue,
             prediction: (!self.no_prediction).then_some(PredictionSettings {
@@ -137,14 +132,14 @@ impl SceneArgs {
         };
         let weights =
             Weights::new(self.distance_weight, 1.0 - self.distance_weight).ok_or_else(|| {
-                Error::Usage(format!(
-                    "--distance-weight {} must be within 0 ..= 1",
-                    self.distance_weight
-                ))
+                Error::setting(
+                    "--distance-weight",
+                    self.distance_weight,
+                    "a weight within 0 ..= 1",
+                )
             })?;
         let texture_budget_bytes = match self.texture_mb {
-            Some(mb) if mb > 0.0 && mb.is_finite() => Some((mb * 1e6) as usize),
-            Some(mb) => return Err(Error::Usage(format!("--texture-mb {mb} must be positive"))),
+            Some(mb) => Some((positive("--texture-mb", mb)? * 1e6) as usize),
             None => None,
         };
         let mut engine = EngineSettings {
@@ -168,19 +163,9 @@ impl SceneArgs {
         };
         engine.geomorph = match self.geomorph {
             GeomorphArg::Off => Geomorph::Off,
-            GeomorphArg::Distance
-                if self.geomorph_pixels > 0.0 && self.geomorph_pixels.is_finite() =>
-            {
-                Geomorph::Distance {
-                    pixels: self.geomorph_pixels,
-                }
-            }
-            GeomorphArg::Distance => {
-                return Err(Error::Usage(format!(
-                    "--geomorph-pixels {} must be a positive number",
-                    self.geomorph_pixels
-                )));
-            }
+            GeomorphArg::Distance => Geomorph::Distance {
+                pixels: positive("--geomorph-pixels", self.geomorph_pixels)?,
+            },
         };
         if self.float {
             engine.render.precision = Precision::Float;
@@ -261,11 +246,7 @@ pub(super) struct DeviceArgs {
 
 impl DeviceArgs {
     pub(super) fn resolve(&self) -> Result<DeviceProfile> {
-        let depth = self
-            .depth_bits
-            .map(depth_format)
-            .transpose()
-            .map_err(Error::Usage)?;
+        let depth = self.depth_bits.map(depth_format).transpose()?;
         let overrides = Overrides {
             size: self.size,
             color: self.color.map(ColorArg::format),
@@ -315,6 +296,15 @@ impl ColorArg {
             ColorArg::Rgb565 => ColorFormat::Rgb565,
             ColorArg::Rgba8888 => ColorFormat::Rgba8888,
         }
+    }
+}
+
+/// `value` of `flag` when it is a positive number; an [`Error::InvalidSetting`] otherwise.
+pub(super) fn positive(flag: &'static str, value: f64) -> Result<f64> {
+    if value > 0.0 && value.is_finite() {
+        Ok(value)
+    } else {
+        Err(Error::setting(flag, value, "a positive number"))
     }
 }
 

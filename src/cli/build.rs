@@ -7,7 +7,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use stripmask::db::archive::Codec;
 use stripmask::db::builder::{BuildOptions, build};
 use stripmask::db::dem::{self, DemFormat, OpenOptions, RawLayout, SampleType};
-use stripmask::error::{Error, Result};
+use stripmask::error::Result;
 
 #[derive(Args, Debug)]
 pub(super) struct BuildArgs {
@@ -20,13 +20,13 @@ pub(super) struct BuildArgs {
     #[arg(long, value_enum)]
     pub(super) format: Option<DemFormat>,
     /// Raw/BIL: samples per row.
-    #[arg(long)]
+    #[arg(long, requires_all = ["height", "sample_type"])]
     pub(super) width: Option<usize>,
     /// Raw/BIL: rows.
-    #[arg(long)]
+    #[arg(long, requires_all = ["width", "sample_type"])]
     pub(super) height: Option<usize>,
     /// Raw/BIL: sample type.
-    #[arg(long, value_enum)]
+    #[arg(long, value_enum, requires_all = ["width", "height"])]
     pub(super) sample_type: Option<SampleType>,
     /// Raw/BIL: samples are big-endian (default little-endian).
     #[arg(long)]
@@ -78,12 +78,7 @@ pub(super) fn run(a: BuildArgs) -> Result<()> {
             big_endian: a.big_endian,
             header_bytes: a.header_bytes,
         }),
-        (None, None, None) => None,
-        _ => {
-            return Err(Error::Usage(
-                "--width, --height and --sample-type go together".into(),
-            ));
-        }
+        _ => None,
     };
     let reader = dem::open(
         &a.input,

@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use stripmask::error::{Error, Result};
+use stripmask::error::Result;
 use stripmask::sim::demo::DemoOptions;
 use stripmask::sim::device::{DeviceProfile, Overrides};
 use stripmask::sim::fly::{Length, LiveView};
@@ -85,30 +85,23 @@ pub(super) fn run(a: DemoArgs) -> Result<()> {
         Err(problem) => {
             eprintln!("stripmask demo: --window: {problem}; running headless");
             println!("{}", stripmask::sim::demo::run(&options)?);
-            Err(Error::Usage(format!(
-                "--window: {problem} (the demo ran headless and wrote its outputs)"
-            )))
+            Err(problem)
         }
     }
 }
 
 /// A window for live frames, or why there is none.
 #[cfg(feature = "window")]
-pub(super) fn open_window(
-    title: &str,
-    width: u32,
-    height: u32,
-) -> std::result::Result<Box<dyn Presenter>, String> {
-    stripmask_platform::WindowPresenter::open(title, width, height)
-        .map(|w| Box::new(w) as Box<dyn Presenter>)
-        .map_err(|e| e.to_string())
+fn open_window(title: &str, width: u32, height: u32) -> Result<Box<dyn Presenter>> {
+    Ok(Box::new(stripmask_platform::WindowPresenter::open(
+        title, width, height,
+    )?))
 }
 
 #[cfg(not(feature = "window"))]
-pub(super) fn open_window(
-    _: &str,
-    _: u32,
-    _: u32,
-) -> std::result::Result<Box<dyn Presenter>, String> {
-    Err("this stripmask was built without the `window` feature".into())
+fn open_window(_: &str, _: u32, _: u32) -> Result<Box<dyn Presenter>> {
+    Err(stripmask::Error::Unsupported {
+        command: "`stripmask demo --window`",
+        needs: "the `window` feature",
+    })
 }

@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use stripmask::error::{Error, Result};
+use stripmask::error::Result;
 
 use super::view::ViewArgs;
 #[cfg(all(feature = "fbdev", target_os = "linux"))]
@@ -39,12 +39,9 @@ pub(super) fn run(a: FbArgs) -> Result<()> {
         FitArg::Center => stripmask_platform::Fit::Center,
         FitArg::Scale => stripmask_platform::Fit::Scale,
     };
-    let mut screen = stripmask_platform::FbPresenter::open(&a.device, fit)
-        .map_err(|e| Error::Usage(e.to_string()))?;
+    let mut screen = stripmask_platform::FbPresenter::open(&a.device, fit)?;
     if let Some(path) = &a.input {
-        let keyboard =
-            stripmask_platform::EvdevInput::open(path).map_err(|e| Error::Usage(e.to_string()))?;
-        screen = screen.with_input(keyboard);
+        screen = screen.with_input(stripmask_platform::EvdevInput::open(path)?);
     }
     report_view(viewer::run(&mut screen, &options)?);
     Ok(())
@@ -52,7 +49,8 @@ pub(super) fn run(a: FbArgs) -> Result<()> {
 
 #[cfg(not(all(feature = "fbdev", target_os = "linux")))]
 pub(super) fn run(_: FbArgs) -> Result<()> {
-    Err(Error::Usage(
-        "this stripmask was built without the `fbdev` feature (Linux only)".into(),
-    ))
+    Err(stripmask::Error::Unsupported {
+        command: "`stripmask fb`",
+        needs: "the `fbdev` feature (Linux only)",
+    })
 }

@@ -10,6 +10,8 @@ use stripmask::db::server::Server;
 use stripmask::db::source::throttle::LinkProfile;
 use stripmask::error::{Error, Result};
 
+use super::args::positive;
+
 #[derive(Args, Debug)]
 pub(super) struct ServeArgs {
     /// The archive to serve.
@@ -36,15 +38,14 @@ pub(super) struct ServeArgs {
 
 pub(super) fn run(a: ServeArgs) -> Result<()> {
     if !(0.0..=1.0).contains(&a.drop_rate) {
-        return Err(Error::Usage(format!(
-            "--drop-rate {} is not between 0 and 1",
-            a.drop_rate
-        )));
+        return Err(Error::setting(
+            "--drop-rate",
+            a.drop_rate,
+            "a fraction between 0 and 1",
+        ));
     }
-    if let Some(b) = a.bandwidth_kbps.filter(|b| !(b.is_finite() && *b > 0.0)) {
-        return Err(Error::Usage(format!(
-            "--bandwidth-kbps {b} must be positive"
-        )));
+    if let Some(b) = a.bandwidth_kbps {
+        positive("--bandwidth-kbps", b)?;
     }
     let profile = LinkProfile {
         bandwidth_kbps: a.bandwidth_kbps,

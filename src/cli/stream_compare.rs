@@ -3,9 +3,11 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use stripmask::error::{Error, Result};
+use stripmask::error::Result;
 use stripmask::sim::device::{DeviceProfile, Overrides};
 use stripmask::sim::flight::Builtin;
+
+use super::args::positive;
 
 #[derive(Args, Debug)]
 pub(super) struct StreamCompareArgs {
@@ -30,10 +32,8 @@ pub(super) struct StreamCompareArgs {
 
 pub(super) fn run(a: StreamCompareArgs) -> Result<()> {
     use stripmask::sim::stream_compare::{self as compare, CompareOptions, LINKS};
-    if let Some(s) = a.seconds.filter(|s| !(*s > 0.0 && s.is_finite())) {
-        return Err(Error::Usage(format!(
-            "--seconds {s} must be a positive number"
-        )));
+    if let Some(s) = a.seconds {
+        positive("--seconds", s)?;
     }
     let options = CompareOptions {
         source: a.source,

@@ -3,7 +3,7 @@
 use clap::Args;
 #[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
 use stripmask::engine::paging::PagerMode;
-use stripmask::error::{Error, Result};
+use stripmask::error::Result;
 
 use super::args::SceneArgs;
 #[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
@@ -56,15 +56,15 @@ pub(super) fn run(a: ViewArgs) -> Result<()> {
     let options = viewer_options(&a)?;
     let (w, h) = options.size;
     let mut window =
-        stripmask_platform::WindowPresenter::open(&format!("stripmask: {}", a.source), w, h)
-            .map_err(|e| Error::Usage(e.to_string()))?;
+        stripmask_platform::WindowPresenter::open(&format!("stripmask: {}", a.source), w, h)?;
     report_view(viewer::run(&mut window, &options)?);
     Ok(())
 }
 
 #[cfg(not(feature = "window"))]
 pub(super) fn run(_: ViewArgs) -> Result<()> {
-    Err(Error::Usage(
-        "this stripmask was built without the `window` feature".into(),
-    ))
+    Err(stripmask::Error::Unsupported {
+        command: "`stripmask view`",
+        needs: "the `window` feature",
+    })
 }

@@ -12,7 +12,7 @@ use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer, Precision};
 
 use stripmask::db::source;
 use stripmask::engine::{Engine, EngineSettings};
-use stripmask::error::{Error, Result};
+use stripmask::error::Result;
 use stripmask::sim::flight::Flight;
 use stripmask::sim::hud::hud_info;
 
@@ -90,10 +90,7 @@ impl FreeCamera {
 /// Runs the viewer until the user quits (or `frames` are shown).
 pub fn run(presenter: &mut dyn Presenter, o: &ViewerOptions) -> Result<ViewerSummary> {
     let (mut w, mut h) = o.size;
-    let new_fb = |w: u32, h: u32| {
-        Framebuffer::new(w, h, o.color, o.depth)
-            .map_err(|e| Error::Usage(format!("framebuffer {w}x{h}: {e}")))
-    };
+    let new_fb = |w: u32, h: u32| Framebuffer::new(w, h, o.color, o.depth);
     let mut fb = new_fb(w, h)?;
     let mut engine = Engine::new(source::open(&o.source)?, o.engine, h)?;
     let mut hud = Hud::new(o.hud);
@@ -178,9 +175,7 @@ pub fn run(presenter: &mut dyn Presenter, o: &ViewerOptions) -> Result<ViewerSum
         let report = engine.render(&camera, &mut fb)?;
         let info = hud_info(&engine, &report, 1.0 / dt.max(1e-6));
         let overlay = hud.render(&info, w, h);
-        presenter
-            .present(&fb, overlay)
-            .map_err(|e| Error::Usage(e.to_string()))?;
+        presenter.present(&fb, overlay)?;
         engine.record_frame(
             frame_start.elapsed().as_secs_f64(),
             report.draw.triangles as usize,

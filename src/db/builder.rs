@@ -89,19 +89,25 @@ pub fn build<R: DemReader>(
     let grid = Tiling::new(info.width, info.height, options.tile_size)?;
     let f = options.texture_factor;
     if !f.is_power_of_two() || f > 8 {
-        return Err(Error::Usage(format!(
-            "texture factor {f} is not a power of two up to 8"
-        )));
+        return Err(Error::setting(
+            "texture factor",
+            f,
+            "a power of two up to 8",
+        ));
     }
     let spacing = options.spacing.or(info.spacing_hint).unwrap_or(1.0);
     if !(spacing.is_finite() && spacing > 0.0) {
-        return Err(Error::Usage(format!(
-            "spacing {spacing} must be a positive number of metres"
-        )));
+        return Err(Error::setting(
+            "spacing",
+            spacing,
+            "a positive number of metres",
+        ));
     }
     if !options.vertical_scale.is_finite() || options.vertical_scale == 0.0 {
-        return Err(Error::Usage(
-            "vertical scale must be a finite non-zero number".into(),
+        return Err(Error::setting(
+            "vertical scale",
+            options.vertical_scale,
+            "a finite non-zero number of metres per unit",
         ));
     }
     let (origin_x, origin_y) = options.origin.or(info.origin_hint).unwrap_or((0.0, 0.0));

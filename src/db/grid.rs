@@ -51,9 +51,11 @@ impl Grid {
     /// A grid of `tiles_x` columns and `tiles_y` rows; both must be at least 1.
     pub fn new(tiles_x: u32, tiles_y: u32) -> Result<Self> {
         if tiles_x == 0 || tiles_y == 0 {
-            return Err(Error::Usage(format!(
-                "a tile grid needs at least one tile, got {tiles_x} x {tiles_y}"
-            )));
+            return Err(Error::setting(
+                "tile grid",
+                format!("{tiles_x} x {tiles_y}"),
+                "at least one tile each way",
+            ));
         }
         Ok(Grid { tiles_x, tiles_y })
     }

@@ -37,9 +37,11 @@ impl Tiling {
     /// The tiling of a `width x height` DEM with `tile_size` samples per tile side.
     pub fn new(width: usize, height: usize, tile_size: usize) -> Result<Tiling> {
         if !is_valid_tile_size(tile_size) {
-            return Err(Error::Usage(format!(
-                "tile size {tile_size} is not 2^n + 1 between 3 and {MAX_TILE_SIZE}"
-            )));
+            return Err(Error::setting(
+                "tile size",
+                tile_size,
+                format!("2^n + 1 between 3 and {MAX_TILE_SIZE}"),
+            ));
         }
         let step = tile_size - 1;
         Ok(Tiling {

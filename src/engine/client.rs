@@ -331,7 +331,10 @@ impl Engine {
         &mut self,
         camera: &Camera,
         target: &mut T,
-    ) -> Result<FrameReport> {
+    ) -> Result<FrameReport>
+    where
+        Error: From<T::Error>,
+    {
         let started = Instant::now();
         self.pager
             .update(self.terrain.tile_position(camera.position));
@@ -384,8 +387,7 @@ impl Engine {
                 morph: self.morpher.as_mut(),
             },
             &self.settings.render,
-        )
-        .map_err(|e| Error::Usage(format!("rendering failed: {e}")))?;
+        )?;
         let draw_seconds = drawing.elapsed().as_secs_f64();
         let rendered_tiles = draws.len();
         let (budget, triangles) = (plan.budget, plan.triangles());
@@ -504,14 +506,18 @@ impl Engine {
 /// with a partial tile while it is on, naming the tile.
 fn refuse_partial_tiles(partial: Option<(TileId, &ResidentTile)>) -> Result<()> {
     match partial {
-        Some((id, tile)) => Err(Error::Usage(format!(
-            "tile ({}, {}) holds {} of its {} progressive levels, and geomorphing draws whole \
-             tiles only: turn geomorphing off to stream progressive tiles",
-            id.x,
-            id.y,
-            tile.levels,
-            progressive_levels(tile.tile_size)
-        ))),
+        Some((id, tile)) => Err(Error::Conflict {
+            first: "geomorphing",
+            second: "progressive tiles",
+            reason: format!(
+                "tile ({}, {}) holds {} of its {} progressive levels, and geomorphing draws \
+                 whole tiles only: turn geomorphing off to stream progressive tiles",
+                id.x,
+                id.y,
+                tile.levels,
+                progressive_levels(tile.tile_size)
+            ),
+        }),
         None => Ok(()),
     }
 }
@@ -842,17 +848,22 @@ fn choose_base(loader: &mut ArchiveLoader, settings: &EngineSettings) {
 /// the levels importance asks for, which a separate texture budget would contradict.
 fn check_progressive(settings: &EngineSettings) -> Result<()> {
     if settings.geomorph != Geomorph::Off {
-        return Err(Error::Usage(
-            "progressive streaming draws partial tiles, which geomorphing cannot: turn one off"
+        return Err(Error::Conflict {
+            first: "progressive streaming",
+            second: "geomorphing",
+            reason: "progressive streaming draws partial tiles, which geomorphing cannot: turn \
+                     one off"
                 .into(),
-        ));
+        });
     }
     if settings.texture_budget_bytes.is_some() {
-        return Err(Error::Usage(
-            "progressive streaming holds exactly the texture mips of the levels it holds: a \
-             separate texture budget does not apply (drop --texture-mb)"
+        return Err(Error::Conflict {
+            first: "progressive streaming",
+            second: "a texture budget",
+            reason: "progressive streaming holds exactly the texture mips of the levels it \
+                     holds: a separate texture budget does not apply (drop --texture-mb)"
                 .into(),
-        ));
+        });
     }
     Ok(())
 }

@@ -207,8 +207,7 @@ impl CrackScene {
         let source = source::open(&self.archive.display().to_string())?;
         let mut engine = Engine::new(source, settings, size.1)?;
         engine.force_levels(Some(Box::new(pair_pattern(TILE_SIZE - 1))));
-        let mut fb = Framebuffer::new(size.0, size.1, ColorFormat::Rgb565, DepthFormat::D16)
-            .expect("a valid frame size");
+        let mut fb = Framebuffer::new(size.0, size.1, ColorFormat::Rgb565, DepthFormat::D16)?;
         let (eye, target) = self.views[0];
         for _ in 0..4 {
             let camera = engine.camera(eye, target, false);
@@ -248,8 +247,7 @@ impl CrackScene {
     ) -> Result<CrackMeasurement> {
         let mode = settings.cracks;
         let mut engine = self.engine_with(settings, size)?;
-        let mut fb = Framebuffer::new(size.0, size.1, ColorFormat::Rgb565, DepthFormat::D16)
-            .expect("a valid frame size");
+        let mut fb = Framebuffer::new(size.0, size.1, ColorFormat::Rgb565, DepthFormat::D16)?;
         let aspect = f64::from(size.0) / f64::from(size.1);
         let level_of = pair_pattern(TILE_SIZE - 1);
         let mut m = CrackMeasurement {

@@ -173,14 +173,15 @@ impl DeviceProfile {
         let mut p = match file {
             Some(path) => Self::from_toml(path)?,
             None => Self::builtin(name).ok_or_else(|| {
-                Error::Usage(format!(
-                    "--profile {name}: not a built-in profile (pocketpc, workstation, native)"
-                ))
+                Error::setting(
+                    "device profile",
+                    name,
+                    "a built-in profile: pocketpc, workstation or native",
+                )
             })?,
         };
         overrides.apply(&mut p);
-        p.check()
-            .map_err(|e| Error::Usage(format!("profile {} with options: {e}", p.name)))?;
+        p.check()?;
         Ok(p)
     }
 
@@ -218,7 +219,7 @@ impl DeviceProfile {
             };
         }
         if let Some(v) = file.depth_bits {
-            p.depth = depth_format(v).map_err(|e| Error::invalid(name, e))?;
+            p.depth = depth_format(v).map_err(|e| Error::invalid(name, e.to_string()))?;
         }
         if let Some(v) = file.memory_mb {
             p.memory_mb = v;
@@ -246,50 +247,51 @@ impl DeviceProfile {
                 p.link.drop_rate = v;
             }
         }
-        p.check().map_err(|e| Error::invalid(name, e))?;
+        p.check().map_err(|e| Error::invalid(name, e.to_string()))?;
         Ok(p)
     }
 
-    /// Checks that every value is in range; the problem in words otherwise.
-    pub fn check(&self) -> std::result::Result<(), String> {
+    /// Checks that every value is in range: an [`Error::InvalidSetting`] naming the field
+    /// otherwise.
+    pub fn check(&self) -> Result<()> {
         let positive = |v: f64| v.is_finite() && v > 0.0;
+        let at_least_zero = |v: f64| v.is_finite() && v >= 0.0;
         if !(1..=8192).contains(&self.width) || !(1..=8192).contains(&self.height) {
-            return Err(format!(
-                "screen {}x{}: sides are 1 ..= 8192",
-                self.width, self.height
+            return Err(Error::setting(
+                "screen",
+                format!("{}x{}", self.width, self.height),
+                "sides 1 ..= 8192",
             ));
         }
-        if !positive(self.memory_mb) {
-            return Err(format!("memory_mb {} must be positive", self.memory_mb));
-        }
-        if !positive(self.target_fps) {
-            return Err(format!("target_fps {} must be positive", self.target_fps));
-        }
-        if !positive(self.cpu_slowdown) {
-            return Err(format!(
-                "cpu_slowdown {} must be positive",
-                self.cpu_slowdown
-            ));
+        for (name, value) in [
+            ("memory_mb", self.memory_mb),
+            ("target_fps", self.target_fps),
+            ("cpu_slowdown", self.cpu_slowdown),
+        ] {
+            if !positive(value) {
+                return Err(Error::setting(name, value, "a positive number"));
+            }
         }
         if let Some(b) = self.link.bandwidth_kbps.filter(|&b| !positive(b)) {
-            return Err(format!("link bandwidth_kbps {b} must be positive"));
-        }
-        if !(self.link.latency_ms.is_finite() && self.link.latency_ms >= 0.0) {
-            return Err(format!(
-                "link latency_ms {} must be 0 or more",
-                self.link.latency_ms
+            return Err(Error::setting(
+                "link bandwidth_kbps",
+                b,
+                "a positive number",
             ));
         }
-        if !(self.link.jitter_ms.is_finite() && self.link.jitter_ms >= 0.0) {
-            return Err(format!(
-                "link jitter_ms {} must be 0 or more",
-                self.link.jitter_ms
-            ));
+        for (name, value) in [
+            ("link latency_ms", self.link.latency_ms),
+            ("link jitter_ms", self.link.jitter_ms),
+        ] {
+            if !at_least_zero(value) {
+                return Err(Error::setting(name, value, "0 or more"));
+            }
         }
         if !(0.0..=1.0).contains(&self.link.drop_rate) {
-            return Err(format!(
-                "link drop_rate {} is not between 0 and 1",
-                self.link.drop_rate
+            return Err(Error::setting(
+                "link drop_rate",
+                self.link.drop_rate,
+                "a fraction between 0 and 1",
             ));
         }
         Ok(())
@@ -350,11 +352,11 @@ impl Overrides {
 }
 
 /// The depth format of `bits` (16 or 32).
-pub fn depth_format(bits: u8) -> std::result::Result<DepthFormat, String> {
+pub fn depth_format(bits: u8) -> Result<DepthFormat> {
     match bits {
         16 => Ok(DepthFormat::D16),
         32 => Ok(DepthFormat::D32),
-        b => Err(format!("depth_bits {b}: 16 or 32")),
+        b => Err(Error::setting("depth_bits", b, "16 or 32")),
     }
 }
 

@@ -109,16 +109,12 @@ pub fn fly_live(o: &FlyOptions, mut live: Option<LiveView<'_>>) -> Result<FlySum
     std::fs::create_dir_all(&o.out).map_err(|e| Error::io(&out_name, e))?;
     let mut csv = StatsCsv::create(&o.out.join("stats.csv"))?;
     let mut frames = if o.every > 0 {
-        Some(
-            PngFrames::new(o.out.join("frames"), o.every)
-                .map_err(|e| Error::Usage(e.to_string()))?,
-        )
+        Some(PngFrames::new(o.out.join("frames"), o.every)?)
     } else {
         None
     };
     let (w, h) = o.size;
-    let mut fb = Framebuffer::new(w, h, o.color, o.depth)
-        .map_err(|e| Error::Usage(format!("--size {w}x{h}: {e}")))?;
+    let mut fb = Framebuffer::new(w, h, o.color, o.depth)?;
     let mut settings = o.engine;
     if let (Clock::Simulated { .. }, PagerMode::Threaded { queue_depth }) =
         (o.clock, settings.pager_mode)
@@ -183,18 +179,14 @@ pub fn fly_live(o: &FlyOptions, mut live: Option<LiveView<'_>>) -> Result<FlySum
             let info = hud_info(&engine, &report, record.fps);
             let overlay = hud.render(&info, w, h);
             if let Some(frames) = frames.as_mut() {
-                frames
-                    .present(&fb, overlay)
-                    .map_err(|e| Error::Usage(e.to_string()))?;
+                frames.present(&fb, overlay)?;
             }
             if let Some(live) = live.as_mut() {
                 if live.real_time {
                     let due = Duration::from_secs_f64(t);
                     std::thread::sleep(due.saturating_sub(started.elapsed()));
                 }
-                live.presenter
-                    .present(&fb, overlay)
-                    .map_err(|e| Error::Usage(e.to_string()))?;
+                live.presenter.present(&fb, overlay)?;
             }
         }
         fps.push(record.fps);

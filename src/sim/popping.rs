@@ -34,11 +34,11 @@ impl FrameChange {
     pub fn between(before: &Framebuffer, after: &Framebuffer) -> Result<FrameChange> {
         let (w, h) = (before.width(), before.height());
         if (w, h) != (after.width(), after.height()) {
-            return Err(Error::Usage(format!(
-                "cannot compare a {w}x{h} frame with a {}x{} one",
-                after.width(),
-                after.height()
-            )));
+            return Err(Error::setting(
+                "frame size",
+                format!("{}x{}", after.width(), after.height()),
+                format!("{w}x{h}, the size of the frame it is compared with"),
+            ));
         }
         let (mut sum, mut changed) = (0u64, 0u64);
         for y in 0..h {

@@ -240,8 +240,7 @@ impl Run<'_> {
         if let Some(meter) = meter {
             engine.set_transfer_clock(meter);
         }
-        let mut fb = Framebuffer::new(p.width, p.height, p.color, p.depth)
-            .map_err(|e| Error::Usage(format!("{}x{}: {e}", p.width, p.height)))?;
+        let mut fb = Framebuffer::new(p.width, p.height, p.color, p.depth)?;
         let flight = Flight::builtin(self.flight, self.terrain);
         let length = self
             .options

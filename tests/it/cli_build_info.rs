@@ -59,7 +59,7 @@ fn build_puget_sound_then_info_json_describes_the_grid() {
 }
 
 #[test]
-fn errors_name_the_file_and_exit_non_zero() {
+fn errors_name_the_file_and_exit_1_bad_flags_exit_2() {
     let dir = tempfile::tempdir().unwrap();
     let bogus = dir.path().join("bogus.png");
     std::fs::write(&bogus, b"\x89PNG\r\n\x1a\nnot really").unwrap();
@@ -86,6 +86,24 @@ fn errors_name_the_file_and_exit_non_zero() {
         .arg(puget())
         .output()
         .unwrap();
-    assert_eq!(o.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("2^n + 1"));
+    assert_eq!(o.status.code(), Some(2), "a bad flag is a usage error");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("tile size 100") && err.contains("2^n + 1"),
+        "{err}"
+    );
+
+    let o = stripmask()
+        .args(["build", "--quiet", "--width", "4", "-o"])
+        .arg(&out)
+        .arg(puget())
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "clap's own usage error");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("--height") && err.contains("--sample-type"),
+        "{err}"
+    );
+    assert!(!out.exists());
 }

@@ -67,8 +67,12 @@ fn serve_refuses_a_missing_file_and_a_bad_drop_rate() {
         .args(["serve", "Cargo.toml", "--drop-rate", "2"])
         .output()
         .unwrap();
-    assert_eq!(o.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("--drop-rate"));
+    assert_eq!(o.status.code(), Some(2), "a bad flag is a usage error");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("--drop-rate 2") && err.contains("0 and 1"),
+        "{err}"
+    );
     let o = stripmask().args(["serve", "Cargo.toml"]).output().unwrap();
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("Cargo.toml: bad magic"));

@@ -8,9 +8,11 @@ const MEMINFO: &str = "/proc/meminfo";
 /// `/proc/meminfo`), in bytes. Linux only: elsewhere an error asks for a limit in bytes.
 pub fn memory_limit_from_available(percent: f64) -> Result<usize> {
     if !(percent > 0.0 && percent <= 100.0) {
-        return Err(Error::Usage(format!(
-            "a memory limit as a percentage of available memory must be in (0, 100], got {percent}"
-        )));
+        return Err(Error::setting(
+            "memory limit as a percentage of available memory",
+            percent,
+            "a percentage in (0, 100]",
+        ));
     }
     let available = available_bytes()?;
     Ok((available as f64 * percent / 100.0) as usize)
@@ -25,9 +27,13 @@ fn available_bytes() -> Result<u64> {
 
 #[cfg(not(target_os = "linux"))]
 fn available_bytes() -> Result<u64> {
-    Err(Error::Usage(format!(
-        "a memory limit as a percentage of available memory reads {MEMINFO}, which only Linux has; give the limit in megabytes"
-    )))
+    Err(Error::io(
+        MEMINFO,
+        std::io::Error::new(
+            std::io::ErrorKind::Unsupported,
+            "only Linux has it: give the memory limit in megabytes",
+        ),
+    ))
 }
 
 /// The `MemAvailable` line of a `/proc/meminfo` text, in bytes.

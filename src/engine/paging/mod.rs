@@ -66,8 +66,10 @@ impl PagerMode {
     pub fn link<R: Request, T: Send + 'static>(self, job: Job<R, T>) -> Result<Link<R, T>> {
         match self {
             PagerMode::Threaded { queue_depth: 0 } | PagerMode::Simulated { queue_depth: 0 } => {
-                Err(Error::Usage(
-                    "a threaded or simulated pager needs a queue depth of at least 1".into(),
+                Err(Error::setting(
+                    "pager queue depth",
+                    0,
+                    "at least 1 in threaded and simulated modes",
                 ))
             }
             _ => Link::new(job, self),

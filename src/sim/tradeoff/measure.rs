@@ -194,8 +194,7 @@ impl Bench {
         let key = (setting.color, setting.depth);
         let mut fb = match self.framebuffers.remove(&key) {
             Some(fb) => fb,
-            None => Framebuffer::new(w, h, key.0, key.1)
-                .map_err(|e| Error::Usage(format!("frame {w}x{h}: {e}")))?,
+            None => Framebuffer::new(w, h, key.0, key.1)?,
         };
         let engine = self.engine(setting.cracks, setting.geomorph, setting.threads)?;
         apply(engine, setting);

@@ -97,7 +97,7 @@ pub fn run_with(
     mut references: Vec<Box<dyn Reference>>,
 ) -> Result<TradeoffReport> {
     if references.is_empty() {
-        return Err(Error::Usage("tradeoff needs at least one reference".into()));
+        return Err(Error::setting("tradeoff references", 0, "at least one"));
     }
     let terrain = TerrainFrame::new(ArchiveReader::open(source::open(&options.source)?)?.header());
     let mut views = views::builtin(&terrain);
@@ -106,17 +106,22 @@ pub fn run_with(
         views.extend(views::from_flight(flight, options.flight_views));
     }
     if views.is_empty() {
-        return Err(Error::Usage("tradeoff: no views to render".into()));
+        return Err(Error::setting(
+            "tradeoff views",
+            0,
+            "at least one: keep some built-in views or add a flight's",
+        ));
     }
     let all_knobs = knobs::knobs();
     if let Some(only) = &options.knobs {
         for name in only {
             if !all_knobs.iter().any(|k| k.name == name) {
                 let names: Vec<_> = all_knobs.iter().map(|k| k.name).collect();
-                return Err(Error::Usage(format!(
-                    "--knobs: no knob {name:?} (knobs: {})",
-                    names.join(", ")
-                )));
+                return Err(Error::setting(
+                    "--knobs",
+                    format!("{name:?}"),
+                    format!("knobs among {}", names.join(", ")),
+                ));
             }
         }
     }

@@ -8,7 +8,7 @@ use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer, Perspective, Preci
 
 use crate::engine::Engine;
 use crate::engine::camera::Camera;
-use crate::error::{Error, Result};
+use crate::error::Result;
 
 /// A renderer of reference images.
 pub trait Reference {
@@ -48,8 +48,7 @@ impl Reference for CpuFloat {
             render.sampler = Some(Sampler::BILINEAR_MIPMAP);
         }
         engine.force_levels(Some(Box::new(|_| 0)));
-        let mut fb = Framebuffer::new(size.0, size.1, ColorFormat::Rgba8888, DepthFormat::D32)
-            .map_err(|e| Error::Usage(format!("reference frame {}x{}: {e}", size.0, size.1)))?;
+        let mut fb = Framebuffer::new(size.0, size.1, ColorFormat::Rgba8888, DepthFormat::D32)?;
         engine.render(camera, &mut fb)?;
         Ok(fb.to_rgba_image())
     }
@@ -96,7 +95,7 @@ impl Reference for Gpu {
     ) -> Result<RgbaImage> {
         use stripmask_raster::DrawTarget;
         if self.target.size() != size {
-            *self = Gpu::new(size).map_err(|e| Error::Usage(format!("wgpu reference: {e}")))?;
+            *self = Gpu::new(size)?;
         }
         let render = engine.render_settings_mut();
         render.perspective = Perspective::Exact;
@@ -105,8 +104,6 @@ impl Reference for Gpu {
         }
         engine.force_levels(Some(Box::new(|_| 0)));
         engine.render_to(camera, &mut self.target)?;
-        self.target
-            .read_image()
-            .map_err(|e| Error::Usage(format!("wgpu reference: {e}")))
+        Ok(self.target.read_image()?)
     }
 }

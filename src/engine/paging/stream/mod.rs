@@ -301,10 +301,11 @@ impl<L: LevelLoader> StreamPager<L> {
         settings: StreamSettings,
     ) -> Result<Self> {
         if !(settings.square_share > 0.0 && settings.square_share <= 1.0) {
-            return Err(Error::Usage(format!(
-                "the coarse square's share of memory must be in (0, 1], not {}",
-                settings.square_share
-            )));
+            return Err(Error::setting(
+                "the coarse square's share of memory",
+                settings.square_share,
+                "a share in (0, 1]",
+            ));
         }
         let strategy = Progressive {
             square_share: settings.square_share,

@@ -20,6 +20,8 @@
 pub mod db;
 pub mod engine;
 pub mod error;
+pub mod named;
 pub mod sim;
 
 pub use error::{Error, Result};
+pub use named::Named;

@@ -1,4 +1,7 @@
 //! Placing a frame on an output of another size: which output pixel shows which frame pixel.
+//!
+//! [`Fit`] is the choice, in every build (a command names it before it knows which presenters
+//! it has); the placement it makes exists where a window or the framebuffer does.
 
 /// How a frame is placed on an output of a different size. Either way the frame is centred and
 /// the output outside it is black.
@@ -15,6 +18,7 @@ pub enum Fit {
 
 /// The output rectangle a frame covers and, for each of its columns and rows, the frame
 /// column or row it shows.
+#[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub(crate) struct Placement {
     /// The frame size (width, height) this placement is for.
@@ -31,6 +35,7 @@ pub(crate) struct Placement {
     pub rows: Vec<u32>,
 }
 
+#[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
 impl Placement {
     /// Places a `frame` (width, height) on an `output` (width, height); both non-zero.
     pub fn new(frame: (u32, u32), output: (u32, u32), fit: Fit) -> Self {
@@ -71,11 +76,15 @@ impl Placement {
 }
 
 /// `a * b / c`, rounded down, without overflow.
+#[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
 fn scaled(a: u32, b: u32, c: u32) -> u32 {
     (u64::from(a) * u64::from(b) / u64::from(c)) as u32
 }
 
-#[cfg(test)]
+#[cfg(all(
+    test,
+    any(feature = "window", all(feature = "fbdev", target_os = "linux"))
+))]
 mod tests {
     use super::*;
 

@@ -19,7 +19,6 @@ mod compose;
 mod error;
 #[cfg(all(feature = "fbdev", target_os = "linux"))]
 mod fbdev;
-#[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
 mod fit;
 #[cfg(feature = "wgpu")]
 mod gpu;
@@ -33,7 +32,6 @@ pub use compose::compose_rgba;
 pub use error::PlatformError;
 #[cfg(all(feature = "fbdev", target_os = "linux"))]
 pub use fbdev::{Bitfield, EvdevInput, FbPresenter, ScreenInfo};
-#[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
 pub use fit::Fit;
 #[cfg(feature = "wgpu")]
 pub use gpu::GpuTarget;

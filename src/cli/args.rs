@@ -1,9 +1,15 @@
-//! Argument groups several commands share (the scene, the device, the streaming), and how each
-//! resolves into the library's settings.
+//! Argument groups several commands share (the scene, the device, the streaming), how each
+//! resolves into the library's settings, and the value parsers of library settings.
+//!
+//! Settings chosen by name parse straight into the library's types ([`named`]), and defaults come
+//! from the library's own (`EngineSettings::default()` and the like), so the command holds no
+//! second copy of either.
 
 use std::path::PathBuf;
 
 use clap::Args;
+use clap::builder::{PossibleValuesParser, TypedValueParser};
+use stripmask::Named;
 use stripmask::db::archive::ArchiveReader;
 use stripmask::db::source::{self, throttle::LinkProfile};
 use stripmask::engine::EngineSettings;
@@ -15,9 +21,10 @@ use stripmask::engine::paging::memory_limit_from_available;
 use stripmask::engine::paging::stream::{PredictionSettings, StreamSettings, Streaming};
 use stripmask::engine::terrain::TerrainFrame;
 use stripmask::error::{Error, Result};
-use stripmask::sim::clock::{Clock, CostModel};
+use stripmask::sim::clock::Clock;
 use stripmask::sim::device::{DeviceProfile, Overrides, depth_format};
 use stripmask::sim::flight::{Builtin, Flight};
+use stripmask::sim::fly::Length;
 use stripmask_raster::{ColorFormat, DepthFormat, Precision};
 
 /// How tiles come in, and its settings: what `fly`, `view`, `fb` and `demo` share.
@@ -25,41 +32,36 @@ use stripmask_raster::{ColorFormat, DepthFormat, Precision};
 pub(super) struct StreamingArgs {
     /// belts: whole tiles, belt by belt (the paper); progressive: tile levels by importance
     /// (docs/streaming.md).
-    #[arg(long, value_enum, default_value_t = StreamingArg::Belts)]
-    pub(super) streaming: StreamingArg,
+    #[arg(long, value_parser = named::<Streaming>(), default_value = Streaming::default().name())]
+    streaming: Streaming,
     /// With --streaming progressive: (tile, level) requests waiting to be sent, at most.
-    #[arg(long, default_value_t = 32)]
-    pub(super) queue: usize,
+    #[arg(long, default_value_t = StreamSettings::default().queue_capacity)]
+    queue: usize,
     /// With --streaming progressive: no viewpoint prediction.
     #[arg(long)]
-    pub(super) no_prediction: bool,
+    no_prediction: bool,
     /// With --streaming progressive: seconds ahead the viewpoint is predicted.
-    #[arg(long, default_value_t = 1.0)]
-    pub(super) predict_seconds: f64,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub(super) enum StreamingArg {
-    Belts,
-    Progressive,
+    #[arg(long, default_value_t = PredictionSettings::default().horizon)]
+    predict_seconds: f64,
 }
 
 impl StreamingArgs {
+    /// The streaming asked for, progressive with the queue and prediction given.
     pub(super) fn resolve(&self) -> Result<Streaming> {
-        if self.streaming == StreamingArg::Belts {
-            return Ok(Streaming::Belts);
-        }
+        let Streaming::Progressive(defaults) = self.streaming else {
+            return Ok(self.streaming);
+        };
         if self.queue == 0 {
             return Err(Error::setting("--queue", 0, "at least 1"));
         }
-        positive("--predict-seconds", self.predict_seconds)?;
+        let horizon = positive("--predict-seconds", self.predict_seconds)?;
         Ok(Streaming::Progressive(StreamSettings {
             queue_capacity: self.queue,
             prediction: (!self.no_prediction).then_some(PredictionSettings {
-                horizon: self.predict_seconds,
+                horizon,
                 ..PredictionSettings::default()
             }),
-            ..StreamSettings::default()
+            ..defaults
         }))
     }
 }
@@ -68,37 +70,37 @@ impl StreamingArgs {
 #[derive(Args, Debug)]
 pub(super) struct SceneArgs {
     /// A built-in flight (overview, diagonal, low) or a TOML file of keyframes.
-    #[arg(long, default_value = "diagonal")]
-    pub(super) flight: String,
+    #[arg(long, default_value = Builtin::Diagonal.name())]
+    flight: String,
     #[command(flatten)]
-    pub(super) device: DeviceArgs,
+    device: DeviceArgs,
     /// Memory limit as a percentage of available memory (Linux), as in the paper.
     #[arg(long)]
-    pub(super) memory_percent: Option<f64>,
+    memory_percent: Option<f64>,
     /// Of the memory limit, the most tile textures may take, MB (default: no separate cap).
     #[arg(long)]
-    pub(super) texture_mb: Option<f64>,
+    texture_mb: Option<f64>,
     /// Use the f32 reference pipeline instead of fixed point.
     #[arg(long)]
-    pub(super) float: bool,
+    float: bool,
     /// Power-of-two mask levels only (geometrical mipmapping) instead of every level.
     #[arg(long)]
     pow2_masks: bool,
     /// Importance weight of distance (the height weight is 1 minus it).
-    #[arg(long, default_value_t = 0.5)]
-    pub(super) distance_weight: f64,
+    #[arg(long, default_value_t = Weights::default().distance())]
+    distance_weight: f64,
     /// How cracks between tiles at different levels are hidden (docs/cracks.md).
-    #[arg(long, value_enum, default_value_t = CracksArg::Stitch)]
-    pub(super) cracks: CracksArg,
+    #[arg(long, value_parser = named::<CrackMode>(), default_value = CrackMode::default().name())]
+    cracks: CrackMode,
     /// Morph the vertices coarser levels drop by distance, against popping (docs/cracks.md).
-    #[arg(long, value_enum, default_value_t = GeomorphArg::Off)]
-    pub(super) geomorph: GeomorphArg,
+    #[arg(long, value_parser = named::<Geomorph>(), default_value = Geomorph::default().name())]
+    geomorph: Geomorph,
     /// With --geomorph distance: vertices whose grid step spans fewer pixels than this are
     /// fully morphed, those spanning twice as many not at all.
     #[arg(long, default_value_t = Geomorph::DEFAULT_PIXELS)]
-    pub(super) geomorph_pixels: f64,
+    geomorph_pixels: f64,
     #[command(flatten)]
-    pub(super) streaming: StreamingArgs,
+    streaming: StreamingArgs,
 }
 
 /// A scene resolved from its arguments: the flight, the engine settings, the framebuffer, the
@@ -115,16 +117,9 @@ pub(super) struct Scene {
 }
 
 impl SceneArgs {
+    /// The scene over the archive `source_name` (read for the terrain the flight is scaled to).
     pub(super) fn resolve(&self, source_name: &str) -> Result<Scene> {
-        let reader = ArchiveReader::open(source::open(source_name)?)?;
-        let terrain = TerrainFrame::new(reader.header());
-        drop(reader);
-        let flight = match self.flight.as_str() {
-            "overview" => Flight::builtin(Builtin::Overview, &terrain),
-            "diagonal" => Flight::builtin(Builtin::Diagonal, &terrain),
-            "low" => Flight::builtin(Builtin::Low, &terrain),
-            path => Flight::from_toml(std::path::Path::new(path))?,
-        };
+        let flight = flight(&self.flight, source_name)?;
         let device = self.device.resolve()?;
         let memory_limit_bytes = match self.memory_percent {
             Some(p) => memory_limit_from_available(p)?,
@@ -152,34 +147,20 @@ impl SceneArgs {
                 LevelSet::All
             },
             weights,
+            cracks: self.cracks,
+            geomorph: match self.geomorph {
+                Geomorph::Distance { .. } => Geomorph::Distance {
+                    pixels: positive("--geomorph-pixels", self.geomorph_pixels)?,
+                },
+                Geomorph::Off => Geomorph::Off,
+            },
+            streaming: self.streaming.resolve()?,
             ..EngineSettings::default()
         };
         engine.budget.target_fps = device.target_fps;
-        engine.cracks = match self.cracks {
-            CracksArg::None => CrackMode::None,
-            CracksArg::Shadow => CrackMode::Shadow,
-            CracksArg::Skirts => CrackMode::Skirts,
-            CracksArg::Stitch => CrackMode::Stitch,
-        };
-        engine.geomorph = match self.geomorph {
-            GeomorphArg::Off => Geomorph::Off,
-            GeomorphArg::Distance => Geomorph::Distance {
-                pixels: positive("--geomorph-pixels", self.geomorph_pixels)?,
-            },
-        };
         if self.float {
             engine.render.precision = Precision::Float;
         }
-        engine.streaming = self.streaming.resolve()?;
-        let clock = match self.device.clock {
-            ClockArg::Wall => Clock::Wall {
-                slowdown: device.cpu_slowdown,
-            },
-            ClockArg::Simulated => Clock::Simulated {
-                model: CostModel::HOST,
-                slowdown: device.cpu_slowdown,
-            },
-        };
         Ok(Scene {
             flight,
             engine,
@@ -187,70 +168,76 @@ impl SceneArgs {
             color: device.color,
             depth: device.depth,
             target_fps: device.target_fps,
-            clock,
+            clock: self.device.clock.with_slowdown(device.cpu_slowdown),
             link: (!device.link.is_unlimited())
                 .then(|| device.link.to_link_profile(self.device.seed)),
         })
     }
 }
 
+/// The flight `name` (built in, or a TOML file) over the archive `source_name`.
+pub(super) fn flight(name: &str, source_name: &str) -> Result<Flight> {
+    let reader = ArchiveReader::open(source::open(source_name)?)?;
+    Flight::builtin_or_file(name, &TerrainFrame::new(reader.header()))
+}
+
 /// The device a flight runs as: a profile, and values that override it.
 #[derive(Args, Debug)]
-pub(super) struct DeviceArgs {
-    /// Device profile: pocketpc, workstation or native (the handheld's screen on this CPU).
-    #[arg(long, default_value = "native")]
-    pub(super) profile: String,
+struct DeviceArgs {
+    /// Device profile (native: the handheld's screen on this CPU).
+    #[arg(long, value_parser = profile_name(), default_value_t = DeviceProfile::native().name)]
+    profile: String,
     /// A TOML device profile (see docs/pocketpc.md) instead of a built-in one.
     #[arg(long, conflicts_with = "profile")]
-    pub(super) profile_file: Option<PathBuf>,
+    profile_file: Option<PathBuf>,
     /// wall: frame costs measured; simulated: modelled, so the run is reproducible.
-    #[arg(long, value_enum, default_value_t = ClockArg::Wall)]
-    pub(super) clock: ClockArg,
+    #[arg(long, value_parser = named::<Clock>(), default_value = Clock::default().name())]
+    clock: Clock,
     /// Framebuffer size [profile].
     #[arg(long, value_parser = parse_size)]
-    pub(super) size: Option<(u32, u32)>,
-    /// Colour format: rgb565 (the handheld's) or rgba8888 [profile].
-    #[arg(long, value_enum)]
-    pub(super) color: Option<ColorArg>,
+    size: Option<(u32, u32)>,
+    /// Colour format (rgb565 is the handheld's) [profile].
+    #[arg(long, value_parser = named::<ColorFormat>())]
+    color: Option<ColorFormat>,
     /// Depth buffer bits: 16 or 32 [profile].
     #[arg(long, value_parser = clap::value_parser!(u8).range(16..=32))]
-    pub(super) depth_bits: Option<u8>,
+    depth_bits: Option<u8>,
     /// The frame rate the triangle budget aims at [profile].
     #[arg(long)]
-    pub(super) target_fps: Option<f64>,
+    target_fps: Option<f64>,
     /// Memory limit on loaded tiles, MB (10^6 bytes) [profile].
     #[arg(long, conflicts_with = "memory_percent")]
-    pub(super) memory_mb: Option<f64>,
+    memory_mb: Option<f64>,
     /// Rasterizer threads (0: all cores) [profile].
     #[arg(long)]
-    pub(super) threads: Option<usize>,
+    threads: Option<usize>,
     /// Frame costs are multiplied by this (the device's CPU is this many times slower) [profile].
     #[arg(long)]
-    pub(super) cpu_slowdown: Option<f64>,
+    cpu_slowdown: Option<f64>,
     /// Link bandwidth, kilobits per second [profile].
     #[arg(long)]
-    pub(super) bandwidth_kbps: Option<f64>,
+    bandwidth_kbps: Option<f64>,
     /// Link latency per request, milliseconds [profile].
     #[arg(long)]
-    pub(super) latency_ms: Option<f64>,
+    latency_ms: Option<f64>,
     /// Each request's latency varies within ± this many milliseconds (seeded) [profile].
     #[arg(long)]
-    pub(super) jitter_ms: Option<f64>,
+    jitter_ms: Option<f64>,
     /// Fraction of requests the link drops, 0..1 [profile].
     #[arg(long)]
-    pub(super) drop_rate: Option<f64>,
+    drop_rate: Option<f64>,
     /// Seed of the link's delays and drop decisions.
-    #[arg(long, default_value_t = 1)]
-    pub(super) seed: u64,
+    #[arg(long, default_value_t = LinkProfile::default().seed)]
+    seed: u64,
 }
 
 impl DeviceArgs {
-    pub(super) fn resolve(&self) -> Result<DeviceProfile> {
-        let depth = self.depth_bits.map(depth_format).transpose()?;
+    /// The profile with the values given on the command line.
+    fn resolve(&self) -> Result<DeviceProfile> {
         let overrides = Overrides {
             size: self.size,
-            color: self.color.map(ColorArg::format),
-            depth,
+            color: self.color,
+            depth: self.depth_bits.map(depth_format).transpose()?,
             memory_mb: self.memory_mb,
             target_fps: self.target_fps,
             threads: self.threads,
@@ -264,38 +251,23 @@ impl DeviceArgs {
     }
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub(super) enum ClockArg {
-    Wall,
-    Simulated,
+/// Parses a library setting chosen by name: the possible values clap lists, in help and in
+/// errors, are the library's names.
+pub(super) fn named<T: Named + Send + Sync>() -> impl TypedValueParser<Value = T> {
+    PossibleValuesParser::new(T::all().iter().map(Named::name)).try_map(|name| T::from_name(&name))
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub(super) enum CracksArg {
-    None,
-    Shadow,
-    Skirts,
-    Stitch,
+/// Parses the name of a built-in device profile.
+pub(super) fn profile_name() -> PossibleValuesParser {
+    PossibleValuesParser::new(DeviceProfile::BUILTIN)
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub(super) enum GeomorphArg {
-    Off,
-    Distance,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub(super) enum ColorArg {
-    Rgb565,
-    Rgba8888,
-}
-
-impl ColorArg {
-    pub(super) fn format(self) -> ColorFormat {
-        match self {
-            ColorArg::Rgb565 => ColorFormat::Rgb565,
-            ColorArg::Rgba8888 => ColorFormat::Rgba8888,
-        }
+/// The flight length of `--frames N` or `--seconds S` (`None`: the whole flight).
+pub(super) fn length(frames: Option<u64>, seconds: Option<f64>) -> Option<Length> {
+    match (frames, seconds) {
+        (Some(n), _) => Some(Length::Frames(n)),
+        (None, Some(s)) => Some(Length::Seconds(s)),
+        (None, None) => None,
     }
 }
 
@@ -308,6 +280,7 @@ pub(super) fn positive(flag: &'static str, value: f64) -> Result<f64> {
     }
 }
 
+/// `WxH`, each side 1 ..= 8192.
 pub(super) fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
     let (w, h) = s
         .split_once('x')

@@ -4,101 +4,113 @@ use std::path::PathBuf;
 
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
+use stripmask::Named;
 use stripmask::db::archive::Codec;
 use stripmask::db::builder::{BuildOptions, build};
 use stripmask::db::dem::{self, DemFormat, OpenOptions, RawLayout, SampleType};
 use stripmask::error::Result;
 
+use super::args::named;
+
 #[derive(Args, Debug)]
 pub(super) struct BuildArgs {
     /// The DEM file.
-    pub(super) input: PathBuf,
+    input: PathBuf,
     /// The archive to write.
     #[arg(short, long)]
-    pub(super) output: PathBuf,
+    output: PathBuf,
     /// Input format (default: from the extension).
-    #[arg(long, value_enum)]
-    pub(super) format: Option<DemFormat>,
+    #[arg(long, value_parser = named::<DemFormat>())]
+    format: Option<DemFormat>,
     /// Raw/BIL: samples per row.
     #[arg(long, requires_all = ["height", "sample_type"])]
-    pub(super) width: Option<usize>,
+    width: Option<usize>,
     /// Raw/BIL: rows.
     #[arg(long, requires_all = ["width", "sample_type"])]
-    pub(super) height: Option<usize>,
+    height: Option<usize>,
     /// Raw/BIL: sample type.
-    #[arg(long, value_enum, requires_all = ["width", "height"])]
-    pub(super) sample_type: Option<SampleType>,
+    #[arg(long, value_parser = named::<SampleType>(), requires_all = ["width", "height"])]
+    sample_type: Option<SampleType>,
     /// Raw/BIL: samples are big-endian (default little-endian).
     #[arg(long)]
-    pub(super) big_endian: bool,
+    big_endian: bool,
     /// Raw/BIL: bytes to skip before the first sample.
     #[arg(long, default_value_t = 0)]
-    pub(super) header_bytes: u64,
+    header_bytes: u64,
     /// A raw value that means "no data" (in addition to the file's own).
     #[arg(long, allow_negative_numbers = true)]
-    pub(super) nodata: Option<f32>,
+    nodata: Option<f32>,
     /// Samples per tile side, 2^n + 1.
-    #[arg(long, default_value_t = 129)]
-    pub(super) tile_size: usize,
+    #[arg(long, default_value_t = BuildOptions::default().tile_size)]
+    tile_size: usize,
     /// Metres between samples (default: the file's georeferencing, else 1).
     #[arg(long)]
-    pub(super) spacing: Option<f64>,
+    spacing: Option<f64>,
     /// Metres per raw height unit.
-    #[arg(long, default_value_t = 1.0)]
-    pub(super) vertical_scale: f64,
+    #[arg(long, default_value_t = BuildOptions::default().vertical_scale)]
+    vertical_scale: f64,
     /// World x, y of the north-west sample (default: the file's georeferencing, else 0, 0).
     #[arg(long, num_args = 2, value_names = ["X", "Y"], allow_negative_numbers = true)]
-    pub(super) origin: Option<Vec<f64>>,
+    origin: Option<Vec<f64>>,
     /// A colour image covering the DEM, cut into tile textures (default: ramp + hill shading).
     #[arg(long)]
-    pub(super) texture: Option<PathBuf>,
+    texture: Option<PathBuf>,
     /// Texels per grid cell in tile textures (1, 2, 4 or 8).
-    #[arg(long, default_value_t = 1)]
-    pub(super) texture_factor: usize,
-    /// How tile payloads are stored.
-    #[arg(long, value_enum, default_value_t = Codec::Lz4)]
-    pub(super) codec: Codec,
+    #[arg(long, default_value_t = BuildOptions::default().texture_factor)]
+    texture_factor: usize,
+    /// How tile payloads are stored (deflate: smaller, slower to decode).
+    #[arg(long, value_parser = named::<Codec>(), default_value = BuildOptions::default().codec.name())]
+    codec: Codec,
     /// Metres per height quantum, shared by all tiles; a tile's relief must fit 65535 quanta.
-    #[arg(long, default_value_t = stripmask::db::builder::DEFAULT_HEIGHT_QUANTUM)]
-    pub(super) height_quantum: f32,
+    #[arg(long, default_value_t = BuildOptions::default().height_quantum)]
+    height_quantum: f32,
     /// No progress bar and no summary.
     #[arg(short, long)]
-    pub(super) quiet: bool,
+    quiet: bool,
     /// Print the summary as JSON.
     #[arg(long)]
-    pub(super) json: bool,
+    json: bool,
+}
+
+impl BuildArgs {
+    /// How the DEM is read.
+    fn open_options(&self) -> OpenOptions {
+        let raw = match (self.width, self.height, self.sample_type) {
+            (Some(width), Some(height), Some(sample_type)) => Some(RawLayout {
+                width,
+                height,
+                sample_type,
+                big_endian: self.big_endian,
+                header_bytes: self.header_bytes,
+            }),
+            _ => None,
+        };
+        OpenOptions {
+            format: self.format,
+            raw,
+            nodata: self.nodata,
+        }
+    }
+
+    /// What the build makes of it.
+    fn build_options(&self) -> BuildOptions {
+        BuildOptions {
+            tile_size: self.tile_size,
+            spacing: self.spacing,
+            vertical_scale: self.vertical_scale,
+            origin: self.origin.as_ref().map(|o| (o[0], o[1])),
+            texture_factor: self.texture_factor,
+            texture_image: self.texture.clone(),
+            codec: self.codec,
+            height_quantum: self.height_quantum,
+            ..BuildOptions::default()
+        }
+    }
 }
 
 pub(super) fn run(a: BuildArgs) -> Result<()> {
-    let raw = match (a.width, a.height, a.sample_type) {
-        (Some(width), Some(height), Some(sample_type)) => Some(RawLayout {
-            width,
-            height,
-            sample_type,
-            big_endian: a.big_endian,
-            header_bytes: a.header_bytes,
-        }),
-        _ => None,
-    };
-    let reader = dem::open(
-        &a.input,
-        &OpenOptions {
-            format: a.format,
-            raw,
-            nodata: a.nodata,
-        },
-    )?;
-    let options = BuildOptions {
-        tile_size: a.tile_size,
-        spacing: a.spacing,
-        vertical_scale: a.vertical_scale,
-        origin: a.origin.map(|o| (o[0], o[1])),
-        texture_factor: a.texture_factor,
-        texture_image: a.texture,
-        codec: a.codec,
-        height_quantum: a.height_quantum,
-        ..BuildOptions::default()
-    };
+    let reader = dem::open(&a.input, &a.open_options())?;
+    let options = a.build_options();
     let bar = if a.quiet {
         ProgressBar::hidden()
     } else {

@@ -3,48 +3,50 @@
 use std::path::PathBuf;
 
 use clap::Args;
+use stripmask::Named;
 use stripmask::error::Result;
+use stripmask::sim::clock::Clock;
 use stripmask::sim::demo::DemoOptions;
 use stripmask::sim::device::{DeviceProfile, Overrides};
-use stripmask::sim::fly::{Length, LiveView};
+use stripmask::sim::fly::LiveView;
 use stripmask_platform::Presenter;
 
-use super::args::{ClockArg, StreamingArgs};
+use super::args::{StreamingArgs, length, named, profile_name};
 
 #[derive(Args, Debug)]
 pub(super) struct DemoArgs {
     /// Output folder: archive, stats.csv, frames and plots.
-    #[arg(long, default_value = "stripmask-demo")]
-    pub(super) out: PathBuf,
+    #[arg(long, default_value_os_t = DemoOptions::default().out)]
+    out: PathBuf,
     /// The elevation model (default: examples/data/puget_sound_1k_height.png).
     #[arg(long)]
-    pub(super) dem: Option<PathBuf>,
-    /// Device profile: pocketpc, workstation or native.
-    #[arg(long, default_value = "pocketpc")]
-    pub(super) profile: String,
+    dem: Option<PathBuf>,
+    /// Device profile.
+    #[arg(long, value_parser = profile_name(), default_value_t = DemoOptions::default().profile.name)]
+    profile: String,
     /// A TOML device profile instead of a built-in one.
     #[arg(long, conflicts_with = "profile")]
-    pub(super) profile_file: Option<PathBuf>,
-    /// simulated (reproducible, the default) or wall (measured frame costs).
-    #[arg(long, value_enum, default_value_t = ClockArg::Simulated)]
-    pub(super) clock: ClockArg,
+    profile_file: Option<PathBuf>,
+    /// simulated (reproducible) or wall (measured frame costs).
+    #[arg(long, value_parser = named::<Clock>(), default_value = DemoOptions::default().clock.name())]
+    clock: Clock,
     /// Stop after N frames (default: the whole flight).
     #[arg(long, conflicts_with = "seconds")]
-    pub(super) frames: Option<u64>,
+    frames: Option<u64>,
     /// Stop after S seconds of flight time.
     #[arg(long)]
-    pub(super) seconds: Option<f64>,
+    seconds: Option<f64>,
     /// Keep one frame in K as PNG (0: none).
-    #[arg(long, default_value_t = 10)]
-    pub(super) every: u64,
+    #[arg(long, default_value_t = DemoOptions::default().every)]
+    every: u64,
     /// Also show the flight live in a window, at the device's pace (Esc ends it early).
     #[arg(long)]
-    pub(super) window: bool,
+    window: bool,
     #[command(flatten)]
-    pub(super) streaming: StreamingArgs,
+    streaming: StreamingArgs,
     /// No progress bar.
     #[arg(short, long)]
-    pub(super) quiet: bool,
+    quiet: bool,
 }
 
 pub(super) fn run(a: DemoArgs) -> Result<()> {
@@ -56,12 +58,8 @@ pub(super) fn run(a: DemoArgs) -> Result<()> {
             a.profile_file.as_deref(),
             &Overrides::default(),
         )?,
-        simulated: a.clock == ClockArg::Simulated,
-        length: match (a.frames, a.seconds) {
-            (Some(n), _) => Some(Length::Frames(n)),
-            (None, Some(s)) => Some(Length::Seconds(s)),
-            (None, None) => None,
-        },
+        clock: a.clock,
+        length: length(a.frames, a.seconds),
         every: a.every,
         progress: !a.quiet,
         streaming: a.streaming.resolve()?,

@@ -3,8 +3,11 @@
 use std::path::PathBuf;
 
 use clap::Args;
+use stripmask::Named;
 use stripmask::error::Result;
+use stripmask_platform::Fit;
 
+use super::args::named;
 use super::view::ViewArgs;
 #[cfg(all(feature = "fbdev", target_os = "linux"))]
 use super::view::{report_view, viewer_options};
@@ -14,32 +17,22 @@ use super::viewer;
 #[derive(Args, Debug)]
 pub(super) struct FbArgs {
     #[command(flatten)]
-    pub(super) view: ViewArgs,
+    view: ViewArgs,
     /// The framebuffer device.
     #[arg(long, default_value = "/dev/fb0")]
-    pub(super) device: PathBuf,
+    device: PathBuf,
     /// Fit a frame that differs from the screen: centre it, or scale it to fill.
-    #[arg(long, value_enum, default_value_t = FitArg::Center)]
-    pub(super) fit: FitArg,
+    #[arg(long, value_parser = named::<Fit>(), default_value = Fit::default().name())]
+    fit: Fit,
     /// An evdev keyboard (e.g. /dev/input/event0) to fly with the viewer's keys.
     #[arg(long)]
-    pub(super) input: Option<PathBuf>,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub(super) enum FitArg {
-    Center,
-    Scale,
+    input: Option<PathBuf>,
 }
 
 #[cfg(all(feature = "fbdev", target_os = "linux"))]
 pub(super) fn run(a: FbArgs) -> Result<()> {
     let options = viewer_options(&a.view)?;
-    let fit = match a.fit {
-        FitArg::Center => stripmask_platform::Fit::Center,
-        FitArg::Scale => stripmask_platform::Fit::Scale,
-    };
-    let mut screen = stripmask_platform::FbPresenter::open(&a.device, fit)?;
+    let mut screen = stripmask_platform::FbPresenter::open(&a.device, a.fit)?;
     if let Some(path) = &a.input {
         screen = screen.with_input(stripmask_platform::EvdevInput::open(path)?);
     }

@@ -4,37 +4,37 @@ use std::path::PathBuf;
 
 use clap::Args;
 use stripmask::error::Result;
-use stripmask::sim::fly::{FlyOptions, Length, fly};
+use stripmask::sim::fly::{FlyOptions, fly};
 
-use super::args::SceneArgs;
+use super::args::{SceneArgs, length};
 
 #[derive(Args, Debug)]
 pub(super) struct FlyArgs {
     /// An archive file or http:// URL.
-    pub(super) source: String,
+    source: String,
     /// Stop after N frames (default: the whole flight).
     #[arg(long, conflicts_with = "seconds")]
-    pub(super) frames: Option<u64>,
+    frames: Option<u64>,
     /// Stop after S seconds of flight time.
     #[arg(long)]
-    pub(super) seconds: Option<f64>,
+    seconds: Option<f64>,
     /// Output folder for stats.csv and frames.
     #[arg(long, default_value = "stripmask-fly")]
-    pub(super) out: PathBuf,
+    out: PathBuf,
     /// Keep one frame in K as PNG (0: none).
     #[arg(long, default_value_t = 10)]
-    pub(super) every: u64,
+    every: u64,
     /// Draw the HUD (statistics and belt minimap) into the kept frames.
     #[arg(long)]
-    pub(super) hud: bool,
+    hud: bool,
     /// No progress bar.
     #[arg(short, long)]
-    pub(super) quiet: bool,
+    quiet: bool,
     /// Do not draw the report's plots at the end.
     #[arg(long)]
-    pub(super) no_plots: bool,
+    no_plots: bool,
     #[command(flatten)]
-    pub(super) scene: SceneArgs,
+    scene: SceneArgs,
 }
 
 pub(super) fn run(a: FlyArgs) -> Result<()> {
@@ -42,11 +42,7 @@ pub(super) fn run(a: FlyArgs) -> Result<()> {
     let options = FlyOptions {
         source: a.source.clone(),
         flight: scene.flight,
-        length: match (a.frames, a.seconds) {
-            (Some(n), _) => Some(Length::Frames(n)),
-            (None, Some(s)) => Some(Length::Seconds(s)),
-            (None, None) => None,
-        },
+        length: length(a.frames, a.seconds),
         size: scene.size,
         color: scene.color,
         depth: scene.depth,

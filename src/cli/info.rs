@@ -11,40 +11,40 @@ use stripmask::error::Result;
 #[derive(Args, Debug)]
 pub(super) struct InfoArgs {
     /// An archive file or http:// URL.
-    pub(super) file_or_url: String,
+    file_or_url: String,
     /// Print JSON.
     #[arg(long)]
-    pub(super) json: bool,
+    json: bool,
     /// Also fetch, verify and decode every tile, and report the rate.
     #[arg(long)]
-    pub(super) check: bool,
+    check: bool,
 }
 
 #[derive(Serialize)]
 pub(super) struct InfoReport {
-    pub(super) name: String,
-    pub(super) version: u32,
-    pub(super) header: Header,
-    pub(super) tile_count: usize,
-    pub(super) file_bytes: u64,
-    pub(super) main_bytes: u64,
-    pub(super) raw_tile_bytes: usize,
-    pub(super) stored_tile_bytes_min: u64,
-    pub(super) stored_tile_bytes_mean: f64,
-    pub(super) stored_tile_bytes_max: u64,
-    pub(super) stored_tile_bytes: Vec<u64>,
-    pub(super) raw_level_bytes: Vec<usize>,
-    pub(super) stored_level_bytes_mean: Vec<f64>,
-    pub(super) check: Option<CheckReport>,
+    name: String,
+    version: u32,
+    header: Header,
+    tile_count: usize,
+    file_bytes: u64,
+    main_bytes: u64,
+    raw_tile_bytes: usize,
+    stored_tile_bytes_min: u64,
+    stored_tile_bytes_mean: f64,
+    stored_tile_bytes_max: u64,
+    stored_tile_bytes: Vec<u64>,
+    raw_level_bytes: Vec<usize>,
+    stored_level_bytes_mean: Vec<f64>,
+    check: Option<CheckReport>,
 }
 
 #[derive(Serialize)]
 pub(super) struct CheckReport {
-    pub(super) tiles: usize,
-    pub(super) bytes: u64,
-    pub(super) seconds: f64,
-    pub(super) tiles_per_second: f64,
-    pub(super) mebibytes_per_second: f64,
+    tiles: usize,
+    bytes: u64,
+    seconds: f64,
+    tiles_per_second: f64,
+    mebibytes_per_second: f64,
 }
 
 pub(super) fn run(a: InfoArgs) -> Result<()> {

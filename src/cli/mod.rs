@@ -77,3 +77,15 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::StreamCompare(a) => stream_compare::run(a),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use clap::CommandFactory;
+
+    /// clap's own checks of the definitions, among them that every default is a value the
+    /// argument's parser accepts (the library's names and defaults included).
+    #[test]
+    fn the_parser_is_consistent_and_its_defaults_parse() {
+        super::Cli::command().debug_assert();
+    }
+}

@@ -8,7 +8,7 @@ use stripmask::error::Result;
 #[derive(Args, Debug)]
 pub(super) struct ReportArgs {
     /// A folder holding stats.csv (what `fly` or `demo` wrote).
-    pub(super) dir: PathBuf,
+    dir: PathBuf,
 }
 
 pub(super) fn run(a: ReportArgs) -> Result<()> {

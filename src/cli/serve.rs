@@ -15,25 +15,25 @@ use super::args::positive;
 #[derive(Args, Debug)]
 pub(super) struct ServeArgs {
     /// The archive to serve.
-    pub(super) file: PathBuf,
+    file: PathBuf,
     /// Address to listen on (port 0 picks a free port).
     #[arg(long, default_value = "127.0.0.1:0")]
-    pub(super) listen: SocketAddr,
+    listen: SocketAddr,
     /// Simulated bandwidth per connection, kilobits per second.
     #[arg(long)]
-    pub(super) bandwidth_kbps: Option<f64>,
+    bandwidth_kbps: Option<f64>,
     /// Simulated latency before each answer, milliseconds.
-    #[arg(long, default_value_t = 0)]
-    pub(super) latency_ms: u64,
+    #[arg(long, default_value_t = LinkProfile::default().latency.as_millis() as u64)]
+    latency_ms: u64,
     /// Each answer's latency varies within ± this many milliseconds.
-    #[arg(long, default_value_t = 0)]
-    pub(super) jitter_ms: u64,
+    #[arg(long, default_value_t = LinkProfile::default().jitter.as_millis() as u64)]
+    jitter_ms: u64,
     /// Fraction of requests answered 503, 0..1.
-    #[arg(long, default_value_t = 0.0)]
-    pub(super) drop_rate: f64,
+    #[arg(long, default_value_t = LinkProfile::default().drop_rate)]
+    drop_rate: f64,
     /// Seed of the latency and drop decisions.
-    #[arg(long, default_value_t = 1)]
-    pub(super) seed: u64,
+    #[arg(long, default_value_t = LinkProfile::default().seed)]
+    seed: u64,
 }
 
 pub(super) fn run(a: ServeArgs) -> Result<()> {

@@ -13,15 +13,15 @@ use super::viewer::{self, ViewerOptions, ViewerSummary};
 #[derive(Args, Debug)]
 pub(super) struct ViewArgs {
     /// An archive file or http:// URL.
-    pub(super) source: String,
+    source: String,
     /// Stop after N frames (default: until Esc, the window closing, or Ctrl-C).
     #[arg(long)]
-    pub(super) frames: Option<u64>,
+    frames: Option<u64>,
     /// Start with the HUD off (H toggles it).
     #[arg(long)]
-    pub(super) no_hud: bool,
+    no_hud: bool,
     #[command(flatten)]
-    pub(super) scene: SceneArgs,
+    scene: SceneArgs,
 }
 
 #[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]

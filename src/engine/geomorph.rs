@@ -32,6 +32,7 @@ use stripmask_raster::Vertex;
 
 use crate::engine::camera::Camera;
 use crate::engine::terrain::TerrainFrame;
+use crate::named::Named;
 
 /// Morphed vertices count positions in 1/256 of a grid step and of a height quantum.
 pub const SUBDIVISION: i32 = 256;
@@ -62,6 +63,22 @@ impl Geomorph {
     /// The default threshold of [`Geomorph::Distance`]: a 4-pixel step is close to what the
     /// eye tells from a plane at 320x240, and 8-pixel steps keep all their relief.
     pub const DEFAULT_PIXELS: f64 = 4.0;
+}
+
+/// `off`, and `distance` with [`Geomorph::DEFAULT_PIXELS`].
+impl Named for Geomorph {
+    const KIND: &'static str = "geomorph";
+
+    fn all() -> Vec<Self> {
+        vec![Geomorph::Off, Geomorph::DISTANCE]
+    }
+
+    fn name(&self) -> &'static str {
+        match self {
+            Geomorph::Off => "off",
+            Geomorph::Distance { .. } => "distance",
+        }
+    }
 }
 
 /// One sample of a tile and the two samples of the next coarser grid whose segment it splits.

@@ -21,6 +21,7 @@ use crate::db::source::throttle::{DropDice, LatencyDice, LinkProfile, SimulatedL
 use crate::engine::FrameReport;
 use crate::engine::paging::{PagerMode, TransferClock};
 use crate::error::Result;
+use crate::named::Named;
 
 /// What one frame costs, in seconds of one core of this machine, as a function of what it drew.
 ///
@@ -76,7 +77,37 @@ impl Default for Clock {
     }
 }
 
+/// `wall` and `simulated` (on [`CostModel::HOST`]), with no slowdown.
+impl Named for Clock {
+    const KIND: &'static str = "clock";
+
+    fn all() -> Vec<Self> {
+        vec![
+            Clock::Wall { slowdown: 1.0 },
+            Clock::Simulated {
+                model: CostModel::HOST,
+                slowdown: 1.0,
+            },
+        ]
+    }
+
+    fn name(&self) -> &'static str {
+        match self {
+            Clock::Wall { .. } => "wall",
+            Clock::Simulated { .. } => "simulated",
+        }
+    }
+}
+
 impl Clock {
+    /// The same clock for a device whose CPU is `slowdown` times slower than this machine's.
+    pub fn with_slowdown(self, slowdown: f64) -> Clock {
+        match self {
+            Clock::Wall { .. } => Clock::Wall { slowdown },
+            Clock::Simulated { model, .. } => Clock::Simulated { model, slowdown },
+        }
+    }
+
     /// Seconds of device time the frame of `report` took.
     pub fn frame_seconds(&self, report: &FrameReport) -> f64 {
         match *self {

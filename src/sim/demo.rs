@@ -43,8 +43,9 @@ pub struct DemoOptions {
     pub dem: Option<PathBuf>,
     /// The device.
     pub profile: DeviceProfile,
-    /// The simulated clock (reproducible) or the wall clock.
-    pub simulated: bool,
+    /// The simulated clock (reproducible) or the wall clock; the profile's CPU slowdown
+    /// replaces the clock's own.
+    pub clock: Clock,
     /// When to stop (default: the whole flight).
     pub length: Option<Length>,
     /// Keep one frame in `every`.
@@ -61,7 +62,10 @@ impl Default for DemoOptions {
             out: PathBuf::from("stripmask-demo"),
             dem: None,
             profile: DeviceProfile::pocketpc(),
-            simulated: true,
+            clock: Clock::Simulated {
+                model: CostModel::HOST,
+                slowdown: 1.0,
+            },
             length: None,
             every: 10,
             progress: true,
@@ -182,16 +186,6 @@ pub fn run_live(o: &DemoOptions, live: Option<LiveView<'_>>) -> Result<DemoSumma
     let terrain = TerrainFrame::new(reader.header());
     drop(reader);
     let p = &o.profile;
-    let clock = if o.simulated {
-        Clock::Simulated {
-            model: CostModel::HOST,
-            slowdown: p.cpu_slowdown,
-        }
-    } else {
-        Clock::Wall {
-            slowdown: p.cpu_slowdown,
-        }
-    };
     let mut engine = EngineSettings {
         memory_limit_bytes: p.memory_limit_bytes(),
         threads: p.threads,
@@ -211,7 +205,7 @@ pub fn run_live(o: &DemoOptions, live: Option<LiveView<'_>>) -> Result<DemoSumma
         every: o.every,
         hud: true,
         progress: o.progress,
-        clock,
+        clock: o.clock.with_slowdown(p.cpu_slowdown),
         link: (!p.link.is_unlimited()).then(|| p.link.to_link_profile(1)),
         plots: true,
     };

@@ -34,6 +34,7 @@ use stripmask_raster::{ColorFormat, DepthFormat};
 
 use crate::db::source::throttle::LinkProfile;
 use crate::error::{Error, Result};
+use crate::named::Named;
 
 /// The link between the device and the tile server.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -157,7 +158,10 @@ impl DeviceProfile {
         }
     }
 
-    /// A built-in profile by name (`pocketpc`, `workstation`, `native`).
+    /// The names of the built-in profiles.
+    pub const BUILTIN: [&str; 3] = ["pocketpc", "workstation", "native"];
+
+    /// A built-in profile by name (one of [`DeviceProfile::BUILTIN`]).
     pub fn builtin(name: &str) -> Option<Self> {
         match name {
             "pocketpc" => Some(Self::pocketpc()),
@@ -176,7 +180,7 @@ impl DeviceProfile {
                 Error::setting(
                     "device profile",
                     name,
-                    "a built-in profile: pocketpc, workstation or native",
+                    format!("one of {}", Self::BUILTIN.join(", ")),
                 )
             })?,
         };
@@ -213,10 +217,8 @@ impl DeviceProfile {
             p.height = v;
         }
         if let Some(v) = file.color {
-            p.color = match v {
-                ColorName::Rgb565 => ColorFormat::Rgb565,
-                ColorName::Rgba8888 => ColorFormat::Rgba8888,
-            };
+            p.color =
+                ColorFormat::from_name(&v).map_err(|e| Error::invalid(name, e.to_string()))?;
         }
         if let Some(v) = file.depth_bits {
             p.depth = depth_format(v).map_err(|e| Error::invalid(name, e.to_string()))?;
@@ -367,20 +369,13 @@ struct ProfileFile {
     name: Option<String>,
     width: Option<u32>,
     height: Option<u32>,
-    color: Option<ColorName>,
+    color: Option<String>,
     depth_bits: Option<u8>,
     memory_mb: Option<f64>,
     target_fps: Option<f64>,
     threads: Option<usize>,
     cpu_slowdown: Option<f64>,
     link: Option<LinkFile>,
-}
-
-#[derive(Deserialize)]
-#[serde(rename_all = "lowercase")]
-enum ColorName {
-    Rgb565,
-    Rgba8888,
 }
 
 #[derive(Deserialize)]
@@ -469,6 +464,7 @@ mod tests {
             ("[link]\njitter_ms = -1.0\n", "jitter_ms"),
             ("cpu_speed = 3.0\n", "cpu_speed"),
             ("width = 0\n", "sides"),
+            ("color = \"rgb555\"\n", "colour format rgb555"),
         ] {
             let e = DeviceProfile::parse_toml(text, "bad.toml")
                 .unwrap_err()

@@ -27,6 +27,7 @@ use serde::Deserialize;
 
 use crate::engine::terrain::TerrainFrame;
 use crate::error::{Error, Result};
+use crate::named::Named;
 
 /// One keyframe.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -50,7 +51,7 @@ pub struct Flight {
 }
 
 /// The flights every archive gets.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Builtin {
     /// A slow circle around the centre, looking at it from high up.
     Overview,
@@ -58,6 +59,22 @@ pub enum Builtin {
     Diagonal,
     /// Terrain-following at low altitude on a winding path across the middle.
     Low,
+}
+
+impl Named for Builtin {
+    const KIND: &'static str = "built-in flight";
+
+    fn all() -> Vec<Self> {
+        vec![Builtin::Overview, Builtin::Diagonal, Builtin::Low]
+    }
+
+    fn name(&self) -> &'static str {
+        match self {
+            Builtin::Overview => "overview",
+            Builtin::Diagonal => "diagonal",
+            Builtin::Low => "low",
+        }
+    }
 }
 
 #[derive(Deserialize)]
@@ -125,13 +142,22 @@ impl Flight {
         Flight::new(&label, file.above_ground, keys).map_err(|p| Error::invalid(&name, p))
     }
 
+    /// The built-in flight called `name` scaled to the terrain, or else the TOML flight file at
+    /// the path `name`.
+    pub fn builtin_or_file(name: &str, terrain: &TerrainFrame) -> Result<Flight> {
+        match Builtin::from_name(name) {
+            Ok(which) => Ok(Flight::builtin(which, terrain)),
+            Err(_) => Flight::from_toml(Path::new(name)),
+        }
+    }
+
     /// A built-in flight scaled to the terrain.
     pub fn builtin(which: Builtin, terrain: &TerrainFrame) -> Flight {
         let (w, d) = terrain.extent();
         let (_, top) = terrain.heights;
         let size = w.max(d);
         let at = |fx: f64, y: f64, fz: f64| DVec3::new(fx * w, y, fz * d);
-        let (name, above_ground, keys): (&str, bool, Vec<Key>) = match which {
+        let (above_ground, keys): (bool, Vec<Key>) = match which {
             Builtin::Overview => {
                 let centre = at(0.5, 0.0, 0.5);
                 let radius = 0.3 * w.min(d);
@@ -147,7 +173,7 @@ impl Flight {
                         }
                     })
                     .collect();
-                ("overview", false, keys)
+                (false, keys)
             }
             Builtin::Diagonal => {
                 let height = 0.6 * top + 0.02 * size;
@@ -162,7 +188,7 @@ impl Flight {
                         }
                     })
                     .collect();
-                ("diagonal", false, keys)
+                (false, keys)
             }
             Builtin::Low => {
                 let clearance = 150.0;
@@ -183,10 +209,10 @@ impl Flight {
                         }
                     })
                     .collect();
-                ("low", true, keys)
+                (true, keys)
             }
         };
-        Flight::new(name, above_ground, keys).expect("built-in flights are well formed")
+        Flight::new(which.name(), above_ground, keys).expect("built-in flights are well formed")
     }
 
     /// Seconds from the first key to the last.

@@ -105,5 +105,18 @@ fn errors_name_the_file_and_exit_1_bad_flags_exit_2() {
         err.contains("--height") && err.contains("--sample-type"),
         "{err}"
     );
+
+    let o = stripmask()
+        .args(["build", "--quiet", "--codec", "zstd", "-o"])
+        .arg(&out)
+        .arg(puget())
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("zstd") && err.contains("none, lz4, deflate"),
+        "the possible values are the library's: {err}"
+    );
     assert!(!out.exists());
 }

@@ -27,6 +27,7 @@ use serde::Serialize;
 use crate::db::tile::{MAX_TEXTURE_SIZE, level_payload_size, progressive_levels};
 use crate::db::tiling::is_valid_tile_size;
 use crate::error::{Error, Result};
+use crate::named::Named;
 
 pub use reader::{ArchiveReader, DEFAULT_ATTEMPTS, LevelBytes};
 pub use writer::ArchiveWriter;
@@ -43,7 +44,7 @@ pub const MAX_TILES: usize = 1 << 24;
 pub const MAX_INDEX_LEN: usize = 1 << 28;
 
 /// How tile payloads are stored.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Codec {
     /// Uncompressed.
@@ -53,6 +54,22 @@ pub enum Codec {
     /// One raw DEFLATE stream per chunk (RFC 1951, no zlib header), level 6: smaller, slower
     /// to decode.
     Deflate,
+}
+
+impl Named for Codec {
+    const KIND: &'static str = "codec";
+
+    fn all() -> Vec<Self> {
+        vec![Codec::None, Codec::Lz4, Codec::Deflate]
+    }
+
+    fn name(&self) -> &'static str {
+        match self {
+            Codec::None => "none",
+            Codec::Lz4 => "lz4",
+            Codec::Deflate => "deflate",
+        }
+    }
 }
 
 impl Codec {

@@ -14,6 +14,7 @@ pub mod raw;
 use std::path::Path;
 
 use crate::error::{Error, Result};
+use crate::named::Named;
 
 /// What a DEM file says about itself before its samples are read.
 #[derive(Clone, Debug, PartialEq)]
@@ -49,7 +50,7 @@ impl<R: DemReader + ?Sized> DemReader for Box<R> {
 }
 
 /// Sample types of raw/BIL files.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SampleType {
     /// Unsigned 8-bit.
     U8,
@@ -95,8 +96,27 @@ impl SampleType {
     }
 }
 
+impl Named for SampleType {
+    const KIND: &'static str = "sample type";
+
+    fn all() -> Vec<Self> {
+        use SampleType::*;
+        vec![U8, I16, U16, I32, F32]
+    }
+
+    fn name(&self) -> &'static str {
+        match self {
+            SampleType::U8 => "u8",
+            SampleType::I16 => "i16",
+            SampleType::U16 => "u16",
+            SampleType::I32 => "i32",
+            SampleType::F32 => "f32",
+        }
+    }
+}
+
 /// The DEM formats `build` reads.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DemFormat {
     /// 8- or 16-bit grayscale PNG.
     Png,
@@ -122,6 +142,25 @@ impl DemFormat {
             "raw" | "bil" | "bin" | "r16" | "r32" => DemFormat::Raw,
             _ => return None,
         })
+    }
+}
+
+impl Named for DemFormat {
+    const KIND: &'static str = "DEM format";
+
+    fn all() -> Vec<Self> {
+        use DemFormat::*;
+        vec![Png, Tiff, Hgt, Asc, Raw]
+    }
+
+    fn name(&self) -> &'static str {
+        match self {
+            DemFormat::Png => "png",
+            DemFormat::Tiff => "tiff",
+            DemFormat::Hgt => "hgt",
+            DemFormat::Asc => "asc",
+            DemFormat::Raw => "raw",
+        }
     }
 }
 

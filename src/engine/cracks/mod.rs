@@ -23,6 +23,7 @@ mod test_view;
 use stripmask_raster::{Indices, Topology};
 
 use crate::engine::masks::{MaskIndices, MaskSet};
+use crate::named::Named;
 use skirts::SkirtSet;
 use stitch::StitchSet;
 
@@ -52,6 +53,23 @@ pub enum Side {
     South,
     /// Column 0.
     West,
+}
+
+impl Named for CrackMode {
+    const KIND: &'static str = "crack mode";
+
+    fn all() -> Vec<Self> {
+        CrackMode::ALL.to_vec()
+    }
+
+    fn name(&self) -> &'static str {
+        match self {
+            CrackMode::None => "none",
+            CrackMode::Shadow => "shadow",
+            CrackMode::Skirts => "skirts",
+            CrackMode::Stitch => "stitch",
+        }
+    }
 }
 
 impl CrackMode {

@@ -49,6 +49,7 @@ use super::worker::Job;
 use super::{Pager, PagerConfig, PagerMode, Strategy};
 use crate::db::grid::{Grid, TileId};
 use crate::error::{Error, Result};
+use crate::named::Named;
 
 /// How tiles come in.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -58,6 +59,25 @@ pub enum Streaming {
     Belts,
     /// Progressive levels by importance ([`StreamPager`]).
     Progressive(StreamSettings),
+}
+
+/// `belts`, and `progressive` with [`StreamSettings::default`].
+impl Named for Streaming {
+    const KIND: &'static str = "streaming";
+
+    fn all() -> Vec<Self> {
+        vec![
+            Streaming::Belts,
+            Streaming::Progressive(StreamSettings::default()),
+        ]
+    }
+
+    fn name(&self) -> &'static str {
+        match self {
+            Streaming::Belts => "belts",
+            Streaming::Progressive(_) => "progressive",
+        }
+    }
 }
 
 /// The settings of progressive streaming an engine is built with.

@@ -109,6 +109,9 @@ fn a_tile_whose_bytes_changed_fails_its_checksum_and_others_still_read() {
     let dir = tempfile::tempdir().unwrap();
     let path = small_archive(dir.path());
     let reader = ArchiveReader::open(FileSource::open(&path).unwrap()).unwrap();
+    let check = reader.check().unwrap();
+    let stored: u64 = reader.index().iter().map(|e| e.stored_len()).sum();
+    assert_eq!((check.tiles, check.bytes), (reader.index().len(), stored));
     // A byte of tile 1's level-2 chunk.
     let (offset, _) = reader.level_range(1, 0, 2..3);
     drop(reader);
@@ -139,6 +142,10 @@ fn a_tile_whose_bytes_changed_fails_its_checksum_and_others_still_read() {
     for (tx, ty) in [(0, 0), (0, 1), (1, 1)] {
         reader.tile(tx, ty).unwrap();
     }
+    assert!(
+        matches!(reader.check(), Err(Error::Checksum { tile: 1, .. })),
+        "checking the whole archive stops at the corrupt tile"
+    );
 }
 
 #[test]

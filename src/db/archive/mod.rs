@@ -17,6 +17,7 @@
 //! base in one, then any range of levels of any tile in one more: tile `(tx, ty)` is entry
 //! `ty * tiles_x + tx`.
 
+mod check;
 mod reader;
 mod writer;
 
@@ -29,6 +30,7 @@ use crate::db::tiling::is_valid_tile_size;
 use crate::error::{Error, Result};
 use crate::named::Named;
 
+pub use check::CheckReport;
 pub use reader::{ArchiveReader, DEFAULT_ATTEMPTS, LevelBytes};
 pub use writer::ArchiveWriter;
 

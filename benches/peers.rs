@@ -26,13 +26,13 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use stripmask::engine::camera::Camera;
-use stripmask::engine::{Engine, EngineSettings};
-use stripmask::sim::flight::{Builtin, Flight};
-use stripmask::engine::paging::PagerMode;
-use stripmask::sim::device::DeviceProfile;
 use stripmask::db::source;
+use stripmask::engine::camera::Camera;
+use stripmask::engine::paging::PagerMode;
 use stripmask::engine::terrain::TerrainFrame;
+use stripmask::engine::{Engine, EngineSettings};
+use stripmask::sim::device::DeviceProfile;
+use stripmask::sim::flight::{Builtin, Flight};
 use stripmask_raster::Framebuffer;
 
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;

@@ -11,6 +11,7 @@ use stripmask_platform::{Command, Hud, Input, Presenter};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer, Precision};
 
 use stripmask::db::source;
+use stripmask::engine::camera::Camera;
 use stripmask::engine::{Engine, EngineSettings};
 use stripmask::error::Result;
 use stripmask::sim::flight::Flight;
@@ -87,6 +88,92 @@ impl FreeCamera {
     }
 }
 
+/// Where the view comes from: the flight path until the first movement input, then the user's
+/// own camera; with the speed and pause the keys set.
+struct Pilot {
+    /// The user's camera, once they have taken over.
+    free: Option<FreeCamera>,
+    /// Metres per second the user's camera moves; the flight path runs at `speed` over a
+    /// tile's width times its own pace.
+    speed: f64,
+    /// Time along the flight path, seconds.
+    t: f64,
+    paused: bool,
+}
+
+impl Pilot {
+    fn new(speed: f64) -> Self {
+        Pilot {
+            free: None,
+            speed,
+            t: 0.0,
+            paused: false,
+        }
+    }
+
+    /// Applies a key that is not the HUD's: to the pilot, or to the engine's settings.
+    fn command(&mut self, command: Command, engine: &mut Engine) {
+        match command {
+            Command::SpeedUp => self.speed *= 1.5,
+            Command::SpeedDown => self.speed /= 1.5,
+            Command::Pause => self.paused = !self.paused,
+            Command::Precision => {
+                let r = engine.render_settings_mut();
+                r.precision = match r.precision {
+                    Precision::Fixed => Precision::Float,
+                    Precision::Float => Precision::Fixed,
+                };
+            }
+            Command::BudgetUp => {
+                let fps = engine.settings().budget.target_fps / 1.25;
+                engine.set_target_fps(fps);
+            }
+            Command::BudgetDown => {
+                let fps = engine.settings().budget.target_fps * 1.25;
+                engine.set_target_fps(fps);
+            }
+            Command::CrackMode => {
+                let next = engine.settings().cracks.next();
+                engine.set_cracks(next);
+            }
+            Command::Wireframe => {
+                let r = engine.render_settings_mut();
+                r.wireframe = r.wireframe.next();
+            }
+            Command::Hud | Command::Importance => {}
+        }
+    }
+
+    /// The camera of a frame `dt` seconds after the last: steered by `input` once the user has
+    /// moved, along `flight` (looping) until then.
+    fn camera(&mut self, engine: &Engine, flight: &Flight, input: &Input, dt: f64) -> Camera {
+        let moved = input.motion != Default::default() || input.drag != (0.0, 0.0);
+        if moved && self.free.is_none() {
+            let (eye, target) = flight.at(self.t);
+            let camera = engine.camera(eye, target, flight.above_ground);
+            self.free = Some(FreeCamera::from_pose(
+                camera.position - engine.terrain().origin,
+                camera.position + camera.forward - engine.terrain().origin,
+            ));
+        }
+        match self.free.as_mut() {
+            Some(f) => {
+                if !self.paused {
+                    f.steer(input, dt, self.speed);
+                }
+                engine.camera(f.position, f.position + f.forward(), false)
+            }
+            None => {
+                if !self.paused {
+                    self.t += dt * self.speed / engine.terrain().tile_metres();
+                }
+                let (eye, target) = flight.at(self.t % flight.duration().max(1e-9));
+                engine.camera(eye, target, flight.above_ground)
+            }
+        }
+    }
+}
+
 /// Runs the viewer until the user quits (or `frames` are shown).
 pub fn run(presenter: &mut dyn Presenter, o: &ViewerOptions) -> Result<ViewerSummary> {
     let (mut w, mut h) = o.size;
@@ -94,15 +181,11 @@ pub fn run(presenter: &mut dyn Presenter, o: &ViewerOptions) -> Result<ViewerSum
     let mut fb = new_fb(w, h)?;
     let mut engine = Engine::new(source::open(&o.source)?, o.engine, h)?;
     let mut hud = Hud::new(o.hud);
-    let mut free: Option<FreeCamera> = None;
-    let mut speed = engine.terrain().tile_metres();
-    let (mut t, mut paused, mut frames) = (0.0, false, 0u64);
+    let mut pilot = Pilot::new(engine.terrain().tile_metres());
+    let mut frames = 0u64;
     let started = Instant::now();
     let mut last = Instant::now();
-    loop {
-        if o.frames.is_some_and(|n| frames >= n) {
-            break;
-        }
+    while o.frames.is_none_or(|n| frames < n) {
         let input = presenter.poll_input();
         if input.quit {
             break;
@@ -112,65 +195,13 @@ pub fn run(presenter: &mut dyn Presenter, o: &ViewerOptions) -> Result<ViewerSum
             fb = new_fb(w, h)?;
         }
         for &command in &input.commands {
-            if hud.apply(command) {
-                continue;
-            }
-            match command {
-                Command::SpeedUp => speed *= 1.5,
-                Command::SpeedDown => speed /= 1.5,
-                Command::Pause => paused = !paused,
-                Command::Precision => {
-                    let r = engine.render_settings_mut();
-                    r.precision = match r.precision {
-                        Precision::Fixed => Precision::Float,
-                        Precision::Float => Precision::Fixed,
-                    };
-                }
-                Command::BudgetUp => {
-                    let fps = engine.settings().budget.target_fps / 1.25;
-                    engine.set_target_fps(fps);
-                }
-                Command::BudgetDown => {
-                    let fps = engine.settings().budget.target_fps * 1.25;
-                    engine.set_target_fps(fps);
-                }
-                Command::CrackMode => {
-                    let next = engine.settings().cracks.next();
-                    engine.set_cracks(next);
-                }
-                Command::Wireframe => {
-                    let r = engine.render_settings_mut();
-                    r.wireframe = r.wireframe.next();
-                }
-                Command::Hud | Command::Importance => {}
+            if !hud.apply(command) {
+                pilot.command(command, &mut engine);
             }
         }
         let dt = last.elapsed().as_secs_f64();
         last = Instant::now();
-        let moved = input.motion != Default::default() || input.drag != (0.0, 0.0);
-        if moved && free.is_none() {
-            let (eye, target) = o.flight.at(t);
-            let camera = engine.camera(eye, target, o.flight.above_ground);
-            free = Some(FreeCamera::from_pose(
-                camera.position - engine.terrain().origin,
-                camera.position + camera.forward - engine.terrain().origin,
-            ));
-        }
-        let camera = match free.as_mut() {
-            Some(f) => {
-                if !paused {
-                    f.steer(&input, dt, speed);
-                }
-                engine.camera(f.position, f.position + f.forward(), false)
-            }
-            None => {
-                if !paused {
-                    t += dt * speed / engine.terrain().tile_metres();
-                }
-                let (eye, target) = o.flight.at(t % o.flight.duration().max(1e-9));
-                engine.camera(eye, target, o.flight.above_ground)
-            }
-        };
+        let camera = pilot.camera(&engine, &o.flight, &input, dt);
         let frame_start = Instant::now();
         let report = engine.render(&camera, &mut fb)?;
         let info = hud_info(&engine, &report, 1.0 / dt.max(1e-6));

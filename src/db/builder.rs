@@ -11,10 +11,10 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::db::archive::{ArchiveWriter, Codec, Header, compress};
-use crate::db::dem::{DemReader, NodataFill};
+use crate::db::dem::{DemInfo, DemReader, NodataFill};
 use crate::db::texture_gen::{ImageTexture, shaded};
 use crate::db::tile::{Tile, progressive_levels};
-use crate::db::tiling::{BandReader, Tiling};
+use crate::db::tiling::{Band, BandReader, Tiling};
 use crate::error::{Error, Result};
 
 /// What `build` makes of a DEM.
@@ -87,6 +87,41 @@ pub fn build<R: DemReader>(
     let started = Instant::now();
     let info = reader.info().clone();
     let grid = Tiling::new(info.width, info.height, options.tile_size)?;
+    let header = header(&info, &grid, options)?;
+    let image = match &options.texture_image {
+        Some(path) => Some(ImageTexture::open(path, info.width, info.height)?),
+        None => None,
+    };
+    let mut writer = ArchiveWriter::create(out, header.clone())?;
+    let mut bands = BandReader::new(reader, grid, options.vertical_scale as f32);
+    let mut totals = Totals::default();
+    let mut done = 0;
+    while let Some(band) = bands.next_band()? {
+        let encoded = encode_band(band, &header, image.as_ref(), options, &info.name)?;
+        for (tx, tile) in encoded.into_iter().enumerate() {
+            writer.write_tile(band.tile_row * grid.tiles_x + tx, &tile.chunks)?;
+            totals.add(&tile);
+        }
+        done += grid.tiles_x;
+        progress(done, grid.tile_count());
+    }
+    let archive_bytes = writer.finish(totals.min, totals.max)?;
+    Ok(BuildReport {
+        header: Header {
+            min_height: totals.min,
+            max_height: totals.max,
+            ..header
+        },
+        archive_bytes,
+        raw_payload_bytes: totals.raw_bytes,
+        stored_payload_bytes: totals.stored_bytes,
+        seconds: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// The archive header for `info` cut as `grid`, once `options` are checked (the height range
+/// is filled in when every tile is known).
+fn header(info: &DemInfo, grid: &Tiling, options: &BuildOptions) -> Result<Header> {
     let f = options.texture_factor;
     if !f.is_power_of_two() || f > 8 {
         return Err(Error::setting(
@@ -111,17 +146,11 @@ pub fn build<R: DemReader>(
         ));
     }
     let (origin_x, origin_y) = options.origin.or(info.origin_hint).unwrap_or((0.0, 0.0));
-    let image = match &options.texture_image {
-        Some(path) => Some(ImageTexture::open(path, info.width, info.height)?),
-        None => None,
-    };
-    let s = grid.tile_size;
-    let texture_size = (s - 1) * f;
-    let header = Header {
+    Ok(Header {
         tiles_x: grid.tiles_x as u32,
         tiles_y: grid.tiles_y as u32,
-        tile_size: s as u32,
-        texture_size: texture_size as u32,
+        tile_size: grid.tile_size as u32,
+        texture_size: ((grid.tile_size - 1) * f) as u32,
         codec: options.codec,
         source_width: info.width as u32,
         source_height: info.height as u32,
@@ -132,56 +161,81 @@ pub fn build<R: DemReader>(
         min_height: 0.0,
         max_height: 0.0,
         height_quantum: options.height_quantum,
-        base_levels: options.base_levels.min(progressive_levels(s)) as u32,
-    };
-    let mut writer = ArchiveWriter::create(out, header.clone())?;
-    let mut bands = BandReader::new(reader, grid, options.vertical_scale as f32);
-    let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
-    let (mut raw_bytes, mut stored_bytes) = (0u64, 0u64);
-    let mut done = 0;
-    while let Some(band) = bands.next_band()? {
-        let ty = band.tile_row;
-        let encoded: Vec<(Vec<Vec<u8>>, usize, f32, f32)> = (0..grid.tiles_x)
-            .into_par_iter()
-            .map(|tx| -> Result<_> {
-                let heights = band.tile_heights(tx);
-                let texture = match &image {
-                    Some(img) => img.cut(tx, ty, s, f),
-                    None => shaded(&heights, s, spacing as f32, f),
-                };
-                let tile = Tile::new(&heights, s, options.height_quantum, &texture, texture_size)
-                    .map_err(|problem| {
-                    Error::invalid(&info.name, format!("tile ({tx}, {ty}): {problem}"))
-                })?;
-                let (mut stored, mut raw_len) = (Vec::with_capacity(tile.levels), 0);
-                for g in 0..tile.levels {
-                    let raw = tile.encode_level(g);
-                    raw_len += raw.len();
-                    stored.push(compress(&raw, options.codec));
-                }
-                Ok((stored, raw_len, tile.min, tile.max))
-            })
-            .collect::<Result<_>>()?;
-        for (tx, (stored, raw_len, min, max)) in encoded.into_iter().enumerate() {
-            writer.write_tile(ty * grid.tiles_x + tx, &stored)?;
-            raw_bytes += raw_len as u64;
-            stored_bytes += stored.iter().map(|c| c.len() as u64).sum::<u64>();
-            lo = lo.min(min);
-            hi = hi.max(max);
-        }
-        done += grid.tiles_x;
-        progress(done, grid.tile_count());
-    }
-    let archive_bytes = writer.finish(lo, hi)?;
-    Ok(BuildReport {
-        header: Header {
-            min_height: lo,
-            max_height: hi,
-            ..header
-        },
-        archive_bytes,
-        raw_payload_bytes: raw_bytes,
-        stored_payload_bytes: stored_bytes,
-        seconds: started.elapsed().as_secs_f64(),
+        base_levels: options.base_levels.min(progressive_levels(grid.tile_size)) as u32,
     })
+}
+
+/// One tile ready to write: its compressed progressive chunks, coarse first.
+struct EncodedTile {
+    chunks: Vec<Vec<u8>>,
+    /// Uncompressed bytes of the chunks.
+    raw_len: usize,
+    min: f32,
+    max: f32,
+}
+
+/// Encodes the tiles of `band`, in parallel, in column order: heights quantised, the texture cut
+/// from `image` or shaded from the heights, each level compressed on its own. `name` (the DEM's)
+/// labels errors.
+fn encode_band(
+    band: &Band,
+    header: &Header,
+    image: Option<&ImageTexture>,
+    options: &BuildOptions,
+    name: &str,
+) -> Result<Vec<EncodedTile>> {
+    let (s, texture_size) = (header.tile_size as usize, header.texture_size as usize);
+    let (f, ty) = (options.texture_factor, band.tile_row);
+    (0..header.tiles_x as usize)
+        .into_par_iter()
+        .map(|tx| {
+            let heights = band.tile_heights(tx);
+            let texture = match image {
+                Some(img) => img.cut(tx, ty, s, f),
+                None => shaded(&heights, s, header.spacing as f32, f),
+            };
+            let tile = Tile::new(&heights, s, options.height_quantum, &texture, texture_size)
+                .map_err(|problem| Error::invalid(name, format!("tile ({tx}, {ty}): {problem}")))?;
+            let (mut chunks, mut raw_len) = (Vec::with_capacity(tile.levels), 0);
+            for g in 0..tile.levels {
+                let raw = tile.encode_level(g);
+                raw_len += raw.len();
+                chunks.push(compress(&raw, options.codec));
+            }
+            Ok(EncodedTile {
+                chunks,
+                raw_len,
+                min: tile.min,
+                max: tile.max,
+            })
+        })
+        .collect()
+}
+
+/// What the tiles written so far add up to.
+struct Totals {
+    min: f32,
+    max: f32,
+    raw_bytes: u64,
+    stored_bytes: u64,
+}
+
+impl Default for Totals {
+    fn default() -> Self {
+        Totals {
+            min: f32::INFINITY,
+            max: f32::NEG_INFINITY,
+            raw_bytes: 0,
+            stored_bytes: 0,
+        }
+    }
+}
+
+impl Totals {
+    fn add(&mut self, tile: &EncodedTile) {
+        self.raw_bytes += tile.raw_len as u64;
+        self.stored_bytes += tile.chunks.iter().map(|c| c.len() as u64).sum::<u64>();
+        self.min = self.min.min(tile.min);
+        self.max = self.max.max(tile.max);
+    }
 }

@@ -14,8 +14,8 @@ use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
 use crate::db::source;
 use crate::db::source::throttle::LinkProfile;
-use crate::engine::paging::PagerMode;
-use crate::engine::{Engine, EngineSettings};
+use crate::engine::paging::{PagerMode, PagerStats};
+use crate::engine::{Engine, EngineSettings, FrameReport};
 use crate::error::{Error, Result};
 use crate::sim::clock::{Clock, connect};
 use crate::sim::flight::Flight;
@@ -115,65 +115,29 @@ pub fn fly_live(o: &FlyOptions, mut live: Option<LiveView<'_>>) -> Result<FlySum
     };
     let (w, h) = o.size;
     let mut fb = Framebuffer::new(w, h, o.color, o.depth)?;
-    let mut settings = o.engine;
-    if let (Clock::Simulated { .. }, PagerMode::Threaded { queue_depth }) =
-        (o.clock, settings.pager_mode)
-    {
-        settings.pager_mode = PagerMode::Simulated { queue_depth };
-    }
-    let (source, meter) = connect(source::open(&o.source)?, o.link, &o.clock);
-    let mut engine = Engine::new(source, settings, h)?;
-    if let Some(meter) = meter {
-        engine.set_transfer_clock(meter);
-    }
+    let mut engine = flight_engine(o)?;
     let length = o
         .length
         .unwrap_or(Length::Seconds(o.flight.duration().max(f64::MIN_POSITIVE)));
     let bar = progress_bar(o.progress, length);
     let mut hud = Hud::new(o.hud);
     let started = Instant::now();
-
-    let mut t = 0.0;
-    let mut frame = 0u64;
-    let mut fps = Vec::new();
-    let mut triangles = 0u64;
-    let mut first_frame_s = None;
-    let mut last_stats = None;
-    loop {
-        let done = match length {
-            Length::Frames(n) => frame >= n,
-            Length::Seconds(s) => t >= s,
-        };
-        if done || live.as_mut().is_some_and(|l| l.presenter.poll_input().quit) {
-            break;
-        }
+    let mut tally = Tally::default();
+    while !tally.reached(length) && !live.as_mut().is_some_and(|l| l.presenter.poll_input().quit) {
+        let t = tally.t;
         let (eye, target) = o.flight.at(t);
         let camera = engine.camera(eye, target, o.flight.above_ground);
         engine.set_time(t);
         let report = engine.render(&camera, &mut fb)?;
         let seconds = o.clock.frame_seconds(&report);
         engine.record_frame(seconds, report.draw.triangles as usize);
-        if report.rendered_tiles > 0 && first_frame_s.is_none() {
-            first_frame_s = Some(t);
-        }
-        let record = FrameRecord {
-            frame,
-            time_s: t,
-            frame_ms: seconds * 1e3,
-            fps: 1.0 / seconds.max(1e-9),
-            target_fps: o.engine.budget.target_fps,
-            budget: report.budget as u64,
-            triangles: report.triangles as u64,
-            fragments: report.draw.fragments,
-            rendered_tiles: report.rendered_tiles as u64,
-            loaded_tiles: report.pager.loaded_tiles as u64,
-            memory_bytes: report.pager.memory_bytes as u64,
-            memory_limit_bytes: report.pager.memory_limit_bytes as u64,
-            downloaded_bytes: report.pager.downloaded_bytes,
-            downloads: report.pager.fetches,
-            complete_belts: report.pager.complete_belts.map_or(0, |d| u64::from(d) + 1),
-            fetching: report.pager.fetching as u64,
-        };
+        let record = frame_record(
+            tally.frames,
+            t,
+            seconds,
+            o.engine.budget.target_fps,
+            &report,
+        );
         csv.write(&record)?;
         if frames.is_some() || live.is_some() {
             let info = hud_info(&engine, &report, record.fps);
@@ -189,33 +153,113 @@ pub fn fly_live(o: &FlyOptions, mut live: Option<LiveView<'_>>) -> Result<FlySum
                 live.presenter.present(&fb, overlay)?;
             }
         }
-        fps.push(record.fps);
-        triangles += record.triangles;
-        last_stats = Some(report.pager);
-        t += seconds;
-        frame += 1;
-        match length {
-            Length::Frames(_) => bar.set_position(frame),
-            Length::Seconds(_) => bar.set_position((t * 10.0) as u64),
-        }
+        tally.add(&record, &report, seconds);
+        bar.set_position(match length {
+            Length::Frames(_) => tally.frames,
+            Length::Seconds(_) => (tally.t * 10.0) as u64,
+        });
     }
     bar.finish_and_clear();
     csv.finish()?;
     if o.plots {
         report::draw(&o.out)?;
     }
-    fps.sort_by(f64::total_cmp);
-    let stats = last_stats.unwrap_or_else(|| engine.pager().stats());
-    Ok(FlySummary {
-        frames: frame,
-        seconds: t,
-        median_fps: fps.get(fps.len() / 2).copied().unwrap_or(0.0),
-        mean_triangles: triangles as f64 / frame.max(1) as f64,
-        peak_memory_bytes: stats.memory_peak_bytes,
-        memory_limit_bytes: stats.memory_limit_bytes,
-        downloaded_bytes: stats.downloaded_bytes,
-        first_frame_s,
-    })
+    Ok(tally.summary(&engine))
+}
+
+/// The engine of a flight, reading its tiles over the flight's link. The simulated clock turns a
+/// threaded pager into a simulated one with the same queue depth.
+fn flight_engine(o: &FlyOptions) -> Result<Engine> {
+    let mut settings = o.engine;
+    if let (Clock::Simulated { .. }, PagerMode::Threaded { queue_depth }) =
+        (o.clock, settings.pager_mode)
+    {
+        settings.pager_mode = PagerMode::Simulated { queue_depth };
+    }
+    let (source, meter) = connect(source::open(&o.source)?, o.link, &o.clock);
+    let mut engine = Engine::new(source, settings, o.size.1)?;
+    if let Some(meter) = meter {
+        engine.set_transfer_clock(meter);
+    }
+    Ok(engine)
+}
+
+/// The `stats.csv` line of frame number `frame`, drawn at flight time `t` in `seconds`.
+fn frame_record(
+    frame: u64,
+    t: f64,
+    seconds: f64,
+    target_fps: f64,
+    report: &FrameReport,
+) -> FrameRecord {
+    FrameRecord {
+        frame,
+        time_s: t,
+        frame_ms: seconds * 1e3,
+        fps: 1.0 / seconds.max(1e-9),
+        target_fps,
+        budget: report.budget as u64,
+        triangles: report.triangles as u64,
+        fragments: report.draw.fragments,
+        rendered_tiles: report.rendered_tiles as u64,
+        loaded_tiles: report.pager.loaded_tiles as u64,
+        memory_bytes: report.pager.memory_bytes as u64,
+        memory_limit_bytes: report.pager.memory_limit_bytes as u64,
+        downloaded_bytes: report.pager.downloaded_bytes,
+        downloads: report.pager.fetches,
+        complete_belts: report.pager.complete_belts.map_or(0, |d| u64::from(d) + 1),
+        fetching: report.pager.fetching as u64,
+    }
+}
+
+/// A flight so far: its clock, and what the summary needs of the frames drawn.
+#[derive(Default)]
+struct Tally {
+    /// Flight time, seconds.
+    t: f64,
+    frames: u64,
+    fps: Vec<f64>,
+    triangles: u64,
+    first_frame_s: Option<f64>,
+    last_stats: Option<PagerStats>,
+}
+
+impl Tally {
+    /// Whether the flight has flown `length`.
+    fn reached(&self, length: Length) -> bool {
+        match length {
+            Length::Frames(n) => self.frames >= n,
+            Length::Seconds(s) => self.t >= s,
+        }
+    }
+
+    /// Counts the frame of `record` and `report`, which took `seconds` of flight time.
+    fn add(&mut self, record: &FrameRecord, report: &FrameReport, seconds: f64) {
+        if report.rendered_tiles > 0 && self.first_frame_s.is_none() {
+            self.first_frame_s = Some(self.t);
+        }
+        self.fps.push(record.fps);
+        self.triangles += record.triangles;
+        self.last_stats = Some(report.pager);
+        self.t += seconds;
+        self.frames += 1;
+    }
+
+    /// The summary of the flight `engine` flew.
+    fn summary(mut self, engine: &Engine) -> FlySummary {
+        self.fps.sort_by(f64::total_cmp);
+        let stats = self.last_stats.unwrap_or_else(|| engine.pager().stats());
+        FlySummary {
+            frames: self.frames,
+            seconds: self.t,
+            median_fps: self.fps.get(self.fps.len() / 2).copied().unwrap_or(0.0),
+            mean_triangles: self.triangles as f64 / self.frames.max(1) as f64,
+            peak_memory_bytes: stats.memory_peak_bytes,
+            memory_limit_bytes: stats.memory_limit_bytes,
+            downloaded_bytes: stats.downloaded_bytes,
+            first_frame_s: self.first_frame_s,
+        }
+    }
 }
 
 fn progress_bar(show: bool, length: Length) -> ProgressBar {

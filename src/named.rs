@@ -32,37 +32,36 @@ pub trait Named: Sized + Clone + 'static {
     }
 }
 
-/// The rasterizer's colour formats, as device profiles and the command line name them.
-impl Named for ColorFormat {
-    const KIND: &'static str = "colour format";
+/// Implements [`Named`] for an enum of unit variants from its kind and each variant's name, in
+/// the order [`Named::all`] lists them.
+macro_rules! named_enum {
+    ($type:ident, $kind:literal, { $($variant:ident => $name:literal),+ $(,)? }) => {
+        impl $crate::named::Named for $type {
+            const KIND: &'static str = $kind;
 
-    fn all() -> Vec<Self> {
-        vec![ColorFormat::Rgb565, ColorFormat::Rgba8888]
-    }
+            fn all() -> Vec<Self> {
+                vec![$($type::$variant),+]
+            }
 
-    fn name(&self) -> &'static str {
-        match self {
-            ColorFormat::Rgb565 => "rgb565",
-            ColorFormat::Rgba8888 => "rgba8888",
+            fn name(&self) -> &'static str {
+                match self {
+                    $($type::$variant => $name),+
+                }
+            }
         }
-    }
+    };
 }
 
-/// How a presenter fits a frame to a screen of another size, as the command line names it.
-impl Named for Fit {
-    const KIND: &'static str = "fit";
+pub(crate) use named_enum;
 
-    fn all() -> Vec<Self> {
-        vec![Fit::Center, Fit::Scale]
-    }
+// The rasterizer's colour formats, as device profiles and the command line name them.
+named_enum!(ColorFormat, "colour format", {
+    Rgb565 => "rgb565",
+    Rgba8888 => "rgba8888",
+});
 
-    fn name(&self) -> &'static str {
-        match self {
-            Fit::Center => "center",
-            Fit::Scale => "scale",
-        }
-    }
-}
+// How a presenter fits a frame to a screen of another size, as the command line names it.
+named_enum!(Fit, "fit", { Center => "center", Scale => "scale" });
 
 #[cfg(test)]
 mod tests {

@@ -27,7 +27,7 @@ use serde::Deserialize;
 
 use crate::engine::terrain::TerrainFrame;
 use crate::error::{Error, Result};
-use crate::named::Named;
+use crate::named::{Named, named_enum};
 
 /// One keyframe.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -61,21 +61,11 @@ pub enum Builtin {
     Low,
 }
 
-impl Named for Builtin {
-    const KIND: &'static str = "built-in flight";
-
-    fn all() -> Vec<Self> {
-        vec![Builtin::Overview, Builtin::Diagonal, Builtin::Low]
-    }
-
-    fn name(&self) -> &'static str {
-        match self {
-            Builtin::Overview => "overview",
-            Builtin::Diagonal => "diagonal",
-            Builtin::Low => "low",
-        }
-    }
-}
+named_enum!(Builtin, "built-in flight", {
+    Overview => "overview",
+    Diagonal => "diagonal",
+    Low => "low",
+});
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -28,7 +28,7 @@ use serde::Serialize;
 use crate::db::tile::{MAX_TEXTURE_SIZE, level_payload_size, progressive_levels};
 use crate::db::tiling::is_valid_tile_size;
 use crate::error::{Error, Result};
-use crate::named::Named;
+use crate::named::named_enum;
 
 pub use check::CheckReport;
 pub use reader::{ArchiveReader, DEFAULT_ATTEMPTS, LevelBytes};
@@ -58,21 +58,11 @@ pub enum Codec {
     Deflate,
 }
 
-impl Named for Codec {
-    const KIND: &'static str = "codec";
-
-    fn all() -> Vec<Self> {
-        vec![Codec::None, Codec::Lz4, Codec::Deflate]
-    }
-
-    fn name(&self) -> &'static str {
-        match self {
-            Codec::None => "none",
-            Codec::Lz4 => "lz4",
-            Codec::Deflate => "deflate",
-        }
-    }
-}
+named_enum!(Codec, "codec", {
+    None => "none",
+    Lz4 => "lz4",
+    Deflate => "deflate",
+});
 
 impl Codec {
     fn id(self) -> u32 {

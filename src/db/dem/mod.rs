@@ -14,7 +14,7 @@ pub mod raw;
 use std::path::Path;
 
 use crate::error::{Error, Result};
-use crate::named::Named;
+use crate::named::named_enum;
 
 /// What a DEM file says about itself before its samples are read.
 #[derive(Clone, Debug, PartialEq)]
@@ -96,24 +96,13 @@ impl SampleType {
     }
 }
 
-impl Named for SampleType {
-    const KIND: &'static str = "sample type";
-
-    fn all() -> Vec<Self> {
-        use SampleType::*;
-        vec![U8, I16, U16, I32, F32]
-    }
-
-    fn name(&self) -> &'static str {
-        match self {
-            SampleType::U8 => "u8",
-            SampleType::I16 => "i16",
-            SampleType::U16 => "u16",
-            SampleType::I32 => "i32",
-            SampleType::F32 => "f32",
-        }
-    }
-}
+named_enum!(SampleType, "sample type", {
+    U8 => "u8",
+    I16 => "i16",
+    U16 => "u16",
+    I32 => "i32",
+    F32 => "f32",
+});
 
 /// The DEM formats `build` reads.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -145,24 +134,13 @@ impl DemFormat {
     }
 }
 
-impl Named for DemFormat {
-    const KIND: &'static str = "DEM format";
-
-    fn all() -> Vec<Self> {
-        use DemFormat::*;
-        vec![Png, Tiff, Hgt, Asc, Raw]
-    }
-
-    fn name(&self) -> &'static str {
-        match self {
-            DemFormat::Png => "png",
-            DemFormat::Tiff => "tiff",
-            DemFormat::Hgt => "hgt",
-            DemFormat::Asc => "asc",
-            DemFormat::Raw => "raw",
-        }
-    }
-}
+named_enum!(DemFormat, "DEM format", {
+    Png => "png",
+    Tiff => "tiff",
+    Hgt => "hgt",
+    Asc => "asc",
+    Raw => "raw",
+});
 
 /// Metres per degree of latitude, to turn a geographic sample size into an approximate spacing.
 pub(crate) const METRES_PER_DEGREE: f64 = 111_320.0;

@@ -23,7 +23,7 @@ mod test_view;
 use stripmask_raster::{Indices, Topology};
 
 use crate::engine::masks::{MaskIndices, MaskSet};
-use crate::named::Named;
+use crate::named::named_enum;
 use skirts::SkirtSet;
 use stitch::StitchSet;
 
@@ -55,22 +55,12 @@ pub enum Side {
     West,
 }
 
-impl Named for CrackMode {
-    const KIND: &'static str = "crack mode";
-
-    fn all() -> Vec<Self> {
-        CrackMode::ALL.to_vec()
-    }
-
-    fn name(&self) -> &'static str {
-        match self {
-            CrackMode::None => "none",
-            CrackMode::Shadow => "shadow",
-            CrackMode::Skirts => "skirts",
-            CrackMode::Stitch => "stitch",
-        }
-    }
-}
+named_enum!(CrackMode, "crack mode", {
+    None => "none",
+    Shadow => "shadow",
+    Skirts => "skirts",
+    Stitch => "stitch",
+});
 
 impl CrackMode {
     /// Every mode, in the order the viewer's K key cycles through them.

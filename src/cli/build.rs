@@ -12,6 +12,7 @@ use stripmask::error::Result;
 
 use super::args::named;
 
+/// `build`'s arguments: the DEM, how to read it, and what to make of it.
 #[derive(Args, Debug)]
 pub(super) struct BuildArgs {
     /// The DEM file.
@@ -108,6 +109,7 @@ impl BuildArgs {
     }
 }
 
+/// Builds the archive with a progress bar and prints its summary (text or JSON).
 pub(super) fn run(a: BuildArgs) -> Result<()> {
     let reader = dem::open(&a.input, &a.open_options())?;
     let options = a.build_options();

@@ -13,6 +13,7 @@ use stripmask_platform::Presenter;
 
 use super::args::{StreamingArgs, length, named, profile_name};
 
+/// `demo`'s arguments: the device, the clock, how long, and whether to show a window.
 #[derive(Args, Debug)]
 pub(super) struct DemoArgs {
     /// Output folder: archive, stats.csv, frames and plots.
@@ -49,6 +50,7 @@ pub(super) struct DemoArgs {
     quiet: bool,
 }
 
+/// Runs the demo, in a window when asked and one opens (headless, and an error, when not).
 pub(super) fn run(a: DemoArgs) -> Result<()> {
     let options = DemoOptions {
         out: a.out,

@@ -14,6 +14,7 @@ use super::view::{report_view, viewer_options};
 #[cfg(all(feature = "fbdev", target_os = "linux"))]
 use super::viewer;
 
+/// `fb`'s arguments: the viewer's, the framebuffer device, the fit and a keyboard.
 #[derive(Args, Debug)]
 pub(super) struct FbArgs {
     #[command(flatten)]
@@ -29,6 +30,7 @@ pub(super) struct FbArgs {
     input: Option<PathBuf>,
 }
 
+/// Runs the viewer on the framebuffer until Ctrl-C (or `--frames`).
 #[cfg(all(feature = "fbdev", target_os = "linux"))]
 pub(super) fn run(a: FbArgs) -> Result<()> {
     let options = viewer_options(&a.view)?;
@@ -40,6 +42,7 @@ pub(super) fn run(a: FbArgs) -> Result<()> {
     Ok(())
 }
 
+/// Without the framebuffer: the error that says which feature it needs.
 #[cfg(not(all(feature = "fbdev", target_os = "linux")))]
 pub(super) fn run(_: FbArgs) -> Result<()> {
     Err(stripmask::Error::Unsupported {

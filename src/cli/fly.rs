@@ -8,6 +8,7 @@ use stripmask::sim::fly::{FlyOptions, fly};
 
 use super::args::{SceneArgs, length};
 
+/// `fly`'s arguments: the archive, the scene, how long, and what to write.
 #[derive(Args, Debug)]
 pub(super) struct FlyArgs {
     /// An archive file or http:// URL.
@@ -37,6 +38,7 @@ pub(super) struct FlyArgs {
     scene: SceneArgs,
 }
 
+/// Flies headless and prints the summary.
 pub(super) fn run(a: FlyArgs) -> Result<()> {
     let scene = a.scene.resolve(&a.source)?;
     let options = FlyOptions {

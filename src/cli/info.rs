@@ -6,6 +6,7 @@ use stripmask::db::archive::{ArchiveReader, CheckReport, HEADER_LEN, Header, VER
 use stripmask::db::source;
 use stripmask::error::Result;
 
+/// `info`'s arguments: the archive and the output form.
 #[derive(Args, Debug)]
 pub(super) struct InfoArgs {
     /// An archive file or http:// URL.
@@ -37,6 +38,7 @@ struct InfoReport {
     check: Option<CheckReport>,
 }
 
+/// Prints the archive's report, as text or JSON.
 pub(super) fn run(a: InfoArgs) -> Result<()> {
     let report = InfoReport::read(&a.file_or_url, a.check)?;
     if a.json {

@@ -12,6 +12,7 @@ use stripmask::error::{Error, Result};
 
 use super::args::positive;
 
+/// `serve`'s arguments: the archive, the address, and the simulated link.
 #[derive(Args, Debug)]
 pub(super) struct ServeArgs {
     /// The archive to serve.
@@ -36,6 +37,7 @@ pub(super) struct ServeArgs {
     seed: u64,
 }
 
+/// Serves until the process is stopped, after printing the URL.
 pub(super) fn run(a: ServeArgs) -> Result<()> {
     if !(0.0..=1.0).contains(&a.drop_rate) {
         return Err(Error::setting(

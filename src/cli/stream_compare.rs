@@ -11,6 +11,7 @@ use stripmask::sim::stream_compare::{self as compare, CompareOptions, LINKS};
 
 use super::args::{named, positive, profile_name};
 
+/// `stream-compare`'s arguments: the archive, the flights, their length and the device.
 #[derive(Args, Debug)]
 pub(super) struct StreamCompareArgs {
     /// An archive file or http:// URL.
@@ -32,6 +33,7 @@ pub(super) struct StreamCompareArgs {
     quiet: bool,
 }
 
+/// Runs the comparison and prints where its table went.
 pub(super) fn run(a: StreamCompareArgs) -> Result<()> {
     if let Some(s) = a.seconds {
         positive("--seconds", s)?;

@@ -10,6 +10,7 @@ use stripmask::sim::tradeoff::{TradeoffOptions, knobs, run_with};
 
 use super::args::{flight, parse_size};
 
+/// `tradeoff`'s arguments: the archive, the views, the frame size, the repeats and the knobs.
 #[derive(Args, Debug)]
 pub(super) struct TradeoffArgs {
     /// An archive file or http:// URL.
@@ -48,6 +49,7 @@ fn knob_name() -> PossibleValuesParser {
     PossibleValuesParser::new(knobs::knobs().into_iter().map(|k| k.name))
 }
 
+/// Runs the sweep and prints how many settings it measured and where the table went.
 pub(super) fn run(a: TradeoffArgs) -> Result<()> {
     let flight = match &a.flight {
         Some(name) => Some(flight(name, &a.source)?),

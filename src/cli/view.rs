@@ -1,8 +1,6 @@
 //! `stripmask view`: the viewer in a desktop window; the options it shares with `fb`.
 
 use clap::Args;
-#[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
-use stripmask::engine::paging::PagerMode;
 use stripmask::error::Result;
 
 use super::args::SceneArgs;
@@ -24,23 +22,23 @@ pub(super) struct ViewArgs {
     scene: SceneArgs,
 }
 
+/// What the viewer shows: the scene resolved, the engine with its default (threaded) pager.
 #[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
 pub(super) fn viewer_options(a: &ViewArgs) -> Result<ViewerOptions> {
     let scene = a.scene.resolve(&a.source)?;
-    let mut engine = scene.engine;
-    engine.pager_mode = PagerMode::Threaded { queue_depth: 4 };
     Ok(ViewerOptions {
         source: a.source.clone(),
         size: scene.size,
         color: scene.color,
         depth: scene.depth,
-        engine,
+        engine: scene.engine,
         hud: !a.no_hud,
         flight: scene.flight,
         frames: a.frames,
     })
 }
 
+/// Prints how many frames the viewer showed, and how fast.
 #[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
 pub(super) fn report_view(s: ViewerSummary) {
     println!(
@@ -51,6 +49,7 @@ pub(super) fn report_view(s: ViewerSummary) {
     );
 }
 
+/// Runs the viewer in a window until Esc or the window closes (or `--frames`).
 #[cfg(feature = "window")]
 pub(super) fn run(a: ViewArgs) -> Result<()> {
     let options = viewer_options(&a)?;
@@ -61,6 +60,7 @@ pub(super) fn run(a: ViewArgs) -> Result<()> {
     Ok(())
 }
 
+/// Without windows: the error that says which feature it needs.
 #[cfg(not(feature = "window"))]
 pub(super) fn run(_: ViewArgs) -> Result<()> {
     Err(stripmask::Error::Unsupported {

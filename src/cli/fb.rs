@@ -12,7 +12,7 @@ use super::view::ViewArgs;
 #[cfg(all(feature = "fbdev", target_os = "linux"))]
 use super::view::{report_view, viewer_options};
 #[cfg(all(feature = "fbdev", target_os = "linux"))]
-use super::viewer;
+use stripmask::sim::viewer;
 
 /// `fb`'s arguments: the viewer's, the framebuffer device, the fit and a keyboard.
 #[derive(Args, Debug)]

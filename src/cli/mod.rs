@@ -13,8 +13,6 @@ mod serve;
 mod stream_compare;
 mod tradeoff;
 mod view;
-#[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
-mod viewer;
 
 use clap::{Parser, Subcommand};
 use stripmask::error::Result;

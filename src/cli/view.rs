@@ -5,7 +5,7 @@ use stripmask::error::Result;
 
 use super::args::SceneArgs;
 #[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
-use super::viewer::{self, ViewerOptions, ViewerSummary};
+use stripmask::sim::viewer::{self, ViewerOptions, ViewerSummary};
 
 /// What `view` and `fb` show: a window, or the Linux framebuffer.
 #[derive(Args, Debug)]

@@ -13,3 +13,4 @@ pub mod report;
 pub mod stats;
 pub mod stream_compare;
 pub mod tradeoff;
+pub mod viewer;

@@ -10,12 +10,12 @@ use glam::DVec3;
 use stripmask_platform::{Command, Hud, Input, Presenter};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer, Precision};
 
-use stripmask::db::source;
-use stripmask::engine::camera::Camera;
-use stripmask::engine::{Engine, EngineSettings};
-use stripmask::error::Result;
-use stripmask::sim::flight::Flight;
-use stripmask::sim::hud::hud_info;
+use crate::db::source;
+use crate::engine::camera::Camera;
+use crate::engine::{Engine, EngineSettings};
+use crate::error::Result;
+use crate::sim::flight::Flight;
+use crate::sim::hud::hud_info;
 
 /// What the viewer shows and how.
 #[derive(Clone, Debug)]
@@ -226,11 +226,11 @@ mod tests {
     use std::collections::VecDeque;
 
     use super::{ViewerOptions, run};
-    use stripmask::db::builder::{BuildOptions, build};
-    use stripmask::db::dem::{MemoryReader, NodataFill};
-    use stripmask::engine::EngineSettings;
-    use stripmask::engine::paging::PagerMode;
-    use stripmask::sim::flight::{Builtin, Flight};
+    use crate::db::builder::{BuildOptions, build};
+    use crate::db::dem::{MemoryReader, NodataFill};
+    use crate::engine::EngineSettings;
+    use crate::engine::paging::PagerMode;
+    use crate::sim::flight::{Builtin, Flight};
     use stripmask_platform::{Command, Input, Motion, Overlay, PlatformError, Presenter};
     use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
@@ -275,9 +275,9 @@ mod tests {
             ..BuildOptions::default()
         };
         build(NodataFill::new(reader, None), &path, &options, &|_, _| {}).unwrap();
-        let terrain = stripmask::engine::terrain::TerrainFrame::new(
-            stripmask::db::archive::ArchiveReader::open(
-                stripmask::db::source::open(path.to_str().unwrap()).unwrap(),
+        let terrain = crate::engine::terrain::TerrainFrame::new(
+            crate::db::archive::ArchiveReader::open(
+                crate::db::source::open(path.to_str().unwrap()).unwrap(),
             )
             .unwrap()
             .header(),

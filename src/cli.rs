@@ -20,8 +20,6 @@ use stripmask::fly::{FlyOptions, Length, LiveView, fly};
 use stripmask::geomorph::Geomorph;
 use stripmask::importance::Weights;
 use stripmask::masks::LevelSet;
-#[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
-use stripmask::pager::PagerMode;
 use stripmask::pager::memory_limit_from_available;
 use stripmask::profile::{DeviceProfile, Overrides, depth_format};
 use stripmask::serve::Server;
@@ -655,7 +653,9 @@ pub fn run(cli: Cli) -> Result<()> {
 fn viewer_options(a: &ViewArgs) -> Result<ViewerOptions> {
     let scene = a.scene.resolve(&a.source)?;
     let mut engine = scene.engine;
-    engine.pager_mode = PagerMode::Threaded { queue_depth: 4 };
+    // A fetch thread on the wall clock; on the simulated clock (`--clock simulated`) fetches that
+    // complete at reproducible frames, so that `--frames N` shows what `fly` draws at frame N - 1.
+    engine.pager_mode = scene.clock.pager_mode(4);
     Ok(ViewerOptions {
         source: a.source.clone(),
         size: scene.size,
@@ -665,6 +665,7 @@ fn viewer_options(a: &ViewArgs) -> Result<ViewerOptions> {
         hud: !a.no_hud,
         flight: scene.flight,
         frames: a.frames,
+        clock: scene.clock,
     })
 }
 

@@ -3,6 +3,11 @@
 //!
 //! Without input the viewer follows a flight path (a scripted run on a board with no keyboard);
 //! the first movement key or mouse drag takes over from the path.
+//!
+//! On the simulated clock ([`ViewerOptions::clock`]) flight time advances by each frame's
+//! modelled cost instead of the wall clock, as in `fly`: the same options and the same keys at
+//! the same frames give the same pictures on every machine, so a board's screen can be compared
+//! with a frame `fly` rendered elsewhere.
 
 use std::time::Instant;
 
@@ -15,6 +20,7 @@ use crate::engine::{Engine, EngineSettings, FrameReport};
 use crate::error::{Error, Result};
 use crate::flight::Flight;
 use crate::pager::TileState as PagerState;
+use crate::simclock::Clock;
 use crate::source;
 
 /// The largest minimap side in cells; bigger grids show the part around the viewer.
@@ -39,6 +45,11 @@ pub struct ViewerOptions {
     pub flight: Flight,
     /// Stop after this many frames (`None`: until the user quits).
     pub frames: Option<u64>,
+    /// Where frame times come from: the wall clock (interactive), or the simulated clock, which
+    /// makes the frames reproducible. Give the simulated clock a pager in
+    /// [`crate::pager::PagerMode::Simulated`] ([`Clock::pager_mode`]) for tiles to arrive at
+    /// reproducible frames too.
+    pub clock: Clock,
 }
 
 /// What a session did.
@@ -102,8 +113,12 @@ pub fn run(presenter: &mut dyn Presenter, o: &ViewerOptions) -> Result<ViewerSum
     let mut engine = Engine::new(source::open(&o.source)?, o.engine, h)?;
     let mut hud = Hud::new(o.hud);
     let mut free: Option<FreeCamera> = None;
-    let mut speed = engine.terrain().tile_metres();
+    // Flight speed as a multiple of one tile per second; exactly 1 until changed, so that on the
+    // simulated clock flight time advances by exactly the frame costs, as in `fly`.
+    let mut pace = 1.0;
     let (mut t, mut paused, mut frames) = (0.0, false, 0u64);
+    // On the simulated clock: the modelled cost of the last frame, and their sum.
+    let (mut simulated_dt, mut simulated_t) = (0.0, 0.0);
     let started = Instant::now();
     let mut last = Instant::now();
     loop {
@@ -123,8 +138,8 @@ pub fn run(presenter: &mut dyn Presenter, o: &ViewerOptions) -> Result<ViewerSum
                 continue;
             }
             match command {
-                Command::SpeedUp => speed *= 1.5,
-                Command::SpeedDown => speed /= 1.5,
+                Command::SpeedUp => pace *= 1.5,
+                Command::SpeedDown => pace /= 1.5,
                 Command::Pause => paused = !paused,
                 Command::Precision => {
                     let r = engine.render_settings_mut();
@@ -152,8 +167,13 @@ pub fn run(presenter: &mut dyn Presenter, o: &ViewerOptions) -> Result<ViewerSum
                 Command::Hud | Command::Importance => {}
             }
         }
-        let dt = last.elapsed().as_secs_f64();
+        let dt = if o.clock.is_simulated() {
+            simulated_dt
+        } else {
+            last.elapsed().as_secs_f64()
+        };
         last = Instant::now();
+        let speed = pace * engine.terrain().tile_metres();
         let moved = input.motion != Default::default() || input.drag != (0.0, 0.0);
         if moved && free.is_none() {
             let (eye, target) = o.flight.at(t);
@@ -172,23 +192,30 @@ pub fn run(presenter: &mut dyn Presenter, o: &ViewerOptions) -> Result<ViewerSum
             }
             None => {
                 if !paused {
-                    t += dt * speed / engine.terrain().tile_metres();
+                    t += dt * pace;
                 }
                 let (eye, target) = o.flight.at(t % o.flight.duration().max(1e-9));
                 engine.camera(eye, target, o.flight.above_ground)
             }
         };
         let frame_start = Instant::now();
+        if o.clock.is_simulated() {
+            engine.set_time(simulated_t);
+        }
         let report = engine.render(&camera, &mut fb)?;
         let info = hud_info(&engine, &report, 1.0 / dt.max(1e-6));
         let overlay = hud.render(&info, w, h);
         presenter
             .present(&fb, overlay)
             .map_err(|e| Error::Usage(e.to_string()))?;
-        engine.record_frame(
-            frame_start.elapsed().as_secs_f64(),
-            report.draw.triangles as usize,
-        );
+        let seconds = if o.clock.is_simulated() {
+            o.clock.frame_seconds(&report)
+        } else {
+            frame_start.elapsed().as_secs_f64()
+        };
+        engine.record_frame(seconds, report.draw.triangles as usize);
+        simulated_dt = seconds;
+        simulated_t += seconds;
         frames += 1;
     }
     Ok(ViewerSummary {

@@ -8,6 +8,7 @@ use stripmask::dem::{MemoryReader, NodataFill};
 use stripmask::engine::EngineSettings;
 use stripmask::flight::{Builtin, Flight};
 use stripmask::pager::PagerMode;
+use stripmask::simclock::Clock;
 use stripmask::viewer::{ViewerOptions, run};
 use stripmask_platform::{Command, Input, Motion, Overlay, PlatformError, Presenter};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
@@ -102,6 +103,7 @@ fn input_steers_the_view_toggles_the_hud_resizes_and_quits() {
         hud: true,
         flight: Flight::builtin(Builtin::Overview, &terrain),
         frames: None,
+        clock: Clock::default(),
     };
     let summary = run(&mut script, &options).unwrap();
     assert_eq!(summary.frames, 8, "the ninth poll quits");

@@ -7,7 +7,9 @@
 # against glibc, statically (packages gcc-arm-linux-gnueabihf and libc6-dev-armhf-cross).
 export CARGO_TARGET_ARMV7_UNKNOWN_LINUX_GNUEABIHF_LINKER=arm-linux-gnueabihf-gcc
 export CARGO_TARGET_ARMV7_UNKNOWN_LINUX_GNUEABIHF_RUSTFLAGS="-C target-feature=+crt-static"
-export CARGO_TARGET_ARMV7_UNKNOWN_LINUX_GNUEABIHF_RUNNER=qemu-arm-static
+# Test binaries are static; doctests are linked by rustdoc without the flags above, so the
+# emulator also gets the cross glibc for them.
+export CARGO_TARGET_ARMV7_UNKNOWN_LINUX_GNUEABIHF_RUNNER="qemu-arm-static -L /usr/arm-linux-gnueabihf"
 
 # 64-bit ARM on musl: static by default; Rust's own lld and musl's objects from rustup, no cross gcc.
 export CARGO_TARGET_AARCH64_UNKNOWN_LINUX_MUSL_LINKER=rust-lld

@@ -8,8 +8,9 @@
 #
 #   tests/boards/arm-tests.sh [TARGET...]     # default: both
 #
-# Installs with apt-get when missing: qemu-user-static, gcc-arm-linux-gnueabihf,
-# libc6-dev-armhf-cross; adds the Rust targets with rustup. Settings: tests/boards/cross.sh.
+# Installs with apt-get when missing: qemu-user-static, gcc-arm-linux-gnueabihf and
+# libc6-dev-armhf-cross (armv7), gcc-aarch64-linux-gnu (aarch64: one C file of the benchmark
+# harness); adds the Rust targets with rustup. Settings: tests/boards/cross.sh.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
@@ -28,7 +29,7 @@ packages=(qemu-user-static)
 for target in "${targets[@]}"; do
     case "$target" in
     armv7-unknown-linux-gnueabihf) packages+=(gcc-arm-linux-gnueabihf libc6-dev-armhf-cross) ;;
-    aarch64-unknown-linux-musl) ;;
+    aarch64-unknown-linux-musl) packages+=(gcc-aarch64-linux-gnu) ;;
     *) die "unknown target '$target' (armv7-unknown-linux-gnueabihf, aarch64-unknown-linux-musl)" ;;
     esac
 done

@@ -21,7 +21,7 @@ say() { echo "count-instructions: $*" >&2; }
 qemu_user="$out/qemu-user"
 if [ ! -x "$qemu_user/usr/bin/qemu-arm" ]; then
     mkdir -p "$qemu_user/debs"
-    (cd "$qemu_user/debs" && apt-get download -qq qemu-user)
+    (cd "$qemu_user/debs" && apt-get -o APT::Sandbox::User=root download -qq qemu-user)
     dpkg-deb -x "$qemu_user"/debs/qemu-user_*.deb "$qemu_user"
 fi
 plugin="$out/libinsn-count.so"

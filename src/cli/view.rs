@@ -26,15 +26,22 @@ pub(super) struct ViewArgs {
 #[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
 pub(super) fn viewer_options(a: &ViewArgs) -> Result<ViewerOptions> {
     let scene = a.scene.resolve(&a.source)?;
+    let mut engine = scene.engine;
+    // A fetch thread on the wall clock; on the simulated clock (`--clock simulated`) fetches that
+    // complete at reproducible frames, so that `--frames N` shows what `fly` draws at frame N - 1.
+    if scene.clock.is_simulated() {
+        engine.pager_mode = scene.clock.pager_mode(4);
+    }
     Ok(ViewerOptions {
         source: a.source.clone(),
         size: scene.size,
         color: scene.color,
         depth: scene.depth,
-        engine: scene.engine,
+        engine,
         hud: !a.no_hud,
         flight: scene.flight,
         frames: a.frames,
+        clock: scene.clock,
     })
 }
 

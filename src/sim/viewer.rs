@@ -3,6 +3,11 @@
 //!
 //! Without input the viewer follows a flight path (a scripted run on a board with no keyboard);
 //! the first movement key or mouse drag takes over from the path.
+//!
+//! On the simulated clock ([`ViewerOptions::clock`]) flight time advances by each frame's
+//! modelled cost instead of the wall clock, as in `fly`: the same options and the same keys at
+//! the same frames give the same pictures on every machine, so a board's screen can be compared
+//! with a frame `fly` rendered elsewhere.
 
 use std::time::Instant;
 
@@ -14,6 +19,7 @@ use crate::db::source;
 use crate::engine::camera::Camera;
 use crate::engine::{Engine, EngineSettings};
 use crate::error::Result;
+use crate::sim::clock::Clock;
 use crate::sim::flight::Flight;
 use crate::sim::hud::hud_info;
 
@@ -36,6 +42,11 @@ pub struct ViewerOptions {
     pub flight: Flight,
     /// Stop after this many frames (`None`: until the user quits).
     pub frames: Option<u64>,
+    /// Where frame times come from: the wall clock (interactive), or the simulated clock, which
+    /// makes the frames reproducible. Give the simulated clock a pager in
+    /// [`PagerMode::Simulated`](crate::engine::paging::PagerMode::Simulated)
+    /// ([`Clock::pager_mode`]) for tiles to arrive at reproducible frames too.
+    pub clock: Clock,
 }
 
 /// What a session did.
@@ -185,6 +196,8 @@ pub fn run(presenter: &mut dyn Presenter, o: &ViewerOptions) -> Result<ViewerSum
     let mut frames = 0u64;
     let started = Instant::now();
     let mut last = Instant::now();
+    // On the simulated clock: the modelled cost of the last frame, and their sum.
+    let (mut simulated_dt, mut simulated_t) = (0.0, 0.0);
     while o.frames.is_none_or(|n| frames < n) {
         let input = presenter.poll_input();
         if input.quit {
@@ -199,18 +212,29 @@ pub fn run(presenter: &mut dyn Presenter, o: &ViewerOptions) -> Result<ViewerSum
                 pilot.command(command, &mut engine);
             }
         }
-        let dt = last.elapsed().as_secs_f64();
+        let dt = if o.clock.is_simulated() {
+            simulated_dt
+        } else {
+            last.elapsed().as_secs_f64()
+        };
         last = Instant::now();
         let camera = pilot.camera(&engine, &o.flight, &input, dt);
         let frame_start = Instant::now();
+        if o.clock.is_simulated() {
+            engine.set_time(simulated_t);
+        }
         let report = engine.render(&camera, &mut fb)?;
         let info = hud_info(&engine, &report, 1.0 / dt.max(1e-6));
         let overlay = hud.render(&info, w, h);
         presenter.present(&fb, overlay)?;
-        engine.record_frame(
-            frame_start.elapsed().as_secs_f64(),
-            report.draw.triangles as usize,
-        );
+        let seconds = if o.clock.is_simulated() {
+            o.clock.frame_seconds(&report)
+        } else {
+            frame_start.elapsed().as_secs_f64()
+        };
+        engine.record_frame(seconds, report.draw.triangles as usize);
+        simulated_dt = seconds;
+        simulated_t += seconds;
         frames += 1;
     }
     Ok(ViewerSummary {
@@ -225,7 +249,7 @@ pub fn run(presenter: &mut dyn Presenter, o: &ViewerOptions) -> Result<ViewerSum
 mod tests {
     use std::collections::VecDeque;
 
-    use super::{ViewerOptions, run};
+    use super::{Clock, ViewerOptions, run};
     use crate::db::builder::{BuildOptions, build};
     use crate::db::dem::{MemoryReader, NodataFill};
     use crate::engine::EngineSettings;
@@ -328,6 +352,7 @@ mod tests {
             hud: true,
             flight: Flight::builtin(Builtin::Overview, &terrain),
             frames: None,
+            clock: Clock::default(),
         };
         let summary = run(&mut script, &options).unwrap();
         assert_eq!(summary.frames, 8, "the ninth poll quits");

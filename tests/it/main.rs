@@ -8,6 +8,8 @@ mod archive_fuzz;
 mod archive_levels;
 mod archive_roundtrip;
 mod archive_texture_codecs;
+#[cfg(unix)]
+mod boards;
 mod cli_build_info;
 mod cli_demo;
 mod cli_serve;

@@ -1,0 +1,60 @@
+#!/usr/bin/env bash
+# The same bytes on every CPU: builds the rasterizer's tests and the golden-image tests for 32-bit
+# ARM (armv7-unknown-linux-gnueabihf, static glibc) and 64-bit ARM (aarch64-unknown-linux-musl)
+# and runs them under QEMU user-mode emulation. The golden PNGs (tests/golden/) were made on
+# x86-64 and the tests compare byte for byte, so passing here means byte-identical pictures on
+# ARM: the rasterizer's frames in both precisions (tests/golden.rs) and whole engine frames
+# (tests/cracks.rs, tests/wireframe.rs).
+#
+#   tests/boards/arm-tests.sh [TARGET...]     # default: both
+#
+# Installs with apt-get when missing: qemu-user-static, gcc-arm-linux-gnueabihf and
+# libc6-dev-armhf-cross (armv7), gcc-aarch64-linux-gnu (aarch64: one C file of the benchmark
+# harness); adds the Rust targets with rustup. Settings: tests/boards/cross.sh.
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+root=$(cd "$here/../.." && pwd)
+profile=${STRIPMASK_BOARDS_PROFILE:-ci}
+targets=("$@")
+[ "${#targets[@]}" -gt 0 ] || targets=(armv7-unknown-linux-gnueabihf aarch64-unknown-linux-musl)
+
+say() { echo "arm-tests: $*" >&2; }
+die() {
+    say "error: $*"
+    exit 1
+}
+if [ "$(id -u)" -eq 0 ]; then sudo=(); else sudo=(sudo); fi
+
+packages=(qemu-user-static)
+for target in "${targets[@]}"; do
+    case "$target" in
+    armv7-unknown-linux-gnueabihf) packages+=(gcc-arm-linux-gnueabihf libc6-dev-armhf-cross) ;;
+    aarch64-unknown-linux-musl) packages+=(gcc-aarch64-linux-gnu) ;;
+    *) die "unknown target '$target' (armv7-unknown-linux-gnueabihf, aarch64-unknown-linux-musl)" ;;
+    esac
+done
+missing=()
+for p in "${packages[@]}"; do
+    dpkg-query -W -f='${Status}\n' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")
+done
+if [ "${#missing[@]}" -gt 0 ]; then
+    command -v apt-get >/dev/null || die "apt-get not found; install ${missing[*]} by hand"
+    say "apt-get install ${missing[*]}"
+    export DEBIAN_FRONTEND=noninteractive
+    "${sudo[@]}" apt-get update -qq
+    "${sudo[@]}" apt-get install -y -qq --no-install-recommends --no-upgrade "${missing[@]}" >/dev/null
+fi
+
+# shellcheck source=tests/boards/cross.sh
+. "$here/cross.sh"
+installed=$(rustup target list --installed)
+cd "$root"
+for target in "${targets[@]}"; do
+    grep -qx "$target" <<<"$installed" || rustup target add "$target"
+    runner=CARGO_TARGET_$(tr 'a-z-' 'A-Z_' <<<"$target")_RUNNER
+    say "$target: the rasterizer's tests, run by ${!runner}"
+    cargo test --profile "$profile" --target "$target" -p stripmask-raster
+    say "$target: the golden-image tests (the rasterizer's, and the engine's crack and wireframe frames)"
+    cargo test --profile "$profile" --target "$target" -p stripmask \
+        --no-default-features --features fbdev --test golden --test cracks --test wireframe
+done

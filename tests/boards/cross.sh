@@ -1,0 +1,23 @@
+# Cargo settings for the ARM targets, sourced by tests/boards/setup.sh, tests/boards/arm-tests.sh
+# and .ci/run (`. tests/boards/cross.sh`): static binaries, the linkers, and QEMU user-mode
+# emulation as the runner of test binaries. Environment variables instead of a .cargo/config.toml,
+# so that a plain `cargo build` on the host is untouched. See docs/platforms.md.
+
+# 32-bit ARM, hard float (Cortex-A7/A8/A9, Raspberry Pi 2 and later): Debian's cross gcc links
+# against glibc, statically (packages gcc-arm-linux-gnueabihf and libc6-dev-armhf-cross).
+export CARGO_TARGET_ARMV7_UNKNOWN_LINUX_GNUEABIHF_LINKER=arm-linux-gnueabihf-gcc
+export CARGO_TARGET_ARMV7_UNKNOWN_LINUX_GNUEABIHF_RUSTFLAGS="-C target-feature=+crt-static"
+# Test binaries are static; doctests are linked by rustdoc without the flags above, so the
+# emulator also gets the cross glibc for them.
+export CARGO_TARGET_ARMV7_UNKNOWN_LINUX_GNUEABIHF_RUNNER="qemu-arm-static -L /usr/arm-linux-gnueabihf"
+
+# 64-bit ARM on musl: static by default; Rust's own lld and musl's objects from rustup, no cross gcc.
+export CARGO_TARGET_AARCH64_UNKNOWN_LINUX_MUSL_LINKER=rust-lld
+# The tests' benchmark harness (criterion, through the crate alloca) compiles one C file: Debian's
+# aarch64 cross gcc does (package gcc-aarch64-linux-gnu); the binaries themselves need no C.
+# It includes only compiler headers: -ffreestanding keeps gcc from reaching for glibc's.
+export CC_aarch64_unknown_linux_musl=aarch64-linux-gnu-gcc
+export CFLAGS_aarch64_unknown_linux_musl=-ffreestanding
+export CARGO_TARGET_AARCH64_UNKNOWN_LINUX_MUSL_RUNNER=qemu-aarch64-static
+
+# 64-bit x86 on musl (the x86 board's binary): static by default, linked by the host's cc.

@@ -12,4 +12,4 @@ pub mod server;
 pub mod source;
 pub mod texture_gen;
 pub mod tile;
-pub mod tiling;
+mod tiling;

@@ -58,11 +58,6 @@ impl Tiling {
         self.tiles_x * (self.tile_size - 1) + 1
     }
 
-    /// Rows after padding: `tiles_y * (s - 1) + 1`.
-    pub fn padded_height(&self) -> usize {
-        self.tiles_y * (self.tile_size - 1) + 1
-    }
-
     /// Number of tiles.
     pub fn tile_count(&self) -> usize {
         self.tiles_x * self.tiles_y

@@ -7,7 +7,7 @@ pub mod demo;
 pub mod device;
 pub mod flight;
 pub mod fly;
-pub mod hud;
+mod hud;
 pub mod popping;
 pub mod report;
 pub mod stats;

@@ -5,11 +5,11 @@
 //! [`NodataFill`] then replaces every `NaN` with a defined value, so no `NaN` enters the engine.
 //! Readers hold at most one strip (or one row of TIFF tiles) of the file at a time.
 
-pub mod asc;
-pub mod geotiff;
-pub mod hgt;
-pub mod png;
-pub mod raw;
+mod asc;
+mod geotiff;
+mod hgt;
+mod png;
+mod raw;
 
 use std::path::Path;
 

@@ -5,17 +5,17 @@
 //! the fine tile's border vertices (T-junctions) lie above or below the coarse tile's border
 //! segment and the background shows through. [`CrackMode`] chooses the remedy:
 //!
-//! - [`CrackMode::Stitch`] ([`stitch`]): crack-free by construction. A tile is drawn as an
+//! - [`CrackMode::Stitch`] (`stitch`): crack-free by construction. A tile is drawn as an
 //!   interior plus four border bands chosen by its neighbours' levels, so that both tiles of a
 //!   shared border use the same edge vertices.
-//! - [`CrackMode::Skirts`] ([`skirts`]): a band of vertical triangles hanging from each border.
-//! - [`CrackMode::Shadow`] ([`shadow`]): the paper's planar shadow under each tile, projected
+//! - [`CrackMode::Skirts`] (`skirts`): a band of vertical triangles hanging from each border.
+//! - [`CrackMode::Shadow`] (`shadow`): the paper's planar shadow under each tile, projected
 //!   from the viewpoint.
 
 pub mod neighbours;
-pub mod shadow;
-pub mod skirts;
-pub mod stitch;
+pub(crate) mod shadow;
+pub(crate) mod skirts;
+mod stitch;
 
 #[cfg(test)]
 mod test_view;

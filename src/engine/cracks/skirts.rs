@@ -96,11 +96,6 @@ impl SkirtSet {
             MaskIndices::narrowest(s * s + vertex_count(s), out)
         })
     }
-
-    /// Triangles of `level` with its skirts: the mask's and two per kept border segment.
-    pub fn triangle_count(&self, masks: &MaskSet, level: usize) -> usize {
-        masks.triangle_count(level) + 8 * (kept_indices(self.tile_size, level).len() - 1)
-    }
 }
 
 fn restart_or(restart: bool, v: impl Into<u32>) -> usize {

@@ -59,11 +59,6 @@ impl StitchSet {
         }
     }
 
-    /// Samples per side of the tiles.
-    pub fn tile_size(&self) -> usize {
-        self.tile_size
-    }
-
     /// The interior triangles of `level`, built on first use.
     pub fn interior(&self, level: usize) -> &MaskIndices {
         self.interiors[level].get_or_init(|| interior(self.tile_size, level))
@@ -92,8 +87,9 @@ impl StitchSet {
         MaskIndices::narrowest(self.tile_size * self.tile_size, Vec::new())
     }
 
+    #[cfg(test)]
     /// Triangles of a tile at `level` with `neighbours` (closed form; nothing is built).
-    pub fn triangle_count(&self, level: usize, neighbours: [usize; 4]) -> usize {
+    fn triangle_count(&self, level: usize, neighbours: [usize; 4]) -> usize {
         let s = self.tile_size;
         let k = kept_indices(s, level).len();
         if k == 2 {

@@ -77,15 +77,6 @@ pub struct Knob {
 }
 
 impl Knob {
-    /// The label of the value `setting` has, if any value matches it.
-    pub fn label_of(&self, setting: &Setting) -> Option<&'static str> {
-        self.values.iter().find_map(|v| {
-            let mut s = *setting;
-            (v.apply)(&mut s);
-            (s == *setting).then_some(v.label)
-        })
-    }
-
     /// The value labelled `label`.
     pub fn value(&self, label: &str) -> Option<&Value> {
         self.values.iter().find(|v| v.label == label)

@@ -1,20 +1,20 @@
 //! `stripmask tradeoff`: what each speed-for-accuracy knob costs and what it buys.
 //!
-//! Over a fixed set of [`views`] (plus views sampled from a flight), the [`sweep`] turns the
+//! Over a fixed set of `views` (plus views sampled from a flight), the `sweep` turns the
 //! [`knobs`] one at a time and in the combinations that interact; for each setting
-//! [`measure`] times whole engine frames (every tile loaded, so only rendering is timed) and
+//! `measure` times whole engine frames (every tile loaded, so only rendering is timed) and
 //! compares the pictures with each [`mod@reference`] ([`metrics`]: PSNR, SSIM, pixels off), and
-//! computes the screen-space geometric error of the masks the budget chose. [`output`] writes
+//! computes the screen-space geometric error of the masks the budget chose. `output` writes
 //! a Markdown table, a CSV and the error-against-time plot with its Pareto front ([`plot`]).
 
 pub mod knobs;
-pub mod measure;
+mod measure;
 pub mod metrics;
-pub mod output;
+mod output;
 pub mod plot;
 pub mod reference;
-pub mod sweep;
-pub mod views;
+mod sweep;
+mod views;
 
 use std::path::PathBuf;
 

@@ -8,7 +8,7 @@
 //! (`gpu_frame_no_readback` stops there, after the GPU has finished), and reading the picture back
 //! (`gpu_frame`). `gpu_readback_only` is a clear and a readback, the fixed cost per frame.
 
-#[path = "../tests/it/support/scene.rs"]
+#[path = "../raster/tests/it/scene.rs"]
 mod scene;
 
 use criterion::{Criterion, criterion_group, criterion_main};

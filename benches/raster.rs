@@ -5,7 +5,7 @@
 //! 440k triangles, all threads). Feature costs: the PocketPC frame with one feature changed at a
 //! time, to be read as ratios against `all_features` measured in the same run.
 
-#[path = "../tests/it/support/scene.rs"]
+#[path = "../raster/tests/it/scene.rs"]
 mod scene;
 
 use std::time::Duration;

@@ -10,7 +10,7 @@
 //! target/release/examples/pocketpc_frames 2000
 //! ```
 
-#[path = "../../tests/it/support/scene.rs"]
+#[path = "../tests/it/scene.rs"]
 mod scene;
 
 use stripmask_raster::*;

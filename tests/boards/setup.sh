@@ -198,16 +198,7 @@ for board in "${boards[@]}"; do
         rustup target add "$target" >&2 || die "rustup target add $target failed"
     fi
     say "cargo build stripmask for $target (--profile $profile, fbdev, no window)"
-    case "$target" in
-    armv7-unknown-linux-gnueabihf)
-        # arm-tests.sh tests this target: take the binary cargo builds for the package's
-        # integration tests (the same flags), so that CI compiles the dependencies once; a plain
-        # `cargo build` would compile many again without the tests' dev-dependency features.
-        build=(test --no-run --test golden)
-        ;;
-    *) build=(build --bin stripmask) ;;
-    esac
-    (cd "$root" && cargo "${build[@]}" --quiet --profile "$profile" --target "$target" \
+    (cd "$root" && cargo build --bin stripmask --quiet --profile "$profile" --target "$target" \
         -p stripmask --no-default-features --features fbdev) ||
         die "building stripmask for $target failed"
 done

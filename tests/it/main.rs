@@ -21,7 +21,6 @@ mod dem_fuzz;
 mod engine;
 mod extremes_engine;
 mod geomorph;
-mod golden;
 #[cfg(feature = "wgpu")]
 mod gpu_engine;
 mod layers;

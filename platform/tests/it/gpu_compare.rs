@@ -4,7 +4,7 @@
 //! bound the difference instead of asking for equality). A machine without a usable adapter skips
 //! every test with a message on stderr.
 
-#[path = "../../../tests/it/support/scene.rs"]
+#[path = "../../../raster/tests/it/scene.rs"]
 mod scene;
 
 use std::io::Write;

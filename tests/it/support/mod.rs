@@ -1,6 +1,5 @@
-//! Code shared by the integration tests (and, through `#[path]`, the benchmarks).
+//! Code shared by the integration tests.
 
 pub mod crack_scene;
 pub mod golden;
 pub mod hills;
-pub mod scene;

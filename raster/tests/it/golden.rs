@@ -1,14 +1,27 @@
-//! Golden images of the rasterizer, one per behaviour, compared byte for byte (rendering is
-//! deterministic). Re-bless after an intended change with
-//! `STRIPMASK_BLESS=1 cargo test --profile ci --test it golden` and explain the change in the commit;
-//! on a mismatch the new picture is written to `target/golden-failures/` for inspection.
+//! Golden images of the rasterizer, one per behaviour, in `raster/tests/golden/`, compared byte
+//! for byte (rendering is deterministic, on every CPU). Re-bless after an intended change with
+//! `STRIPMASK_BLESS=1 cargo test -p stripmask-raster --profile ci --test it golden` and explain
+//! the change in the commit; on a mismatch the new picture is written to
+//! `raster/target/golden-failures/` for inspection.
 
-use crate::support;
+use std::path::Path;
 
 use glam::DVec3;
 use stripmask_raster::*;
-use support::golden::check;
-use support::scene;
+
+use crate::golden_check::check_in;
+use crate::scene;
+
+/// Compares `fb` with `raster/tests/golden/{name}.png`.
+fn check(name: &str, fb: &Framebuffer) {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    check_in(
+        &root.join("tests/golden"),
+        &root.join("target/golden-failures"),
+        name,
+        fb,
+    );
+}
 
 fn terrain(
     precision: Precision,

@@ -138,12 +138,7 @@ impl fmt::Display for DemoSummary {
             s.memory_limit_bytes as f64 / 1e6,
             s.downloaded_bytes as f64 / 1e6
         )?;
-        writeln!(
-            f,
-            "first frame  {}",
-            s.first_frame_s
-                .map_or("never".into(), |t| format!("at {t:.2} s of flight"))
-        )?;
+        writeln!(f, "holes        {}", s.holes)?;
         write!(
             f,
             "written      {}: stats.csv, frames/, fps.png, triangles.png, downloads.png, tiles.png, memory.png",

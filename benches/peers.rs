@@ -69,14 +69,7 @@ fn archive() -> Result<PathBuf> {
     let built = Path::new("target/peers").join(stripmask::sim::demo::ARCHIVE);
     if !built.exists() {
         std::fs::create_dir_all("target/peers")?;
-        let dem = stripmask::db::dem::open(
-            Path::new(stripmask::sim::demo::DEM),
-            &stripmask::db::dem::OpenOptions {
-                format: None,
-                raw: None,
-                nodata: None,
-            },
-        )?;
+        let dem = stripmask::db::dem::open_png_bytes("puget", stripmask::sim::demo::DEM_PNG)?;
         let options = stripmask::db::builder::BuildOptions {
             tile_size: stripmask::sim::demo::TILE_SIZE,
             spacing: Some(stripmask::sim::demo::SPACING),

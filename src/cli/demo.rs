@@ -19,7 +19,7 @@ pub(super) struct DemoArgs {
     /// Output folder: archive, stats.csv, frames and plots.
     #[arg(long, default_value_os_t = DemoOptions::default().out)]
     out: PathBuf,
-    /// The elevation model (default: examples/data/puget_sound_1k_height.png).
+    /// The elevation model (default: the Puget Sound 1k model carried in the program).
     #[arg(long)]
     dem: Option<PathBuf>,
     /// Device profile.

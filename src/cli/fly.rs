@@ -60,7 +60,7 @@ pub(super) fn run(a: FlyArgs) -> Result<()> {
     let s = fly(&options)?;
     println!(
         "{} frames over {:.1} s of flight: median {:.1} fps (target {}), {:.0} triangles per frame, \
-         peak memory {:.1} of {:.1} MB, {:.2} MB downloaded, first frame at {} -> {}",
+         peak memory {:.1} of {:.1} MB, {:.2} MB downloaded -> {}\nholes: {}",
         s.frames,
         s.seconds,
         s.median_fps,
@@ -69,9 +69,8 @@ pub(super) fn run(a: FlyArgs) -> Result<()> {
         s.peak_memory_bytes as f64 / 1e6,
         s.memory_limit_bytes as f64 / 1e6,
         s.downloaded_bytes as f64 / 1e6,
-        s.first_frame_s
-            .map_or("never".into(), |t| format!("{t:.2} s")),
-        a.out.join("stats.csv").display()
+        a.out.join("stats.csv").display(),
+        s.holes
     );
     Ok(())
 }

@@ -120,6 +120,30 @@ impl Clock {
         }
     }
 
+    /// Flight seconds a frame that cost `cost` occupies: its cost, but on the wall clock no less
+    /// than a frame at twice `target_fps`, the wall waiting out the difference — no display
+    /// shows frames faster, and a flight waiting for its tiles would otherwise spin through
+    /// empty frames by the hundred thousand. The simulated clock's frames cost what they draw
+    /// and are never paced, so its flights stay reproducible.
+    pub fn pace(&self, cost: f64, target_fps: f64) -> f64 {
+        let Clock::Wall { slowdown } = *self else {
+            return cost;
+        };
+        if !(target_fps.is_finite() && target_fps > 0.0) {
+            return cost;
+        }
+        let shortest = 0.5 / target_fps;
+        if cost < shortest {
+            // Flight time runs `slowdown` times faster than the wall.
+            std::thread::sleep(std::time::Duration::from_secs_f64(
+                (shortest - cost) / slowdown.max(f64::MIN_POSITIVE),
+            ));
+            shortest
+        } else {
+            cost
+        }
+    }
+
     /// Whether this clock is the simulated one.
     pub fn is_simulated(&self) -> bool {
         matches!(self, Clock::Simulated { .. })

@@ -1,7 +1,8 @@
 //! `stripmask demo`: the paper's PocketPC experiment in one command.
 //!
-//! Builds an archive from the project's own copy of the Puget Sound 1k elevation model (160 m
-//! between samples, 0.1 m per unit) into the output folder — or reuses the one there when it is
+//! Builds an archive from the Puget Sound 1k elevation model (160 m between samples, 0.1 m per
+//! unit; public domain, carried inside the program so the demo needs nothing but the binary)
+//! into the output folder — or reuses the one there when it is
 //! intact and was built with the same settings — then flies the paper's corner-to-corner
 //! diagonal as the PocketPC profile (320x240 RGB565, 20 MB, 7 fps, 1 Mbit/s link) on the
 //! simulated clock, headless, and writes frames, `stats.csv` and the report's plots beside it.
@@ -12,7 +13,7 @@ use std::path::{Path, PathBuf};
 
 use crate::db::archive::ArchiveReader;
 use crate::db::builder::{BuildOptions, build};
-use crate::db::dem::{self, OpenOptions};
+use crate::db::dem::{self, DemReader, NodataFill, OpenOptions};
 use crate::db::source::{self, file::FileSource};
 use crate::engine::EngineSettings;
 use crate::engine::paging::stream::Streaming;
@@ -23,8 +24,11 @@ use crate::sim::device::DeviceProfile;
 use crate::sim::flight::{Builtin, Flight};
 use crate::sim::fly::{FlyOptions, FlySummary, Length, LiveView, fly_live};
 
-/// The elevation model, relative to the repository root.
-pub const DEM: &str = "examples/data/puget_sound_1k_height.png";
+/// The demo's elevation model, as carried in the program: a 16-bit grayscale PNG of
+/// 1025 x 1025 samples (`examples/data/puget_sound_1k_height.png`).
+pub const DEM_PNG: &[u8] = include_bytes!("../../examples/data/puget_sound_1k_height.png");
+/// The name the carried model goes by in messages.
+const DEM_NAME: &str = "puget_sound_1k_height.png (built in)";
 /// The archive's name inside the output folder.
 pub const ARCHIVE: &str = "puget.smdb";
 /// Metres between samples of the 1k model (16 x the 10 m of the full one).
@@ -39,7 +43,7 @@ pub const TILE_SIZE: usize = 65;
 pub struct DemoOptions {
     /// Output folder.
     pub out: PathBuf,
-    /// The elevation model (default: [`DEM`], found from the working directory or the source tree).
+    /// The elevation model (default: [`DEM_PNG`], carried in the program).
     pub dem: Option<PathBuf>,
     /// The device.
     pub profile: DeviceProfile,
@@ -79,8 +83,8 @@ impl Default for DemoOptions {
 pub struct DemoSummary {
     /// The archive flown over.
     pub archive: PathBuf,
-    /// Whether it was built now (false: reused).
-    pub built: bool,
+    /// The elevation model it was built from now, or `None` when an intact one was reused.
+    pub built_from: Option<String>,
     /// The device.
     pub profile: DeviceProfile,
     /// The flight's summary.
@@ -99,7 +103,10 @@ impl fmt::Display for DemoSummary {
             f,
             "archive      {} ({})",
             self.archive.display(),
-            if self.built { "built" } else { "reused" }
+            match &self.built_from {
+                Some(model) => format!("built from {model}"),
+                None => "reused".into(),
+            }
         )?;
         writeln!(
             f,
@@ -131,12 +138,7 @@ impl fmt::Display for DemoSummary {
             s.memory_limit_bytes as f64 / 1e6,
             s.downloaded_bytes as f64 / 1e6
         )?;
-        writeln!(
-            f,
-            "first frame  {}",
-            s.first_frame_s
-                .map_or("never".into(), |t| format!("at {t:.2} s of flight"))
-        )?;
+        writeln!(f, "holes        {}", s.holes)?;
         write!(
             f,
             "written      {}: stats.csv, frames/, fps.png, triangles.png, downloads.png, tiles.png, memory.png",
@@ -171,15 +173,23 @@ pub fn run_live(o: &DemoOptions, live: Option<LiveView<'_>>) -> Result<DemoSumma
     let out_name = o.out.display().to_string();
     std::fs::create_dir_all(&o.out).map_err(|e| Error::io(&out_name, e))?;
     let archive = o.out.join(ARCHIVE);
-    let built = if intact(&archive) {
-        false
+    let built_from = if intact(&archive) {
+        None
     } else {
         let dem = match &o.dem {
-            Some(path) => path.clone(),
-            None => find_dem()?,
+            Some(path) => dem::open(
+                path,
+                &OpenOptions {
+                    format: None,
+                    raw: None,
+                    nodata: None,
+                },
+            )?,
+            None => dem::open_png_bytes(DEM_NAME, DEM_PNG)?,
         };
-        build_archive(&dem, &archive)?;
-        true
+        let model = dem.info().name.clone();
+        build_archive(dem, &archive)?;
+        Some(model)
     };
     let archive_name = archive.display().to_string();
     let reader = ArchiveReader::open(source::open(&archive_name)?)?;
@@ -212,7 +222,7 @@ pub fn run_live(o: &DemoOptions, live: Option<LiveView<'_>>) -> Result<DemoSumma
     let summary = fly_live(&fly_options, live)?;
     Ok(DemoSummary {
         archive,
-        built,
+        built_from,
         profile: p.clone(),
         held: held_fraction(&o.out, p.target_fps)?,
         fly: summary,
@@ -220,36 +230,9 @@ pub fn run_live(o: &DemoOptions, live: Option<LiveView<'_>>) -> Result<DemoSumma
     })
 }
 
-/// The elevation model in the working directory, else in the source tree this was built from.
-fn find_dem() -> Result<PathBuf> {
-    let here = PathBuf::from(DEM);
-    if here.is_file() {
-        return Ok(here);
-    }
-    let tree = Path::new(env!("CARGO_MANIFEST_DIR")).join(DEM);
-    if tree.is_file() {
-        return Ok(tree);
-    }
-    Err(Error::invalid(
-        DEM,
-        format!(
-            "the demo's elevation model is neither here nor at {} (give one with --dem)",
-            tree.display()
-        ),
-    ))
-}
-
 /// Builds the demo's archive from `dem` into `archive` (through a temporary file, so that an
 /// interrupted build never leaves a half-written archive behind).
-fn build_archive(dem: &Path, archive: &Path) -> Result<()> {
-    let reader = dem::open(
-        dem,
-        &OpenOptions {
-            format: None,
-            raw: None,
-            nodata: None,
-        },
-    )?;
+fn build_archive(reader: NodataFill<Box<dyn DemReader>>, archive: &Path) -> Result<()> {
     let options = BuildOptions {
         tile_size: TILE_SIZE,
         spacing: Some(SPACING),

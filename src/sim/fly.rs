@@ -2,7 +2,10 @@
 //!
 //! Flight time advances by each frame's cost as [`Clock`] tells it (measured bookkeeping and
 //! drawing, or modelled; times the device's CPU slowdown; writing PNGs is not counted), so a slow
-//! renderer covers the path in fewer frames, as on the real device. A [`LiveView`] shows the
+//! renderer covers the path in fewer frames, as on the real device. On the wall clock a frame
+//! takes at least the time of one at twice the target rate ([`Clock::pace`]): no display shows
+//! frames faster, and while tiles are on their way the flight does not spin through empty
+//! frames. A [`LiveView`] shows the
 //! frames as they are computed as well (`demo --window`).
 
 use std::path::PathBuf;
@@ -19,6 +22,7 @@ use crate::engine::{Engine, EngineSettings, FrameReport};
 use crate::error::{Error, Result};
 use crate::sim::clock::{Clock, connect};
 use crate::sim::flight::Flight;
+use crate::sim::holes::HoleTally;
 use crate::sim::hud::hud_info;
 use crate::sim::report;
 use crate::sim::stats::{FrameRecord, StatsCsv};
@@ -94,8 +98,8 @@ pub struct FlySummary {
     pub memory_limit_bytes: usize,
     /// Bytes downloaded.
     pub downloaded_bytes: u64,
-    /// Flight time of the first frame that drew any tile, seconds.
-    pub first_frame_s: Option<f64>,
+    /// Frames with holes and why, the first frame, the first without a hole, the base.
+    pub holes: HoleTally,
 }
 
 /// Flies `o.flight` and writes `stats.csv` (and frames) into `o.out`.
@@ -129,15 +133,9 @@ pub fn fly_live(o: &FlyOptions, mut live: Option<LiveView<'_>>) -> Result<FlySum
         let camera = engine.camera(eye, target, o.flight.above_ground);
         engine.set_time(t);
         let report = engine.render(&camera, &mut fb)?;
-        let seconds = o.clock.frame_seconds(&report);
-        engine.record_frame(seconds, report.draw.triangles as usize);
-        let record = frame_record(
-            tally.frames,
-            t,
-            seconds,
-            o.engine.budget.target_fps,
-            &report,
-        );
+        let cost = o.clock.frame_seconds(&report);
+        engine.record_frame(cost, report.draw.triangles as usize);
+        let record = frame_record(tally.frames, t, cost, o.engine.budget.target_fps, &report);
         csv.write(&record)?;
         if frames.is_some() || live.is_some() {
             let info = hud_info(&engine, &report, record.fps);
@@ -153,6 +151,7 @@ pub fn fly_live(o: &FlyOptions, mut live: Option<LiveView<'_>>) -> Result<FlySum
                 live.presenter.present(&fb, overlay)?;
             }
         }
+        let seconds = o.clock.pace(cost, o.engine.budget.target_fps);
         tally.add(&record, &report, seconds);
         bar.set_position(match length {
             Length::Frames(_) => tally.frames,
@@ -184,7 +183,8 @@ fn flight_engine(o: &FlyOptions) -> Result<Engine> {
     Ok(engine)
 }
 
-/// The `stats.csv` line of frame number `frame`, drawn at flight time `t` in `seconds`.
+/// The `stats.csv` line of frame number `frame`, drawn at flight time `t` in `seconds` (its
+/// cost, before any pacing).
 fn frame_record(
     frame: u64,
     t: f64,
@@ -209,6 +209,8 @@ fn frame_record(
         downloads: report.pager.fetches,
         complete_belts: report.pager.complete_belts.map_or(0, |d| u64::from(d) + 1),
         fetching: report.pager.fetching as u64,
+        holes: report.holes as u64,
+        base_bytes: report.pager.base_bytes as u64,
     }
 }
 
@@ -220,7 +222,7 @@ struct Tally {
     frames: u64,
     fps: Vec<f64>,
     triangles: u64,
-    first_frame_s: Option<f64>,
+    holes: HoleTally,
     last_stats: Option<PagerStats>,
 }
 
@@ -233,11 +235,9 @@ impl Tally {
         }
     }
 
-    /// Counts the frame of `record` and `report`, which took `seconds` of flight time.
+    /// Counts the frame of `record` and `report`, which took `seconds` of flight time (paced).
     fn add(&mut self, record: &FrameRecord, report: &FrameReport, seconds: f64) {
-        if report.rendered_tiles > 0 && self.first_frame_s.is_none() {
-            self.first_frame_s = Some(self.t);
-        }
+        self.holes.add(self.t, report);
         self.fps.push(record.fps);
         self.triangles += record.triangles;
         self.last_stats = Some(report.pager);
@@ -257,7 +257,7 @@ impl Tally {
             peak_memory_bytes: stats.memory_peak_bytes,
             memory_limit_bytes: stats.memory_limit_bytes,
             downloaded_bytes: stats.downloaded_bytes,
-            first_frame_s: self.first_frame_s,
+            holes: self.holes,
         }
     }
 }

@@ -50,6 +50,7 @@ pub fn hud_info(engine: &Engine, report: &FrameReport, fps: f64) -> HudInfo {
         memory_limit_bytes: report.pager.memory_limit_bytes as u64,
         tiles_loaded: report.pager.loaded_tiles as u32,
         tiles_rendered: report.rendered_tiles as u32,
+        holes: report.holes as u32,
         minimap: Some(Minimap {
             width: mw,
             height: mh,

@@ -7,6 +7,7 @@ pub mod demo;
 pub mod device;
 pub mod flight;
 pub mod fly;
+pub mod holes;
 mod hud;
 pub mod popping;
 pub mod report;

@@ -40,16 +40,20 @@ pub struct FrameRecord {
     pub complete_belts: u64,
     /// Tiles being fetched.
     pub fetching: u64,
+    /// Holes: tiles the view meets with nothing to draw, neither detail nor the coarse base.
+    pub holes: u64,
+    /// Bytes of the coarse base, resident or reserved while on its way (part of `memory_bytes`).
+    pub base_bytes: u64,
 }
 
 /// The CSV header, matching [`FrameRecord`]'s fields.
-pub const CSV_HEADER: &str = "frame,time_s,frame_ms,fps,target_fps,budget,triangles,fragments,rendered_tiles,loaded_tiles,memory_bytes,memory_limit_bytes,downloaded_bytes,downloads,complete_belts,fetching";
+pub const CSV_HEADER: &str = "frame,time_s,frame_ms,fps,target_fps,budget,triangles,fragments,rendered_tiles,loaded_tiles,memory_bytes,memory_limit_bytes,downloaded_bytes,downloads,complete_belts,fetching,holes,base_bytes";
 
 impl FrameRecord {
     /// The record as one CSV line, without the newline.
     pub fn csv_line(&self) -> String {
         format!(
-            "{},{:.4},{:.3},{:.2},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{:.4},{:.3},{:.2},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             self.frame,
             self.time_s,
             self.frame_ms,
@@ -65,7 +69,9 @@ impl FrameRecord {
             self.downloaded_bytes,
             self.downloads,
             self.complete_belts,
-            self.fetching
+            self.fetching,
+            self.holes,
+            self.base_bytes
         )
     }
 }

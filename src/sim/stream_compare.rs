@@ -25,6 +25,7 @@ use crate::error::{Error, Result};
 use crate::sim::clock::{Clock, CostModel, connect};
 use crate::sim::device::{DeviceProfile, Link};
 use crate::sim::flight::{Builtin, Flight};
+use crate::sim::holes::HoleTally;
 
 /// A frame spends its whole budget when it draws at least this share of it.
 pub const FULL_BUDGET: f64 = 0.95;
@@ -134,8 +135,8 @@ pub struct RunResult {
     pub frames: u64,
     /// Bytes downloaded.
     pub downloaded_bytes: u64,
-    /// Flight time of the first frame that drew a tile.
-    pub first_frame_s: Option<f64>,
+    /// Frames with holes and why, the first frame, the first without a hole, the base.
+    pub holes: HoleTally,
     /// Flight time of the first complete view.
     pub first_complete_s: Option<f64>,
     /// Frames that drew at least [`FULL_BUDGET`] of their budget.
@@ -249,7 +250,7 @@ impl Run<'_> {
             .min(flight.duration());
         let aspect = f64::from(p.width) / f64::from(p.height);
         let (mut t, mut frames, mut full, mut error_sum) = (0.0, 0u64, 0u64, 0.0);
-        let (mut first_frame_s, mut first_complete_s, mut reached) = (None, None, None);
+        let (mut holes, mut first_complete_s, mut reached) = (HoleTally::default(), None, None);
         while t < length {
             let (eye, target) = flight.at(t);
             let camera = engine.camera(eye, target, flight.above_ground);
@@ -257,9 +258,7 @@ impl Run<'_> {
             let report = engine.render(&camera, &mut fb)?;
             let seconds = clock.frame_seconds(&report);
             engine.record_frame(seconds, report.draw.triangles as usize);
-            if report.rendered_tiles > 0 {
-                first_frame_s = first_frame_s.or(Some(t));
-            }
+            holes.add(t, &report);
             reached = reached.max(report.pager.complete_belts);
             if first_complete_s.is_none()
                 && report.rendered_tiles > 0
@@ -286,7 +285,7 @@ impl Run<'_> {
             strategy: self.strategy,
             frames,
             downloaded_bytes: pager.downloaded_bytes,
-            first_frame_s,
+            holes,
             first_complete_s,
             full_budget_share: full as f64 / frames.max(1) as f64,
             mean_error_px: error_sum / frames.max(1) as f64,
@@ -325,21 +324,25 @@ pub fn write(out: &Path, results: &[RunResult], options: &CompareOptions) -> Res
     std::fs::write(&md, &markdown).map_err(|e| Error::io(md.display().to_string(), e))?;
     let csv_path = out.join("stream-compare.csv");
     let mut csv = String::from(
-        "flight,link,strategy,frames,downloaded_bytes,first_frame_s,first_complete_s,\
-         full_budget_share,mean_error_px,rendered_share,view_rendered_share,belt_bytes,\
+        "flight,link,strategy,frames,downloaded_bytes,first_frame_s,first_full_frame_s,\
+         hole_frames,empty_frames,base_bytes,first_complete_s,full_budget_share,mean_error_px,rendered_share,view_rendered_share,belt_bytes,\
          hit_rate,requests,cancelled,peak_memory_bytes\n",
     );
     let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.4}"));
     for r in results {
         writeln!(
             csv,
-            "{:?},{},{},{},{},{},{},{:.4},{:.4},{},{},{},{},{},{},{}",
+            "{:?},{},{},{},{},{},{},{},{},{},{},{:.4},{:.4},{},{},{},{},{},{},{}",
             r.flight,
             r.link,
             r.strategy.name(),
             r.frames,
             r.downloaded_bytes,
-            opt(r.first_frame_s),
+            opt(r.holes.first_frame_s),
+            opt(r.holes.first_full_frame_s),
+            r.holes.hole_frames,
+            r.holes.empty_frames,
+            r.holes.base_bytes,
             opt(r.first_complete_s),
             r.full_budget_share,
             r.mean_error_px,
@@ -369,19 +372,23 @@ fn markdown(results: &[RunResult], o: &CompareOptions) -> String {
     for flight in &o.flights {
         let _ = write!(
             md,
-            "\n**{flight:?}**\n\n| link | tiles | downloaded | first frame | first complete view | \
-             frames at full budget | mean screen error | drawn within 1 s: all bytes (asked by the view) | \
+            "\n**{flight:?}**\n\n| link | tiles | downloaded | first frame | first without a hole | \
+             frames with holes (only sky) | base | first complete view | frames at full budget | mean screen error | drawn within 1 s: all bytes (asked by the view) | \
              belt fill | prediction hits | requests (cancelled) | peak memory |\n\
-             | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n"
+             | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n"
         );
         for r in results.iter().filter(|r| r.flight == *flight) {
             let _ = writeln!(
                 md,
-                "| {} | {} | {:.2} MB | {} | {} | {:.1}% | {:.2} px | {} ({}) | {} | {} | {} ({}) | {:.1} MB |",
+                "| {} | {} | {:.2} MB | {} | {} | {} ({}) | {:.2} MB | {} | {:.1}% | {:.2} px | {} ({}) | {} | {} | {} ({}) | {:.1} MB |",
                 r.link,
                 r.strategy.name(),
                 r.downloaded_bytes as f64 / 1e6,
-                secs(r.first_frame_s),
+                secs(r.holes.first_frame_s),
+                secs(r.holes.first_full_frame_s),
+                r.holes.hole_frames,
+                r.holes.empty_frames,
+                r.holes.base_bytes as f64 / 1e6,
                 secs(r.first_complete_s),
                 100.0 * r.full_budget_share,
                 r.mean_error_px,

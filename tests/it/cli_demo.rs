@@ -1,7 +1,31 @@
-//! `stripmask demo --window` where no window can be opened: a clear error, no panic, and the
-//! outputs written headless all the same.
+//! `stripmask demo` with nothing but the binary, and `--window` where no window can be opened:
+//! a clear error, no panic, and the outputs written headless all the same.
 
 use std::process::Command;
+
+/// A copy of the binary alone in an empty folder builds the demo from the model it carries.
+#[test]
+fn demo_runs_from_an_empty_folder_with_nothing_but_the_binary() {
+    let dir = tempfile::tempdir().unwrap();
+    let binary = dir.path().join("stripmask");
+    std::fs::copy(env!("CARGO_BIN_EXE_stripmask"), &binary).unwrap();
+    let run = Command::new(&binary)
+        .args(["demo", "-q", "--frames", "3", "--every", "0"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success(), "{stdout}{stderr}");
+    assert!(
+        stdout.contains("built from puget_sound_1k_height.png (built in)"),
+        "the model carried in the binary is the one used: {stdout}"
+    );
+    let out = dir.path().join("stripmask-demo");
+    for file in ["stats.csv", "puget.smdb", "fps.png"] {
+        assert!(out.join(file).is_file(), "{file}");
+    }
+}
 
 #[test]
 fn demo_window_without_a_display_says_so_and_still_writes_the_outputs() {

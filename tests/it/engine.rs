@@ -63,7 +63,7 @@ fn fly_writes_one_stats_row_per_frame_and_keeps_every_kth_frame() {
     assert_eq!(summary.frames, 25);
     assert!(summary.peak_memory_bytes <= 2_000_000);
     assert!(summary.downloaded_bytes > 0);
-    assert_eq!(summary.first_frame_s, Some(0.0));
+    assert_eq!(summary.holes.first_frame_s, Some(0.0));
 
     let csv = std::fs::read_to_string(out.join("stats.csv")).unwrap();
     let mut lines = csv.lines();

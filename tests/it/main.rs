@@ -20,6 +20,7 @@ mod dem_formats;
 mod dem_fuzz;
 mod engine;
 mod extremes_engine;
+mod fly_holes;
 mod geomorph;
 #[cfg(feature = "wgpu")]
 mod gpu_engine;

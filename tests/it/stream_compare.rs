@@ -44,7 +44,7 @@ fn every_link_and_strategy_gets_a_row_and_progressive_tiles_cost_fewer_bytes() {
             belts.downloaded_bytes
         );
         assert!(belts.rendered_share.is_none() && progressive.rendered_share.is_some());
-        assert!(progressive.first_frame_s.is_some() && belts.first_frame_s.is_some());
+        assert!(progressive.holes.first_frame_s.is_some() && belts.holes.first_frame_s.is_some());
         assert!(
             row(Strategy::Progressive).hit_rate.is_none(),
             "no prediction, no hits"
@@ -59,6 +59,7 @@ fn every_link_and_strategy_gets_a_row_and_progressive_tiles_cost_fewer_bytes() {
             .iter()
             .find(|r| r.link == LINKS[0].name && r.strategy == s)
             .unwrap()
+            .holes
             .first_frame_s
             .unwrap()
     };

@@ -33,6 +33,8 @@ pub struct HudInfo {
     pub tiles_loaded: u32,
     /// Tiles drawn this frame.
     pub tiles_rendered: u32,
+    /// Holes this frame: tiles in view with nothing to draw (shown only when there are some).
+    pub holes: u32,
     /// The belts around the viewer, if the engine has them.
     pub minimap: Option<Minimap>,
 }
@@ -50,10 +52,16 @@ impl HudInfo {
                 self.memory_bytes as f64 / MB,
                 self.memory_limit_bytes as f64 / MB
             ),
-            format!(
-                "TILES {} LOADED {} DRAWN",
-                self.tiles_loaded, self.tiles_rendered
-            ),
+            match self.holes {
+                0 => format!(
+                    "TILES {} LOADED {} DRAWN",
+                    self.tiles_loaded, self.tiles_rendered
+                ),
+                holes => format!(
+                    "TILES {} LOADED {} DRAWN {holes} HOLES",
+                    self.tiles_loaded, self.tiles_rendered
+                ),
+            },
         ]
     }
 }

@@ -59,6 +59,7 @@ fn hud_info() -> impl Strategy<Value = HudInfo> {
             memory_limit_bytes: mem.1,
             tiles_loaded: tiles.0,
             tiles_rendered: tiles.1,
+            holes: tiles.0 % 3,
             minimap,
         })
 }
@@ -89,6 +90,22 @@ fn off_the_hud_draws_nothing_and_the_frame_is_shown_as_it_is() {
     }
     hud.apply(stripmask_platform::Command::Hud);
     assert!(hud.render(&info, 320, 240).is_some());
+}
+
+/// A frame with holes says how many on the statistics panel, which grows to hold the words.
+#[test]
+fn holes_are_shown_when_there_are_some() {
+    let width = |holes| {
+        let mut hud = Hud::new(true);
+        let info = HudInfo {
+            tiles_loaded: 40,
+            holes,
+            ..HudInfo::default()
+        };
+        let overlay = hud.render(&info, 320, 240).unwrap();
+        overlay.panels().map(|r| r.width).max().unwrap()
+    };
+    assert!(width(3) > width(0));
 }
 
 #[test]

@@ -201,6 +201,13 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<NodataFill<Box<dyn Dem
     Ok(NodataFill::new(reader, options.nodata))
 }
 
+/// Opens a grayscale PNG held in the program itself (the demo's model), called `name` in
+/// messages, with the nodata fill applied.
+pub fn open_png_bytes(name: &str, bytes: &'static [u8]) -> Result<NodataFill<Box<dyn DemReader>>> {
+    let reader: Box<dyn DemReader> = Box::new(png::PngReader::from_bytes(name, bytes)?);
+    Ok(NodataFill::new(reader, None))
+}
+
 /// Replaces nodata with a defined value while streaming rows.
 ///
 /// The rule, which needs only the previous row: a nodata sample takes the value of the nearest

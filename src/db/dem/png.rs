@@ -1,7 +1,7 @@
 //! Grayscale PNG height maps (8 or 16 bits), decoded a row at a time.
 
 use std::fs::File;
-use std::io::BufReader;
+use std::io::{BufRead, BufReader, Cursor, Seek};
 use std::path::Path;
 
 use png::{BitDepth, ColorType, Transformations};
@@ -12,11 +12,12 @@ use crate::error::{Error, Result};
 /// The largest interlaced image decoded whole (512 MiB).
 const MAX_INTERLACED_BYTES: usize = 512 << 20;
 
-/// Streams rows of a grayscale PNG. Interlaced files are decoded whole (the rows of an Adam7
-/// image arrive out of order), non-interlaced ones one row at a time.
-pub struct PngReader {
+/// Streams rows of a grayscale PNG, from a file or from bytes in memory. Interlaced files are
+/// decoded whole (the rows of an Adam7 image arrive out of order), non-interlaced ones one row
+/// at a time.
+pub struct PngReader<R: BufRead + Seek = BufReader<File>> {
     info: DemInfo,
-    decoder: png::Reader<BufReader<File>>,
+    decoder: png::Reader<R>,
     sixteen_bit: bool,
     /// The whole image, for interlaced files only.
     frame: Option<Vec<u8>>,
@@ -28,7 +29,21 @@ impl PngReader {
     pub fn open(path: &Path) -> Result<Self> {
         let name = path.display().to_string();
         let file = File::open(path).map_err(|e| Error::io(&name, e))?;
-        let mut decoder = png::Decoder::new(BufReader::new(file));
+        PngReader::from_reader(name, BufReader::new(file))
+    }
+}
+
+impl PngReader<Cursor<&'static [u8]>> {
+    /// Reads a PNG held in the program itself, called `name` in messages.
+    pub fn from_bytes(name: &str, bytes: &'static [u8]) -> Result<Self> {
+        PngReader::from_reader(name.to_string(), Cursor::new(bytes))
+    }
+}
+
+impl<R: BufRead + Seek> PngReader<R> {
+    /// Reads the header of the PNG that `input` yields.
+    fn from_reader(name: String, input: R) -> Result<Self> {
+        let mut decoder = png::Decoder::new(input);
         decoder.set_transformations(Transformations::EXPAND);
         decoder.set_ignore_text_chunk(true);
         let mut reader = decoder
@@ -86,7 +101,7 @@ impl PngReader {
     }
 }
 
-impl DemReader for PngReader {
+impl<R: BufRead + Seek> DemReader for PngReader<R> {
     fn info(&self) -> &DemInfo {
         &self.info
     }

@@ -1,0 +1,109 @@
+//! Frames where terrain in view was not drawn, and why: what `fly`, the demo and
+//! `stream-compare` report of a flight's holes, its first frames and its coarse base.
+
+use std::fmt;
+
+use crate::engine::FrameReport;
+
+/// A flight's holes so far: frames where the view met the terrain and some of it (or all of it)
+/// had nothing to draw, sorted by what the coarse base was doing at the time.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct HoleTally {
+    /// Frames counted.
+    pub frames: u64,
+    /// Frames with at least one hole.
+    pub hole_frames: u64,
+    /// Frames that met terrain and drew none of it: only sky.
+    pub empty_frames: u64,
+    /// Hole frames while the base was on its way.
+    pub waiting_for_base: u64,
+    /// Hole frames with no base: the archive has none, it does not fit the memory limit, or
+    /// every attempt to fetch it failed.
+    pub without_base: u64,
+    /// Hole frames with the base resident (none is expected: the base covers every tile).
+    pub after_base: u64,
+    /// Flight time of the first frame that drew terrain, seconds.
+    pub first_frame_s: Option<f64>,
+    /// Flight time of the first frame that drew terrain and had no hole, seconds.
+    pub first_full_frame_s: Option<f64>,
+    /// Flight time of the first frame with the base resident, seconds.
+    pub base_arrived_s: Option<f64>,
+    /// Bytes the base holds once resident.
+    pub base_bytes: usize,
+}
+
+impl HoleTally {
+    /// Counts the frame of `report`, drawn at flight time `t`.
+    pub fn add(&mut self, t: f64, report: &FrameReport) {
+        let pager = &report.pager;
+        let base_resident = pager.base_tiles > 0;
+        if base_resident && self.base_arrived_s.is_none() {
+            self.base_arrived_s = Some(t);
+            self.base_bytes = pager.base_bytes;
+        }
+        let drew = report.rendered_tiles > 0;
+        if drew {
+            self.first_frame_s = self.first_frame_s.or(Some(t));
+        }
+        if report.holes == 0 {
+            if drew {
+                self.first_full_frame_s = self.first_full_frame_s.or(Some(t));
+            }
+        } else {
+            self.hole_frames += 1;
+            if !drew {
+                self.empty_frames += 1;
+            }
+            if base_resident {
+                self.after_base += 1;
+            } else if pager.base_bytes > 0 {
+                self.waiting_for_base += 1;
+            } else {
+                self.without_base += 1;
+            }
+        }
+        self.frames += 1;
+    }
+}
+
+/// One line: how many frames had holes and why, when the base arrived, the first frames.
+impl fmt::Display for HoleTally {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let secs = |t: Option<f64>| t.map_or("never".into(), |t| format!("{t:.2} s"));
+        write!(
+            f,
+            "{} of {} frames had holes ({} drew only sky)",
+            self.hole_frames, self.frames, self.empty_frames
+        )?;
+        let causes = [
+            (
+                self.waiting_for_base,
+                "while the coarse base was on its way",
+            ),
+            (
+                self.without_base,
+                "with no coarse base (none in the archive, over the memory limit, or its fetch failed)",
+            ),
+            (self.after_base, "with the coarse base resident"),
+        ];
+        let mut first = true;
+        for (n, cause) in causes.iter().filter(|(n, _)| *n > 0) {
+            write!(f, "{} {n} {cause}", if first { ":" } else { ";" })?;
+            first = false;
+        }
+        match self.base_arrived_s {
+            Some(t) => write!(
+                f,
+                "; base of {:.2} MB resident at {t:.2} s",
+                self.base_bytes as f64 / 1e6
+            )?,
+            None => write!(f, "; no base resident")?,
+        }
+        write!(
+            f,
+            "; first frame at {}, first without a hole at {}",
+            secs(self.first_frame_s),
+            secs(self.first_full_frame_s)
+        )
+    }
+}

@@ -13,11 +13,12 @@ fn cases() -> u32 {
         .unwrap_or(48)
 }
 
-const FIXTURES: [(&str, &str); 10] = [
+const FIXTURES: [(&str, &str); 11] = [
     ("int16_deflate_pred2_nodata.tif", "tif"),
     ("uint16_lzw_tiled.tif", "tif"),
     ("int32_packbits.tif", "tif"),
     ("float32_deflate_pred3_tiled_nodata.tif", "tif"),
+    ("geographic.tif", "tif"),
     ("uint16.png", "png"),
     ("rgb.png", "png"),
     ("rgb.jpg", "jpg"),

@@ -74,6 +74,22 @@ pub enum Error {
         /// Why not, and what to change.
         reason: String,
     },
+    /// A tile's relief does not fit 65535 height quanta: the build needs a larger quantum.
+    #[error(
+        "{name}: tile ({tile_x}, {tile_y}) spans {relief} m, more than 65535 quanta of {quantum} m: choose a larger height quantum"
+    )]
+    HeightRange {
+        /// The DEM file.
+        name: String,
+        /// The tile's column.
+        tile_x: usize,
+        /// The tile's row.
+        tile_y: usize,
+        /// Its highest minus its lowest height, metres.
+        relief: f32,
+        /// The quantum that was too fine, metres.
+        quantum: f32,
+    },
     /// A command this build of stripmask was made without: a cargo feature left out, or one
     /// for another platform.
     #[error("{command} needs {needs}, which this stripmask was built without")]

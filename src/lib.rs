@@ -30,7 +30,7 @@ pub mod named;
 pub mod sim;
 
 pub use db::archive::{ArchiveReader, Codec, Header};
-pub use db::builder::{BuildOptions, BuildReport, build};
+pub use db::builder::{BuildOptions, BuildReport, build, build_file};
 pub use db::dem::{DemFormat, OpenOptions, open as open_dem};
 pub use db::grid::TileId;
 pub use db::server::Server;

@@ -6,8 +6,8 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use stripmask::Named;
 use stripmask::db::archive::Codec;
-use stripmask::db::builder::{BuildOptions, build};
-use stripmask::db::dem::{self, DemFormat, OpenOptions, RawLayout, SampleType};
+use stripmask::db::builder::{BuildOptions, BuildReport, build_file};
+use stripmask::db::dem::{DemFormat, OpenOptions, RawLayout, SampleType};
 use stripmask::error::Result;
 
 use super::args::named;
@@ -44,7 +44,8 @@ pub(super) struct BuildArgs {
     /// Samples per tile side, 2^n + 1.
     #[arg(long, default_value_t = BuildOptions::default().tile_size)]
     tile_size: usize,
-    /// Metres between samples (default: the file's georeferencing, else 1).
+    /// Metres between samples on both axes (default: the file's georeferencing, in metres on
+    /// both axes for grids in degrees, else 1).
     #[arg(long)]
     spacing: Option<f64>,
     /// Metres per raw height unit.
@@ -62,9 +63,10 @@ pub(super) struct BuildArgs {
     /// How tile payloads are stored (deflate: smaller, slower to decode).
     #[arg(long, value_parser = named::<Codec>(), default_value = BuildOptions::default().codec.name())]
     codec: Codec,
-    /// Metres per height quantum, shared by all tiles; a tile's relief must fit 65535 quanta.
-    #[arg(long, default_value_t = BuildOptions::default().height_quantum)]
-    height_quantum: f32,
+    /// Metres per height quantum, shared by all tiles; a tile's relief must fit 65535 quanta
+    /// (default: 1/16 m, or the smallest power of two that fits, with a note).
+    #[arg(long)]
+    height_quantum: Option<f32>,
     /// No progress bar and no summary.
     #[arg(short, long)]
     quiet: bool,
@@ -111,7 +113,6 @@ impl BuildArgs {
 
 /// Builds the archive with a progress bar and prints its summary (text or JSON).
 pub(super) fn run(a: BuildArgs) -> Result<()> {
-    let reader = dem::open(&a.input, &a.open_options())?;
     let options = a.build_options();
     let bar = if a.quiet {
         ProgressBar::hidden()
@@ -122,10 +123,16 @@ pub(super) fn run(a: BuildArgs) -> Result<()> {
                 .progress_chars("=> "),
         )
     };
-    let report = build(reader, &a.output, &options, &|done, total| {
-        bar.set_length(total as u64);
-        bar.set_position(done as u64);
-    })?;
+    let report = build_file(
+        &a.input,
+        &a.open_options(),
+        &a.output,
+        &options,
+        &|done, total| {
+            bar.set_length(total as u64);
+            bar.set_position(done as u64);
+        },
+    )?;
     bar.finish_and_clear();
     if a.json {
         println!(
@@ -133,10 +140,18 @@ pub(super) fn run(a: BuildArgs) -> Result<()> {
             serde_json::to_string_pretty(&report).expect("serialisable")
         );
     } else if !a.quiet {
-        let h = &report.header;
-        println!(
+        print!("{}", summary(&a.output, &report));
+    }
+    Ok(())
+}
+
+/// The text summary of a build: the archive, then the numbers a user should check.
+fn summary(output: &std::path::Path, report: &BuildReport) -> String {
+    let h = &report.header;
+    let mut lines = vec![
+        format!(
             "{}: {} x {} tiles of {} samples, {} bytes ({:.1} KiB per tile stored, {:.1} KiB raw) in {:.2} s",
-            a.output.display(),
+            output.display(),
             h.tiles_x,
             h.tiles_y,
             h.tile_size,
@@ -144,7 +159,24 @@ pub(super) fn run(a: BuildArgs) -> Result<()> {
             report.stored_payload_bytes as f64 / h.tile_count() as f64 / 1024.0,
             report.raw_payload_bytes as f64 / h.tile_count() as f64 / 1024.0,
             report.seconds
-        );
+        ),
+        format!(
+            "spacing     {} m between samples, origin ({}, {})",
+            h.spacing, h.origin_x, h.origin_y
+        ),
+        format!(
+            "heights     {} .. {} m (valid samples), {} m per raw unit, in quanta of {} m",
+            h.min_height, h.max_height, h.vertical_scale, h.height_quantum
+        ),
+    ];
+    lines.extend(report.notes.iter().map(|n| format!("note        {n}")));
+    let n = report.nodata;
+    if n.filled + n.flattened > 0 {
+        lines.push(format!(
+            "nodata      {} samples filled from their nearest valid neighbours, {} in large nodata \
+             areas drawn flat at the lowest height around them",
+            n.filled, n.flattened
+        ));
     }
-    Ok(())
+    lines.iter().map(|l| format!("{l}\n")).collect()
 }

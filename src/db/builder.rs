@@ -1,8 +1,9 @@
 //! `stripmask build`: stream a DEM band by band, encode each tile, write the archive.
 //!
 //! Memory held at once: one band of `s` rows of the padded width (f32), one input row, the
-//! reader's own strip or tile row, the encoded tiles of one band (they are encoded in parallel,
-//! then written in order), and the texture image when one is given.
+//! reader's own strip or tile row, the nodata fill's window of rows
+//! ([`crate::db::dem::NodataFill`]), the encoded tiles of one band (they are encoded in
+//! parallel, then written in order), and the texture image when one is given.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -11,7 +12,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::db::archive::{ArchiveWriter, Codec, Header, compress};
-use crate::db::dem::{DemInfo, DemReader, NodataFill};
+use crate::db::dem::{self, DemInfo, DemReader, EastWest, FillStats, NodataFill, OpenOptions};
 use crate::db::texture_gen::{ImageTexture, shaded};
 use crate::db::tile::{Tile, progressive_levels};
 use crate::db::tiling::{Band, BandReader, Tiling};
@@ -35,8 +36,10 @@ pub struct BuildOptions {
     /// How tile payloads are stored.
     pub codec: Codec,
     /// Metres per height quantum, shared by all tiles so that neighbours agree on their shared
-    /// samples; a tile's relief must fit 65535 quanta (4096 m at the default 1/16 m).
-    pub height_quantum: f32,
+    /// samples; a tile's relief must fit 65535 quanta (4096 m at the default 1/16 m). `None`:
+    /// [`DEFAULT_HEIGHT_QUANTUM`], which [`build_file`] coarsens to a power of two that fits
+    /// when a tile's relief needs it.
+    pub height_quantum: Option<f32>,
     /// Progressive levels of every tile stored again as the archive's base, the coarse copy of
     /// the whole terrain a client fetches first (0: none).
     pub base_levels: usize,
@@ -56,7 +59,7 @@ impl Default for BuildOptions {
             texture_factor: 1,
             texture_image: None,
             codec: Codec::Lz4,
-            height_quantum: DEFAULT_HEIGHT_QUANTUM,
+            height_quantum: None,
             base_levels: 1,
         }
     }
@@ -73,6 +76,11 @@ pub struct BuildReport {
     pub raw_payload_bytes: u64,
     /// Sum of the stored tile payloads.
     pub stored_payload_bytes: u64,
+    /// Nodata samples filled from their neighbours, and those flattened in large nodata areas.
+    pub nodata: FillStats,
+    /// What the build assumed or chose that the user should know: the reader's reading of the
+    /// file (geographic grid, degree cells, 8-bit samples), a coarser height quantum.
+    pub notes: Vec<String>,
     /// Wall-clock seconds.
     pub seconds: f64,
 }
@@ -86,14 +94,41 @@ pub fn build<R: DemReader>(
 ) -> Result<BuildReport> {
     let started = Instant::now();
     let info = reader.info().clone();
-    let grid = Tiling::new(info.width, info.height, options.tile_size)?;
+    let mut notes = info.notes.clone();
+    let columns = match (options.spacing, info.east_west_scale) {
+        (None, scale) if scale != 1.0 => Some(EastWest::new(info.width, scale)),
+        _ => None,
+    };
+    if let Some(c) = columns {
+        notes.push(format!(
+            "{} columns resampled to {} east-west",
+            c.source_width(),
+            c.width()
+        ));
+    }
+    if let (Some(s), true) = (options.spacing, info.east_west_scale != 1.0) {
+        notes.push(format!(
+            "--spacing {s} overrides the file's georeferencing: square cells of {s} m"
+        ));
+    }
+    match (options.spacing, info.spacing_hint, &info.spacing_problem) {
+        (None, _, Some(problem)) => return Err(Error::invalid(&info.name, problem.clone())),
+        (None, None, None) => notes.push(
+            "the file does not say how far apart its samples are: 1 m taken; pass --spacing \
+             METRES"
+                .to_string(),
+        ),
+        _ => {}
+    }
+    let width = columns.map_or(info.width, |c| c.width());
+    let grid = Tiling::new(width, info.height, options.tile_size)?;
     let header = header(&info, &grid, options)?;
     let image = match &options.texture_image {
-        Some(path) => Some(ImageTexture::open(path, info.width, info.height)?),
+        Some(path) => Some(ImageTexture::open(path, grid.width, info.height)?),
         None => None,
     };
     let mut writer = ArchiveWriter::create(out, header.clone())?;
-    let mut bands = BandReader::new(reader, grid, options.vertical_scale as f32);
+    let mut bands = BandReader::new(reader, grid, options.vertical_scale as f32, columns);
     let mut totals = Totals::default();
     let mut done = 0;
     while let Some(band) = bands.next_band()? {
@@ -115,8 +150,51 @@ pub fn build<R: DemReader>(
         archive_bytes,
         raw_payload_bytes: totals.raw_bytes,
         stored_payload_bytes: totals.stored_bytes,
+        nodata: bands.fill_stats(),
+        notes,
         seconds: started.elapsed().as_secs_f64(),
     })
+}
+
+/// Opens the DEM `path` as `open` says and builds `out` from it ([`build`]). When the height
+/// quantum is left to the build and a tile's relief does not fit 65535 quanta of the default,
+/// it builds again with the smallest power-of-two quantum that fits, and says so in the
+/// report's notes.
+pub fn build_file(
+    path: &Path,
+    open: &OpenOptions,
+    out: &Path,
+    options: &BuildOptions,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<BuildReport> {
+    let mut options = options.clone();
+    let automatic = options.height_quantum.is_none();
+    loop {
+        match build(dem::open(path, open)?, out, &options, progress) {
+            Err(Error::HeightRange {
+                relief, quantum, ..
+            }) if automatic => {
+                let mut fitting = quantum * 2.0;
+                while f64::from(relief) / f64::from(fitting) > f64::from(u16::MAX) - 1.0 {
+                    fitting *= 2.0;
+                }
+                options.height_quantum = Some(fitting);
+            }
+            Ok(mut report) => {
+                let q = report.header.height_quantum;
+                if automatic && q != DEFAULT_HEIGHT_QUANTUM {
+                    report.notes.push(format!(
+                        "height quantum {q} m: the relief of some tiles does not fit 65535 \
+                         quanta of the default {DEFAULT_HEIGHT_QUANTUM} m (heights are within \
+                         {} m of the source; --height-quantum sets it)",
+                        q / 2.0
+                    ));
+                }
+                return Ok(report);
+            }
+            Err(e) => return Err(e),
+        }
+    }
 }
 
 /// The archive header for `info` cut as `grid`, once `options` are checked (the height range
@@ -152,7 +230,7 @@ fn header(info: &DemInfo, grid: &Tiling, options: &BuildOptions) -> Result<Heade
         tile_size: grid.tile_size as u32,
         texture_size: ((grid.tile_size - 1) * f) as u32,
         codec: options.codec,
-        source_width: info.width as u32,
+        source_width: grid.width as u32,
         source_height: info.height as u32,
         spacing,
         vertical_scale: options.vertical_scale,
@@ -160,7 +238,7 @@ fn header(info: &DemInfo, grid: &Tiling, options: &BuildOptions) -> Result<Heade
         origin_y,
         min_height: 0.0,
         max_height: 0.0,
-        height_quantum: options.height_quantum,
+        height_quantum: options.height_quantum.unwrap_or(DEFAULT_HEIGHT_QUANTUM),
         base_levels: options.base_levels.min(progressive_levels(grid.tile_size)) as u32,
     })
 }
@@ -194,8 +272,26 @@ fn encode_band(
                 Some(img) => img.cut(tx, ty, s, f),
                 None => shaded(&heights, s, header.spacing as f32, f),
             };
-            let tile = Tile::new(&heights, s, options.height_quantum, &texture, texture_size)
-                .map_err(|problem| Error::invalid(name, format!("tile ({tx}, {ty}): {problem}")))?;
+            let quantum = header.height_quantum;
+            let tile =
+                Tile::new(&heights, s, quantum, &texture, texture_size).map_err(|problem| {
+                    let (lo, hi) = heights
+                        .iter()
+                        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &h| {
+                            (lo.min(h), hi.max(h))
+                        });
+                    if f64::from(hi - lo) / f64::from(quantum) > f64::from(u16::MAX) - 1.0 {
+                        Error::HeightRange {
+                            name: name.to_string(),
+                            tile_x: tx,
+                            tile_y: ty,
+                            relief: hi - lo,
+                            quantum,
+                        }
+                    } else {
+                        Error::invalid(name, format!("tile ({tx}, {ty}): {problem}"))
+                    }
+                })?;
             let (mut chunks, mut raw_len) = (Vec::with_capacity(tile.levels), 0);
             for g in 0..tile.levels {
                 let raw = tile.encode_level(g);

@@ -7,7 +7,7 @@
 //! Memory: [`BandReader`] holds one band of `s` rows of the padded width (`f32` metres) and one
 //! input row; it never holds more than one row of tiles.
 
-use crate::db::dem::{DemReader, NodataFill};
+use crate::db::dem::{DemReader, EastWest, FillStats, NodataFill};
 use crate::error::{Error, Result};
 
 /// The largest tile side supported (`2^12 + 1`).
@@ -91,28 +91,44 @@ pub struct BandReader<R> {
     reader: NodataFill<R>,
     grid: Tiling,
     vertical_scale: f32,
+    columns: Option<EastWest>,
     band: Band,
     rows_read: usize,
+    /// One row as read, and resampled when `columns` says.
     row: Vec<f32>,
+    resampled: Vec<f32>,
 }
 
 impl<R: DemReader> BandReader<R> {
-    /// Streams `reader` in bands of `grid.tile_size` rows; heights are scaled by `vertical_scale`.
-    pub fn new(reader: NodataFill<R>, grid: Tiling, vertical_scale: f32) -> Self {
+    /// Streams `reader` in bands of `grid.tile_size` rows; heights are scaled by `vertical_scale`,
+    /// rows resampled by `columns` (whose output width is `grid.width`) when given.
+    pub fn new(
+        reader: NodataFill<R>,
+        grid: Tiling,
+        vertical_scale: f32,
+        columns: Option<EastWest>,
+    ) -> Self {
         let band = Band {
             tile_row: 0,
             grid,
             samples: vec![0.0; grid.padded_width() * grid.tile_size],
         };
-        let row = vec![0.0; grid.width];
+        let row = vec![0.0; reader.info().width];
         BandReader {
             reader,
             grid,
             vertical_scale,
+            columns,
             band,
             rows_read: 0,
             row,
+            resampled: vec![0.0; if columns.is_some() { grid.width } else { 0 }],
         }
+    }
+
+    /// What the nodata fill did to the rows read so far.
+    pub fn fill_stats(&self) -> FillStats {
+        self.reader.stats()
     }
 
     /// The next band, or `None` after the last tile row.
@@ -135,8 +151,15 @@ impl<R: DemReader> BandReader<R> {
             if self.rows_read < self.grid.height {
                 self.reader.read_row(&mut self.row)?;
                 self.rows_read += 1;
+                let row = match &self.columns {
+                    Some(c) => {
+                        c.apply(&self.row, &mut self.resampled);
+                        &self.resampled
+                    }
+                    None => &self.row,
+                };
                 let out = &mut self.band.samples[dst..dst + w];
-                for (o, v) in out.iter_mut().zip(&self.row) {
+                for (o, v) in out.iter_mut().zip(row) {
                     *o = v * self.vertical_scale;
                 }
                 let last = out[self.grid.width - 1];

@@ -20,13 +20,39 @@ fn truth(i: usize, j: usize) -> f32 {
     (100 + 7 * i + 3 * j + (i * j) % 11) as f32
 }
 
-/// The expected value after the nodata fill: holes at columns 3..=6 of rows 2..=4 take the
-/// nearest valid sample in their row (columns 2 and 7; the left one on a tie).
+/// Whether sample `(i, j)` is one of the fixtures' holes: columns 3..=6 of rows 2..=4.
+fn hole(i: usize, j: usize) -> bool {
+    (2..5).contains(&j) && (3..7).contains(&i)
+}
+
+/// The expected value after the nodata fill: a hole takes the nearest valid sample in 2-D; on a
+/// tie, the one in the nearer row, above before below, then left before right.
 fn filled(i: usize, j: usize, holes: bool) -> f32 {
-    if holes && (2..5).contains(&j) && (3..7).contains(&i) {
-        return if i <= 4 { truth(2, j) } else { truth(7, j) };
+    if !(holes && hole(i, j)) {
+        return truth(i, j);
     }
-    truth(i, j)
+    let mut best = (usize::MAX, 0.0);
+    for dk in 0..H {
+        for k in [j.checked_sub(dk), Some(j + dk).filter(|_| dk > 0)]
+            .into_iter()
+            .flatten()
+            .filter(|&k| k < H)
+        {
+            for dx in 0..W {
+                for c in [i.checked_sub(dx), Some(i + dx).filter(|_| dx > 0)]
+                    .into_iter()
+                    .flatten()
+                    .filter(|&c| c < W && !hole(c, k))
+                {
+                    let d = dk * dk + dx * dx;
+                    if d < best.0 {
+                        best = (d, truth(c, k));
+                    }
+                }
+            }
+        }
+    }
+    best.1
 }
 
 fn options() -> OpenOptions {
@@ -37,7 +63,8 @@ fn options() -> OpenOptions {
     }
 }
 
-fn check(path: &Path, opts: &OpenOptions, holes: bool) {
+/// Reads `path` and compares every sample with the truth (filled where the fixture has holes).
+fn check_samples(path: &Path, opts: &OpenOptions, holes: bool) {
     let dem = dem::open(path, opts).unwrap().read_all().unwrap();
     assert_eq!((dem.width, dem.height), (W, H), "{}", path.display());
     for j in 0..H {
@@ -50,7 +77,11 @@ fn check(path: &Path, opts: &OpenOptions, holes: bool) {
             );
         }
     }
-    // Build an archive with 17-sample tiles and read every sample back.
+}
+
+/// [`check_samples`], then builds an archive with 17-sample tiles and reads every sample back.
+fn check(path: &Path, opts: &OpenOptions, holes: bool) {
+    check_samples(path, opts, holes);
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("t.smdb");
     let build_opts = BuildOptions {
@@ -164,14 +195,22 @@ fn srtm_hgt_with_voids() {
 }
 
 #[test]
-fn geographic_geotiff_spacing_is_approximated_in_metres() {
+fn geographic_geotiff_gets_metres_on_both_axes() {
     let path = fixture("geographic.tif");
-    check(&path, &options(), false);
+    check_samples(&path, &options(), false);
     let info = dem::open(&path, &options()).unwrap().info().clone();
-    // 1/29 degree of latitude per row.
+    // 1/29 degree of latitude per row, 1/37 degree of longitude per column, centred at 47°N.
     let spacing = info.spacing_hint.unwrap();
     assert!((spacing - 111_320.0 / 29.0).abs() < 1e-6, "{spacing}");
-    assert_eq!(info.origin_hint, None);
+    let cos = 47f64.to_radians().cos();
+    let scale = info.east_west_scale;
+    assert!((scale - 29.0 / 37.0 * cos).abs() < 1e-9, "{scale}");
+    let (x, y) = info.origin_hint.unwrap();
+    assert!((y - (47.5 - 0.5 / 29.0) * 111_320.0).abs() < 1e-6, "{y}");
+    assert!(
+        (x - (-122.5 + 0.5 / 37.0) * 111_320.0 * cos).abs() < 1e-6,
+        "{x}"
+    );
 }
 
 #[test]

@@ -51,7 +51,7 @@ fn archive(
     let options = BuildOptions {
         tile_size,
         spacing: Some(spacing),
-        height_quantum: quantum,
+        height_quantum: Some(quantum),
         texture_factor: 2,
         ..BuildOptions::default()
     };

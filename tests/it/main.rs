@@ -18,6 +18,8 @@ mod crack_switch;
 mod cracks;
 mod dem_formats;
 mod dem_fuzz;
+mod dem_geographic;
+mod dem_nodata;
 mod engine;
 mod extremes_engine;
 mod fly_holes;

@@ -4,7 +4,12 @@ use std::fs::File;
 use std::io::{BufRead, BufReader};
 use std::path::Path;
 
+use super::geographic::Geographic;
 use super::{DemInfo, DemReader, check_dimensions};
+
+/// Cell sizes below this with no unit given are taken as degrees: no metric grid has samples
+/// closer than a centimetre, and 0.01 degree is over a kilometre.
+pub const DEGREE_CELL_LIMIT: f64 = 0.01;
 use crate::error::{Error, Result};
 
 /// The longest token (number or header key) accepted, to bound memory on garbage input.
@@ -130,18 +135,48 @@ impl AscReader {
             }
             _ => None,
         };
+        let mut info = DemInfo::new(&name, width, height);
+        match cell {
+            Some(c) if c < DEGREE_CELL_LIMIT => in_degrees(&mut info, c, origin_hint),
+            _ => {
+                info.spacing_hint = cell;
+                info.origin_hint = origin_hint;
+            }
+        }
         Ok(AscReader {
-            info: DemInfo {
-                name,
-                width,
-                height,
-                spacing_hint: cell,
-                origin_hint,
-            },
+            info,
             tokens,
             nodata,
             next_row: 0,
         })
+    }
+}
+
+/// Describes a grid whose cell size `cell` is small enough to be degrees: geographic when the
+/// header places it on Earth (`north_west`, the centre of its first sample), else a grid whose
+/// spacing the user must give.
+fn in_degrees(info: &mut DemInfo, cell: f64, north_west: Option<(f64, f64)>) {
+    let grid = north_west.map(|(west, north)| Geographic {
+        cell_x: cell,
+        cell_y: cell,
+        west,
+        north,
+    });
+    match grid.filter(|g| g.is_plausible(info.height)) {
+        Some(g) => {
+            info.notes.push(format!(
+                "cell size {cell} is below {DEGREE_CELL_LIMIT} and an ASCII grid gives no \
+                 unit: taken as degrees, placed by the header's corner; pass --spacing METRES \
+                 if the cells are metres"
+            ));
+            g.apply(info);
+        }
+        None => {
+            info.spacing_problem = Some(format!(
+                "cell size {cell} is below {DEGREE_CELL_LIMIT}: almost certainly degrees, but the \
+                 header gives no corner on Earth to tell the latitude; pass --spacing METRES"
+            ));
+        }
     }
 }
 

@@ -9,7 +9,8 @@ use tiff::ColorType;
 use tiff::decoder::{Decoder, DecodingResult};
 use tiff::tags::Tag;
 
-use super::{DemInfo, DemReader, METRES_PER_DEGREE, check_dimensions};
+use super::geographic::Geographic;
+use super::{DemInfo, DemReader, check_dimensions};
 use crate::error::{Error, Result};
 
 /// Streams rows of a single-band TIFF. Holds one chunk row: one strip, or one row of tiles.
@@ -55,7 +56,8 @@ impl TiffReader {
                 .and_then(|s| s.trim_matches(char::from(0)).trim().parse::<f64>().ok()),
             _ => None,
         };
-        let (spacing_hint, origin_hint) = georeference(&mut decoder);
+        let mut info = DemInfo::new(&name, width, height);
+        georeference(&mut decoder, &mut info);
         let (cw, ch) = decoder.chunk_dimensions();
         let (chunk_width, chunk_height) = (cw as usize, ch as usize);
         if chunk_width == 0 || chunk_height == 0 {
@@ -65,13 +67,7 @@ impl TiffReader {
             ));
         }
         Ok(TiffReader {
-            info: DemInfo {
-                name,
-                width,
-                height,
-                spacing_hint,
-                origin_hint,
-            },
+            info,
             decoder,
             nodata,
             chunk_width,
@@ -161,8 +157,9 @@ fn to_f32(chunk: DecodingResult, nodata: Option<f64>) -> Vec<f32> {
     }
 }
 
-/// Spacing (metres) and origin from the GeoTIFF pixel-scale, tie-point and GeoKey tags.
-fn georeference(decoder: &mut Decoder<BufReader<File>>) -> (Option<f64>, Option<(f64, f64)>) {
+/// Spacing (metres) and origin from the GeoTIFF pixel-scale, tie-point and GeoKey tags, into
+/// `info`; a geographic grid (degrees) gets metres on both axes ([`Geographic`]).
+fn georeference(decoder: &mut Decoder<BufReader<File>>, info: &mut DemInfo) {
     let scale = decoder.get_tag_f64_vec(Tag::ModelPixelScaleTag).ok();
     let tie = decoder.get_tag_f64_vec(Tag::ModelTiepointTag).ok();
     let keys = decoder
@@ -177,15 +174,11 @@ fn georeference(decoder: &mut Decoder<BufReader<File>>) -> (Option<f64>, Option<
     let geographic = key(1024) == Some(2);
     let pixel_is_point = key(1025) == Some(2);
     let Some(scale) = scale.filter(|s| s.len() >= 2 && s[0] > 0.0 && s[1] > 0.0) else {
-        return (None, None);
+        return;
     };
-    let spacing = if geographic {
-        scale[1] * METRES_PER_DEGREE
-    } else {
-        scale[0]
-    };
-    let origin = match tie {
-        Some(t) if t.len() >= 6 && !geographic => {
+    // The tie point's world position of sample (0, 0)'s centre, in the file's units.
+    let corner = match tie {
+        Some(t) if t.len() >= 6 => {
             let half = if pixel_is_point { 0.0 } else { 0.5 };
             Some((
                 t[3] + (half - t[0]) * scale[0],
@@ -194,7 +187,27 @@ fn georeference(decoder: &mut Decoder<BufReader<File>>) -> (Option<f64>, Option<
         }
         _ => None,
     };
-    (Some(spacing).filter(|s| s.is_finite()), origin)
+    if !geographic {
+        info.spacing_hint = Some(scale[0]).filter(|s| s.is_finite());
+        info.origin_hint = corner.filter(|(x, y)| x.is_finite() && y.is_finite());
+        return;
+    }
+    let grid = corner.map(|(west, north)| Geographic {
+        cell_x: scale[0],
+        cell_y: scale[1],
+        west,
+        north,
+    });
+    match grid.filter(|g| g.is_plausible(info.height)) {
+        Some(g) => g.apply(info),
+        None => {
+            info.spacing_problem = Some(format!(
+                "a geographic grid of {} x {} degree cells without a plausible tie point, so \
+                 its latitude (and metres east-west) is unknown; pass --spacing METRES",
+                scale[0], scale[1]
+            ));
+        }
+    }
 }
 
 impl DemReader for TiffReader {

@@ -1,8 +1,10 @@
 //! SRTM `.hgt` tiles: square grids of big-endian i16, -32768 = void; read as raw grids whose
-//! side comes from the file length.
+//! side comes from the file length. A tile spans one degree; its name (`N47W123.hgt`) gives its
+//! south-west corner, hence its latitude and the east-west spacing.
 
 use std::path::Path;
 
+use super::geographic::Geographic;
 use super::raw::RawReader;
 use super::{METRES_PER_DEGREE, RawLayout, SampleType};
 use crate::error::{Error, Result};
@@ -36,7 +38,62 @@ pub fn open(path: &Path) -> Result<RawReader> {
         header_bytes: 0,
     };
     // 1201 samples span 1 degree at 3 arc-seconds (~90 m); 3601 at 1 arc-second (~30 m).
-    Ok(RawReader::open(path, layout)?
-        .with_void(f32::from(HGT_VOID))
-        .with_spacing_hint(METRES_PER_DEGREE / (side.max(2) - 1) as f64))
+    let mut reader = RawReader::open(path, layout)?.with_void(f32::from(HGT_VOID));
+    let cell = 1.0 / (side.max(2) - 1) as f64;
+    let info = reader.info_mut();
+    match south_west(path) {
+        Some((south, west)) => Geographic {
+            cell_x: cell,
+            cell_y: cell,
+            west,
+            north: south + 1.0,
+        }
+        .apply(info),
+        None => {
+            info.spacing_hint = Some(cell * METRES_PER_DEGREE);
+            info.notes.push(
+                "the file name does not say where the tile lies (SRTM names it like \
+                 N47W123.hgt), so east-west spacing is taken equal to north-south; \
+                 pass --spacing to set it"
+                    .to_string(),
+            );
+        }
+    }
+    Ok(reader)
+}
+
+/// The south-west corner (latitude, longitude) an SRTM file name such as `N47W123.hgt` gives,
+/// when it is plausible.
+fn south_west(path: &Path) -> Option<(f64, f64)> {
+    let stem = path.file_stem()?.to_str()?.to_ascii_uppercase();
+    let b = stem.as_bytes();
+    if b.len() < 7 || !b[1..3].iter().chain(&b[4..7]).all(u8::is_ascii_digit) {
+        return None;
+    }
+    let lat: f64 = stem[1..3].parse().ok()?;
+    let lon: f64 = stem[4..7].parse().ok()?;
+    let lat = match b[0] {
+        b'N' => lat,
+        b'S' => -lat,
+        _ => return None,
+    };
+    let lon = match b[3] {
+        b'E' => lon,
+        b'W' => -lon,
+        _ => return None,
+    };
+    (lat.abs() < 85.0 && lon.abs() <= 180.0).then_some((lat, lon))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srtm_names_give_the_south_west_corner() {
+        assert_eq!(south_west(Path::new("x/N47W123.hgt")), Some((47.0, -123.0)));
+        assert_eq!(south_west(Path::new("s34e018.hgt")), Some((-34.0, 18.0)));
+        assert_eq!(south_west(Path::new("puget.hgt")), None);
+        assert_eq!(south_west(Path::new("N47X123.hgt")), None);
+    }
 }

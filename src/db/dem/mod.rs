@@ -6,15 +6,21 @@
 //! Readers hold at most one strip (or one row of TIFF tiles) of the file at a time.
 
 mod asc;
+mod geographic;
 mod geotiff;
 mod hgt;
+mod jpeg;
 mod png;
 mod raw;
+mod resample;
 
+use std::collections::VecDeque;
 use std::path::Path;
 
+pub use resample::EastWest;
+
 use crate::error::{Error, Result};
-use crate::named::named_enum;
+use crate::named::{Named, named_enum};
 
 /// What a DEM file says about itself before its samples are read.
 #[derive(Clone, Debug, PartialEq)]
@@ -30,6 +36,30 @@ pub struct DemInfo {
     pub spacing_hint: Option<f64>,
     /// World position (x east, y north) of sample (0, 0), when the file says.
     pub origin_hint: Option<(f64, f64)>,
+    /// East-west spacing over [`Self::spacing_hint`] (the north-south one): 1 for projected
+    /// grids, the cosine of the latitude (times the cells' aspect) for grids in degrees. `build`
+    /// resamples columns to square cells when it is not 1.
+    pub east_west_scale: f64,
+    /// Why the file has no usable spacing, when it has none and the user must give one.
+    pub spacing_problem: Option<String>,
+    /// What the reader assumed about the file, for `build` to print.
+    pub notes: Vec<String>,
+}
+
+impl DemInfo {
+    /// A grid with nothing known but its name and size: square cells, no georeferencing.
+    pub fn new(name: &str, width: usize, height: usize) -> DemInfo {
+        DemInfo {
+            name: name.to_string(),
+            width,
+            height,
+            spacing_hint: None,
+            origin_hint: None,
+            east_west_scale: 1.0,
+            spacing_problem: None,
+            notes: Vec::new(),
+        }
+    }
 }
 
 /// A reader that yields a DEM one row at a time.
@@ -107,8 +137,10 @@ named_enum!(SampleType, "sample type", {
 /// The DEM formats `build` reads.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DemFormat {
-    /// 8- or 16-bit grayscale PNG.
+    /// 8- or 16-bit grayscale PNG (or RGB with equal channels).
     Png,
+    /// 8-bit JPEG, grayscale (or RGB with equal channels).
+    Jpeg,
     /// GeoTIFF (single band; Int16, UInt16, Int32, Float32 and more).
     Tiff,
     /// SRTM `.hgt` (big-endian i16, square).
@@ -125,6 +157,7 @@ impl DemFormat {
         let ext = path.extension()?.to_str()?.to_ascii_lowercase();
         Some(match ext.as_str() {
             "png" => DemFormat::Png,
+            "jpg" | "jpeg" => DemFormat::Jpeg,
             "tif" | "tiff" => DemFormat::Tiff,
             "hgt" => DemFormat::Hgt,
             "asc" => DemFormat::Asc,
@@ -136,6 +169,7 @@ impl DemFormat {
 
 named_enum!(DemFormat, "DEM format", {
     Png => "png",
+    Jpeg => "jpeg",
     Tiff => "tiff",
     Hgt => "hgt",
     Asc => "asc",
@@ -177,14 +211,19 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<NodataFill<Box<dyn Dem
     let format = match options.format.or_else(|| DemFormat::from_path(path)) {
         Some(f) => f,
         None => {
+            let names: Vec<&str> = DemFormat::all().iter().map(|f| f.name()).collect();
             return Err(Error::invalid(
                 name,
-                "cannot tell the DEM format from the extension; pass --format",
+                format!(
+                    "cannot tell the DEM format from the extension; pass --format (one of {})",
+                    names.join(", ")
+                ),
             ));
         }
     };
     let reader: Box<dyn DemReader> = match format {
         DemFormat::Png => Box::new(png::PngReader::open(path)?),
+        DemFormat::Jpeg => Box::new(jpeg::JpegReader::open(path)?),
         DemFormat::Tiff => Box::new(geotiff::TiffReader::open(path)?),
         DemFormat::Hgt => Box::new(hgt::open(path)?),
         DemFormat::Asc => Box::new(asc::AscReader::open(path)?),
@@ -208,15 +247,43 @@ pub fn open_png_bytes(name: &str, bytes: &'static [u8]) -> Result<NodataFill<Box
     Ok(NodataFill::new(reader, None))
 }
 
+/// How far (in samples) the nodata fill looks for valid data: holes narrower than twice this
+/// take the nearest valid sample; samples farther from any valid one lie in a large nodata area.
+pub const FILL_RADIUS: usize = 32;
+
+/// What the nodata fill did, for the build's report.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct FillStats {
+    /// Nodata samples that took the value of the nearest valid sample (in 2-D).
+    pub filled: u64,
+    /// Nodata samples more than [`FILL_RADIUS`] samples from any valid one: drawn flat at the
+    /// lowest valid height around them.
+    pub flattened: u64,
+}
+
+/// One raw row held by the fill: its samples (NaN = nodata) and, per column, the distance to
+/// and value of the nearest valid sample in the same row. `None` when the row has no valid
+/// sample (such rows cost no memory, however many there are).
+type HeldRow = Option<(Vec<f32>, Vec<(u32, f32)>)>;
+
 /// Replaces nodata with a defined value while streaming rows.
 ///
-/// The rule, which needs only the previous row: a nodata sample takes the value of the nearest
-/// valid sample in its own row (the left one on a tie); a row without any valid sample copies the
-/// previous output row; rows before the first valid sample are 0.
+/// A nodata sample takes the value of the nearest valid sample in 2-D (Euclidean distance in
+/// samples, looked for within [`FILL_RADIUS`] rows above and below); one with no valid sample
+/// that close lies in a large nodata area and is set to the lowest valid height within
+/// [`FILL_RADIUS`] samples around (or, failing that, in the rows held), so large holes draw as
+/// flat ground at the local minimum instead of walls or spikes. Memory: `2 * FILL_RADIUS + 1`
+/// rows with valid data, however many rows without any lie between them.
 pub struct NodataFill<R> {
     inner: R,
     nodata: Option<f32>,
-    previous: Option<Vec<f32>>,
+    /// Raw rows `first ..` as read; the rows above the next output row are kept only as far
+    /// as [`FILL_RADIUS`].
+    held: VecDeque<HeldRow>,
+    first: usize,
+    rows_read: usize,
+    next_out: usize,
+    stats: FillStats,
 }
 
 impl<R: DemReader> NodataFill<R> {
@@ -225,7 +292,11 @@ impl<R: DemReader> NodataFill<R> {
         NodataFill {
             inner,
             nodata,
-            previous: None,
+            held: VecDeque::new(),
+            first: 0,
+            rows_read: 0,
+            next_out: 0,
+            stats: FillStats::default(),
         }
     }
 
@@ -234,32 +305,127 @@ impl<R: DemReader> NodataFill<R> {
         self.inner.info()
     }
 
-    /// Reads the next row with every nodata sample filled.
-    pub fn read_row(&mut self, row: &mut [f32]) -> Result<()> {
-        self.inner.read_row(row)?;
-        if let Some(nd) = self.nodata {
-            for v in row.iter_mut() {
-                if *v == nd {
-                    *v = f32::NAN;
-                }
-            }
-        }
+    /// What the fill has done so far.
+    pub fn stats(&self) -> FillStats {
+        self.stats
+    }
+
+    /// Reads one more raw row into `held`.
+    fn read_raw(&mut self) -> Result<()> {
+        let mut row = vec![0.0; self.info().width];
+        self.inner.read_row(&mut row)?;
         for v in row.iter_mut() {
-            if v.is_infinite() {
+            if Some(*v) == self.nodata || v.is_infinite() {
                 *v = f32::NAN;
             }
         }
-        if !fill_row_from_nearest(row) {
-            match &self.previous {
-                Some(p) => row.copy_from_slice(p),
-                None => row.fill(0.0),
-            }
+        self.rows_read += 1;
+        self.held
+            .push_back(nearest_in_row(&row).map(|near| (row, near)));
+        Ok(())
+    }
+
+    /// Reads the next row with every nodata sample filled.
+    pub fn read_row(&mut self, out: &mut [f32]) -> Result<()> {
+        let (j, height) = (self.next_out, self.info().height);
+        while self.rows_read < height.min(j + FILL_RADIUS + 1) {
+            self.read_raw()?;
         }
-        match &mut self.previous {
-            Some(p) => p.copy_from_slice(row),
-            None => self.previous = Some(row.to_vec()),
+        // A row deep in a nodata band waits for the first row with data, however far.
+        while self.rows_read < height && !self.held.iter().any(Option::is_some) {
+            self.read_raw()?;
+        }
+        if !self.held.iter().any(Option::is_some) {
+            return Err(Error::invalid(
+                &self.info().name,
+                "every sample of the DEM is nodata",
+            ));
+        }
+        match &self.held[j - self.first] {
+            Some((row, _)) if !row.iter().any(|v| v.is_nan()) => out.copy_from_slice(row),
+            _ => self.fill_row(j, out),
+        }
+        self.next_out += 1;
+        while self.first + FILL_RADIUS < self.next_out {
+            self.held.pop_front();
+            self.first += 1;
         }
         Ok(())
+    }
+
+    /// Fills output row `j` (held) from the held rows around it.
+    fn fill_row(&mut self, j: usize, out: &mut [f32]) {
+        let w = out.len();
+        let mut far = Vec::new();
+        for (i, o) in out.iter_mut().enumerate() {
+            let own = self.held[j - self.first].as_ref().map(|(row, _)| row[i]);
+            if let Some(v) = own.filter(|v| !v.is_nan()) {
+                *o = v;
+                continue;
+            }
+            match self.nearest(i, j) {
+                Some(v) => {
+                    *o = v;
+                    self.stats.filled += 1;
+                }
+                None => far.push(i),
+            }
+        }
+        if far.is_empty() {
+            return;
+        }
+        self.stats.flattened += far.len() as u64;
+        // The lowest valid height per column over the rows within the radius, then per sample
+        // over the columns within the radius.
+        let mut column_min = vec![f32::INFINITY; w];
+        let lo = j.saturating_sub(FILL_RADIUS).max(self.first);
+        let hi = (j + FILL_RADIUS).min(self.first + self.held.len() - 1);
+        let rows = || (lo..=hi).filter_map(|k| self.held[k - self.first].as_ref());
+        for (row, _) in rows() {
+            for (m, v) in column_min.iter_mut().zip(row) {
+                if !v.is_nan() {
+                    *m = m.min(*v);
+                }
+            }
+        }
+        let held_min = self
+            .held
+            .iter()
+            .flatten()
+            .flat_map(|(row, _)| row.iter().filter(|v| !v.is_nan()))
+            .fold(f32::INFINITY, |m, v| m.min(*v));
+        for i in far {
+            let around = &column_min[i.saturating_sub(FILL_RADIUS)..(i + FILL_RADIUS + 1).min(w)];
+            let m = around.iter().fold(f32::INFINITY, |m, v| m.min(*v));
+            out[i] = if m.is_finite() { m } else { held_min };
+        }
+    }
+
+    /// The value of the nearest valid sample to column `i` of row `j` within [`FILL_RADIUS`]
+    /// (the first found, rows nearer `j` first and above before below, on a tie).
+    fn nearest(&self, i: usize, j: usize) -> Option<f32> {
+        let limit = (FILL_RADIUS * FILL_RADIUS) as u64;
+        let mut best: Option<(u64, f32)> = None;
+        for dk in 0..=FILL_RADIUS {
+            let dk2 = (dk * dk) as u64;
+            if best.is_some_and(|(d, _)| dk2 >= d) || dk2 > limit {
+                break;
+            }
+            let candidates = [j.checked_sub(dk), (dk > 0).then_some(j + dk)];
+            for k in candidates.into_iter().flatten() {
+                let Some(Some((_, near))) =
+                    k.checked_sub(self.first).and_then(|r| self.held.get(r))
+                else {
+                    continue;
+                };
+                let (dx, v) = near[i];
+                let d = dk2 + u64::from(dx) * u64::from(dx);
+                if d <= limit && best.is_none_or(|(b, _)| d < b) {
+                    best = Some((d, v));
+                }
+            }
+        }
+        best.map(|(_, v)| v)
     }
 
     /// Reads the whole DEM into memory (for small files and tests).
@@ -277,39 +443,31 @@ impl<R: DemReader> NodataFill<R> {
     }
 }
 
-/// Fills NaNs in `row` from the nearest valid sample in the row; false if the row has none.
-fn fill_row_from_nearest(row: &mut [f32]) -> bool {
-    if !row.iter().any(|v| v.is_nan()) {
-        return true;
-    }
+/// Per column of `row`, the distance to and value of the nearest valid sample in the row (the
+/// left one on a tie); `None` if the row has no valid sample.
+fn nearest_in_row(row: &[f32]) -> Option<Vec<(u32, f32)>> {
     let n = row.len();
-    // Distance to and value of the nearest valid sample on the left, then on the right.
-    let mut left = vec![(usize::MAX, 0.0f32); n];
+    let mut near = vec![(u32::MAX, f32::NAN); n];
     let mut last: Option<(usize, f32)> = None;
     for (i, v) in row.iter().enumerate() {
         if !v.is_nan() {
             last = Some((i, *v));
         }
-        if let Some((j, lv)) = last {
-            left[i] = (i - j, lv);
+        if let Some((k, lv)) = last {
+            near[i] = ((i - k) as u32, lv);
         }
     }
-    let mut any = false;
+    last?;
     let mut next: Option<(usize, f32)> = None;
     for i in (0..n).rev() {
         if !row[i].is_nan() {
             next = Some((i, row[i]));
-            any = true;
-            continue;
         }
-        let right = next.map(|(j, v)| (j - i, v)).unwrap_or((usize::MAX, 0.0));
-        row[i] = if left[i].0 <= right.0 {
-            left[i].1
-        } else {
-            right.1
-        };
+        if let Some((k, v)) = next.filter(|(k, _)| ((k - i) as u32) < near[i].0) {
+            near[i] = ((k - i) as u32, v);
+        }
     }
-    any
+    Some(near)
 }
 
 /// A whole DEM in memory, raw units, row-major, no NaN.
@@ -350,13 +508,7 @@ impl MemoryReader {
             ));
         }
         Ok(MemoryReader {
-            info: DemInfo {
-                name: name.to_string(),
-                width,
-                height,
-                spacing_hint: None,
-                origin_hint: None,
-            },
+            info: DemInfo::new(name, width, height),
             samples,
             next_row: 0,
         })
@@ -401,18 +553,76 @@ pub(crate) fn check_dimensions(name: &str, width: usize, height: usize) -> Resul
 mod tests {
     use super::*;
 
-    #[test]
-    fn fill_takes_the_nearest_valid_sample_in_the_row() {
-        let mut row = [f32::NAN, 1.0, f32::NAN, f32::NAN, f32::NAN, 5.0, f32::NAN];
-        assert!(fill_row_from_nearest(&mut row));
-        assert_eq!(row, [1.0, 1.0, 1.0, 1.0, 5.0, 5.0, 5.0]);
+    fn filled(w: usize, h: usize, samples: Vec<f32>) -> (Vec<f32>, FillStats) {
+        let mut fill = NodataFill::new(MemoryReader::new("m", w, h, samples).unwrap(), None);
+        let mut out = vec![0.0; w * h];
+        for row in out.chunks_exact_mut(w) {
+            fill.read_row(row).unwrap();
+        }
+        (out, fill.stats())
     }
 
     #[test]
-    fn an_all_nodata_row_copies_the_previous_row() {
+    fn nearest_in_row_takes_the_left_sample_on_a_tie() {
+        let row = [f32::NAN, 1.0, f32::NAN, f32::NAN, f32::NAN, 5.0, f32::NAN];
+        let near = nearest_in_row(&row).unwrap();
+        let values: Vec<f32> = near.iter().map(|n| n.1).collect();
+        assert_eq!(values, [1.0, 1.0, 1.0, 1.0, 5.0, 5.0, 5.0]);
+        assert_eq!(near[3].0, 2);
+        assert!(nearest_in_row(&[f32::NAN; 3]).is_none());
+    }
+
+    #[test]
+    fn a_nodata_first_row_takes_the_row_below() {
         let nan = f32::NAN;
-        let r = MemoryReader::new("m", 2, 3, vec![nan, nan, 1.0, nan, nan, nan]).unwrap();
-        let dem = NodataFill::new(r, None).read_all().unwrap();
-        assert_eq!(dem.samples, vec![0.0, 0.0, 1.0, 1.0, 1.0, 1.0]);
+        let (out, stats) = filled(
+            3,
+            3,
+            vec![nan, nan, nan, 141.0, 150.0, 160.0, 170.0, 180.0, 190.0],
+        );
+        assert_eq!(out[..3], [141.0, 150.0, 160.0]);
+        assert_eq!(
+            stats,
+            FillStats {
+                filled: 3,
+                flattened: 0
+            }
+        );
+    }
+
+    #[test]
+    fn the_fill_is_nearest_in_two_dimensions() {
+        // A hole in the middle of a column of 7s, with 1s far along its row: the nearest valid
+        // samples are above and below, not along the row.
+        let nan = f32::NAN;
+        let w = 9;
+        let mut samples = vec![7.0; w * 3];
+        samples[..3].fill(1.0);
+        samples[w + 4] = nan;
+        samples[w] = 1.0;
+        let (out, _) = filled(w, 3, samples);
+        assert_eq!(out[w + 4], 7.0);
+    }
+
+    #[test]
+    fn a_large_nodata_area_is_flat_at_the_local_minimum() {
+        let nan = f32::NAN;
+        let (w, h) = (4, 3 * FILL_RADIUS);
+        let mut samples = vec![nan; w * h];
+        for (k, v) in samples[(h - 1) * w..].iter_mut().enumerate() {
+            *v = 100.0 + k as f32;
+        }
+        let (out, stats) = filled(w, h, samples);
+        assert!(out[..w].iter().all(|&v| v == 100.0), "{:?}", &out[..w]);
+        assert_eq!(out[(h - 2) * w..(h - 1) * w], [100.0, 101.0, 102.0, 103.0]);
+        assert!(stats.flattened > 0 && stats.filled > 0);
+        assert_eq!(stats.filled + stats.flattened, (w * (h - 1)) as u64);
+    }
+
+    #[test]
+    fn a_dem_without_valid_samples_is_an_error() {
+        let r = MemoryReader::new("void.asc", 2, 2, vec![f32::NAN; 4]).unwrap();
+        let e = NodataFill::new(r, None).read_all().unwrap_err().to_string();
+        assert!(e.contains("void.asc") && e.contains("nodata"), "{e}");
     }
 }

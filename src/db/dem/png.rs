@@ -1,4 +1,5 @@
-//! Grayscale PNG height maps (8 or 16 bits), decoded a row at a time.
+//! PNG height maps (8 or 16 bits), decoded a row at a time: grayscale (with or without alpha),
+//! or RGB(A) whose three colour channels are equal in every pixel; alpha is ignored.
 
 use std::fs::File;
 use std::io::{BufRead, BufReader, Cursor, Seek};
@@ -8,6 +9,10 @@ use png::{BitDepth, ColorType, Transformations};
 
 use super::{DemInfo, DemReader, check_dimensions};
 use crate::error::{Error, Result};
+
+/// What `build` says about an 8-bit height map: 256 levels, scaled by `--vertical-scale`.
+pub(crate) const EIGHT_BIT_NOTE: &str =
+    "8-bit samples: 256 height levels of --vertical-scale metres each (1 m unless given)";
 
 /// The largest interlaced image decoded whole (512 MiB).
 const MAX_INTERLACED_BYTES: usize = 512 << 20;
@@ -19,6 +24,8 @@ pub struct PngReader<R: BufRead + Seek = BufReader<File>> {
     info: DemInfo,
     decoder: png::Reader<R>,
     sixteen_bit: bool,
+    /// Samples per pixel: 1 gray, 2 gray + alpha, 3 RGB, 4 RGBA.
+    channels: usize,
     /// The whole image, for interlaced files only.
     frame: Option<Vec<u8>>,
     next_row: usize,
@@ -50,14 +57,19 @@ impl<R: BufRead + Seek> PngReader<R> {
             .read_info()
             .map_err(|e| Error::invalid(&name, format!("not a readable PNG: {e}")))?;
         let (color, depth) = reader.output_color_type();
-        if color != ColorType::Grayscale {
-            return Err(Error::invalid(
-                &name,
-                format!(
-                    "PNG colour type {color:?} is not a height map; it must be one grayscale channel"
-                ),
-            ));
-        }
+        let channels = match color {
+            ColorType::Grayscale => 1,
+            ColorType::GrayscaleAlpha => 2,
+            ColorType::Rgb => 3,
+            ColorType::Rgba => 4,
+            ColorType::Indexed => {
+                return Err(Error::invalid(
+                    &name,
+                    "a palette PNG is not a height map; it must be grayscale (or RGB with \
+                     equal channels)",
+                ));
+            }
+        };
         let sixteen_bit = match depth {
             BitDepth::Sixteen => true,
             BitDepth::Eight => false,
@@ -85,16 +97,15 @@ impl<R: BufRead + Seek> PngReader<R> {
         } else {
             None
         };
+        let mut info = DemInfo::new(&name, width, height);
+        if !sixteen_bit {
+            info.notes.push(EIGHT_BIT_NOTE.to_string());
+        }
         Ok(PngReader {
-            info: DemInfo {
-                name,
-                width,
-                height,
-                spacing_hint: None,
-                origin_hint: None,
-            },
+            info,
             decoder: reader,
             sixteen_bit,
+            channels,
             frame,
             next_row: 0,
         })
@@ -108,7 +119,8 @@ impl<R: BufRead + Seek> DemReader for PngReader<R> {
 
     fn read_row(&mut self, row: &mut [f32]) -> Result<()> {
         let bytes_per_sample = if self.sixteen_bit { 2 } else { 1 };
-        let line = self.info.width * bytes_per_sample;
+        let pixel = bytes_per_sample * self.channels;
+        let line = self.info.width * pixel;
         let data: &[u8] = match &self.frame {
             Some(frame) => frame
                 .get(self.next_row * line..(self.next_row + 1) * line)
@@ -135,13 +147,31 @@ impl<R: BufRead + Seek> DemReader for PngReader<R> {
         if data.len() < line {
             return Err(Error::invalid(&self.info.name, "short PNG row"));
         }
-        if self.sixteen_bit {
-            for (v, b) in row.iter_mut().zip(data.chunks_exact(2)) {
-                *v = f32::from(u16::from_be_bytes([b[0], b[1]]));
+        let sixteen_bit = self.sixteen_bit;
+        let sample = |b: &[u8]| {
+            if sixteen_bit {
+                f32::from(u16::from_be_bytes([b[0], b[1]]))
+            } else {
+                f32::from(b[0])
             }
-        } else {
-            for (v, b) in row.iter_mut().zip(data) {
-                *v = f32::from(*b);
+        };
+        for (i, (v, p)) in row.iter_mut().zip(data.chunks_exact(pixel)).enumerate() {
+            *v = sample(p);
+            if self.channels >= 3 {
+                let (g, b) = (
+                    sample(&p[bytes_per_sample..]),
+                    sample(&p[2 * bytes_per_sample..]),
+                );
+                if g != *v || b != *v {
+                    return Err(Error::invalid(
+                        &self.info.name,
+                        format!(
+                            "pixel ({i}, {}) has red {v}, green {g}, blue {b}: a colour image, \
+                             not a height map (its three channels must be equal)",
+                            self.next_row
+                        ),
+                    ));
+                }
             }
         }
         self.next_row += 1;

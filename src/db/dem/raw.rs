@@ -41,13 +41,7 @@ impl RawReader {
         file.seek(SeekFrom::Start(layout.header_bytes))
             .map_err(|e| Error::io(&name, e))?;
         Ok(RawReader {
-            info: DemInfo {
-                name,
-                width: layout.width,
-                height: layout.height,
-                spacing_hint: None,
-                origin_hint: None,
-            },
+            info: DemInfo::new(&name, layout.width, layout.height),
             layout,
             void: None,
             file: BufReader::new(file),
@@ -63,10 +57,9 @@ impl RawReader {
         self
     }
 
-    /// Sets the spacing the format implies, when the caller gives none.
-    pub fn with_spacing_hint(mut self, spacing: f64) -> Self {
-        self.info.spacing_hint = Some(spacing);
-        self
+    /// The description, for formats that know more than the raw layout says.
+    pub(crate) fn info_mut(&mut self) -> &mut DemInfo {
+        &mut self.info
     }
 }
 

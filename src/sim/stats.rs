@@ -40,16 +40,22 @@ pub struct FrameRecord {
     pub complete_belts: u64,
     /// Tiles being fetched.
     pub fetching: u64,
+    /// The pixel-error bound τ, pixels (0: off).
+    pub tau_px: f64,
+    /// The largest geometric error of a drawn tile on screen, pixels.
+    pub error_px: f64,
+    /// 1 when the triangle budget capped the frame's detail, 0 when τ (or full resolution) did.
+    pub budget_binds: u64,
 }
 
 /// The CSV header, matching [`FrameRecord`]'s fields.
-pub const CSV_HEADER: &str = "frame,time_s,frame_ms,fps,target_fps,budget,triangles,fragments,rendered_tiles,loaded_tiles,memory_bytes,memory_limit_bytes,downloaded_bytes,downloads,complete_belts,fetching";
+pub const CSV_HEADER: &str = "frame,time_s,frame_ms,fps,target_fps,budget,triangles,fragments,rendered_tiles,loaded_tiles,memory_bytes,memory_limit_bytes,downloaded_bytes,downloads,complete_belts,fetching,tau_px,error_px,budget_binds";
 
 impl FrameRecord {
     /// The record as one CSV line, without the newline.
     pub fn csv_line(&self) -> String {
         format!(
-            "{},{:.4},{:.3},{:.2},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{:.4},{:.3},{:.2},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{}",
             self.frame,
             self.time_s,
             self.frame_ms,
@@ -65,7 +71,10 @@ impl FrameRecord {
             self.downloaded_bytes,
             self.downloads,
             self.complete_belts,
-            self.fetching
+            self.fetching,
+            self.tau_px,
+            self.error_px,
+            self.budget_binds
         )
     }
 }

@@ -19,6 +19,7 @@ mod cracks;
 mod dem_formats;
 mod dem_fuzz;
 mod engine;
+mod error_bound;
 mod extremes_engine;
 mod geomorph;
 #[cfg(feature = "wgpu")]

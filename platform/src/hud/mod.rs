@@ -33,13 +33,17 @@ pub struct HudInfo {
     pub tiles_loaded: u32,
     /// Tiles drawn this frame.
     pub tiles_rendered: u32,
+    /// The largest geometric error of a drawn tile on screen, pixels.
+    pub max_error_px: f32,
+    /// What capped the frame's detail (`budget`, `tau` or `full`; empty: not shown).
+    pub bound: &'static str,
     /// The belts around the viewer, if the engine has them.
     pub minimap: Option<Minimap>,
 }
 
 impl HudInfo {
     /// The statistics panel's lines.
-    fn lines(&self) -> [String; 4] {
+    fn lines(&self) -> [String; 5] {
         // MB of 10^6 bytes, as the command line counts them.
         const MB: f64 = 1e6;
         [
@@ -53,6 +57,11 @@ impl HudInfo {
             format!(
                 "TILES {} LOADED {} DRAWN",
                 self.tiles_loaded, self.tiles_rendered
+            ),
+            format!(
+                "ERR {:.1} PX BOUND {}",
+                self.max_error_px,
+                self.bound.to_uppercase()
             ),
         ]
     }

@@ -60,6 +60,7 @@ fn hud_info() -> impl Strategy<Value = HudInfo> {
             tiles_loaded: tiles.0,
             tiles_rendered: tiles.1,
             minimap,
+            ..HudInfo::default()
         })
 }
 

@@ -37,6 +37,7 @@ pub use db::server::Server;
 pub use db::source::{TileSource, open as open_source};
 pub use engine::camera::Camera;
 pub use engine::cracks::CrackMode;
+pub use engine::error_bound::{Bound, ErrorBound};
 pub use engine::geomorph::Geomorph;
 pub use engine::paging::PagerMode;
 pub use engine::paging::stream::{StreamSettings, Streaming};

@@ -155,6 +155,7 @@ impl SceneArgs {
                 Geomorph::Off => Geomorph::Off,
             },
             streaming: self.streaming.resolve()?,
+            max_error: device.max_error()?,
             ..EngineSettings::default()
         };
         engine.budget.target_fps = device.target_fps;
@@ -205,6 +206,10 @@ struct DeviceArgs {
     /// The frame rate the triangle budget aims at [profile].
     #[arg(long)]
     target_fps: Option<f64>,
+    /// The pixel-error bound τ: no tile is drawn finer than needs this many pixels of
+    /// geometric error; 0 turns it off [profile].
+    #[arg(long)]
+    max_error_px: Option<f64>,
     /// Memory limit on loaded tiles, MB (10^6 bytes) [profile].
     #[arg(long, conflicts_with = "memory_percent")]
     memory_mb: Option<f64>,
@@ -240,6 +245,7 @@ impl DeviceArgs {
             depth: self.depth_bits.map(depth_format).transpose()?,
             memory_mb: self.memory_mb,
             target_fps: self.target_fps,
+            max_error_px: self.max_error_px,
             threads: self.threads,
             cpu_slowdown: self.cpu_slowdown,
             bandwidth_kbps: self.bandwidth_kbps,

@@ -28,6 +28,9 @@ pub(super) struct DemoArgs {
     /// A TOML device profile instead of a built-in one.
     #[arg(long, conflicts_with = "profile")]
     profile_file: Option<PathBuf>,
+    /// The pixel-error bound τ in pixels, 0 for off [profile].
+    #[arg(long)]
+    max_error_px: Option<f64>,
     /// simulated (reproducible) or wall (measured frame costs).
     #[arg(long, value_parser = named::<Clock>(), default_value = DemoOptions::default().clock.name())]
     clock: Clock,
@@ -58,7 +61,10 @@ pub(super) fn run(a: DemoArgs) -> Result<()> {
         profile: DeviceProfile::resolve(
             &a.profile,
             a.profile_file.as_deref(),
-            &Overrides::default(),
+            &Overrides {
+                max_error_px: a.max_error_px,
+                ..Overrides::default()
+            },
         )?,
         clock: a.clock,
         length: length(a.frames, a.seconds),

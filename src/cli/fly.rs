@@ -3,6 +3,7 @@
 use std::path::PathBuf;
 
 use clap::Args;
+use stripmask::ErrorBound;
 use stripmask::error::Result;
 use stripmask::sim::fly::{FlyOptions, fly};
 
@@ -59,13 +60,22 @@ pub(super) fn run(a: FlyArgs) -> Result<()> {
     };
     let s = fly(&options)?;
     println!(
-        "{} frames over {:.1} s of flight: median {:.1} fps (target {}), {:.0} triangles per frame, \
-         peak memory {:.1} of {:.1} MB, {:.2} MB downloaded -> {}\nholes: {}",
+        "{} frames over {:.1} s of flight: median {:.1} fps (target {}), {:.0} triangles and \
+         {:.2} ms per frame, screen error max {:.1} / mean {:.2} px (τ {}; the budget bound \
+         {:.0} % of frames), peak memory {:.1} of {:.1} MB, {:.2} MB downloaded -> {}\nholes: {}",
         s.frames,
         s.seconds,
         s.median_fps,
         scene.target_fps,
         s.mean_triangles,
+        s.mean_frame_ms,
+        s.max_error_px,
+        s.mean_error_px,
+        match scene.engine.max_error {
+            ErrorBound::Off => "off".to_string(),
+            ErrorBound::Pixels(px) => format!("{px} px"),
+        },
+        100.0 * s.budget_share,
         s.peak_memory_bytes as f64 / 1e6,
         s.memory_limit_bytes as f64 / 1e6,
         s.downloaded_bytes as f64 / 1e6,

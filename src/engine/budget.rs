@@ -5,7 +5,8 @@
 //! fits `frame_time = overhead + cost × triangles` to recent `(frame_time, triangles)` samples
 //! and sets the budget whose predicted frame time is `1 / target_fps`. It moves only part of the
 //! way each frame, by a bounded factor, and ignores differences within a dead band, so the
-//! budget settles instead of oscillating.
+//! budget settles instead of oscillating. A frame whose detail the pixel-error bound capped
+//! ([`BudgetController::record_needing`]) does not let the budget grow.
 //!
 //! [`allocate`] shares a budget greedily in decreasing visual importance
 //! ([`crate::engine::importance`]): each tile gets `pool × imp / (sum of the remaining imps)` triangles,
@@ -132,6 +133,33 @@ impl BudgetController {
     /// Takes the time of the frame just drawn and the triangles it drew, and returns the budget
     /// of the next frame. Frames that drew nothing or have no valid time change nothing.
     pub fn record(&mut self, frame_seconds: f64, triangles: usize) -> usize {
+        self.record_needing(frame_seconds, triangles, None)
+    }
+
+    /// [`BudgetController::record`] for a frame that needed only `need` triangles (every tile
+    /// at the level the pixel-error bound asks, [`crate::engine::error_bound`]), when it did:
+    /// such a frame says nothing about how many more triangles time would allow, so the budget
+    /// does not grow, and it comes down to [`BudgetSettings::max_step`] times the need (a
+    /// frame's need may grow that much before the budget binds again). The budget still shrinks
+    /// when time is short. No wind-up: a fast machine does not pile up a budget of a million
+    /// triangles for a view that needs a hundred thousand.
+    pub fn record_needing(
+        &mut self,
+        frame_seconds: f64,
+        triangles: usize,
+        need: Option<usize>,
+    ) -> usize {
+        let before = self.budget;
+        let next = self.predict(frame_seconds, triangles);
+        if let Some(need) = need.filter(|&n| n <= before) {
+            let ceiling = (need as f64 * self.settings.max_step).ceil() as usize;
+            self.budget = next.min(before).min(ceiling.max(self.settings.min_budget));
+        }
+        self.budget
+    }
+
+    /// Fits the frame's sample and moves the budget towards the one that holds the target.
+    fn predict(&mut self, frame_seconds: f64, triangles: usize) -> usize {
         if !(frame_seconds.is_finite() && frame_seconds > 0.0) || triangles == 0 {
             return self.budget;
         }
@@ -498,6 +526,36 @@ mod tests {
             assert!(c.budget() >= 5_000 && 2 * c.budget() >= b);
         }
         assert_eq!(c.budget(), 5_000);
+    }
+
+    #[test]
+    fn the_budget_does_not_grow_while_the_error_bound_holds_detail_back() {
+        // A machine 100 times faster than the target needs: the budget alone climbs.
+        let settings = BudgetSettings {
+            initial_budget: 20_000,
+            ..BudgetSettings::default()
+        };
+        let frame = |n: usize| 0.0004 * (1.0 + n as f64 / 20_000.0);
+        let mut free = BudgetController::new(settings);
+        let mut bound = BudgetController::new(settings);
+        for _ in 0..40 {
+            let (b, c) = (free.budget(), bound.budget());
+            free.record(frame(b), b);
+            // τ lets each frame draw only 8,000 triangles.
+            let drawn = c.min(8_000);
+            bound.record_needing(frame(drawn), drawn, Some(8_000));
+            assert!(bound.budget() <= c, "grew from {c} to {}", bound.budget());
+            assert!(bound.budget() <= 16_000, "{}", bound.budget());
+        }
+        assert!(free.budget() > 1_000_000, "{}", free.budget());
+        // Once the need exceeds the budget, time decides again.
+        let c = bound.budget();
+        bound.record_needing(frame(c), c, Some(50_000));
+        assert!(bound.budget() > c);
+        // Time still shrinks a budget that τ binds.
+        let mut slow = BudgetController::new(settings);
+        slow.record_needing(1.0, 10_000, Some(10_000));
+        assert!(slow.budget() < 20_000, "{}", slow.budget());
     }
 
     /// Importance of tiles at the given distances, all with the same relief.

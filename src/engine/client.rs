@@ -18,10 +18,11 @@ use crate::db::grid::{Grid, TileId};
 use crate::db::source::TileSource;
 use crate::db::tile::{PartialGrid, progressive_levels};
 use crate::engine::budget::{
-    BudgetController, BudgetSettings, TileAllocation, allocate, allocate_capped, drawable_level,
+    BudgetController, BudgetSettings, TileAllocation, allocate_capped, drawable_level,
 };
 use crate::engine::camera::Camera;
 use crate::engine::cracks::{CrackMode, TileIndices, neighbours::neighbour_levels};
+use crate::engine::error_bound::{Bound, ErrorBound};
 use crate::engine::frustum::{Aabb, Frustum};
 use crate::engine::geomorph::{Geomorph, Morpher, SUBDIVISION};
 use crate::engine::importance::{TileMeasure, Weights, visual_importance};
@@ -60,6 +61,8 @@ pub struct EngineSettings {
     pub weights: Weights,
     /// The frame-rate controller.
     pub budget: BudgetSettings,
+    /// The pixel-error bound τ: no tile finer than its projected error needs.
+    pub max_error: ErrorBound,
     /// Sun direction and ambient light.
     pub light: Light,
     /// Vertical field of view, radians.
@@ -88,6 +91,7 @@ impl Default for EngineSettings {
             geomorph: Geomorph::default(),
             weights: Weights::default(),
             budget: BudgetSettings::default(),
+            max_error: ErrorBound::default(),
             light: Light::default(),
             fov_y: 60f64.to_radians(),
             clearance: 20.0,
@@ -109,6 +113,11 @@ pub struct FrameReport {
     pub triangles: usize,
     /// Tiles in the view frustum among the loaded ones: the tiles drawn.
     pub rendered_tiles: usize,
+    /// What capped the frame's detail: the budget (time) or the error bound τ.
+    pub bound: Bound,
+    /// The largest geometric error of a drawn tile on screen, pixels (see
+    /// [`RenderedTile::error_px`]).
+    pub max_error_px: f64,
     /// The drawn tiles with their visual importance and mask level.
     pub rendered: Vec<RenderedTile>,
     /// Holes: tiles of the terrain the view meets (their boxes at the archive's height range
@@ -158,6 +167,9 @@ pub struct Engine {
     /// Levels pinned per tile instead of the budget's choice (for measurements).
     forced_levels: Option<Box<dyn Fn(TileId) -> usize + Send>>,
     budget: BudgetController,
+    /// The last frame's need when the error bound (not the budget) capped it, for the
+    /// controller ([`BudgetController::record_needing`]).
+    need: Option<usize>,
     settings: EngineSettings,
     rasterizer: Rasterizer,
 }
@@ -213,6 +225,7 @@ impl Engine {
             partial: PartialMeshes::new(),
             forced_levels: None,
             budget: BudgetController::new(settings.budget),
+            need: None,
             settings,
             rasterizer,
         })
@@ -350,6 +363,9 @@ impl Engine {
             weights: self.settings.weights,
             budget: self.budget.budget(),
             forced_levels: self.forced_levels.as_deref(),
+            max_error: self.settings.max_error,
+            height,
+            clearance: self.settings.clearance,
         };
         let plan = plan_frame(&inputs, &camera, aspect, self.morpher.is_some())?;
         let wants = match self.settings.streaming {
@@ -363,7 +379,7 @@ impl Engine {
                 aspect,
             ),
         };
-        let rendered = plan.rendered(&camera, height, self.settings.clearance);
+        let rendered = plan.rendered();
         let holes = holes(
             inputs.pager.resident(),
             self.grid,
@@ -390,15 +406,19 @@ impl Engine {
         )?;
         let draw_seconds = drawing.elapsed().as_secs_f64();
         let rendered_tiles = draws.len();
-        let (budget, triangles) = (plan.budget, plan.triangles());
+        let (budget, triangles, bound) = (plan.budget, plan.triangles(), plan.bound);
+        self.need = (bound != Bound::Budget).then_some(plan.need);
         drop(draws);
         drop(plan);
         self.tell_pager(&wants, &rendered);
+        let max_error_px = rendered.iter().map(|t| t.error_px).fold(0.0, f64::max);
         Ok(FrameReport {
             camera,
             budget,
             triangles,
             rendered_tiles,
+            bound,
+            max_error_px,
             rendered,
             holes,
             draw: drawn.triangles,
@@ -469,9 +489,15 @@ impl Engine {
     }
 
     /// Feeds the time a frame took (as the target device would have spent it) to the budget
-    /// controller; returns the next frame's budget.
+    /// controller; returns the next frame's budget. After a frame the error bound capped, the
+    /// budget does not grow ([`BudgetController::record_needing`]).
     pub fn record_frame(&mut self, seconds: f64, triangles: usize) -> usize {
-        self.budget.record(seconds, triangles)
+        self.budget.record_needing(seconds, triangles, self.need)
+    }
+
+    /// Changes the pixel-error bound τ between frames.
+    pub fn set_max_error(&mut self, bound: ErrorBound) {
+        self.settings.max_error = bound;
     }
 
     /// Near plane from the height above the ground (depth precision where it matters), far
@@ -532,6 +558,36 @@ struct FrameInputs<'e> {
     budget: usize,
     /// Levels pinned per tile instead of the budget's choice.
     forced_levels: Option<&'e (dyn Fn(TileId) -> usize + Send)>,
+    /// The pixel-error bound τ.
+    max_error: ErrorBound,
+    /// The screen's height, pixels.
+    height: u32,
+    /// No tile is seen from nearer than this (the eye's clearance), metres.
+    clearance: f64,
+}
+
+impl FrameInputs<'_> {
+    /// Pixels per metre of height error at `distance` from the eye, no nearer than the
+    /// clearance: a tile whose box holds the eye (distance 0) is not seen from closer than the
+    /// eye keeps above the ground.
+    fn pixels_per_metre(&self, camera: &Camera, distance: f64) -> f64 {
+        camera.pixels_per_metre(distance.max(self.clearance), self.height)
+    }
+
+    /// The coarsest level of every tile whose error seen from `distance` is within τ.
+    fn needed_levels<'t>(
+        &self,
+        camera: &Camera,
+        tiles: impl Iterator<Item = (&'t ResidentTile, f64)>,
+    ) -> Vec<usize> {
+        tiles
+            .map(|(tile, distance)| {
+                let ppm = self.pixels_per_metre(camera, distance);
+                self.max_error
+                    .coarsest_level(&tile.level_errors, self.masks, ppm)
+            })
+            .collect()
+    }
 }
 
 /// One frame's plan: the resident tiles in view, their importance, and the mask level each
@@ -545,11 +601,17 @@ struct FramePlan<'p> {
     /// The levels the budget offered: a tile drawn coarser is capped by what it holds, and
     /// streaming asks for the levels it lacks.
     offered: Vec<TileAllocation>,
+    /// Per tile, pixels per metre of height error at its distance.
+    pixels_per_metre: Vec<f64>,
     budget: usize,
+    /// Triangles of every tile at the level τ asks (full resolution when τ is off).
+    need: usize,
+    /// What capped the detail.
+    bound: Bound,
 }
 
-/// Culls, weighs (Algorithm 2) and shares the budget: the frame's plan. Geomorphing (`morph`)
-/// refuses partial tiles.
+/// Culls, weighs (Algorithm 2) and shares the budget, no tile finer than τ needs: the frame's
+/// plan. Geomorphing (`morph`) refuses partial tiles.
 fn plan_frame<'p>(
     inputs: &FrameInputs<'p>,
     camera: &Camera,
@@ -572,15 +634,23 @@ fn plan_frame<'p>(
                 .iter()
                 .all(|(_, t, _)| t.is_complete() || t.levels == 1)
     );
+    let needed = inputs.needed_levels(camera, visible.iter().map(|&(_, t, d)| (t, d)));
+    let need: usize = needed.iter().map(|&l| inputs.masks.triangle_count(l)).sum();
     let finest: Vec<usize> = visible
         .iter()
-        .map(|(_, tile, _)| tile.finest_mask_level())
+        .zip(&needed)
+        .map(|((_, tile, _), &level)| tile.finest_mask_level().max(level))
         .collect();
     let mut allocation = allocate_capped(inputs.budget, &importance, inputs.masks, &finest);
     let mut offered = if partial.is_some() {
-        allocate(inputs.budget, &importance, inputs.masks)
+        allocate_capped(inputs.budget, &importance, inputs.masks, &needed)
     } else {
         allocation.clone()
+    };
+    let bound = match inputs.max_error {
+        _ if need > inputs.budget || inputs.forced_levels.is_some() => Bound::Budget,
+        ErrorBound::Off => Bound::Full,
+        ErrorBound::Pixels(_) => Bound::Error,
     };
     if let Some(level_of) = inputs.forced_levels {
         for ((a, o), &(id, tile, _)) in allocation.iter_mut().zip(&mut offered).zip(&visible) {
@@ -590,12 +660,19 @@ fn plan_frame<'p>(
             a.triangles = inputs.masks.triangle_count(a.level);
         }
     }
+    let pixels_per_metre = visible
+        .iter()
+        .map(|&(_, _, distance)| inputs.pixels_per_metre(camera, distance))
+        .collect();
     Ok(FramePlan {
         visible,
         importance: importance.values,
         allocation,
         offered,
+        pixels_per_metre,
         budget: inputs.budget,
+        need,
+        bound,
     })
 }
 
@@ -630,22 +707,22 @@ impl<'p> FramePlan<'p> {
             .collect()
     }
 
-    /// The report's drawn tiles, with each level's geometric error on a screen `height` pixels
-    /// tall, seen from no nearer than `clearance`: a tile whose box holds the eye (distance 0)
-    /// is not seen from closer than the eye keeps above the ground.
-    fn rendered(&self, camera: &Camera, height: u32, clearance: f64) -> Vec<RenderedTile> {
+    /// The report's drawn tiles, with each level's geometric error on screen
+    /// ([`FrameInputs::pixels_per_metre`]).
+    fn rendered(&self) -> Vec<RenderedTile> {
         self.visible
             .iter()
             .zip(self.allocation.iter().zip(&self.offered))
-            .zip(&self.importance)
+            .zip(self.importance.iter().zip(&self.pixels_per_metre))
             .map(
-                |((&(id, tile, distance), (a, o)), &importance)| RenderedTile {
+                |((&(id, tile, _), (a, o)), (&importance, &ppm))| RenderedTile {
                     id,
                     importance,
                     level: a.level,
-                    error_px: tile.level_errors.get(a.level).map_or(0.0, |&e| {
-                        f64::from(e) * camera.pixels_per_metre(distance.max(clearance), height)
-                    }),
+                    error_px: tile
+                        .level_errors
+                        .get(a.level)
+                        .map_or(0.0, |&e| f64::from(e) * ppm),
                     capped: a.level > o.level,
                 },
             )
@@ -812,7 +889,11 @@ fn predicted_wants(inputs: &FrameInputs<'_>, view: &PredictedView, aspect: f64) 
         })
         .collect();
     let importance = visual_importance(&measures, inputs.weights);
-    let offered = allocate(inputs.budget, &importance, inputs.masks);
+    let needed = inputs.needed_levels(
+        &view.camera,
+        seen.iter().zip(&measures).map(|(s, m)| (s.1, m.distance)),
+    );
+    let offered = allocate_capped(inputs.budget, &importance, inputs.masks, &needed);
     let levels = progressive_levels(terrain.tile_size);
     seen.iter()
         .zip(&offered)

@@ -5,6 +5,7 @@ pub mod budget;
 pub mod camera;
 mod client;
 pub mod cracks;
+pub mod error_bound;
 pub mod frustum;
 pub mod geomorph;
 pub mod importance;

@@ -200,6 +200,7 @@ pub fn run_live(o: &DemoOptions, live: Option<LiveView<'_>>) -> Result<DemoSumma
         memory_limit_bytes: p.memory_limit_bytes(),
         threads: p.threads,
         streaming: o.streaming,
+        max_error: p.max_error()?,
         ..EngineSettings::default()
     };
     engine.budget.target_fps = p.target_fps;

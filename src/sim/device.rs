@@ -18,7 +18,8 @@
 //! ```
 //!
 //! Fields: `name`, `width`, `height`, `color` (`"rgb565"` or `"rgba8888"`), `depth_bits` (16 or
-//! 32), `memory_mb`, `target_fps`, `threads` (0: all cores), `cpu_slowdown`, and `[link]` with
+//! 32), `memory_mb`, `target_fps`, `max_error_px` (the pixel-error bound τ, 0: off), `threads`
+//! (0: all cores), `cpu_slowdown`, and `[link]` with
 //! `bandwidth_kbps` (absent: unlimited), `latency_ms`, `jitter_ms`, `drop_rate`.
 //!
 //! The CPU slowdown factor multiplies the cost of every frame — measured on the wall clock, or
@@ -33,6 +34,7 @@ use serde::Deserialize;
 use stripmask_raster::{ColorFormat, DepthFormat};
 
 use crate::db::source::throttle::LinkProfile;
+use crate::engine::error_bound::ErrorBound;
 use crate::error::{Error, Result};
 use crate::named::Named;
 
@@ -92,6 +94,8 @@ pub struct DeviceProfile {
     pub memory_mb: f64,
     /// The frame rate the triangle budget aims at.
     pub target_fps: f64,
+    /// The pixel-error bound τ: no tile finer than this many pixels of error needs (0: off).
+    pub max_error_px: f64,
     /// Rasterizer threads (0: all cores).
     pub threads: usize,
     /// The link tiles come over.
@@ -118,6 +122,7 @@ impl DeviceProfile {
             depth: DepthFormat::D16,
             memory_mb: 20.0,
             target_fps: 7.0,
+            max_error_px: ErrorBound::DEFAULT_PIXELS,
             threads: 1,
             link: Link {
                 bandwidth_kbps: Some(1000.0),
@@ -140,6 +145,7 @@ impl DeviceProfile {
             depth: DepthFormat::D32,
             memory_mb: 256.0,
             target_fps: 25.0,
+            max_error_px: ErrorBound::DEFAULT_PIXELS,
             threads: 0,
             link: Link::UNLIMITED,
             cpu_slowdown: 1.0,
@@ -229,6 +235,9 @@ impl DeviceProfile {
         if let Some(v) = file.target_fps {
             p.target_fps = v;
         }
+        if let Some(v) = file.max_error_px {
+            p.max_error_px = v;
+        }
         if let Some(v) = file.threads {
             p.threads = v;
         }
@@ -274,6 +283,7 @@ impl DeviceProfile {
                 return Err(Error::setting(name, value, "a positive number"));
             }
         }
+        self.max_error()?;
         if let Some(b) = self.link.bandwidth_kbps.filter(|&b| !positive(b)) {
             return Err(Error::setting(
                 "link bandwidth_kbps",
@@ -303,6 +313,11 @@ impl DeviceProfile {
     pub fn memory_limit_bytes(&self) -> usize {
         (self.memory_mb * 1e6) as usize
     }
+
+    /// The pixel-error bound τ of `max_error_px`.
+    pub fn max_error(&self) -> Result<ErrorBound> {
+        ErrorBound::from_pixels("max_error_px", self.max_error_px)
+    }
 }
 
 /// Values given on the command line, which win over the profile's.
@@ -318,6 +333,8 @@ pub struct Overrides {
     pub memory_mb: Option<f64>,
     /// Target frame rate.
     pub target_fps: Option<f64>,
+    /// The pixel-error bound τ, pixels (0: off).
+    pub max_error_px: Option<f64>,
     /// Rasterizer threads.
     pub threads: Option<usize>,
     /// CPU slowdown factor.
@@ -342,6 +359,7 @@ impl Overrides {
         p.depth = self.depth.unwrap_or(p.depth);
         p.memory_mb = self.memory_mb.unwrap_or(p.memory_mb);
         p.target_fps = self.target_fps.unwrap_or(p.target_fps);
+        p.max_error_px = self.max_error_px.unwrap_or(p.max_error_px);
         p.threads = self.threads.unwrap_or(p.threads);
         p.cpu_slowdown = self.cpu_slowdown.unwrap_or(p.cpu_slowdown);
         if self.bandwidth_kbps.is_some() {
@@ -373,6 +391,7 @@ struct ProfileFile {
     depth_bits: Option<u8>,
     memory_mb: Option<f64>,
     target_fps: Option<f64>,
+    max_error_px: Option<f64>,
     threads: Option<usize>,
     cpu_slowdown: Option<f64>,
     link: Option<LinkFile>,
@@ -442,6 +461,13 @@ mod tests {
         };
         let p = DeviceProfile::resolve("pocketpc", None, &o).unwrap();
         assert_eq!((p.target_fps, p.width, p.height), (10.0, 160, 120));
+        assert_eq!(p.max_error().unwrap(), ErrorBound::default());
+        let off = Overrides {
+            max_error_px: Some(0.0),
+            ..o
+        };
+        let p = DeviceProfile::resolve("pocketpc", None, &off).unwrap();
+        assert_eq!(p.max_error().unwrap(), ErrorBound::Off);
         assert_eq!(p.link.bandwidth_kbps, Some(64.0));
         assert_eq!(p.memory_mb, 20.0);
         let bad = Overrides {
@@ -459,6 +485,7 @@ mod tests {
         for (text, problem) in [
             ("base = \"pda\"\n", "not a built-in"),
             ("target_fps = -1.0\n", "target_fps"),
+            ("max_error_px = -0.5\n", "max_error_px"),
             ("depth_bits = 24\n", "depth_bits 24"),
             ("[link]\ndrop_rate = 2.0\n", "drop_rate"),
             ("[link]\njitter_ms = -1.0\n", "jitter_ms"),

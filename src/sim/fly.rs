@@ -17,6 +17,7 @@ use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
 use crate::db::source;
 use crate::db::source::throttle::LinkProfile;
+use crate::engine::error_bound::Bound;
 use crate::engine::paging::{PagerMode, PagerStats};
 use crate::engine::{Engine, EngineSettings, FrameReport};
 use crate::error::{Error, Result};
@@ -92,6 +93,14 @@ pub struct FlySummary {
     pub median_fps: f64,
     /// Mean triangles per frame.
     pub mean_triangles: f64,
+    /// Mean time spent on a frame (as `stats.csv`'s `frame_ms`), milliseconds.
+    pub mean_frame_ms: f64,
+    /// The largest geometric error of a drawn tile on screen over the flight, pixels.
+    pub max_error_px: f64,
+    /// The mean over the frames of each frame's largest error on screen, pixels.
+    pub mean_error_px: f64,
+    /// Fraction of the frames whose detail the triangle budget capped (the rest: τ).
+    pub budget_share: f64,
     /// Peak accounted memory, bytes.
     pub peak_memory_bytes: usize,
     /// The memory limit, bytes.
@@ -135,7 +144,13 @@ pub fn fly_live(o: &FlyOptions, mut live: Option<LiveView<'_>>) -> Result<FlySum
         let report = engine.render(&camera, &mut fb)?;
         let cost = o.clock.frame_seconds(&report);
         engine.record_frame(cost, report.draw.triangles as usize);
-        let record = frame_record(tally.frames, t, cost, o.engine.budget.target_fps, &report);
+        let record = frame_record(
+            tally.frames,
+            t,
+            cost,
+            (o.engine.budget.target_fps, o.engine.max_error.pixels()),
+            &report,
+        );
         csv.write(&record)?;
         if frames.is_some() || live.is_some() {
             let info = hud_info(&engine, &report, record.fps);
@@ -184,12 +199,12 @@ fn flight_engine(o: &FlyOptions) -> Result<Engine> {
 }
 
 /// The `stats.csv` line of frame number `frame`, drawn at flight time `t` in `seconds` (its
-/// cost, before any pacing).
+/// cost, before any pacing), aiming at `(target fps, τ in pixels)`.
 fn frame_record(
     frame: u64,
     t: f64,
     seconds: f64,
-    target_fps: f64,
+    (target_fps, tau_px): (f64, f64),
     report: &FrameReport,
 ) -> FrameRecord {
     FrameRecord {
@@ -211,6 +226,9 @@ fn frame_record(
         fetching: report.pager.fetching as u64,
         holes: report.holes as u64,
         base_bytes: report.pager.base_bytes as u64,
+        tau_px,
+        error_px: report.max_error_px,
+        budget_binds: u64::from(report.bound == Bound::Budget),
     }
 }
 
@@ -223,6 +241,10 @@ struct Tally {
     fps: Vec<f64>,
     triangles: u64,
     holes: HoleTally,
+    frame_ms: f64,
+    max_error_px: f64,
+    error_px: f64,
+    budget_frames: u64,
     last_stats: Option<PagerStats>,
 }
 
@@ -240,6 +262,10 @@ impl Tally {
         self.holes.add(self.t, report);
         self.fps.push(record.fps);
         self.triangles += record.triangles;
+        self.frame_ms += record.frame_ms;
+        self.max_error_px = self.max_error_px.max(record.error_px);
+        self.error_px += record.error_px;
+        self.budget_frames += record.budget_binds;
         self.last_stats = Some(report.pager);
         self.t += seconds;
         self.frames += 1;
@@ -249,11 +275,16 @@ impl Tally {
     fn summary(mut self, engine: &Engine) -> FlySummary {
         self.fps.sort_by(f64::total_cmp);
         let stats = self.last_stats.unwrap_or_else(|| engine.pager().stats());
+        let frames = self.frames.max(1) as f64;
         FlySummary {
             frames: self.frames,
             seconds: self.t,
             median_fps: self.fps.get(self.fps.len() / 2).copied().unwrap_or(0.0),
-            mean_triangles: self.triangles as f64 / self.frames.max(1) as f64,
+            mean_triangles: self.triangles as f64 / frames,
+            mean_frame_ms: self.frame_ms / frames,
+            max_error_px: self.max_error_px,
+            mean_error_px: self.error_px / frames,
+            budget_share: self.budget_frames as f64 / frames,
             peak_memory_bytes: stats.memory_peak_bytes,
             memory_limit_bytes: stats.memory_limit_bytes,
             downloaded_bytes: stats.downloaded_bytes,

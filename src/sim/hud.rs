@@ -51,6 +51,8 @@ pub fn hud_info(engine: &Engine, report: &FrameReport, fps: f64) -> HudInfo {
         tiles_loaded: report.pager.loaded_tiles as u32,
         tiles_rendered: report.rendered_tiles as u32,
         holes: report.holes as u32,
+        max_error_px: report.max_error_px as f32,
+        bound: report.bound.name(),
         minimap: Some(Minimap {
             width: mw,
             height: mh,

@@ -44,16 +44,22 @@ pub struct FrameRecord {
     pub holes: u64,
     /// Bytes of the coarse base, resident or reserved while on its way (part of `memory_bytes`).
     pub base_bytes: u64,
+    /// The pixel-error bound τ, pixels (0: off).
+    pub tau_px: f64,
+    /// The largest geometric error of a drawn tile on screen, pixels.
+    pub error_px: f64,
+    /// 1 when the triangle budget capped the frame's detail, 0 when τ (or full resolution) did.
+    pub budget_binds: u64,
 }
 
 /// The CSV header, matching [`FrameRecord`]'s fields.
-pub const CSV_HEADER: &str = "frame,time_s,frame_ms,fps,target_fps,budget,triangles,fragments,rendered_tiles,loaded_tiles,memory_bytes,memory_limit_bytes,downloaded_bytes,downloads,complete_belts,fetching,holes,base_bytes";
+pub const CSV_HEADER: &str = "frame,time_s,frame_ms,fps,target_fps,budget,triangles,fragments,rendered_tiles,loaded_tiles,memory_bytes,memory_limit_bytes,downloaded_bytes,downloads,complete_belts,fetching,holes,base_bytes,tau_px,error_px,budget_binds";
 
 impl FrameRecord {
     /// The record as one CSV line, without the newline.
     pub fn csv_line(&self) -> String {
         format!(
-            "{},{:.4},{:.3},{:.2},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{:.4},{:.3},{:.2},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{}",
             self.frame,
             self.time_s,
             self.frame_ms,
@@ -71,7 +77,10 @@ impl FrameRecord {
             self.complete_belts,
             self.fetching,
             self.holes,
-            self.base_bytes
+            self.base_bytes,
+            self.tau_px,
+            self.error_px,
+            self.budget_binds
         )
     }
 }

@@ -21,6 +21,7 @@ mod dem_fuzz;
 mod dem_geographic;
 mod dem_nodata;
 mod engine;
+mod error_bound;
 mod extremes_engine;
 mod fly_holes;
 mod geomorph;

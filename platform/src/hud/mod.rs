@@ -35,13 +35,17 @@ pub struct HudInfo {
     pub tiles_rendered: u32,
     /// Holes this frame: tiles in view with nothing to draw (shown only when there are some).
     pub holes: u32,
+    /// The largest geometric error of a drawn tile on screen, pixels.
+    pub max_error_px: f32,
+    /// What capped the frame's detail (`budget`, `tau` or `full`; empty: not shown).
+    pub bound: &'static str,
     /// The belts around the viewer, if the engine has them.
     pub minimap: Option<Minimap>,
 }
 
 impl HudInfo {
     /// The statistics panel's lines.
-    fn lines(&self) -> [String; 4] {
+    fn lines(&self) -> [String; 5] {
         // MB of 10^6 bytes, as the command line counts them.
         const MB: f64 = 1e6;
         [
@@ -62,6 +66,11 @@ impl HudInfo {
                     self.tiles_loaded, self.tiles_rendered
                 ),
             },
+            format!(
+                "ERR {:.1} PX BOUND {}",
+                self.max_error_px,
+                self.bound.to_uppercase()
+            ),
         ]
     }
 }

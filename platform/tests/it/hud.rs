@@ -61,6 +61,7 @@ fn hud_info() -> impl Strategy<Value = HudInfo> {
             tiles_rendered: tiles.1,
             holes: tiles.0 % 3,
             minimap,
+            ..HudInfo::default()
         })
 }
 

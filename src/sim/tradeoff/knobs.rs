@@ -7,6 +7,7 @@
 use stripmask_raster::{ColorFormat, DepthFormat, Perspective, Precision, Sampler};
 
 use crate::engine::cracks::CrackMode;
+use crate::engine::error_bound::ErrorBound;
 use crate::engine::geomorph::Geomorph;
 use crate::engine::render::RenderSettings;
 
@@ -27,6 +28,8 @@ pub enum Budget {
 pub struct Setting {
     /// The triangle budget.
     pub budget: Budget,
+    /// The pixel-error bound τ: no tile finer than it needs.
+    pub max_error: ErrorBound,
     /// Precision, perspective, texture filter, and the features on or off.
     pub render: RenderSettings,
     /// Colour-buffer format.
@@ -43,11 +46,12 @@ pub struct Setting {
 
 impl Default for Setting {
     /// The engine's defaults on the handheld: [`RenderSettings::default`], RGB565, 16-bit depth,
-    /// stitched cracks, one thread (the PocketPC has one core) and 20,000 triangles (the
-    /// budget controller's starting budget).
+    /// stitched cracks, one thread (the PocketPC has one core), 20,000 triangles (the budget
+    /// controller's starting budget) and τ = 1 px ([`ErrorBound::default`]).
     fn default() -> Self {
         Setting {
             budget: Budget::Triangles(20_000),
+            max_error: ErrorBound::default(),
             render: RenderSettings::default(),
             color: ColorFormat::Rgb565,
             depth: DepthFormat::D16,
@@ -110,6 +114,17 @@ pub fn knobs() -> Vec<Knob> {
                 value!("50000", |s| s.budget = Budget::Triangles(50_000)),
                 value!("150000", |s| s.budget = Budget::Triangles(150_000)),
                 value!("full", |s| s.budget = Budget::Full),
+            ],
+        ),
+        knob(
+            "max-error",
+            false,
+            vec![
+                value!("off", |s| s.max_error = ErrorBound::Off),
+                value!("0.5", |s| s.max_error = ErrorBound::Pixels(0.5)),
+                value!("1", |s| s.max_error = ErrorBound::Pixels(1.0)),
+                value!("2", |s| s.max_error = ErrorBound::Pixels(2.0)),
+                value!("4", |s| s.max_error = ErrorBound::Pixels(4.0)),
             ],
         ),
         knob(

@@ -6,8 +6,10 @@ use super::knobs::{Knob, Setting};
 /// Knob pairs whose values interact, measured in every combination: the budget with the
 /// pipeline precision (does float matter once triangles are coarse?) and with the crack mode
 /// (coarser budgets mean more level changes to hide); perspective with the texture filter (both
-/// decide the texels a pixel shows).
-pub const CROSSES: [[&str; 2]; 3] = [
+/// decide the texels a pixel shows); the budget with the pixel-error bound (which of time and
+/// error caps detail).
+pub const CROSSES: [[&str; 2]; 4] = [
+    ["budget", "max-error"],
     ["budget", "precision"],
     ["perspective", "filter"],
     ["budget", "cracks"],

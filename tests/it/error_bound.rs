@@ -1,0 +1,161 @@
+//! The pixel-error bound τ end to end: when the budget allows, no drawn tile's projected error
+//! exceeds τ and no tile is finer than τ needs; the budget controller does not wind up while τ
+//! caps detail.
+
+use glam::DVec3;
+use proptest::prelude::*;
+use proptest::test_runner::{Config, TestRunner};
+use stripmask::db::source;
+use stripmask::engine::frustum::Aabb;
+use stripmask::engine::paging::PagerMode;
+use stripmask::engine::{Engine, EngineSettings, FrameReport};
+use stripmask::{Bound, ErrorBound};
+use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
+
+use crate::support::hills;
+
+const HEIGHT: u32 = 120;
+
+/// An engine over the hills archive with every tile loaded.
+fn loaded(dir: &std::path::Path, max_error: ErrorBound) -> (Engine, Framebuffer) {
+    let path = hills::archive(dir, 33);
+    let settings = EngineSettings {
+        memory_limit_bytes: 1 << 30,
+        pager_mode: PagerMode::Stepped {
+            fetches_per_update: usize::MAX,
+        },
+        threads: 1,
+        max_error,
+        ..EngineSettings::default()
+    };
+    let mut engine = Engine::new(
+        source::open(path.to_str().unwrap()).unwrap(),
+        settings,
+        HEIGHT,
+    )
+    .unwrap();
+    let mut fb = Framebuffer::new(160, HEIGHT, ColorFormat::Rgb565, DepthFormat::D16).unwrap();
+    let camera = engine.camera(DVec3::new(3840.0, 2000.0, 3840.0), DVec3::ZERO, false);
+    engine.render(&camera, &mut fb).unwrap();
+    let all = engine.terrain().tiles_x as usize * engine.terrain().tiles_y as usize;
+    assert_eq!(engine.pager().stats().loaded_tiles, all);
+    (engine, fb)
+}
+
+/// Pixels per metre of height error of tile `id` in `report`'s view, as the engine measures it:
+/// at its box's nearest point, no nearer than the clearance.
+fn pixels_per_metre(engine: &Engine, report: &FrameReport, id: stripmask::db::grid::TileId) -> f64 {
+    let tile = engine.pager().get(id).unwrap();
+    let (lo, hi) = engine
+        .terrain()
+        .tile_box(id.x, id.y, f64::from(tile.min), f64::from(tile.max));
+    let eye = report.camera.position;
+    let distance = Aabb::new(lo - eye, hi - eye).distance(DVec3::ZERO);
+    let clearance = engine.settings().clearance;
+    report
+        .camera
+        .pixels_per_metre(distance.max(clearance), HEIGHT)
+}
+
+#[test]
+fn with_budget_to_spare_every_tile_is_the_coarsest_within_tau() {
+    let dir = tempfile::tempdir().unwrap();
+    let state = std::cell::RefCell::new(loaded(dir.path(), ErrorBound::default()));
+    let views = (
+        (0.0..7680.0f64, 0.0..7680.0f64, 30.0..3000.0f64),
+        (0.0..7680.0f64, 0.0..7680.0f64),
+        prop::sample::select(vec![0.5, 1.0, 2.0, 4.0]),
+    );
+    let mut runner = TestRunner::new(Config {
+        cases: 40,
+        ..Config::default()
+    });
+    runner
+        .run(&views, |((x, z, up), (tx, tz), tau)| {
+            let (engine, fb) = &mut *state.borrow_mut();
+            engine.set_max_error(ErrorBound::Pixels(tau));
+            engine.hold_budget(10_000_000);
+            let camera = engine.camera(DVec3::new(x, up, z), DVec3::new(tx, 0.0, tz), true);
+            let report = engine.render(&camera, fb).unwrap();
+            prop_assert_eq!(report.bound, Bound::Error);
+            let mut worst = 0.0f64;
+            for r in &report.rendered {
+                prop_assert!(r.error_px <= tau + 1e-9, "{:?} over τ = {}", r, tau);
+                worst = worst.max(r.error_px);
+                // The next coarser level would exceed τ: the tile is no finer than it needs.
+                let ppm = pixels_per_metre(engine, &report, r.id);
+                let errors = &engine.pager().get(r.id).unwrap().level_errors;
+                let coarser = engine.masks().levels().iter().filter(|&&l| l > r.level);
+                for &l in coarser {
+                    prop_assert!(
+                        f64::from(errors[l]) * ppm > tau,
+                        "{:?} could draw level {} within τ = {}",
+                        r,
+                        l,
+                        tau
+                    );
+                }
+            }
+            prop_assert_eq!(report.max_error_px, worst);
+            Ok(())
+        })
+        .unwrap();
+}
+
+#[test]
+fn tau_never_draws_more_than_the_budget_alone_and_off_draws_every_tile_full() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mut engine, mut fb) = loaded(dir.path(), ErrorBound::Off);
+    let camera = engine.camera(
+        DVec3::new(500.0, 300.0, 500.0),
+        DVec3::new(4000.0, 0.0, 4000.0),
+        true,
+    );
+    engine.hold_budget(10_000_000);
+    let off = engine.render(&camera, &mut fb).unwrap();
+    assert_eq!(off.bound, Bound::Full);
+    assert!(off.rendered.iter().all(|r| r.level == 0));
+    assert_eq!(off.max_error_px, 0.0);
+    let mut previous = off.triangles;
+    for tau in [0.5, 1.0, 2.0, 4.0] {
+        engine.set_max_error(ErrorBound::Pixels(tau));
+        let report = engine.render(&camera, &mut fb).unwrap();
+        assert!(report.triangles <= previous, "τ = {tau}");
+        previous = report.triangles;
+    }
+    assert!(
+        previous < off.triangles / 2,
+        "{previous} of {}",
+        off.triangles
+    );
+    // A budget below the need binds, and says so.
+    engine.hold_budget(previous / 2);
+    let short = engine.render(&camera, &mut fb).unwrap();
+    assert_eq!(short.bound, Bound::Budget);
+    assert!(short.max_error_px > 4.0, "{}", short.max_error_px);
+}
+
+#[test]
+fn the_budget_does_not_grow_while_tau_binds() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mut engine, mut fb) = loaded(dir.path(), ErrorBound::default());
+    let eye = DVec3::new(1000.0, 400.0, 1000.0);
+    let mut budget = 20_000;
+    engine.hold_budget(budget);
+    let mut bound_frames = 0;
+    for k in 0..60 {
+        // Fly forward slowly; every frame takes a hundredth of the target's time.
+        let step = DVec3::new(20.0, 0.0, 15.0) * f64::from(k);
+        let camera = engine.camera(eye + step, DVec3::new(5000.0, 0.0, 4000.0), true);
+        let report = engine.render(&camera, &mut fb).unwrap();
+        assert_eq!(report.budget, budget);
+        let next = engine.record_frame(0.0004, report.draw.triangles as usize);
+        if report.bound == Bound::Error {
+            bound_frames += 1;
+            assert!(next <= budget, "frame {k}: {budget} -> {next}");
+            assert!(next <= 2 * report.triangles.max(500), "frame {k}: {next}");
+        }
+        budget = next;
+    }
+    assert!(bound_frames > 50, "{bound_frames}");
+}

@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 use clap::builder::PossibleValuesParser;
+use stripmask::ErrorBound;
 use stripmask::error::Result;
 use stripmask::sim::tradeoff::reference::{CpuFloat, Reference};
 use stripmask::sim::tradeoff::{TradeoffOptions, knobs, run_with};
@@ -36,6 +37,9 @@ pub(super) struct TradeoffArgs {
     /// A pixel is off when a channel differs from the reference by more than this.
     #[arg(long, default_value_t = 16)]
     threshold: u8,
+    /// The pixel-error bound τ of the defaults, pixels (0: off); the max-error knob turns it.
+    #[arg(long, default_value_t = ErrorBound::DEFAULT_PIXELS)]
+    max_error_px: f64,
     /// Turn only these knobs, comma-separated.
     #[arg(long, value_delimiter = ',', value_parser = knob_name())]
     knobs: Option<Vec<String>>,
@@ -65,6 +69,7 @@ pub(super) fn run(a: TradeoffArgs) -> Result<()> {
         repeats: a.repeats,
         threshold: a.threshold,
         knobs: a.knobs,
+        max_error: ErrorBound::from_pixels("--max-error-px", a.max_error_px)?,
         progress: !a.quiet,
     };
     let report = run_with(&options, references(a.size))?;

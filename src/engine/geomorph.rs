@@ -26,6 +26,13 @@
 //!
 //! The tile data are not touched: the engine morphs each drawn tile into one scratch buffer per
 //! frame, so geomorphing costs no memory per tile, and nothing at all when it is off.
+//!
+//! A tile pays only for what changes its picture ([`MorphView::morph_tile`]): the samples its
+//! mask and its neighbours' stitches use (a tile drawn at mask level 7 reads one sample in 64),
+//! and of those, per step, the per-vertex factor only where the tile's nearest and farthest
+//! points give factors on both sides of 0 and 1. Steps whose factor is 0 over the whole tile
+//! are skipped, and steps fully morphed over the whole tile take the parents' mean without a
+//! distance. The result is exactly the full morph's on every sample drawn.
 
 use glam::DVec3;
 use stripmask_raster::Vertex;
@@ -98,6 +105,8 @@ pub struct Split {
 pub struct MorphTree {
     tile_size: usize,
     splits: Vec<Split>,
+    /// Per step, coarsest first: the step and the end of its splits in `splits`.
+    groups: Vec<(usize, usize)>,
 }
 
 impl MorphTree {
@@ -110,6 +119,7 @@ impl MorphTree {
         }
         let v = |i: usize, j: usize| j * s + i;
         let mut splits = Vec::with_capacity(s * s - 4);
+        let mut groups = Vec::new();
         let mut step = (s - 1) / 2;
         while step >= 1 {
             for j in (0..s).step_by(step) {
@@ -128,11 +138,13 @@ impl MorphTree {
                     });
                 }
             }
+            groups.push((step, splits.len()));
             step /= 2;
         }
         Some(MorphTree {
             tile_size: s,
             splits,
+            groups,
         })
     }
 
@@ -152,33 +164,67 @@ impl MorphTree {
     pub fn morph(
         &self,
         vertices: &[Vertex],
-        mut factor: impl FnMut(&Split) -> i32,
+        factor: impl FnMut(&Split) -> i32,
         out: &mut Vec<Vertex>,
     ) {
-        debug_assert!(vertices.len() >= self.tile_size * self.tile_size);
-        out.clear();
-        out.extend(vertices.iter().map(|v| Vertex {
+        self.scale(vertices, 1, out);
+        morph_splits(&self.splits, factor, out);
+    }
+
+    /// Makes `out` as long as `vertices` and writes into it, in [`SUBDIVISION`] units, the
+    /// samples whose indices are multiples of `step` (a power of two) and the vertices beyond
+    /// the grid; returns the lowest and highest height among those samples, quanta. Other
+    /// entries keep what they held: no mask or stitch of samples on the `step` grid reads them.
+    fn scale(&self, vertices: &[Vertex], step: usize, out: &mut Vec<Vertex>) -> (i32, i32) {
+        let s = self.tile_size;
+        debug_assert!(vertices.len() >= s * s && step.is_power_of_two() && step < s);
+        out.resize(vertices.len(), Vertex::default());
+        let scaled = |v: &Vertex| Vertex {
             position: v.position.map(|c| c.saturating_mul(SUBDIVISION)),
             ..*v
-        }));
-        for split in &self.splits {
-            let f = i64::from(factor(split).clamp(0, FACTOR_ONE));
-            if f == 0 {
-                continue;
+        };
+        let mut range = (i32::MAX, i32::MIN);
+        for j in (0..s).step_by(step) {
+            for k in (j * s..(j + 1) * s).step_by(step) {
+                let y = vertices[k].position[1];
+                range = (range.0.min(y), range.1.max(y));
+                out[k] = scaled(&vertices[k]);
             }
-            let [a, b] = split.parents.map(|p| out[p]);
-            let v = &mut out[split.vertex];
-            let towards = |own: i64, a: i64, b: i64| {
-                let target = (a + b).div_euclid(2);
-                own + ((target - own) * f + i64::from(FACTOR_ONE / 2))
-                    .div_euclid(i64::from(FACTOR_ONE))
-            };
-            let y = i64::from(v.position[1]);
-            v.position[1] = towards(y, a.position[1].into(), b.position[1].into()) as i32;
-            for c in 0..3 {
-                let own = i64::from(v.color[c]);
-                v.color[c] = towards(own, a.color[c].into(), b.color[c].into()) as u8;
-            }
+        }
+        for (o, v) in out[s * s..].iter_mut().zip(&vertices[s * s..]) {
+            *o = scaled(v);
+        }
+        range
+    }
+
+    /// Each step's splits, coarsest first: `(step, splits)`.
+    fn groups(&self) -> impl Iterator<Item = (usize, &[Split])> {
+        let starts = std::iter::once(0).chain(self.groups.iter().map(|g| g.1));
+        self.groups
+            .iter()
+            .zip(starts)
+            .map(|(&(step, end), start)| (step, &self.splits[start..end]))
+    }
+}
+
+/// Morphs every sample of `splits` (parents before children) in `out` by `factor(split)`.
+fn morph_splits(splits: &[Split], mut factor: impl FnMut(&Split) -> i32, out: &mut [Vertex]) {
+    for split in splits {
+        let f = i64::from(factor(split).clamp(0, FACTOR_ONE));
+        if f == 0 {
+            continue;
+        }
+        let [a, b] = split.parents.map(|p| out[p]);
+        let v = &mut out[split.vertex];
+        let towards = |own: i64, a: i64, b: i64| {
+            let target = (a + b).div_euclid(2);
+            own + ((target - own) * f + i64::from(FACTOR_ONE / 2)).div_euclid(i64::from(FACTOR_ONE))
+        };
+        let y = i64::from(v.position[1]);
+        v.position[1] = towards(y, a.position[1].into(), b.position[1].into()) as i32;
+        for c in 0..3 {
+            let own = i64::from(v.color[c]);
+            v.color[c] = towards(own, a.color[c].into(), b.color[c].into()) as u8;
         }
     }
 }
@@ -222,28 +268,72 @@ impl MorphView {
         (f.clamp(0.0, 1.0) * f64::from(FACTOR_ONE)).round() as i32
     }
 
-    /// Writes into `out` the vertices of tile `(x, y)` morphed for this view.
+    /// Writes into `out` the vertices of tile `(x, y)` morphed for this view, as far as a tile
+    /// whose draw reads the samples of mask `levels` (its own and its neighbours', for the
+    /// stitches) reads them: the samples on the grid of the largest power of two dividing
+    /// every `level + 1`, exactly as [`MorphTree::morph`] with [`MorphView::factor`] gives
+    /// them; other samples are left as `out` held them.
     pub fn morph_tile(
         &self,
         tree: &MorphTree,
         vertices: &[Vertex],
         (x, y): (u32, u32),
+        levels: &[usize],
         out: &mut Vec<Vertex>,
     ) {
         let s = tree.tile_size();
+        let shift = levels
+            .iter()
+            .map(|&l| (l + 1).trailing_zeros())
+            .fold((s - 1).trailing_zeros(), u32::min);
+        let read = 1usize << shift;
+        let heights = tree.scale(vertices, read, out);
         let (gx0, gz0) = (
             i64::from(x) * self.tile_cells,
             i64::from(y) * self.tile_cells,
         );
-        tree.morph(
-            vertices,
-            |split| {
-                let (i, j) = (split.vertex % s, split.vertex / s);
-                let quanta = vertices[split.vertex].position[1];
-                self.factor(gx0 + i as i64, gz0 + j as i64, quanta, split.step)
-            },
-            out,
+        let (near, far) = self.reach((gx0, gz0), s, heights);
+        for (step, splits) in tree.groups().take_while(|&(step, _)| step >= read) {
+            let factor = |d: f64| d * self.scale / step as f64 - 1.0;
+            if factor(far) <= 0.0 {
+                continue;
+            }
+            if factor(near) >= 1.0 {
+                morph_splits(splits, |_| FACTOR_ONE, out);
+                continue;
+            }
+            morph_splits(
+                splits,
+                |split| {
+                    let (i, j) = (split.vertex % s, split.vertex / s);
+                    let quanta = vertices[split.vertex].position[1];
+                    self.factor(gx0 + i as i64, gz0 + j as i64, quanta, split.step)
+                },
+                out,
+            );
+        }
+    }
+
+    /// The nearest and farthest distance from the eye of the box of a tile whose first sample is
+    /// at global grid position `(gx0, gz0)`, `s` samples a side, with heights within `heights`
+    /// quanta, shrunk and grown by a relative margin so that every sample's own distance
+    /// ([`MorphView::factor`]) lies between them despite rounding.
+    fn reach(&self, (gx0, gz0): (i64, i64), s: usize, heights: (i32, i32)) -> (f64, f64) {
+        let cells = (s - 1) as f64;
+        let lo = DVec3::new(
+            gx0 as f64 * self.spacing,
+            f64::from(heights.0) * self.quantum,
+            gz0 as f64 * self.spacing,
         );
+        let hi = lo
+            + DVec3::new(
+                cells * self.spacing,
+                f64::from(heights.1 - heights.0) * self.quantum,
+                cells * self.spacing,
+            );
+        let near = (lo - self.eye).max(self.eye - hi).max(DVec3::ZERO).length();
+        let far = (lo - self.eye).abs().max((hi - self.eye).abs()).length();
+        (near * (1.0 - 1e-9), far * (1.0 + 1e-9))
     }
 }
 
@@ -275,9 +365,16 @@ impl Morpher {
         MorphView::new(self.pixels, camera, terrain, height)
     }
 
-    /// Tile `(x, y)`'s `vertices` morphed for `view`, in [`SUBDIVISION`] units.
-    pub fn tile(&mut self, view: &MorphView, vertices: &[Vertex], at: (u32, u32)) -> &[Vertex] {
-        view.morph_tile(&self.tree, vertices, at, &mut self.scratch);
+    /// Tile `(x, y)`'s `vertices` morphed for `view`, in [`SUBDIVISION`] units, as far as a
+    /// draw reading mask `levels` (its own and its neighbours') reads them.
+    pub fn tile(
+        &mut self,
+        view: &MorphView,
+        vertices: &[Vertex],
+        at: (u32, u32),
+        levels: &[usize],
+    ) -> &[Vertex] {
+        view.morph_tile(&self.tree, vertices, at, levels, &mut self.scratch);
         &self.scratch
     }
 }
@@ -417,6 +514,55 @@ mod tests {
             .morph(&vertices, |_| FACTOR_ONE / 4, &mut out);
         // (1, 0) splits the north edge between two corners at 0: three quarters of 100 quanta.
         assert_eq!(out[1].position[1], 75 * 256);
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn a_tile_morphs_what_its_level_reads_exactly_as_the_full_morph(
+            eye in (-200.0..600.0f64, 0.0..300.0f64, -200.0..600.0f64),
+            levels in proptest::collection::vec(0usize..16, 1..5),
+            (x, y) in (0u32..4, 0u32..4),
+            pixels in 1.0..16.0f64,
+        ) {
+            let s = 17;
+            let terrain = TerrainFrame {
+                tiles_x: 4,
+                tiles_y: 4,
+                tile_size: s,
+                spacing: 10.0,
+                quantum: 0.25,
+                heights: (-100.0, 100.0),
+                origin: DVec3::new(1e7, 0.0, -3e6),
+            };
+            let eye = terrain.origin + DVec3::new(eye.0, eye.1, eye.2);
+            let camera = Camera::looking_at(eye, eye + DVec3::X);
+            let view = MorphView::new(pixels, &camera, &terrain, 240);
+            let vertices = grid(s, bumpy);
+            let tree = MorphTree::new(s).unwrap();
+            let (gx0, gz0) = (i64::from(x) * 16, i64::from(y) * 16);
+            let mut full = Vec::new();
+            tree.morph(
+                &vertices,
+                |split| {
+                    let (i, j) = (split.vertex % s, split.vertex / s);
+                    let quanta = vertices[split.vertex].position[1];
+                    view.factor(gx0 + i as i64, gz0 + j as i64, quanta, split.step)
+                },
+                &mut full,
+            );
+            // A scratch buffer that held another tile.
+            let mut out = vec![Vertex::default(); s * s];
+            view.morph_tile(&tree, &vertices, (x, y), &levels, &mut out);
+            for &level in &levels {
+                for j in (0..s).filter(|&j| keeps_index(s, level, j)) {
+                    for i in (0..s).filter(|&i| keeps_index(s, level, i)) {
+                        proptest::prop_assert_eq!(
+                            out[j * s + i], full[j * s + i], "level {} ({}, {})", level, i, j
+                        );
+                    }
+                }
+            }
+        }
     }
 
     #[test]

@@ -275,7 +275,18 @@ pub fn draw_tiles<T: DrawTarget>(
             };
             let (vertices, tile_transform) = match &mut morph {
                 Some((view, fine, morpher)) if stride == 1 => (
-                    morpher.tile(view, &t.tile.vertices, (t.x, t.y)),
+                    morpher.tile(
+                        view,
+                        &t.tile.vertices,
+                        (t.x, t.y),
+                        &[
+                            t.level,
+                            t.neighbours[0],
+                            t.neighbours[1],
+                            t.neighbours[2],
+                            t.neighbours[3],
+                        ],
+                    ),
                     fine.tile(t.x, t.y)?,
                 ),
                 _ => (&t.tile.vertices[..], transform.tile(t.x, t.y)?),

@@ -99,6 +99,7 @@ fn the_tradeoff_report_measures_every_setting_against_the_gpu_reference_too() {
         repeats: 1,
         threshold: 16,
         knobs: Some(vec!["budget".into()]),
+        max_error: stripmask::ErrorBound::default(),
         progress: false,
     };
     let references: Vec<Box<dyn Reference>> = vec![Box::new(CpuFloat), Box::new(gpu)];

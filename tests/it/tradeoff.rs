@@ -15,6 +15,7 @@ fn options(source: String, out: std::path::PathBuf, knobs: &[&str]) -> TradeoffO
         repeats: 1,
         threshold: 16,
         knobs: Some(knobs.iter().map(|k| k.to_string()).collect()),
+        max_error: stripmask::ErrorBound::default(),
         progress: false,
     }
 }

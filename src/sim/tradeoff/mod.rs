@@ -20,9 +20,11 @@ use std::path::PathBuf;
 
 use crate::db::archive::ArchiveReader;
 use crate::db::source;
+use crate::engine::error_bound::ErrorBound;
 use crate::engine::terrain::TerrainFrame;
 use crate::error::{Error, Result};
 use crate::sim::flight::Flight;
+use knobs::Setting;
 use measure::{Bench, Measurement};
 use reference::Reference;
 use sweep::Entry;
@@ -48,6 +50,8 @@ pub struct TradeoffOptions {
     pub threshold: u8,
     /// Turn only these knobs (`None`: all).
     pub knobs: Option<Vec<String>>,
+    /// The pixel-error bound τ of the defaults (every setting but the `max-error` knob's).
+    pub max_error: ErrorBound,
     /// Print a line per setting measured.
     pub progress: bool,
 }
@@ -125,7 +129,11 @@ pub fn run_with(
             }
         }
     }
-    let entries = sweep::plan(&all_knobs, options.knobs.as_deref());
+    let defaults = Setting {
+        max_error: options.max_error,
+        ..Setting::default()
+    };
+    let entries = sweep::plan(&all_knobs, options.knobs.as_deref(), defaults);
 
     let mut bench = Bench::new(&options.source, options.size, views)?;
     let progress = |view: &View| {

@@ -55,18 +55,18 @@ impl Entry {
     }
 }
 
-/// The settings to measure over `knobs` (all of them when `only` is `None`); the defaults come
-/// first, and no configuration appears twice.
-pub fn plan(knobs: &[Knob], only: Option<&[String]>) -> Vec<Entry> {
+/// The settings to measure over `knobs` (all of them when `only` is `None`), each knob turned
+/// from `defaults`; the defaults come first, and no configuration appears twice.
+pub fn plan(knobs: &[Knob], only: Option<&[String]>, defaults: Setting) -> Vec<Entry> {
     let selected = |name: &str| only.is_none_or(|o| o.iter().any(|k| k == name));
     let find = |name: &str| knobs.iter().find(|k| k.name == name);
     let mut entries = vec![Entry {
         name: "defaults".into(),
         changes: Vec::new(),
-        setting: Setting::default(),
+        setting: defaults,
     }];
     let mut push = |name: Option<&str>, changes: Vec<(&'static str, &'static str)>| {
-        let mut setting = Setting::default();
+        let mut setting = defaults;
         let mut kept = Vec::new();
         for &(knob, label) in &changes {
             let k = find(knob).expect("sweep names existing knobs");
@@ -132,12 +132,13 @@ pub fn plan(knobs: &[Knob], only: Option<&[String]>) -> Vec<Entry> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::engine::error_bound::ErrorBound;
     use crate::sim::tradeoff::knobs::knobs;
 
     #[test]
     fn one_at_a_time_then_crossings_without_repeats() {
         let knobs = knobs();
-        let all = plan(&knobs, None);
+        let all = plan(&knobs, None, Setting::default());
         assert_eq!(all[0].name, "defaults");
         for (i, a) in all.iter().enumerate() {
             for b in &all[i + 1..] {
@@ -158,8 +159,28 @@ mod tests {
         assert!(all.iter().any(|e| e.name == "fastest"));
 
         let only = ["depth".to_string(), "precision".to_string()];
-        let few = plan(&knobs, Some(&only));
+        let few = plan(&knobs, Some(&only), Setting::default());
         let names: Vec<_> = few.iter().map(|e| e.name.as_str()).collect();
         assert_eq!(names, ["defaults", "precision=float", "depth=32"]);
+
+        // Defaults with τ off: the knob's `off` is the defaults, its `1` a change.
+        let only = ["max-error".to_string()];
+        let off = Setting {
+            max_error: ErrorBound::Off,
+            ..Setting::default()
+        };
+        let turned = plan(&knobs, Some(&only), off);
+        let names: Vec<_> = turned.iter().map(|e| e.name.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "defaults",
+                "max-error=0.5",
+                "max-error=1",
+                "max-error=2",
+                "max-error=4"
+            ]
+        );
+        assert_eq!(turned[0].setting, off);
     }
 }

@@ -104,6 +104,17 @@ impl InfoReport {
                 h.tiles_x, h.tiles_y, h.tile_size, h.tile_size, h.source_width, h.source_height
             ),
             format!(
+                "extent      {:.0} x {:.0} m of model ({} x {} samples); the tiles cover {:.0} x {:.0} m, padded with {} column(s) east and {} row(s) south that are never drawn",
+                f64::from(h.source_width.saturating_sub(1)) * h.spacing,
+                f64::from(h.source_height.saturating_sub(1)) * h.spacing,
+                h.source_width,
+                h.source_height,
+                f64::from(h.tiles_x * (h.tile_size - 1)) * h.spacing,
+                f64::from(h.tiles_y * (h.tile_size - 1)) * h.spacing,
+                (h.tiles_x * (h.tile_size - 1) + 1).saturating_sub(h.source_width),
+                (h.tiles_y * (h.tile_size - 1) + 1).saturating_sub(h.source_height),
+            ),
+            format!(
                 "spacing     {} m, vertical scale {} m per unit, origin ({}, {})",
                 h.spacing, h.vertical_scale, h.origin_x, h.origin_y
             ),

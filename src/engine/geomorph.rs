@@ -575,6 +575,7 @@ mod tests {
             quantum: 0.25,
             heights: (0.0, 100.0),
             origin: DVec3::new(1e7, 0.0, -3e6),
+            source_samples: (33, 33),
         };
         let mut camera = Camera::looking_at(terrain.origin, terrain.origin + DVec3::X);
         camera.fov_y = 90f64.to_radians();

@@ -69,6 +69,10 @@ pub struct ResidentTile {
     pub spacing: f64,
     /// The light the vertex colours were lit with.
     pub light: Light,
+    /// The last sample index east and south that belongs to the model
+    /// ([`TerrainFrame::tile_extent`](crate::engine::terrain::TerrainFrame::tile_extent)):
+    /// vertices beyond it, on the padding that makes the tile whole, lie on it instead.
+    pub extent: [i32; 2],
 }
 
 impl PartialGrid for ResidentTile {
@@ -131,7 +135,27 @@ impl ResidentTile {
             quantum: tile.quantum,
             spacing,
             light: *light,
+            extent: [tile.tile_size as i32 - 1; 2],
         }
+    }
+
+    /// The tile cut at `extent`, the last sample index east and south that belongs to the
+    /// model: every vertex beyond it (on the padding, whose samples repeat the model's last
+    /// column and row) moves onto it, texture coordinates with it. Triangles wholly on the
+    /// padding collapse to nothing, and those that straddle the edge end exactly at the
+    /// model's last samples, so the terrain stops at the model's extent without a crack: the
+    /// same rule moves the vertices two tiles share to the same place.
+    pub fn clipped(mut self, extent: [i32; 2]) -> ResidentTile {
+        self.extent = extent;
+        let last = (self.tile_size - 1) as f32;
+        for v in &mut self.vertices {
+            let [x, y, z] = v.position;
+            let (cx, cz) = (x.min(extent[0]), z.min(extent[1]));
+            if (cx, cz) != (x, z) {
+                *v = Vertex::new([cx, y, cz], [cx as f32 / last, cz as f32 / last], v.color);
+            }
+        }
+        self
     }
 
     /// The tile this resident form was built from, as far as it holds it: the held heights
@@ -183,7 +207,8 @@ impl ResidentTile {
                 self.spacing,
                 &self.light,
                 cracks,
-            );
+            )
+            .clipped(self.extent);
         }
         self.bytes()
     }

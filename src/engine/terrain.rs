@@ -24,6 +24,9 @@ pub struct TerrainFrame {
     /// World position of the north-west sample at height 0. Zero by default; a large value
     /// places the terrain far from the origin (the renderer is eye-relative, so it draws the same).
     pub origin: DVec3,
+    /// Samples per row and rows of the model itself: the grid of whole tiles is padded east and
+    /// south beyond them, and the padding is never drawn or flown over.
+    pub source_samples: (u32, u32),
 }
 
 impl TerrainFrame {
@@ -37,7 +40,31 @@ impl TerrainFrame {
             quantum: f64::from(header.height_quantum),
             heights: (f64::from(header.min_height), f64::from(header.max_height)),
             origin: DVec3::ZERO,
+            source_samples: (header.source_width, header.source_height),
         }
+    }
+
+    /// East-west and north-south extent of the model's own samples, metres: the grid's
+    /// [`Self::extent`] without the padding that makes its tiles whole.
+    pub fn source_extent(&self) -> (f64, f64) {
+        let (w, h) = self.source_samples;
+        (
+            f64::from(w.saturating_sub(1)) * self.spacing,
+            f64::from(h.saturating_sub(1)) * self.spacing,
+        )
+    }
+
+    /// The last sample index, east and south, of tile `(tx, ty)` that belongs to the model
+    /// (`tile_size - 1` for a tile without padding): what [`ResidentTile::clipped`] cuts at.
+    pub fn tile_extent(&self, tx: u32, ty: u32) -> [i32; 2] {
+        let cells = self.tile_size as i64 - 1;
+        let last = |t: u32, samples: u32| {
+            (i64::from(samples) - 1 - i64::from(t) * cells).clamp(0, cells) as i32
+        };
+        [
+            last(tx, self.source_samples.0),
+            last(ty, self.source_samples.1),
+        ]
     }
 
     /// Metres along one tile side.
@@ -126,6 +153,7 @@ mod tests {
             quantum: 0.25,
             heights: (-40.0, 120.0),
             origin: DVec3::new(1000.0, 7.0, -500.0),
+            source_samples: (3 * (s as u32 - 1) + 1, 2 * (s as u32 - 1) + 1),
         };
         for levels in 1..=whole.levels {
             let tile = whole.truncated(levels);

@@ -143,7 +143,7 @@ impl Flight {
 
     /// A built-in flight scaled to the terrain.
     pub fn builtin(which: Builtin, terrain: &TerrainFrame) -> Flight {
-        let (w, d) = terrain.extent();
+        let (w, d) = terrain.source_extent();
         let (_, top) = terrain.heights;
         let size = w.max(d);
         let at = |fx: f64, y: f64, fz: f64| DVec3::new(fx * w, y, fz * d);
@@ -251,6 +251,8 @@ mod tests {
             quantum: 0.0625,
             heights: (0.0, 1000.0),
             origin: DVec3::ZERO,
+            // 16 x 8 tiles of 64 cells padded around 700 x 300 samples.
+            source_samples: (700, 300),
         }
     }
 
@@ -283,8 +285,8 @@ mod tests {
     }
 
     #[test]
-    fn builtins_stay_over_the_terrain() {
-        let (w, d) = frame().extent();
+    fn builtins_stay_over_the_model_and_off_its_padding() {
+        let (w, d) = frame().source_extent();
         for which in [Builtin::Overview, Builtin::Diagonal, Builtin::Low] {
             let f = Flight::builtin(which, &frame());
             for k in 0..=600 {

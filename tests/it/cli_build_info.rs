@@ -56,6 +56,11 @@ fn build_puget_sound_then_info_json_describes_the_grid() {
     let text = stripmask().arg("info").arg(&out).output().unwrap();
     let text = String::from_utf8(text.stdout).unwrap();
     assert!(text.contains("8 x 8 tiles of 129 x 129 samples"), "{text}");
+    assert!(
+        text.contains("163840 x 163840 m of model (1025 x 1025 samples)")
+            && text.contains("padded with 0 column(s) east and 0 row(s) south"),
+        "{text}"
+    );
 }
 
 #[test]

@@ -28,6 +28,7 @@ mod geomorph;
 #[cfg(feature = "wgpu")]
 mod gpu_engine;
 mod layers;
+mod padding;
 mod pager_archive;
 mod pager_flight;
 mod pager_simulated;

@@ -53,6 +53,7 @@ fn terrain() -> TerrainFrame {
         quantum: f64::from(QUANTUM),
         heights: (0.0, 120.0),
         origin: DVec3::ZERO,
+        source_samples: (TILES * (S as u32 - 1) + 1, TILES * (S as u32 - 1) + 1),
     }
 }
 

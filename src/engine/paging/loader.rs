@@ -25,6 +25,7 @@ use crate::engine::cracks::CrackMode;
 use crate::engine::paging::TileLoader;
 use crate::engine::paging::stream::LevelLoader;
 use crate::engine::resident::{Light, ResidentTile, predicted_bytes};
+use crate::engine::terrain::TerrainFrame;
 use crate::error::{Error, Result};
 
 /// Loads resident tiles from an archive.
@@ -97,7 +98,8 @@ impl ArchiveLoader {
             .map(|(i, tile)| {
                 let id = TileId::new((i % tiles_x) as u32, (i / tiles_x) as u32);
                 let tile = tile.truncated(self.base_levels.min(tile.levels));
-                let resident = ResidentTile::new(&tile, 0, h.spacing, &self.light, self.cracks());
+                let resident = ResidentTile::new(&tile, 0, h.spacing, &self.light, self.cracks())
+                    .clipped(self.extent(id));
                 (id, resident)
             })
             .collect();
@@ -118,6 +120,11 @@ impl ArchiveLoader {
     /// The crack mode tiles are loaded for.
     pub fn cracks(&self) -> CrackMode {
         CrackMode::ALL[usize::from(self.cracks.load(Ordering::Relaxed))]
+    }
+
+    /// Where tile `id` is cut: the last of its samples east and south that belong to the model.
+    fn extent(&self, id: TileId) -> [i32; 2] {
+        TerrainFrame::new(self.reader.header()).tile_extent(id.x, id.y)
     }
 
     /// Loads tiles for crack mode `cracks` from now on (and refits the texture bias to the
@@ -215,7 +222,8 @@ impl TileLoader for ArchiveLoader {
                 spacing,
                 &self.light,
                 self.cracks(),
-            ),
+            )
+            .clipped(self.extent(id)),
             downloaded,
         ))
     }
@@ -331,13 +339,10 @@ impl LevelLoader for ArchiveLoader {
                 tile
             }
         };
-        Ok(ResidentTile::new(
-            &tile,
-            0,
-            h.spacing,
-            &self.light,
-            self.cracks(),
-        ))
+        Ok(
+            ResidentTile::new(&tile, 0, h.spacing, &self.light, self.cracks())
+                .clipped(self.extent(id)),
+        )
     }
 
     fn held_levels(&self, tile: &ResidentTile) -> usize {

@@ -25,7 +25,7 @@ use crate::sampler::TexViews;
 use crate::setup::{ChunkOut, DrawSetup, Transformed, by_draw, set_up};
 use crate::shade::{ColorTile, DepthTile, DrawShade, Shade, TileTarget, raster_tile};
 use crate::state::{Precision, Rect, RenderState};
-use crate::tile_view::split;
+use crate::tile_view::{TileView, split};
 use crate::vertex::{Mesh, Vertex};
 
 /// Pending triangles that trigger a flush after a draw.
@@ -341,40 +341,88 @@ fn raster_tiles<P: Shade>(
     threads: usize,
 ) -> u64 {
     let (color, depth) = fb.buffers_mut();
-    let colors: Vec<ColorTile> = match color {
-        ColorBuffer::Rgb565(c) => split(c, grid).into_iter().map(ColorTile::Rgb565).collect(),
+    let colors: Vec<ColorView> = match color {
+        ColorBuffer::Rgb565(c) => split(c, grid).into_iter().map(ColorView::Rgb565).collect(),
         ColorBuffer::Rgba8888(c) => split(c, grid)
             .into_iter()
-            .map(ColorTile::Rgba8888)
+            .map(ColorView::Rgba8888)
             .collect(),
     };
-    let depths: Vec<DepthTile> = match depth {
-        DepthBuffer::None => (0..grid.len()).map(|_| DepthTile::None).collect(),
-        DepthBuffer::D16(d) => split(d, grid).into_iter().map(DepthTile::D16).collect(),
-        DepthBuffer::D32(d) => split(d, grid).into_iter().map(DepthTile::D32).collect(),
+    let depths: Vec<DepthView> = match depth {
+        DepthBuffer::None => (0..grid.len()).map(|_| DepthView::None).collect(),
+        DepthBuffer::D16(d) => split(d, grid).into_iter().map(DepthView::D16).collect(),
+        DepthBuffer::D32(d) => split(d, grid).into_iter().map(DepthView::D32).collect(),
     };
     let tiles = colors
         .into_iter()
         .zip(depths)
         .enumerate()
-        .filter(|(t, _)| chunks.iter().any(|c| !c.bins.list(*t).is_empty()))
-        .map(|(t, (color, depth))| {
-            (
-                t,
-                TileTarget {
-                    rect: grid.rect(t),
-                    color,
-                    depth,
-                },
-            )
-        });
-    let draw =
-        |(t, mut target): (usize, TileTarget)| raster_tile::<P>(t, chunks, draws, &mut target);
+        .filter(|(t, _)| chunks.iter().any(|c| !c.bins.list(*t).is_empty()));
+    let draw = |(t, (mut color, mut depth)): (usize, (ColorView, DepthView))| {
+        let mut target = TileTarget {
+            rect: grid.rect(t),
+            color: color.load(),
+            depth: depth.load(),
+        };
+        let fragments = raster_tile::<P>(t, chunks, draws, &mut target);
+        color.store(target.color);
+        depth.store(target.depth);
+        fragments
+    };
     if threads > 1 {
         let tiles: Vec<_> = tiles.collect();
         tiles.into_par_iter().map(draw).sum()
     } else {
         tiles.map(draw).sum()
+    }
+}
+
+/// A tile of the colour buffer in the framebuffer's format.
+enum ColorView<'a> {
+    Rgb565(TileView<'a, u16>),
+    Rgba8888(TileView<'a, [u8; 4]>),
+}
+
+impl ColorView<'_> {
+    fn load(&mut self) -> ColorTile {
+        match self {
+            ColorView::Rgb565(v) => ColorTile::Rgb565(v.load(Vec::new())),
+            ColorView::Rgba8888(v) => ColorTile::Rgba8888(v.load(Vec::new())),
+        }
+    }
+
+    fn store(&mut self, tile: ColorTile) {
+        match (self, tile) {
+            (ColorView::Rgb565(v), ColorTile::Rgb565(t)) => drop(v.store(t)),
+            (ColorView::Rgba8888(v), ColorTile::Rgba8888(t)) => drop(v.store(t)),
+            _ => unreachable!("a tile goes back to its own buffer"),
+        }
+    }
+}
+
+/// A tile of the depth buffer in the framebuffer's format, if it has one.
+enum DepthView<'a> {
+    None,
+    D16(TileView<'a, u16>),
+    D32(TileView<'a, u32>),
+}
+
+impl DepthView<'_> {
+    fn load(&mut self) -> DepthTile {
+        match self {
+            DepthView::None => DepthTile::None,
+            DepthView::D16(v) => DepthTile::D16(v.load(Vec::new())),
+            DepthView::D32(v) => DepthTile::D32(v.load(Vec::new())),
+        }
+    }
+
+    fn store(&mut self, tile: DepthTile) {
+        match (self, tile) {
+            (DepthView::None, DepthTile::None) => {}
+            (DepthView::D16(v), DepthTile::D16(t)) => drop(v.store(t)),
+            (DepthView::D32(v), DepthTile::D32(t)) => drop(v.store(t)),
+            _ => unreachable!("a tile goes back to its own buffer"),
+        }
     }
 }
 

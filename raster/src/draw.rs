@@ -125,7 +125,7 @@ impl Rasterizer {
     }
 }
 
-/// Triangle assembly with each used vertex copied once.
+/// Triangle assembly, copying the vertices a draw uses.
 #[derive(Debug, Default)]
 pub(crate) struct Gather {
     /// Per-vertex stamp of the draw that last referenced it.
@@ -136,36 +136,22 @@ pub(crate) struct Gather {
 }
 
 impl Gather {
-    /// Assembles `mesh`'s triangles into `pending`, copying the vertices they use (each once).
-    /// Returns the number of triangles; on an index out of range, `pending` is left as it was.
+    /// Assembles `mesh`'s triangles into `pending`, copying its vertices (all of them, or the
+    /// used ones once each when the mesh has more vertices than indices). Returns the number of triangles; on an index out of range, `pending` is left as it was.
     pub fn append(&mut self, mesh: &Mesh, pending: &mut Pending) -> Result<usize, RasterError> {
         let n = mesh.vertices.len();
-        if self.stamp.len() < n {
-            self.stamp.resize(n, 0);
-            self.slot.resize(n, 0);
-        }
-        self.generation = self.generation.wrapping_add(1);
-        if self.generation == 0 {
-            self.stamp.fill(0);
-            self.generation = 1;
-        }
         let (first_vertex, first_triangle) = (pending.vertices.len(), pending.triangles.len());
-        let (stamp, slot, generation) = (&mut self.stamp, &mut self.slot, self.generation);
-        let Pending {
-            vertices,
-            triangles,
-        } = pending;
-        let result = assemble(mesh, |t| {
-            triangles.push(t.map(|v| {
-                let v = v as usize;
-                if stamp[v] != generation {
-                    stamp[v] = generation;
-                    slot[v] = vertices.len() as u32;
-                    vertices.push(mesh.vertices[v]);
-                }
-                slot[v]
-            }))
-        });
+        let result = if n <= mesh.indices.len() && first_vertex + n <= u32::MAX as usize {
+            // No more vertices than indices (a strip or list over its own grid): copying them
+            // all costs less than finding the used ones, and the vertex stage's extra work is
+            // bounded by the assembly's.
+            pending.vertices.extend_from_slice(mesh.vertices);
+            let base = first_vertex as u32;
+            let triangles = &mut pending.triangles;
+            assemble(mesh, |t| triangles.push(t.map(|v| base + v)))
+        } else {
+            self.append_used(mesh, pending)
+        };
         match result {
             Ok(()) => Ok(pending.triangles.len() - first_triangle),
             Err((position, value)) => {
@@ -178,5 +164,35 @@ impl Gather {
                 })
             }
         }
+    }
+
+    /// `append` copying only the vertices the triangles use, each once.
+    fn append_used(&mut self, mesh: &Mesh, pending: &mut Pending) -> Result<(), (usize, u32)> {
+        let n = mesh.vertices.len();
+        if self.stamp.len() < n {
+            self.stamp.resize(n, 0);
+            self.slot.resize(n, 0);
+        }
+        self.generation = self.generation.wrapping_add(1);
+        if self.generation == 0 {
+            self.stamp.fill(0);
+            self.generation = 1;
+        }
+        let (stamp, slot, generation) = (&mut self.stamp, &mut self.slot, self.generation);
+        let Pending {
+            vertices,
+            triangles,
+        } = pending;
+        assemble(mesh, |t| {
+            triangles.push(t.map(|v| {
+                let v = v as usize;
+                if stamp[v] != generation {
+                    stamp[v] = generation;
+                    slot[v] = vertices.len() as u32;
+                    vertices.push(mesh.vertices[v]);
+                }
+                slot[v]
+            }))
+        })
     }
 }

@@ -162,8 +162,8 @@ impl Coverage {
     /// The three edges with the rule's bias: a pixel is owned when `E + bias > 0` for all three.
     #[inline]
     fn edges(&self) -> [(Edge, i64); 3] {
-        [0, 1, 2].map(|i| {
-            let (a, b) = (self.v[i].map(i64::from), self.v[(i + 1) % 3].map(i64::from));
+        let v = self.v.map(|p| [p[0] as i64, p[1] as i64]);
+        let edge = |a: [i64; 2], b: [i64; 2]| {
             let e = Edge {
                 ax: a[0],
                 ay: a[1],
@@ -172,12 +172,57 @@ impl Coverage {
             };
             let top_left = e.dy < 0 || (e.dy == 0 && e.dx > 0);
             (e, top_left as i64)
-        })
+        };
+        [edge(v[0], v[1]), edge(v[1], v[2]), edge(v[2], v[0])]
+    }
+
+    /// True when the triangle is walked by edge functions (`small_rows`).
+    #[inline]
+    pub fn is_small(&self) -> bool {
+        self.small
+    }
+
+    /// A small triangle's rows `from..to` (cut to its rectangle) as masks of owned columns (see
+    /// `SmallRows`): the walk of `walk_small` for a caller that wants the row loop inline.
+    #[inline(always)]
+    pub fn small_rows(&self, from: i64, to: i64) -> SmallRows {
+        debug_assert!(self.small);
+        let r = self.rect;
+        let (start, end) = ((r.y0 as i64).max(from), (r.y1 as i64).min(to));
+        let width = r.x1 - r.x0;
+        debug_assert!((1..=SMALL as i32).contains(&width));
+        // In i32 throughout: within `SMALL` pixels every term is below 2^25 (see `walk_small`).
+        let one = SUBPIXEL_ONE as i32;
+        let xc = r.x0 * one + SUBPIXEL_HALF as i32;
+        let yc = start as i32 * one + SUBPIXEL_HALF as i32;
+        let v = self.v;
+        let mut rows = SmallRows {
+            row: [0; 3],
+            step_y: [0; 3],
+            lanes: [i32x8::ZERO; 3],
+            eight: [0; 3],
+            wide: width > 8,
+            columns: (1u32 << width) - 1,
+            x0: r.x0 as i64,
+            y: start,
+            end,
+        };
+        for i in 0..3 {
+            let (a, b) = (v[i], v[(i + 1) % 3]);
+            let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+            let top_left = dy < 0 || (dy == 0 && dx > 0);
+            rows.row[i] = dx * (yc - a[1]) - dy * (xc - a[0]) + top_left as i32;
+            rows.step_y[i] = dx * one;
+            rows.lanes[i] = lane_steps(-dy * one);
+            rows.eight[i] = -dy * one * 8;
+        }
+        rows
     }
 
     /// Small triangles: evaluate the edge functions at every pixel of the rectangle, with no
-    /// division and no data-dependent branch. Within `SMALL` pixels each edge value fits in i32
-    /// (`|E| < 2 * (SMALL * 256)^2 < 2^25`), so a row's pixels are tested in lanes, 8 at a time.
+    /// division and no data-dependent branch (`SmallRows`). Within `SMALL` pixels each edge value
+    /// fits in i32 (`|E| < 2 * (SMALL * 256)^2 < 2^25`), so a row's pixels are tested in lanes, 8
+    /// at a time.
     #[inline]
     fn walk_small(
         &self,
@@ -186,38 +231,15 @@ impl Coverage {
         cols: (i64, i64),
         mut span: impl FnMut(i64, i64, i64),
     ) {
-        let edges = self.edges();
-        let xc = cols.0 * SUBPIXEL_ONE + SUBPIXEL_HALF;
-        let yc = start * SUBPIXEL_ONE + SUBPIXEL_HALF;
-        // E + bias at the first pixel of each row; steps per pixel and per row.
-        let mut row =
-            edges.map(|(e, bias)| (e.dx * (yc - e.ay) - e.dy * (xc - e.ax) + bias) as i32);
-        let step_y = edges.map(|(e, _)| (e.dx * SUBPIXEL_ONE) as i32);
-        let lanes =
-            edges.map(|(e, _)| i32x8::from(LANES) * i32x8::splat((-e.dy * SUBPIXEL_ONE) as i32));
-        let width = cols.1 - cols.0;
-        debug_assert!((1..=SMALL).contains(&width));
-        let columns = (1u32 << width) - 1;
-        // Terrain triangles are a few pixels wide: one group of lanes does for most of them.
-        let groups = if width <= 8 { 1 } else { 2 };
-        let eight = edges.map(|(e, _)| (-e.dy * SUBPIXEL_ONE * 8) as i32);
-        for y in start..end {
-            let mut inside = 0;
-            for g in 0..groups {
-                let at = |k: usize| i32x8::splat(row[k] + g * eight[k]) + lanes[k];
-                let all = at(0).cmp_gt(i32x8::ZERO)
-                    & at(1).cmp_gt(i32x8::ZERO)
-                    & at(2).cmp_gt(i32x8::ZERO);
-                inside |= (all.move_mask() as u32) << (8 * g);
-            }
-            let inside = inside & columns;
+        debug_assert_eq!(cols, (self.rect.x0 as i64, self.rect.x1 as i64));
+        let mut rows = self.small_rows(start, end);
+        while rows.y < rows.end {
+            let y = rows.y;
+            let inside = rows.next_mask();
             if inside != 0 {
-                let x0 = cols.0 + inside.trailing_zeros() as i64;
-                let x1 = cols.0 + (32 - inside.leading_zeros()) as i64;
+                let x0 = rows.x0 + inside.trailing_zeros() as i64;
+                let x1 = rows.x0 + (32 - inside.leading_zeros()) as i64;
                 span(y, x0, x1);
-            }
-            for k in 0..3 {
-                row[k] += step_y[k];
             }
         }
     }
@@ -262,12 +284,66 @@ impl Coverage {
     }
 }
 
+/// `[0, s, 2s, .., 7s]` without a lane multiplication (which SSE2 lacks).
+#[inline(always)]
+fn lane_steps(s: i32) -> i32x8 {
+    let (s2, s4) = (s * 2, s * 4);
+    i32x8::new([0, s, s2, s2 + s, s4, s4 + s, s4 + s2, s4 + s2 + s])
+}
+
+/// A small triangle's rows, one mask of owned columns at a time: the edge functions of a row's
+/// pixels in `i32x8` lanes (see `Coverage::walk_small` for the bounds).
+pub(crate) struct SmallRows {
+    /// `E + bias` of the three edges at the current row's first column.
+    row: [i32; 3],
+    step_y: [i32; 3],
+    lanes: [i32x8; 3],
+    eight: [i32; 3],
+    /// Wider than 8 columns: two groups of lanes per row.
+    wide: bool,
+    /// The rectangle's columns as bits.
+    columns: u32,
+    /// First column of the rectangle: bit `k` of a mask is column `x0 + k`.
+    pub x0: i64,
+    /// The current row.
+    pub y: i64,
+    /// The row past the last.
+    pub end: i64,
+}
+
+impl SmallRows {
+    /// Columns of the rectangle (bits of a mask).
+    #[inline(always)]
+    pub fn width(&self) -> i64 {
+        self.columns.count_ones() as i64
+    }
+
+    /// The owned columns of the current row as bits (bit `k` is column `x0 + k`), and a step to
+    /// the next row.
+    #[inline(always)]
+    pub fn next_mask(&mut self) -> u32 {
+        let at = |k: usize, g: i32| i32x8::splat(self.row[k] + g * self.eight[k]) + self.lanes[k];
+        let group = |g: i32| {
+            let all = at(0, g).cmp_gt(i32x8::ZERO)
+                & at(1, g).cmp_gt(i32x8::ZERO)
+                & at(2, g).cmp_gt(i32x8::ZERO);
+            all.move_mask() as u32
+        };
+        let mut inside = group(0);
+        if self.wide {
+            inside |= group(1) << 8;
+        }
+        for k in 0..3 {
+            self.row[k] += self.step_y[k];
+        }
+        self.y += 1;
+        inside & self.columns
+    }
+}
+
 /// Triangles whose bounding box spans fewer than this many pixels each way are walked by edge
 /// functions instead of DDAs.
 const SMALL: i64 = 16;
-
-/// Lane numbers of a group of 8 pixels.
-const LANES: [i32; 8] = [0, 1, 2, 3, 4, 5, 6, 7];
 
 #[cfg(test)]
 mod tests {

@@ -1,5 +1,8 @@
 //! Pixel and depth formats as types, so the inner loop is compiled once per format.
 
+use crate::fixed_point::ATTR_FRAC_BITS;
+use crate::lanes::{LANES, Rgb8s, u16x8, u32x8};
+
 /// Packs 8-bit RGB into 5-6-5 (rounding to nearest).
 #[inline]
 pub fn rgb_to_rgb565(c: [u8; 3]) -> u16 {
@@ -30,6 +33,8 @@ pub trait PixelFormat: Send + Sync + 'static {
     fn pack(c: [u8; 3]) -> Self::Pixel;
     /// Stored pixel to colour.
     fn unpack(p: Self::Pixel) -> [u8; 3];
+    /// `pack` of eight colours.
+    fn pack_lanes(c: Rgb8s) -> [Self::Pixel; LANES];
 }
 
 /// 16-bit 5-6-5, the handheld's format.
@@ -48,6 +53,10 @@ impl PixelFormat for Rgb565 {
     fn unpack(p: u16) -> [u8; 3] {
         rgb565_to_rgb(p)
     }
+    #[inline(always)]
+    fn pack_lanes(c: Rgb8s) -> [u16; LANES] {
+        ((c.r >> 3u32) << 11u32 | (c.g >> 2u32) << 5u32 | c.b >> 3u32).to_array()
+    }
 }
 
 impl PixelFormat for Rgba8888 {
@@ -60,6 +69,12 @@ impl PixelFormat for Rgba8888 {
     fn unpack(p: [u8; 4]) -> [u8; 3] {
         [p[0], p[1], p[2]]
     }
+    #[inline(always)]
+    fn pack_lanes(c: Rgb8s) -> [[u8; 4]; LANES] {
+        let wide = |c: u16x8| u32x8::from(c);
+        let p = wide(c.r) | wide(c.g) << 8u32 | wide(c.b) << 16u32 | u32x8::splat(0xFF00_0000);
+        p.to_array().map(u32::to_le_bytes)
+    }
 }
 
 /// A depth-buffer format (or none). Depth arrives as unsigned 0.32.
@@ -70,6 +85,13 @@ pub trait DepthFormat: Send + Sync + 'static {
     const ENABLED: bool;
     /// Depth 0.32 to stored value (keeps the top bits).
     fn quantise(d: u32) -> Self::Value;
+    /// An interpolated depth (0.32 with `ATTR_FRAC_BITS` more) clamped to 0.32 and quantised:
+    /// `quantise((z >> ATTR_FRAC_BITS).clamp(0, u32::MAX))`.
+    fn from_z(z: i64) -> Self::Value;
+    /// `from_z` of a `z` known to lie in `0..2^48` (no clamp needed).
+    fn from_z_in_range(z: i64) -> Self::Value;
+    /// A stored value as a `u64`, for the depth test's one comparison.
+    fn widen(v: Self::Value) -> u64;
 }
 
 /// No depth buffer, or depth off.
@@ -86,6 +108,18 @@ impl DepthFormat for NoDepth {
     fn quantise(_: u32) -> u8 {
         0
     }
+    #[inline(always)]
+    fn from_z(_: i64) -> u8 {
+        0
+    }
+    #[inline(always)]
+    fn from_z_in_range(_: i64) -> u8 {
+        0
+    }
+    #[inline(always)]
+    fn widen(v: u8) -> u64 {
+        v as u64
+    }
 }
 
 impl DepthFormat for Depth16 {
@@ -95,6 +129,20 @@ impl DepthFormat for Depth16 {
     fn quantise(d: u32) -> u16 {
         (d >> 16) as u16
     }
+    /// The top 16 bits of the clamped 0.32 depth are the clamped top bits of `z`.
+    #[inline(always)]
+    fn from_z(z: i64) -> u16 {
+        (z >> (16 + ATTR_FRAC_BITS)).clamp(0, u16::MAX as i64) as u16
+    }
+    #[inline(always)]
+    fn from_z_in_range(z: i64) -> u16 {
+        debug_assert!((0..1 << 48).contains(&z));
+        (z >> (16 + ATTR_FRAC_BITS)) as u16
+    }
+    #[inline(always)]
+    fn widen(v: u16) -> u64 {
+        v as u64
+    }
 }
 
 impl DepthFormat for Depth32 {
@@ -103,6 +151,19 @@ impl DepthFormat for Depth32 {
     #[inline]
     fn quantise(d: u32) -> u32 {
         d
+    }
+    #[inline(always)]
+    fn from_z(z: i64) -> u32 {
+        (z >> ATTR_FRAC_BITS).clamp(0, u32::MAX as i64) as u32
+    }
+    #[inline(always)]
+    fn from_z_in_range(z: i64) -> u32 {
+        debug_assert!((0..1 << 48).contains(&z));
+        (z >> ATTR_FRAC_BITS) as u32
+    }
+    #[inline(always)]
+    fn widen(v: u32) -> u64 {
+        v as u64
     }
 }
 
@@ -143,5 +204,20 @@ mod tests {
     fn depth_formats_keep_the_top_bits() {
         assert_eq!(Depth16::quantise(0xABCD_1234), 0xABCD);
         assert_eq!(Depth32::quantise(0xABCD_1234), 0xABCD_1234);
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn depth_from_an_interpolated_value_clamps_then_quantises(z in proptest::num::i64::ANY, near in -(1i64 << 49)..1 << 49, inside in 0i64..1 << 48) {
+            for z in [z, near, inside] {
+                let d = (z >> ATTR_FRAC_BITS).clamp(0, u32::MAX as i64) as u32;
+                proptest::prop_assert_eq!(Depth16::from_z(z), Depth16::quantise(d));
+                proptest::prop_assert_eq!(Depth32::from_z(z), Depth32::quantise(d));
+                if (0..1 << 48).contains(&z) {
+                    proptest::prop_assert_eq!(Depth16::from_z_in_range(z), Depth16::from_z(z));
+                    proptest::prop_assert_eq!(Depth32::from_z_in_range(z), Depth32::from_z(z));
+                }
+            }
+        }
     }
 }

@@ -3,34 +3,38 @@
 //! texel type, shading, fog). A feature a draw does not use is not in its loop.
 
 use crate::edge::PixelRect;
-use crate::pipeline::fixed::{self, AttrPlane, FixedPipeline, FixedTriangle, Span};
+use crate::fragments::Fragments;
+use crate::pipeline::fixed::{
+    self, AttrPlane, FixedPipeline, FixedTriangle, NarrowPlanes, RunPiece, Span,
+};
 use crate::pipeline::float::{self, FloatPipeline, FloatPlane, FloatTriangle};
 use crate::pipeline::{Attributes, Pipeline, Setup, TexMode};
 use crate::pixel::{Depth16, Depth32, DepthFormat, NoDepth, PixelFormat, Rgb565, Rgba8888};
-use crate::sampler::{Bilinear, Filtering, Nearest, NoTexture, TexViews, ViewOf};
+use crate::sampler::{Bilinear, Filtering, LevelView, Nearest, NoTexture, TexViews, ViewOf};
 use crate::setup::ChunkOut;
+use crate::small::small_triangle;
 use crate::state::RenderState;
 use crate::texture::{Filter, TextureFormat};
-use crate::tile_view::TileView;
+use crate::tile_view::TileBuf;
 
-/// One tile of the framebuffer, as views of its colour and depth.
-pub(crate) struct TileTarget<'a> {
+/// One tile of the framebuffer, its colour and depth copied out while it is drawn.
+pub(crate) struct TileTarget {
     pub rect: PixelRect,
-    pub color: ColorTile<'a>,
-    pub depth: DepthTile<'a>,
+    pub color: ColorTile,
+    pub depth: DepthTile,
 }
 
 /// A tile's colour in the framebuffer's format.
-pub(crate) enum ColorTile<'a> {
-    Rgb565(TileView<'a, u16>),
-    Rgba8888(TileView<'a, [u8; 4]>),
+pub(crate) enum ColorTile {
+    Rgb565(TileBuf<u16>),
+    Rgba8888(TileBuf<[u8; 4]>),
 }
 
 /// A tile's depth in the framebuffer's format, if it has one.
-pub(crate) enum DepthTile<'a> {
+pub(crate) enum DepthTile {
     None,
-    D16(TileView<'a, u16>),
-    D32(TileView<'a, u32>),
+    D16(TileBuf<u16>),
+    D32(TileBuf<u32>),
 }
 
 /// What the pixels of one draw need.
@@ -106,8 +110,8 @@ macro_rules! with_formats {
 #[inline(always)]
 fn spans<P: PixelFormat, D: DepthFormat, T: Setup>(
     rect: PixelRect,
-    color: &mut TileView<'_, P::Pixel>,
-    mut depth: Option<&mut TileView<'_, D::Value>>,
+    color: &mut TileBuf<P::Pixel>,
+    mut depth: Option<&mut TileBuf<D::Value>>,
     tris: &[T],
     list: &[u32],
     mut row: impl FnMut(&T, Span<'_, P, D>) -> u64,
@@ -159,10 +163,10 @@ impl Shade for FixedPipeline {
 }
 
 /// Chooses the texture filter and texel type.
-fn fixed_texture<'r, 'v, P: PixelFormat, D: DepthFormat>(
+fn fixed_texture<'r, P: PixelFormat, D: DepthFormat>(
     rect: PixelRect,
-    color: &'r mut TileView<'v, P::Pixel>,
-    depth: Option<&'r mut TileView<'v, D::Value>>,
+    color: &'r mut TileBuf<P::Pixel>,
+    depth: Option<&'r mut TileBuf<D::Value>>,
     draw: &'r DrawShade,
     tris: (&'r [FixedTriangle], &'r [AttrPlane]),
     list: &'r [u32],
@@ -186,8 +190,8 @@ fn fixed_texture<'r, 'v, P: PixelFormat, D: DepthFormat>(
 /// The arguments of a fixed run, passed down the dispatch as one.
 type FixedArgs<'r, 'v, 'c, 'x, P, D> = (
     PixelRect,
-    &'r mut TileView<'v, <P as PixelFormat>::Pixel>,
-    Option<&'r mut TileView<'v, <D as DepthFormat>::Value>>,
+    &'r mut TileBuf<<P as PixelFormat>::Pixel>,
+    Option<&'r mut TileBuf<<D as DepthFormat>::Value>>,
     &'r DrawShade<'c, 'x>,
     (&'r [FixedTriangle], &'r [AttrPlane]),
     &'r [u32],
@@ -202,9 +206,48 @@ fn fixed_flags<P: PixelFormat, D: DepthFormat, F: Filtering>(
     ) -> u64 {
         let views = F::Texel::select(draw.views);
         let attrs = draw.attrs;
-        spans::<P, D, _>(rect, color, depth, tris, list, |t, span| {
-            fixed::shade_row::<P, D, F, SHADE, FOG>(t, planes, span, views.get(t.level()), attrs)
-        })
+        #[cfg(test)]
+        if fixed::reference::enabled() {
+            return spans::<P, D, _>(rect, color, depth, tris, list, |t, span| {
+                fixed::reference::shade_row::<P, D, F, SHADE, FOG>(
+                    t,
+                    planes,
+                    span,
+                    views.get(t.level()),
+                    attrs,
+                )
+            });
+        }
+        let mut frags = Fragments::new();
+        let test = fixed::DepthTest::new(attrs);
+        let mut depth = depth;
+        for &i in list {
+            let t = &tris[i as usize];
+            let grey = SHADE && t.grey;
+            if !frags.accepts(t.level(), grey) {
+                frags.finish::<P, F, SHADE, FOG>(color, views, attrs);
+            }
+            frags.hold(t.level(), grey);
+            let args = (
+                rect,
+                &mut *color,
+                depth.as_deref_mut(),
+                views,
+                attrs,
+                planes,
+                test,
+            );
+            match (t.narrow, grey) {
+                (false, false) => {
+                    triangle::<P, D, F, SHADE, false, FOG, false>(t, &mut frags, args)
+                }
+                (false, true) => triangle::<P, D, F, true, true, FOG, false>(t, &mut frags, args),
+                (true, true) => triangle::<P, D, F, true, true, FOG, true>(t, &mut frags, args),
+                (true, false) => triangle::<P, D, F, SHADE, false, FOG, true>(t, &mut frags, args),
+            }
+        }
+        frags.finish::<P, F, SHADE, FOG>(color, views, attrs);
+        frags.written()
     }
     match (args.3.attrs.shade, args.3.attrs.fog) {
         (false, false) => run::<P, D, F, false, false>(args),
@@ -212,6 +255,64 @@ fn fixed_flags<P: PixelFormat, D: DepthFormat, F: Filtering>(
         (false, true) => run::<P, D, F, false, true>(args),
         (true, true) => run::<P, D, F, true, true>(args),
     }
+}
+
+/// What the rows of one triangle need besides the triangle and the fragment buffer.
+type TriangleArgs<'r, 'v, 't, P, D, F> = (
+    PixelRect,
+    &'r mut TileBuf<<P as PixelFormat>::Pixel>,
+    Option<&'r mut TileBuf<<D as DepthFormat>::Value>>,
+    &'r [LevelView<'t, <F as Filtering>::Texel>],
+    &'r Attributes<'t>,
+    &'r [AttrPlane],
+    fixed::DepthTest,
+);
+
+/// The rows of triangle `t` inside the tile `rect`: the row step for each run (cut to the tile,
+/// in pieces that fit the buffer), the colour stage whenever the buffer is full.
+#[inline(always)]
+fn triangle<
+    P: PixelFormat,
+    D: DepthFormat,
+    F: Filtering,
+    const SHADE: bool,
+    const GREY: bool,
+    const FOG: bool,
+    const NARROW: bool,
+>(
+    t: &FixedTriangle,
+    frags: &mut Fragments,
+    (rect, color, mut depth, views, attrs, planes, test): TriangleArgs<'_, '_, '_, P, D, F>,
+) {
+    if NARROW && t.coverage.is_small() {
+        let p = NarrowPlanes::new::<D, F, SHADE, GREY, FOG>(t, planes);
+        if p.per_pixel() {
+            return small_triangle::<P, D, F, SHADE, GREY, FOG>(
+                &p, t, color, depth, frags, views, attrs, test,
+            );
+        }
+    }
+    let (tx0, tx1) = (rect.x0 as i64, rect.x1 as i64);
+    t.coverage
+        .for_each_span(rect.y0 as i64, rect.y1 as i64, |y, x0, x1| {
+            let (mut xs, xe) = (x0.max(tx0), x1.min(tx1));
+            while xs < xe {
+                if frags.room() == 0 {
+                    frags.finish::<P, F, SHADE, FOG>(color, views, attrs);
+                }
+                let e = xe.min(xs + frags.room() as i64);
+                let depth = match &mut depth {
+                    Some(d) => d.row(y, xs, e),
+                    None => &mut [],
+                };
+                let piece = RunPiece { y, x0, x1, xs };
+                let slots = frags.push_slots(color.index(y, xs), (e - xs) as usize);
+                fixed::run_fragments::<D, F, SHADE, GREY, FOG, NARROW>(
+                    t, planes, piece, depth, slots, test,
+                );
+                xs = e;
+            }
+        });
 }
 
 impl Shade for FloatPipeline {
@@ -228,8 +329,8 @@ impl Shade for FloatPipeline {
 
 fn float_spans<P: PixelFormat, D: DepthFormat>(
     rect: PixelRect,
-    color: &mut TileView<'_, P::Pixel>,
-    depth: Option<&mut TileView<'_, D::Value>>,
+    color: &mut TileBuf<P::Pixel>,
+    depth: Option<&mut TileBuf<D::Value>>,
     draw: &DrawShade,
     tris: &[FloatTriangle],
     list: &[u32],
@@ -242,4 +343,218 @@ fn float_spans<P: PixelFormat, D: DepthFormat>(
         let tex = texture.map(|b| (&b.texture.levels()[t.level()], b.sampler));
         float::shade_row::<P, D>(t, span, tex, draw.attrs)
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::{DMat4, DVec3};
+    use proptest::prelude::*;
+
+    use crate::pipeline::fixed::reference;
+    use crate::{
+        ColorFormat, Compare, CullMode, DepthFormat, DepthMode, DrawStats, Filter, Fog,
+        Framebuffer, Indices, Mesh, MipFilter, Perspective, Rasterizer, RenderState, Sampler,
+        Shading, Texture, TextureBinding, Topology, Transform, Vertex, Wrap,
+    };
+
+    /// One random case: triangles in a small view, and the state to draw them with.
+    #[derive(Clone, Debug)]
+    struct Case {
+        vertices: Vec<Vertex>,
+        color: ColorFormat,
+        depth: DepthFormat,
+        compare: u8,
+        write: bool,
+        gouraud: bool,
+        texture: u8,
+        filter: bool,
+        mips: bool,
+        repeat: bool,
+        perspective: u8,
+        fog: bool,
+        tile: u32,
+    }
+
+    fn case() -> impl Strategy<Value = Case> {
+        // A triangle: a centre, a size (most a few pixels across, some the whole view), and
+        // three corners around it, each with texture coordinates and a colour.
+        let corner = (
+            -1.0f64..1.0,
+            -1.0f64..1.0,
+            -1.0f64..1.0,
+            (-3.0f32..5.0, -3.0f32..5.0),
+            any::<[u8; 3]>(),
+        );
+        let triangle = (
+            (-800i32..800, -600i32..600, -1400i32..600),
+            prop_oneof![4 => 20.0f64..400.0, 1 => 400.0f64..3000.0],
+            proptest::collection::vec(corner, 3),
+        );
+        (
+            proptest::collection::vec(triangle, 1..40),
+            (0u8..2, 0u8..3, 0u8..3, any::<bool>()),
+            (any::<bool>(), any::<bool>(), 0u8..3, any::<bool>()),
+            (any::<bool>(), any::<bool>(), 0u8..4, any::<bool>()),
+            prop_oneof![Just(8u32), Just(16), Just(64)],
+        )
+            .prop_map(
+                |(
+                    tris,
+                    (color, depth, compare, write),
+                    (gouraud, grey, texture, filter),
+                    (mips, repeat, perspective, fog),
+                    tile,
+                )| {
+                    let mut vertices = vec![];
+                    for (k, ((cx, cy, cz), size, corners)) in tris.into_iter().enumerate() {
+                        for (dx, dy, dz, uv, c) in corners {
+                            let c = if grey { [c[0]; 3] } else { c };
+                            // Some triangles far beyond the texture-coordinate limit.
+                            let s = if k % 9 == 8 { 300.0 } else { 1.0 };
+                            let p = [
+                                cx as f64 + dx * size,
+                                cy as f64 + dy * size,
+                                cz as f64 + dz * size,
+                            ];
+                            vertices.push(Vertex::new(p.map(|v| v as i32), [uv.0 * s, uv.1], c));
+                        }
+                    }
+                    Case {
+                        vertices,
+                        color: [ColorFormat::Rgb565, ColorFormat::Rgba8888][color as usize],
+                        depth: [DepthFormat::None, DepthFormat::D16, DepthFormat::D32]
+                            [depth as usize],
+                        compare,
+                        write,
+                        gouraud,
+                        texture,
+                        filter,
+                        mips,
+                        repeat,
+                        perspective,
+                        fog,
+                        tile,
+                    }
+                },
+            )
+    }
+
+    fn textures() -> [Texture; 2] {
+        let rgba: Vec<[u8; 4]> = (0..16 * 8)
+            .map(|k| {
+                [
+                    (k * 37 % 256) as u8,
+                    (k * 11 % 256) as u8,
+                    (k * 5) as u8,
+                    255,
+                ]
+            })
+            .collect();
+        let t8888 = Texture::from_rgba8(16, 8, rgba).unwrap();
+        let t565 =
+            Texture::from_rgb565(8, 16, (0..8 * 16).map(|k| (k * 2654) as u16).collect()).unwrap();
+        [t565, t8888]
+    }
+
+    /// Draws the case's triangles (as a list, in three draws) and returns the buffers' bytes
+    /// and the statistics.
+    fn draw(c: &Case, textures: &[Texture; 2]) -> (Vec<u8>, Vec<u8>, DrawStats) {
+        let mut fb = Framebuffer::new(75, 53, c.color, c.depth).unwrap();
+        fb.clear([12, 34, 56]);
+        let texture = (c.texture > 0).then(|| {
+            let t = &textures[c.texture as usize - 1];
+            if c.mips {
+                t.clone().with_mipmaps()
+            } else {
+                t.clone()
+            }
+        });
+        let state = RenderState {
+            cull: CullMode::None,
+            depth: DepthMode {
+                compare: [Compare::Less, Compare::LessEqual, Compare::Always][c.compare as usize],
+                write: c.write,
+            },
+            shading: if c.gouraud {
+                Shading::Gouraud
+            } else {
+                Shading::Flat([200, 150, 100])
+            },
+            texture: texture.as_ref().map(|t| {
+                TextureBinding::new(
+                    t,
+                    Sampler {
+                        filter: if c.filter {
+                            Filter::Bilinear
+                        } else {
+                            Filter::Nearest
+                        },
+                        mip: if c.mips {
+                            MipFilter::Nearest
+                        } else {
+                            MipFilter::None
+                        },
+                        wrap: if c.repeat { Wrap::Repeat } else { Wrap::Clamp },
+                    },
+                )
+            }),
+            perspective: [
+                Perspective::Affine,
+                Perspective::Exact,
+                Perspective::Spans(4),
+                Perspective::Spans(16),
+            ][c.perspective as usize],
+            fog: c.fog.then_some(Fog {
+                color: [90, 80, 70],
+                start: 600.0,
+                end: 1500.0,
+            }),
+            ..RenderState::default()
+        };
+        let m = glam::dcamera::rh::proj::directx::perspective(1.1, 75.0 / 53.0, 100.0, 3000.0)
+            * glam::dcamera::rh::view::look_at_mat4(
+                DVec3::new(0.0, 0.0, 1000.0),
+                DVec3::ZERO,
+                DVec3::Y,
+            )
+            * DMat4::IDENTITY;
+        let transform = Transform::new(m).unwrap();
+        let n = c.vertices.len() / 3 * 3;
+        let indices: Vec<u32> = (0..n as u32).collect();
+        let mut r = Rasterizer::with_threads(1);
+        r.tile_size = c.tile;
+        let mut stats = DrawStats::default();
+        let mut batch = r.batch(&mut fb);
+        for part in indices.chunks(n.div_ceil(3).max(3) / 3 * 3) {
+            let mesh = Mesh {
+                vertices: &c.vertices,
+                indices: Indices::U32(part),
+                topology: Topology::TriangleList,
+            };
+            stats += batch.draw(&mesh, &transform, &state).unwrap();
+        }
+        stats += batch.finish();
+        let depth = match fb.depth() {
+            crate::DepthBuffer::None => vec![],
+            crate::DepthBuffer::D16(d) => d.iter().flat_map(|v| v.to_le_bytes()).collect(),
+            crate::DepthBuffer::D32(d) => d.iter().flat_map(|v| v.to_le_bytes()).collect(),
+        };
+        (fb.to_rgba_image().into_raw(), depth, stats)
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(256))]
+
+        /// The row step with the colour stage in lanes (and the small-triangle loop) give the
+        /// bytes of the scalar row loop they replaced, pixel for pixel, in every state.
+        #[test]
+        fn lanes_give_the_bytes_of_the_scalar_row_loop(c in case()) {
+            let textures = textures();
+            let fast = draw(&c, &textures);
+            let scalar = reference::with(|| draw(&c, &textures));
+            prop_assert_eq!(fast.2, scalar.2);
+            prop_assert!(fast.1 == scalar.1, "depth differs");
+            prop_assert!(fast.0 == scalar.0, "colour differs");
+        }
+    }
 }

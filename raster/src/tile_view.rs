@@ -43,6 +43,78 @@ impl<T> TileView<'_, T> {
     }
 }
 
+impl<T: Copy> TileView<'_, T> {
+    /// Copies the tile out of the framebuffer into `pixels` (reusing its allocation).
+    pub fn load(&mut self, mut pixels: Vec<T>) -> TileBuf<T> {
+        let r = self.rect;
+        pixels.clear();
+        for y in r.y0 as i64..r.y1 as i64 {
+            pixels.extend_from_slice(self.row(y, r.x0 as i64, r.x1 as i64));
+        }
+        TileBuf {
+            width: (r.x1 - r.x0) as usize,
+            rect: r,
+            pixels,
+        }
+    }
+
+    /// Copies `tile` (loaded from this view) back into the framebuffer; returns its allocation.
+    pub fn store(&mut self, tile: TileBuf<T>) -> Vec<T> {
+        let r = self.rect;
+        assert_eq!(tile.rect, r, "a tile goes back where it came from");
+        for (y, src) in (r.y0 as i64..r.y1 as i64).zip(tile.pixels.chunks_exact(tile.width)) {
+            self.row(y, r.x0 as i64, r.x1 as i64).copy_from_slice(src);
+        }
+        tile.pixels
+    }
+}
+
+/// A tile's pixels copied out of the framebuffer (`TileView::load`) into contiguous rows, so
+/// that a run is a plain slice and a pixel a plain index while the tile is drawn.
+pub(crate) struct TileBuf<T> {
+    pixels: Vec<T>,
+    rect: PixelRect,
+    width: usize,
+}
+
+impl<T> TileBuf<T> {
+    /// The tile's pixels, as `rect` of the screen, `width` to a row.
+    #[inline(always)]
+    pub fn rect(&self) -> PixelRect {
+        self.rect
+    }
+
+    /// Index of pixel `(x, y)` (screen coordinates, inside the tile) in `pixels`.
+    #[inline(always)]
+    pub fn index(&self, y: i64, x: i64) -> usize {
+        debug_assert!(
+            (self.rect.y0 as i64..self.rect.y1 as i64).contains(&y)
+                && (self.rect.x0 as i64..self.rect.x1 as i64).contains(&x)
+        );
+        (y - self.rect.y0 as i64) as usize * self.width + (x - self.rect.x0 as i64) as usize
+    }
+
+    /// The tile's pixels, row after row (`index` finds a pixel).
+    #[inline(always)]
+    pub fn pixels(&mut self) -> &mut [T] {
+        &mut self.pixels
+    }
+
+    /// Columns `x0..x1` of row `y` (screen coordinates, inside the tile).
+    #[inline(always)]
+    pub fn row(&mut self, y: i64, x0: i64, x1: i64) -> &mut [T] {
+        let r = self.rect;
+        let (row, c0, c1) = (y - r.y0 as i64, x0 - r.x0 as i64, x1 - r.x0 as i64);
+        // A run past the tile's right edge would reach into the next row: refused.
+        assert!(
+            (row as u64) < (r.y1 - r.y0) as u64 && 0 <= c0 && c0 <= c1 && c1 <= self.width as i64,
+            "row {y}, columns {x0}..{x1} outside the tile {r:?}"
+        );
+        let start = row as usize * self.width + c0 as usize;
+        &mut self.pixels[start..start + (c1 - c0) as usize]
+    }
+}
+
 /// Splits `buffer` (the row-major pixels of `grid`'s framebuffer) into one view per tile, in
 /// tile order.
 pub(crate) fn split<'a, T>(buffer: &'a mut [T], grid: &TileGrid) -> Vec<TileView<'a, T>> {
@@ -85,6 +157,43 @@ mod tests {
                 "pixel {x},{y} written once, by its tile"
             );
         }
+    }
+
+    #[test]
+    fn a_loaded_tile_goes_back_unchanged_or_changed_where_drawn() {
+        let grid = TileGrid::new(150, 70, crate::bin::TILE_SIZE);
+        let mut buffer: Vec<u32> = (0..150 * 70).collect();
+        let mut views = split(&mut buffer, &grid);
+        for (t, view) in views.iter_mut().enumerate() {
+            let r = grid.rect(t);
+            let mut tile = view.load(Vec::new());
+            assert_eq!(
+                tile.pixels().len(),
+                ((r.x1 - r.x0) * (r.y1 - r.y0)) as usize
+            );
+            let (y, x) = (r.y1 as i64 - 1, r.x0 as i64 + 1);
+            let i = tile.index(y, x);
+            assert_eq!(tile.pixels()[i], (y * 150 + x) as u32);
+            tile.row(y, x, x + 1)[0] = 1_000_000 + t as u32;
+            view.store(tile);
+        }
+        drop(views);
+        for t in 0..grid.len() {
+            let r = grid.rect(t);
+            let (y, x) = (r.y1 as usize - 1, r.x0 as usize + 1);
+            assert_eq!(buffer[y * 150 + x], 1_000_000 + t as u32);
+            buffer[y * 150 + x] = (y * 150 + x) as u32;
+        }
+        assert!(buffer.iter().enumerate().all(|(i, &p)| p == i as u32));
+    }
+
+    #[test]
+    #[should_panic(expected = "outside the tile")]
+    fn a_run_past_a_loaded_tile_is_refused() {
+        let grid = TileGrid::new(150, 70, crate::bin::TILE_SIZE);
+        let mut buffer = vec![0u8; 150 * 70];
+        let mut views = split(&mut buffer, &grid);
+        views[0].load(Vec::new()).row(0, 60, 65);
     }
 
     #[test]

@@ -326,7 +326,7 @@ fn to_q16(u: f32) -> i64 {
     (u * 65536.0) as i64
 }
 
-/// Shades a span of a row (see `fixed::shade_row`: values depend on the run `x0..x1`, not on
+/// Shades a span of a row (see `fixed::run_fragments`: values depend on the run `x0..x1`, not on
 /// the part drawn). Returns the fragments that passed the depth test.
 pub(crate) fn shade_row<P: PixelFormat, D: DepthFormat>(
     tri: &FloatTriangle,

@@ -3,6 +3,7 @@
 use std::marker::PhantomData;
 
 use super::{Filtering, LevelView, ViewOf, clamp_coord};
+use crate::lanes::{Rgb8s, i32x8, narrow};
 
 /// The four texels around the sample point, weighted by distance.
 pub(crate) struct Bilinear<T>(PhantomData<T>);
@@ -21,6 +22,21 @@ impl<T: ViewOf> Filtering for Bilinear<T> {
         let fx = ((tu >> 8) & 255) as u32;
         let fy = ((tv >> 8) & 255) as u32;
         T::blend(view.quad(x, y), fx, fy)
+    }
+
+    #[inline(always)]
+    fn sample_lanes(view: &LevelView<'_, T>, u: i32x8, v: i32x8) -> Rgb8s {
+        // As `sample` on folded coordinates: `tu` below 2^31, so 32-bit lanes hold it.
+        let (su, sv) = view.scale_lanes(u, v);
+        let half = i32x8::splat(1 << 15);
+        let (tu, tv) = (su - half, sv - half);
+        let byte = i32x8::splat(255);
+        let (fx, fy) = (narrow((tu >> 8) & byte), narrow((tv >> 8) & byte));
+        let (x0, x1) = view.column_pair_lanes(tu >> 16);
+        let (y0, y1) = view.row_pair_lanes(tv >> 16);
+        let quad = [(x0, y0), (x1, y0), (x0, y1), (x1, y1)]
+            .map(|(x, y)| view.gather(view.index_lanes(x, y)));
+        T::blend_lanes(quad, fx, fy)
     }
 }
 

@@ -7,19 +7,32 @@ pub(crate) use linear::Bilinear;
 pub(crate) use nearest::Nearest;
 
 use crate::fixed_point::TEXCOORD_LIMIT;
+use crate::lanes::{LANES, Rgb8s, i32x8, narrow_u32, u16x8, u32x8};
 use crate::pixel::rgb565_to_rgb;
 use crate::texture::{MipLevel, Texels, Texture, TextureFormat, Wrap};
 
 /// Keeps a 16.16 coordinate within `TEXCOORD_LIMIT`, so `u * width` cannot overflow whatever a
 /// degenerate triangle interpolates.
 #[inline]
-fn clamp_coord(u: i64) -> i64 {
+pub(crate) fn clamp_coord(u: i64) -> i64 {
     u.clamp(-TEXCOORD_LIMIT, TEXCOORD_LIMIT)
 }
 
 /// A texel storage type.
 pub(crate) trait Texel: Copy + Send + Sync + 'static {
+    /// Eight texels in lanes.
+    type Lanes: Copy;
+
     fn rgb(self) -> [u8; 3];
+
+    /// Eight texels as lanes.
+    fn lanes(t: [Self; LANES]) -> Self::Lanes;
+
+    /// The colours of eight texels, as `rgb`.
+    fn rgb_lanes(t: Self::Lanes) -> Rgb8s;
+
+    /// `blend` of eight 2x2 blocks, with the weights `fx`, `fy` (0..=255) in 16-bit lanes.
+    fn blend_lanes(t: [Self::Lanes; 4], fx: u16x8, fy: u16x8) -> Rgb8s;
 
     /// Bilinear blend of a 2x2 block `[top-left, top-right, bottom-left, bottom-right]` with
     /// 8-bit weights `fx`, `fy` (0..=255) towards the right and the bottom.
@@ -43,10 +56,51 @@ fn spread(p: u16) -> u32 {
     (p as u32 | (p as u32) << 16) & SPREAD
 }
 
+/// The 5- or 6-bit fields of RGB565 lanes widened to 8 bits by bit replication, as
+/// `rgb565_to_rgb`.
+#[inline(always)]
+fn expand565(r: u16x8, g: u16x8, b: u16x8) -> Rgb8s {
+    Rgb8s {
+        r: (r << 3) | (r >> 2),
+        g: (g << 2) | (g >> 4),
+        b: (b << 3) | (b >> 2),
+    }
+}
+
 impl Texel for u16 {
+    type Lanes = u16x8;
+
     #[inline]
     fn rgb(self) -> [u8; 3] {
         rgb565_to_rgb(self)
+    }
+
+    #[inline(always)]
+    fn lanes(t: [u16; LANES]) -> u16x8 {
+        u16x8::new(t)
+    }
+
+    #[inline(always)]
+    fn rgb_lanes(t: u16x8) -> Rgb8s {
+        let (m5, m6) = (u16x8::splat(31), u16x8::splat(63));
+        expand565(t >> 11, (t >> 5) & m6, t & m5)
+    }
+
+    /// `blend` field by field: the packed form's fields never carry into each other (see
+    /// `SPREAD`), so each is `(a * (32 - fx) + b * fx) >> 5`, at most `63 * 32` in 16 bits.
+    #[inline(always)]
+    fn blend_lanes(t: [u16x8; 4], fx: u16x8, fy: u16x8) -> Rgb8s {
+        let (four, s32) = (u16x8::splat(4), u16x8::splat(32));
+        let (fx, fy) = ((fx + four) >> 3, (fy + four) >> 3);
+        let (gx, gy) = (s32 - fx, s32 - fy);
+        let field = |shift: i32, mask: u16| {
+            let m = u16x8::splat(mask);
+            let [a, b, c, d] = t.map(|p| (p >> shift) & m);
+            let top = (a * gx + b * fx) >> 5;
+            let bottom = (c * gx + d * fx) >> 5;
+            (top * gy + bottom * fy) >> 5
+        };
+        expand565(field(11, 31), field(5, 63), field(0, 31))
     }
 
     /// Filters in the packed domain with 5-bit weights: as fine as the 5- and 6-bit channels, at
@@ -63,9 +117,47 @@ impl Texel for u16 {
 }
 
 impl Texel for [u8; 4] {
+    /// Each texel as the little-endian `u32` of its bytes: red in the low byte.
+    type Lanes = u32x8;
+
     #[inline]
     fn rgb(self) -> [u8; 3] {
         [self[0], self[1], self[2]]
+    }
+
+    #[inline(always)]
+    fn lanes(t: [[u8; 4]; LANES]) -> u32x8 {
+        u32x8::new(t.map(u32::from_le_bytes))
+    }
+
+    #[inline(always)]
+    fn rgb_lanes(t: u32x8) -> Rgb8s {
+        let m = u32x8::splat(255);
+        Rgb8s {
+            r: narrow_u32(t & m),
+            g: narrow_u32((t >> 8) & m),
+            b: narrow_u32((t >> 16) & m),
+        }
+    }
+
+    /// `blend` with the rows in 16-bit lanes (`a * (256 - fx) + b * fx <= 255 * 256`) and the
+    /// final sum in 32-bit lanes.
+    #[inline(always)]
+    fn blend_lanes(t: [u32x8; 4], fx: u16x8, fy: u16x8) -> Rgb8s {
+        let s256 = u16x8::splat(256);
+        let (gx, gy) = (s256 - fx, s256 - fy);
+        let [a, b, c, d] = t.map(Self::rgb_lanes);
+        let channel = |a: u16x8, b: u16x8, c: u16x8, d: u16x8| {
+            let top = a * gx + b * fx;
+            let bottom = c * gx + d * fx;
+            let sum = top.mul_widen(gy) + bottom.mul_widen(fy) + u32x8::splat(1 << 15);
+            narrow_u32(sum >> 16)
+        };
+        Rgb8s {
+            r: channel(a.r, b.r, c.r, d.r),
+            g: channel(a.g, b.g, c.g, d.g),
+            b: channel(a.b, b.b, c.b, d.b),
+        }
     }
 }
 
@@ -76,6 +168,7 @@ pub(crate) struct LevelView<'a, T> {
     pub width: i64,
     pub height: i64,
     width_shift: u32,
+    height_shift: u32,
     pub wrap: Wrap,
 }
 
@@ -90,6 +183,7 @@ impl<'a, T> LevelView<'a, T> {
             width: width as i64,
             height: height as i64,
             width_shift: width.trailing_zeros(),
+            height_shift: height.trailing_zeros(),
             wrap,
         }
     }
@@ -163,6 +257,77 @@ impl<'a, T: Texel> LevelView<'a, T> {
             // `width == 1 << width_shift`.
             unsafe { *self.texels.get_unchecked(i as usize) }
         })
+    }
+}
+
+/// Eight 16.16 coordinates of one axis brought into `0..=0xFFFF` without changing a texel
+/// address or a weight that the filters take from them: under `Repeat` the fraction (a side of
+/// `2^k` texels repeats every `2^16`), under `Clamp` the nearest end of `0..=0xFFFF` (beyond it
+/// both texels of a bilinear pair, and the nearest texel, are the edge's, whatever the weight).
+/// Then `coordinate * side < 2^31` for sides up to `2^15` texels: 32-bit lanes suffice.
+#[inline(always)]
+fn fold(c: i32x8, wrap: Wrap) -> i32x8 {
+    match wrap {
+        Wrap::Repeat => c & i32x8::splat(0xFFFF),
+        Wrap::Clamp => c.max(i32x8::ZERO).min(i32x8::splat(0xFFFF)),
+    }
+}
+
+impl<'a, T: Texel> LevelView<'a, T> {
+    /// Eight folded 16.16 coordinates (see `fold`) scaled to 16.16 texels: `(u * width,
+    /// v * height)`, each in `0..2^31`.
+    #[inline(always)]
+    pub fn scale_lanes(&self, u: i32x8, v: i32x8) -> (i32x8, i32x8) {
+        (
+            fold(u, self.wrap) << self.width_shift,
+            fold(v, self.wrap) << self.height_shift,
+        )
+    }
+
+    /// Columns `x` and `x + 1` wrapped into the level, as `column_pair`, for `x` in
+    /// `-1..width` (what bilinear addressing of a folded coordinate gives).
+    #[inline(always)]
+    pub fn column_pair_lanes(&self, x: i32x8) -> (i32x8, i32x8) {
+        pair_lanes(x, self.width as i32, self.wrap)
+    }
+
+    /// Rows `y` and `y + 1` wrapped into the level, as `row_pair`, for `y` in `-1..height`.
+    #[inline(always)]
+    pub fn row_pair_lanes(&self, y: i32x8) -> (i32x8, i32x8) {
+        pair_lanes(y, self.height as i32, self.wrap)
+    }
+
+    /// Texel index of column `x`, row `y` (both inside the level).
+    #[inline(always)]
+    pub fn index_lanes(&self, x: i32x8, y: i32x8) -> i32x8 {
+        (y << self.width_shift) + x
+    }
+
+    /// The texels at eight indices, each in `0..width * height`.
+    #[inline(always)]
+    pub fn gather(&self, index: i32x8) -> T::Lanes {
+        T::lanes(index.to_array().map(|i| {
+            debug_assert!((0..self.texels.len() as i64).contains(&(i as i64)));
+            // SAFETY: every index comes from `index_lanes` of columns and rows that
+            // `pair_lanes` (or the nearest filter's folded coordinate) put in `0..width` and
+            // `0..height`, and `new` checked that the view holds `width * height` texels with
+            // `width == 1 << width_shift`.
+            unsafe { *self.texels.get_unchecked(i as usize) }
+        }))
+    }
+}
+
+/// Indices `i` and `i + 1` wrapped into `0..side` (a power of two) for `i` in `-1..side`: under
+/// `Clamp`, `max(i, 0)` and `min(i + 1, side - 1)` are `column_pair`'s clamp for that range.
+#[inline(always)]
+fn pair_lanes(i: i32x8, side: i32, wrap: Wrap) -> (i32x8, i32x8) {
+    let next = i + i32x8::splat(1);
+    match wrap {
+        Wrap::Repeat => {
+            let m = i32x8::splat(side - 1);
+            (i & m, next & m)
+        }
+        Wrap::Clamp => (i.max(i32x8::ZERO), next.min(i32x8::splat(side - 1))),
     }
 }
 
@@ -245,6 +410,8 @@ pub(crate) trait Filtering: Send + Sync + 'static {
     const ENABLED: bool;
     type Texel: ViewOf;
     fn sample(view: &LevelView<'_, Self::Texel>, u: i64, v: i64) -> [u8; 3];
+    /// `sample` at eight points, each coordinate 16.16 within `TEXCOORD_LIMIT`.
+    fn sample_lanes(view: &LevelView<'_, Self::Texel>, u: i32x8, v: i32x8) -> Rgb8s;
 }
 
 /// Texturing off.
@@ -256,5 +423,9 @@ impl Filtering for NoTexture {
     #[inline]
     fn sample(_: &LevelView<'_, u16>, _: i64, _: i64) -> [u8; 3] {
         [255; 3]
+    }
+    #[inline]
+    fn sample_lanes(_: &LevelView<'_, u16>, _: i32x8, _: i32x8) -> Rgb8s {
+        Rgb8s::splat([255; 3])
     }
 }

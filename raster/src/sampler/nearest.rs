@@ -3,6 +3,7 @@
 use std::marker::PhantomData;
 
 use super::{Filtering, LevelView, ViewOf, clamp_coord};
+use crate::lanes::{Rgb8s, i32x8};
 
 /// The texel whose square contains the sample point.
 pub(crate) struct Nearest<T>(PhantomData<T>);
@@ -16,5 +17,12 @@ impl<T: ViewOf> Filtering for Nearest<T> {
         let (u, v) = (clamp_coord(u), clamp_coord(v));
         view.fetch((u * view.width) >> 16, (v * view.height) >> 16)
             .rgb()
+    }
+
+    #[inline(always)]
+    fn sample_lanes(view: &LevelView<'_, T>, u: i32x8, v: i32x8) -> Rgb8s {
+        // Folded coordinates give columns and rows inside the level with no wrap left to do.
+        let (su, sv) = view.scale_lanes(u, v);
+        T::rgb_lanes(view.gather(view.index_lanes(su >> 16, sv >> 16)))
     }
 }

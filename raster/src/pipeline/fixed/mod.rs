@@ -7,14 +7,13 @@
 use crate::clip::{ClipVertex, Plane};
 use crate::edge::Coverage;
 use crate::fixed_point::{
-    ATTR_FRAC_BITS, DEPTH_ONE, GUARD_BAND_PX, Q_BITS, SUBPIXEL_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE,
-    TEXCOORD_LIMIT, normalise_positive, saturate_i64, shift_round,
+    ATTR_FRAC_BITS, DEPTH_ONE, GUARD_BAND_PX, Q_BITS, SUBPIXEL_BITS, SUBPIXEL_HALF, TEXCOORD_LIMIT,
+    normalise_positive, saturate_i64, shift_round,
 };
 use crate::matrix::{FixedMat4, Transform};
 use crate::pipeline::{Attributes, Pipeline, Setup, TexMode, Viewport};
-use crate::pixel::{DepthFormat, PixelFormat, fog_blend, modulate};
-use crate::sampler::{Filtering, LevelView};
-use crate::state::{Compare, Fog};
+use crate::pixel::{DepthFormat, PixelFormat};
+use crate::state::Fog;
 use crate::vertex::Vertex;
 
 /// Most fractional bits of the clip-interpolation parameter.
@@ -239,8 +238,8 @@ impl FixedScreen {
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct AttrPlane {
     base: i64,
-    dx: i64,
-    dy: i64,
+    pub(crate) dx: i64,
+    pub(crate) dy: i64,
 }
 
 /// Gradients below this keep every product of the fast path inside i64 (offsets stay below 2^26
@@ -271,7 +270,7 @@ impl AttrPlane {
 
     /// Value at the centre of pixel `(x, y)` of a plane `on_grid`, equal to `at` there.
     #[inline]
-    fn at_pixel(&self, x: i64, y: i64) -> i64 {
+    pub(crate) fn at_pixel(&self, x: i64, y: i64) -> i64 {
         self.base + self.dx * x + self.dy * y
     }
 
@@ -349,10 +348,10 @@ pub(crate) struct FixedTriangle {
     tex_mode: TexMode,
     level: u8,
     /// One colour plane serves the three channels (grey vertices): rows step one channel.
-    grey: bool,
+    pub(crate) grey: bool,
     /// Every plane is narrow and on the pixel grid: rows start from `AttrPlane::at_pixel`
     /// (otherwise from `AttrPlane::at`).
-    narrow: bool,
+    pub(crate) narrow: bool,
     /// The draw it belongs to.
     draw: u32,
 }
@@ -455,7 +454,7 @@ impl Setup for FixedTriangle {
 /// `(u, v)` in 16.32 at a point from the perspective accumulators: one division per call.
 /// Clamped to the texture-coordinate range, which extrapolation past a span end can leave.
 #[inline]
-fn divide(s: i64, t: i64, q: i64) -> (i64, i64) {
+pub(crate) fn divide(s: i64, t: i64, q: i64) -> (i64, i64) {
     let r = ((1u64 << 63) / q.max(1) as u64) as i128;
     let limit = (TEXCOORD_LIMIT as i128) << 16;
     let uv = |a: i64| ((a as i128 * r) >> 47).clamp(-limit, limit) as i64;
@@ -498,221 +497,16 @@ pub(crate) struct Span<'a, P: PixelFormat, D: DepthFormat> {
     pub depth: &'a mut [D::Value],
 }
 
-/// Shades a span of a row. Every value at a pixel follows from the triangle and the run's start
-/// `x0` alone (perspective chunks are counted from `x0`), never from `xs`: a run cut by a tile
-/// edge gives the bytes it gives whole. Returns the fragments that passed the depth test.
-#[inline]
-pub(crate) fn shade_row<
-    P: PixelFormat,
-    D: DepthFormat,
-    T: Filtering,
-    const SHADE: bool,
-    const FOG: bool,
->(
-    tri: &FixedTriangle,
-    planes: &[AttrPlane],
-    span: Span<'_, P, D>,
-    view: Option<&LevelView<'_, T::Texel>>,
-    a: &Attributes,
-) -> u64 {
-    let planes = &planes[tri.planes as usize..];
-    match (tri.narrow, SHADE && tri.grey) {
-        (false, false) => {
-            shade_span::<P, D, T, SHADE, false, FOG, false>(tri, planes, span, view, a)
-        }
-        (false, true) => shade_span::<P, D, T, true, true, FOG, false>(tri, planes, span, view, a),
-        (true, true) => shade_span::<P, D, T, true, true, FOG, true>(tri, planes, span, view, a),
-        (true, false) => shade_span::<P, D, T, SHADE, false, FOG, true>(tri, planes, span, view, a),
-    }
-}
+#[cfg(test)]
+pub(crate) mod reference;
+mod rows;
 
-/// `shade_row` for one variant of the triangle: `GREY` steps one colour channel for all three,
-/// `NARROW` starts the row from `AttrPlane::at_pixel` (see `FixedTriangle::narrow`).
-#[inline(always)]
-fn shade_span<
-    P: PixelFormat,
-    D: DepthFormat,
-    T: Filtering,
-    const SHADE: bool,
-    const GREY: bool,
-    const FOG: bool,
-    const NARROW: bool,
->(
-    tri: &FixedTriangle,
-    planes: &[AttrPlane],
-    span: Span<'_, P, D>,
-    view: Option<&LevelView<'_, T::Texel>>,
-    a: &Attributes,
-) -> u64 {
-    // The triangle's planes in their order: depth, colour, fog, texture.
-    let color_at = D::ENABLED as usize;
-    let fog_at = color_at
-        + if !SHADE {
-            0
-        } else if GREY {
-            1
-        } else {
-            3
-        };
-    let tex_at = fog_at + FOG as usize;
-    let Span {
-        y,
-        x0,
-        x1,
-        xs,
-        color,
-        depth,
-    } = span;
-    let xe = xs + color.len() as i64;
-    debug_assert!(x0 <= xs && xs < xe && xe <= x1);
-    debug_assert!(!D::ENABLED || depth.len() == color.len());
-    let channels = if GREY { 1 } else { 3 };
-    let perspective = matches!(tri.tex_mode, TexMode::Perspective(_));
-    let origin = tri.coverage.origin();
-    let ox = x0 * SUBPIXEL_ONE + SUBPIXEL_HALF - origin[0];
-    let oy = y * SUBPIXEL_ONE + SUBPIXEL_HALF - origin[1];
-    // A plane's value at pixel `x` of the run, as stepping from `x0` reaches it.
-    let at = |p: &AttrPlane, x: i64| {
-        if NARROW {
-            p.at_pixel(x, y)
-        } else {
-            p.at(ox, oy).wrapping_add(p.dx.wrapping_mul(x - x0))
-        }
-    };
-    let (mut z, dz) = if D::ENABLED {
-        (at(&planes[0], xs), planes[0].dx)
-    } else {
-        (0, 0)
-    };
-    let mut c = [0i64; 3];
-    let mut dc = [0i64; 3];
-    if SHADE {
-        for k in 0..channels {
-            c[k] = at(&planes[color_at + k], xs);
-            dc[k] = planes[color_at + k].dx;
-        }
-    }
-    let (mut f, df) = if FOG {
-        (at(&planes[fog_at], xs), planes[fog_at].dx)
-    } else {
-        (0, 0)
-    };
-    // Texture state: accumulators for s, t, q (or u, v) at the chunk start `cs`, the chunk
-    // length, and (u, v) in 16.32 at `cs`.
-    let mut acc = [0i64; 3];
-    let mut dacc = [0i64; 3];
-    let chunk = match tri.tex_mode {
-        TexMode::Perspective(n) => n as i64,
-        _ => i64::MAX,
-    };
-    let mut cs = xs;
-    let (mut u, mut v) = (0i64, 0i64);
-    if T::ENABLED {
-        if perspective {
-            let k = (xs - x0) / chunk;
-            cs = x0 + k * chunk;
-            for j in 0..3 {
-                let p = &planes[tex_at + j];
-                dacc[j] = p.dx;
-                acc[j] = advance(at(p, x0), dacc[j].saturating_mul(chunk), k);
-            }
-            (u, v) = divide(acc[0], acc[1], acc[2]);
-        } else {
-            for j in 0..2 {
-                acc[j] = at(&planes[tex_at + j], xs);
-                dacc[j] = planes[tex_at + j].dx;
-            }
-            (u, v) = (acc[0], acc[1]);
-        }
-    }
-    let mut passed = 0;
-    let mut x = xs;
-    while x < xe {
-        let ce = if perspective {
-            (cs + chunk).min(x1)
-        } else {
-            x1
-        };
-        let (mut du, mut dv) = (0i64, 0i64);
-        let mut chunk_end = (0i64, 0i64);
-        if T::ENABLED {
-            if perspective {
-                let n = ce - cs;
-                for k in 0..3 {
-                    acc[k] = acc[k].saturating_add(dacc[k].saturating_mul(n));
-                }
-                chunk_end = divide(acc[0], acc[1], acc[2]);
-                du = div_small(chunk_end.0 - u, n);
-                dv = div_small(chunk_end.1 - v, n);
-            } else {
-                (du, dv) = (dacc[0], dacc[1]);
-            }
-        }
-        let (mut cu, mut cv) = (
-            u.wrapping_add(du.wrapping_mul(x - cs)),
-            v.wrapping_add(dv.wrapping_mul(x - cs)),
-        );
-        let end = ce.min(xe);
-        for i in (x - xs) as usize..(end - xs) as usize {
-            let visible = if D::ENABLED {
-                let d = D::quantise((z >> ATTR_FRAC_BITS).clamp(0, u32::MAX as i64) as u32);
-                let stored = depth[i];
-                let pass = match a.compare {
-                    Compare::Always => true,
-                    Compare::Less => d < stored,
-                    Compare::LessEqual => d <= stored,
-                };
-                if pass && a.depth_write {
-                    depth[i] = d;
-                }
-                pass
-            } else {
-                true
-            };
-            if visible {
-                let mut rgb = if GREY {
-                    [(c[0] >> ATTR_FRAC_BITS).clamp(0, 255) as u8; 3]
-                } else if SHADE {
-                    c.map(|ch| (ch >> ATTR_FRAC_BITS).clamp(0, 255) as u8)
-                } else {
-                    a.flat
-                };
-                if T::ENABLED {
-                    let view = view.expect("texture view bound with texturing on");
-                    rgb = modulate(T::sample(view, cu >> 16, cv >> 16), rgb);
-                }
-                if FOG {
-                    rgb = fog_blend(rgb, a.fog_color, (f >> ATTR_FRAC_BITS).clamp(0, 256) as u32);
-                }
-                color[i] = P::pack(rgb);
-                passed += 1;
-            }
-            if D::ENABLED {
-                z = z.wrapping_add(dz);
-            }
-            if SHADE {
-                for k in 0..channels {
-                    c[k] = c[k].wrapping_add(dc[k]);
-                }
-            }
-            if FOG {
-                f = f.wrapping_add(df);
-            }
-            cu = cu.wrapping_add(du);
-            cv = cv.wrapping_add(dv);
-        }
-        if perspective {
-            (u, v) = chunk_end;
-        }
-        cs = ce;
-        x = end;
-    }
-    passed
-}
+pub(crate) use rows::{DepthTest, NarrowPlanes, RunPiece, run_fragments};
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fixed_point::SUBPIXEL_ONE;
 
     proptest::proptest! {
         /// Rows of narrow triangles start from the plane moved onto the pixel grid: it must give

@@ -1,0 +1,214 @@
+//! Fragments waiting for their colour, and the colour stage that finishes them 8 at a time.
+//!
+//! A tile's rows are shaded in two steps. The row step (`pipeline::fixed::fragments`) walks a
+//! run pixel by pixel in scalar integers: depth test and write, and the per-pixel values that
+//! the colour needs (texture coordinates, shading, fog), which it stores here. When the buffer
+//! is full, or the draw's triangles in the tile are done, the colour step runs over everything
+//! held in lanes of 8 (texel addressing, the filter, modulation, fog, packing; only the texel
+//! reads are scalar) and writes the fragments that passed the depth test. Terrain triangles
+//! own a few pixels per row, so the buffer gathers the rows of several triangles into each
+//! group of lanes.
+//!
+//! The bytes are those of shading each pixel on its own: every lane function equals its scalar
+//! twin exactly (tested), and the colour is written in the order the fragments arrived, so a
+//! later triangle's pixel still lands over an earlier one's.
+
+use crate::lanes::{LANES, Rgb8s, load_i32, load_u16};
+use crate::pipeline::Attributes;
+use crate::pixel::PixelFormat;
+use crate::sampler::{Filtering, LevelView};
+use crate::tile_view::TileBuf;
+
+/// Fragments held before their colour is computed: a tile row's worth.
+pub(crate) const CAPACITY: usize = 64;
+/// Length of the per-fragment arrays: a power of two above `CAPACITY + LANES` (a last group of
+/// lanes reads past the fragments held), so that an index masked with `SLOTS - 1` needs no
+/// bounds check.
+pub(crate) const SLOTS: usize = 128;
+const _: () = assert!(SLOTS.is_power_of_two() && SLOTS >= CAPACITY + LANES);
+
+/// A run of held fragments: `len` pixels from index `at` of the tile's buffers.
+#[derive(Clone, Copy, Debug, Default)]
+struct Held {
+    at: usize,
+    len: usize,
+}
+
+/// The per-fragment values the colour stage needs, for one run, filled by the row step.
+pub(crate) struct Slots<'a> {
+    /// Whether the fragment passed the depth test (only those are written).
+    pub pass: &'a mut [bool],
+    /// Texture coordinates, 16.16 within `TEXCOORD_LIMIT`.
+    pub u: &'a mut [i32],
+    pub v: &'a mut [i32],
+    /// Shading colour, 0..=255 per channel (only the first with one channel).
+    pub c: [&'a mut [u16]; 3],
+    /// Share of the surface colour against fog, 0..=256.
+    pub f: &'a mut [u16],
+}
+
+/// Fragments held for the colour stage (see the module documentation). The per-fragment arrays
+/// are public for the row steps that fill them by index (`push` gives where a run starts).
+pub(crate) struct Fragments {
+    len: usize,
+    runs: [Held; CAPACITY],
+    nruns: usize,
+    /// Whether the fragment passed the depth test (only those are written).
+    pub pass: [bool; SLOTS],
+    /// Texture coordinates, 16.16 within `TEXCOORD_LIMIT`.
+    pub u: [i32; SLOTS],
+    pub v: [i32; SLOTS],
+    /// Shading colour, 0..=255 per channel (only the first with one channel).
+    pub c: [[u16; SLOTS]; 3],
+    /// Share of the surface colour against fog, 0..=256.
+    pub f: [u16; SLOTS],
+    /// The mip level of the triangles whose fragments are held, and whether their shading is
+    /// one channel (grey): fragments held together share both.
+    level: usize,
+    grey: bool,
+    /// Fragments written so far (that passed the depth test).
+    written: u64,
+}
+
+impl Fragments {
+    pub fn new() -> Self {
+        Self {
+            len: 0,
+            runs: [Held::default(); CAPACITY],
+            nruns: 0,
+            pass: [false; SLOTS],
+            u: [0; SLOTS],
+            v: [0; SLOTS],
+            c: [[0; SLOTS]; 3],
+            f: [0; SLOTS],
+            level: 0,
+            grey: false,
+            written: 0,
+        }
+    }
+
+    /// The fragments written so far: those that passed the depth test, once coloured.
+    pub fn written(&self) -> u64 {
+        self.written
+    }
+
+    /// True when fragments of a triangle with this level and shading may join those held.
+    #[inline]
+    pub fn accepts(&self, level: usize, grey: bool) -> bool {
+        self.len == 0 || (self.level == level && self.grey == grey)
+    }
+
+    /// Makes the held fragments' triangles of this level and shading (nothing may be held).
+    #[inline]
+    pub fn hold(&mut self, level: usize, grey: bool) {
+        debug_assert!(self.len == 0 || (self.level, self.grey) == (level, grey));
+        (self.level, self.grey) = (level, grey);
+    }
+
+    /// Fragments that fit before the buffer is full.
+    #[inline(always)]
+    pub fn room(&self) -> usize {
+        CAPACITY - self.len
+    }
+
+    /// Holds `len <= room()` pixels from index `at` of the tile's buffers; returns the index of
+    /// their first fragment (the row step fills `len` from there).
+    #[inline(always)]
+    pub fn push(&mut self, at: usize, len: usize) -> usize {
+        debug_assert!(len > 0 && len <= self.room());
+        let first = self.len;
+        self.runs[self.nruns & (CAPACITY - 1)] = Held { at, len };
+        self.nruns += 1;
+        self.len += len;
+        first
+    }
+
+    /// `push`, with the run's slots as slices.
+    #[inline]
+    pub fn push_slots(&mut self, at: usize, len: usize) -> Slots<'_> {
+        let first = self.push(at, len);
+        let r = first..first + len;
+        let [c0, c1, c2] = &mut self.c;
+        Slots {
+            pass: &mut self.pass[r.clone()],
+            u: &mut self.u[r.clone()],
+            v: &mut self.v[r.clone()],
+            c: [&mut c0[r.clone()], &mut c1[r.clone()], &mut c2[r.clone()]],
+            f: &mut self.f[r],
+        }
+    }
+
+    /// Colours the held fragments and writes those that passed into `color`, in the order they
+    /// arrived; empties the buffer. `views` are the draw's texture levels.
+    #[inline]
+    pub fn finish<P: PixelFormat, F: Filtering, const SHADE: bool, const FOG: bool>(
+        &mut self,
+        color: &mut TileBuf<P::Pixel>,
+        views: &[LevelView<'_, F::Texel>],
+        a: &Attributes,
+    ) {
+        if self.len == 0 {
+            return;
+        }
+        let view = views.get(self.level);
+        let out = if SHADE && self.grey {
+            self.colour::<P, F, SHADE, true, FOG>(view, a)
+        } else {
+            self.colour::<P, F, SHADE, false, FOG>(view, a)
+        };
+        let mut at = 0;
+        let pixels = color.pixels();
+        for h in &self.runs[..self.nruns] {
+            let row = &mut pixels[h.at..h.at + h.len];
+            let (pass, out) = (&self.pass[at..at + h.len], &out[at..at + h.len]);
+            for ((p, &c), &pass) in row.iter_mut().zip(out).zip(pass) {
+                if pass {
+                    *p = c;
+                }
+                self.written += pass as u64;
+            }
+            at += h.len;
+        }
+        self.len = 0;
+        self.nruns = 0;
+    }
+
+    /// The packed colours of the held fragments (and of the lanes past them).
+    #[inline(always)]
+    fn colour<
+        P: PixelFormat,
+        F: Filtering,
+        const SHADE: bool,
+        const GREY: bool,
+        const FOG: bool,
+    >(
+        &self,
+        view: Option<&LevelView<'_, F::Texel>>,
+        a: &Attributes,
+    ) -> [P::Pixel; SLOTS] {
+        let mut out = [P::pack([0; 3]); SLOTS];
+        for g in (0..self.len).step_by(LANES) {
+            let mut rgb = if !SHADE {
+                Rgb8s::splat(a.flat)
+            } else if GREY {
+                Rgb8s::grey(load_u16(&self.c[0], g))
+            } else {
+                Rgb8s {
+                    r: load_u16(&self.c[0], g),
+                    g: load_u16(&self.c[1], g),
+                    b: load_u16(&self.c[2], g),
+                }
+            };
+            if F::ENABLED {
+                let view = view.expect("texture view bound with texturing on");
+                let t = F::sample_lanes(view, load_i32(&self.u, g), load_i32(&self.v, g));
+                rgb = crate::lanes::modulate(t, rgb);
+            }
+            if FOG {
+                rgb = crate::lanes::fog_blend(rgb, a.fog_color, load_u16(&self.f, g));
+            }
+            out[g..g + LANES].copy_from_slice(&P::pack_lanes(rgb));
+        }
+        out
+    }
+}

@@ -1,0 +1,319 @@
+//! The row step of the fixed pipeline: a run's depth test and write, pixel by pixel in scalar
+//! integers, and the values its colour needs (texture coordinates, shading, fog), stored in the
+//! fragment buffer for the colour stage (`crate::fragments`).
+
+use super::{AttrPlane, FixedTriangle, advance, div_small, divide};
+use crate::fixed_point::{ATTR_FRAC_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE};
+use crate::fragments::Slots;
+use crate::pipeline::{Attributes, TexMode};
+use crate::pixel::DepthFormat;
+use crate::sampler::{Filtering, clamp_coord};
+use crate::state::Compare;
+
+/// Where a run of fragments lies: row `y`, owned pixels `x0..x1`, of which the row step takes
+/// `xs..xs + n` (a tile's part of the run, in pieces that fit the fragment buffer).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RunPiece {
+    pub y: i64,
+    pub x0: i64,
+    pub x1: i64,
+    pub xs: i64,
+}
+
+/// A draw's depth test as one comparison: a fragment at depth `d` passes when
+/// `d < stored + bias` (0 for less, 1 for less-or-equal, `2^32` for always), and is stored when
+/// it passes and the draw writes depth.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct DepthTest {
+    bias: u64,
+    write: bool,
+}
+
+impl DepthTest {
+    pub fn new(a: &Attributes) -> Self {
+        Self {
+            bias: match a.compare {
+                Compare::Less => 0,
+                Compare::LessEqual => 1,
+                Compare::Always => 1 << 32,
+            },
+            write: a.depth_write,
+        }
+    }
+
+    /// Tests depth `d` against `*stored`, writes it if it passes and the draw writes depth;
+    /// returns whether it passed.
+    #[inline(always)]
+    pub fn apply<D: DepthFormat>(self, d: D::Value, stored: &mut D::Value) -> bool {
+        let s = *stored;
+        let pass = D::widen(d) < D::widen(s) + self.bias;
+        *stored = if pass && self.write { d } else { s };
+        pass
+    }
+}
+
+/// Where a triangle's planes of each kind start among its planes, which come in this order:
+/// depth (if tested), colour (one plane when `GREY`, none without shading), fog, texture.
+#[inline(always)]
+fn plane_offsets<D: DepthFormat, const SHADE: bool, const GREY: bool, const FOG: bool>()
+-> (usize, usize, usize) {
+    let color_at = D::ENABLED as usize;
+    let colors = match (SHADE, GREY) {
+        (false, _) => 0,
+        (true, true) => 1,
+        (true, false) => 3,
+    };
+    let fog_at = color_at + colors;
+    (color_at, fog_at, fog_at + FOG as usize)
+}
+
+/// The stepped values of a row's pixel: depth, colour (one channel when `GREY`), fog.
+struct Stepped<const GREY: bool> {
+    z: i64,
+    dz: i64,
+    c: [i64; 3],
+    dc: [i64; 3],
+    f: i64,
+    df: i64,
+}
+
+impl<const GREY: bool> Stepped<GREY> {
+    /// One pixel to the right (the unused values step by 0).
+    #[inline(always)]
+    fn step(&mut self) {
+        self.z = self.z.wrapping_add(self.dz);
+        for k in 0..if GREY { 1 } else { 3 } {
+            self.c[k] = self.c[k].wrapping_add(self.dc[k]);
+        }
+        self.f = self.f.wrapping_add(self.df);
+    }
+}
+
+/// The row step: depth test and write of the pixels of `piece` (`depth` holds them, empty
+/// without a depth test), and the values their colour needs in `out`, one per pixel. Every value
+/// at a pixel follows from the triangle and the run's start `x0` alone (perspective chunks are
+/// counted from `x0`), never from `xs`: a run cut by a tile edge or the buffer gives the bytes it
+/// gives whole.
+///
+/// `GREY` steps one colour channel for all three, `NARROW` starts the row from
+/// `AttrPlane::at_pixel` (see `FixedTriangle::narrow`).
+#[inline(always)]
+pub(crate) fn run_fragments<
+    D: DepthFormat,
+    T: Filtering,
+    const SHADE: bool,
+    const GREY: bool,
+    const FOG: bool,
+    const NARROW: bool,
+>(
+    tri: &FixedTriangle,
+    planes: &[AttrPlane],
+    piece: RunPiece,
+    depth: &mut [D::Value],
+    out: Slots<'_>,
+    test: DepthTest,
+) {
+    let planes = &planes[tri.planes as usize..];
+    let (color_at, fog_at, tex_at) = plane_offsets::<D, SHADE, GREY, FOG>();
+    let RunPiece { y, x0, x1, xs } = piece;
+    let Slots {
+        pass,
+        u: out_u,
+        v: out_v,
+        c: [c0, c1, c2],
+        f: out_f,
+    } = out;
+    let n = pass.len();
+    let xe = xs + n as i64;
+    debug_assert!(x0 <= xs && xs < xe && xe <= x1);
+    let depth = &mut depth[..if D::ENABLED { n } else { 0 }];
+    let origin = tri.coverage.origin();
+    let ox = x0 * SUBPIXEL_ONE + SUBPIXEL_HALF - origin[0];
+    let oy = y * SUBPIXEL_ONE + SUBPIXEL_HALF - origin[1];
+    // A plane's value at pixel `x` of the run, as stepping from `x0` reaches it.
+    let at = |p: &AttrPlane, x: i64| {
+        if NARROW {
+            p.at_pixel(x, y)
+        } else {
+            p.at(ox, oy).wrapping_add(p.dx.wrapping_mul(x - x0))
+        }
+    };
+    let mut px = Stepped::<GREY> {
+        z: 0,
+        dz: 0,
+        c: [0; 3],
+        dc: [0; 3],
+        f: 0,
+        df: 0,
+    };
+    if D::ENABLED {
+        (px.z, px.dz) = (at(&planes[0], xs), planes[0].dx);
+    }
+    if SHADE {
+        for k in 0..if GREY { 1 } else { 3 } {
+            px.c[k] = at(&planes[color_at + k], xs);
+            px.dc[k] = planes[color_at + k].dx;
+        }
+    }
+    if FOG {
+        (px.f, px.df) = (at(&planes[fog_at], xs), planes[fog_at].dx);
+    }
+    // Everything but the texture coordinates of pixel `k` of the piece.
+    let mut emit = |k: usize, px: &mut Stepped<GREY>| {
+        let visible = if D::ENABLED {
+            test.apply::<D>(D::from_z(px.z), &mut depth[k])
+        } else {
+            true
+        };
+        pass[k] = visible;
+        if SHADE {
+            let channel = |c: i64| (c >> ATTR_FRAC_BITS).clamp(0, 255) as u16;
+            c0[k] = channel(px.c[0]);
+            if !GREY {
+                c1[k] = channel(px.c[1]);
+                c2[k] = channel(px.c[2]);
+            }
+        }
+        if FOG {
+            out_f[k] = (px.f >> ATTR_FRAC_BITS).clamp(0, 256) as u16;
+        }
+        px.step();
+    };
+    let coord = |c: i64| clamp_coord(c >> 16) as i32;
+    match tri.tex_mode {
+        TexMode::Perspective(chunk) if T::ENABLED => {
+            // Accumulators for s, t, q at pixel `xs` (`Exact`) or at the chunk start `cs`.
+            let chunk = chunk as i64;
+            let k0 = (xs - x0) / chunk;
+            let mut acc = [0i64; 3];
+            let mut dacc = [0i64; 3];
+            for j in 0..3 {
+                let p = &planes[tex_at + j];
+                dacc[j] = p.dx;
+                acc[j] = advance(at(p, x0), dacc[j].saturating_mul(chunk), k0);
+            }
+            if chunk == 1 {
+                // Exact: one division per pixel, as stepping chunks of one pixel gives.
+                for k in 0..n {
+                    let (u, v) = divide(acc[0], acc[1], acc[2]);
+                    (out_u[k], out_v[k]) = (coord(u), coord(v));
+                    emit(k, &mut px);
+                    for j in 0..3 {
+                        acc[j] = acc[j].saturating_add(dacc[j]);
+                    }
+                }
+                return;
+            }
+            // (u, v) in 16.32 at the chunk start `cs`, exact there, linear between.
+            let mut cs = x0 + k0 * chunk;
+            let (mut u, mut v) = divide(acc[0], acc[1], acc[2]);
+            let mut x = xs;
+            while x < xe {
+                let ce = (cs + chunk).min(x1);
+                let m = ce - cs;
+                for j in 0..3 {
+                    acc[j] = acc[j].saturating_add(dacc[j].saturating_mul(m));
+                }
+                let end = divide(acc[0], acc[1], acc[2]);
+                let (du, dv) = (div_small(end.0 - u, m), div_small(end.1 - v, m));
+                let (mut cu, mut cv) = (
+                    u.wrapping_add(du.wrapping_mul(x - cs)),
+                    v.wrapping_add(dv.wrapping_mul(x - cs)),
+                );
+                let stop = ce.min(xe);
+                for k in (x - xs) as usize..(stop - xs) as usize {
+                    (out_u[k], out_v[k]) = (coord(cu), coord(cv));
+                    emit(k, &mut px);
+                    cu = cu.wrapping_add(du);
+                    cv = cv.wrapping_add(dv);
+                }
+                (u, v) = end;
+                cs = ce;
+                x = stop;
+            }
+        }
+        TexMode::Affine if T::ENABLED => {
+            let (pu, pv) = (&planes[tex_at], &planes[tex_at + 1]);
+            let (mut cu, mut cv) = (at(pu, xs), at(pv, xs));
+            for k in 0..n {
+                (out_u[k], out_v[k]) = (coord(cu), coord(cv));
+                emit(k, &mut px);
+                cu = cu.wrapping_add(pu.dx);
+                cv = cv.wrapping_add(pv.dx);
+            }
+        }
+        _ => {
+            for k in 0..n {
+                emit(k, &mut px);
+            }
+        }
+    }
+}
+
+/// A narrow triangle's planes for the rows of `small_run`: copies of those its draw uses.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct NarrowPlanes {
+    pub z: AttrPlane,
+    pub c: [AttrPlane; 3],
+    pub f: AttrPlane,
+    /// `u, v` (affine) or `s, t, q` (perspective).
+    pub tex: [AttrPlane; 3],
+    pub tex_mode: TexMode,
+}
+
+impl NarrowPlanes {
+    /// The planes of `tri` (narrow: `FixedTriangle::narrow`), in the order of `run_fragments`.
+    #[inline(always)]
+    pub fn new<
+        D: DepthFormat,
+        T: Filtering,
+        const SHADE: bool,
+        const GREY: bool,
+        const FOG: bool,
+    >(
+        tri: &FixedTriangle,
+        planes: &[AttrPlane],
+    ) -> Self {
+        debug_assert!(tri.narrow);
+        let planes = &planes[tri.planes as usize..];
+        let (color_at, fog_at, tex_at) = plane_offsets::<D, SHADE, GREY, FOG>();
+        let none = AttrPlane::default();
+        let mut p = Self {
+            z: none,
+            c: [none; 3],
+            f: none,
+            tex: [none; 3],
+            tex_mode: if T::ENABLED {
+                tri.tex_mode
+            } else {
+                TexMode::Off
+            },
+        };
+        if D::ENABLED {
+            p.z = planes[0];
+        }
+        if SHADE {
+            let n = if GREY { 1 } else { 3 };
+            p.c[..n].copy_from_slice(&planes[color_at..color_at + n]);
+        }
+        if FOG {
+            p.f = planes[fog_at];
+        }
+        match p.tex_mode {
+            TexMode::Off => {}
+            TexMode::Affine => p.tex[..2].copy_from_slice(&planes[tex_at..tex_at + 2]),
+            TexMode::Perspective(_) => p.tex.copy_from_slice(&planes[tex_at..tex_at + 3]),
+        }
+        p
+    }
+
+    /// True when `small_run` can draw the triangle's rows: its texture, if any, is affine or
+    /// exact per pixel (`Spans(n)` of a triangle wider than `n` needs `run_fragments`' chunks).
+    #[inline(always)]
+    pub fn per_pixel(&self) -> bool {
+        matches!(
+            self.tex_mode,
+            TexMode::Off | TexMode::Affine | TexMode::Perspective(1)
+        )
+    }
+}

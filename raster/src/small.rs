@@ -1,0 +1,250 @@
+//! Small triangles in one loop: the coverage walk, the cut to the tile and the row step of a
+//! triangle within 16x16 pixels whose attribute planes give every pixel on its own.
+//!
+//! Terrain triangles own a few pixels in each of a few rows (on the handheld frame 8 pixels in
+//! 3 rows on average), so what a row costs besides its pixels decides the frame. Here a row is a
+//! mask of owned columns from the edge functions in lanes (`SmallRows`), its run is the mask's
+//! first and last bit, and every value at the run's start is the row's value plus one product:
+//! the values at the rectangle's first column step down the rows by the planes' `dy`. The pixels
+//! go to the fragment buffer by index, and its colour stage writes them by index into the tile.
+//!
+//! The values are those of the general row step: a narrow plane at a pixel is exact wherever it
+//! is evaluated from (see `AttrPlane::on_grid`), and neither sums nor products of it overflow.
+//! When every plane stays inside the range its pixel value is clamped to over the rows and
+//! columns the triangle can own here (an affine function over a rectangle is extreme at its
+//! corners), the clamps are left out.
+
+use crate::fixed_point::{ATTR_FRAC_BITS, TEXCOORD_LIMIT};
+use crate::fragments::{Fragments, SLOTS};
+use crate::pipeline::fixed::{AttrPlane, DepthTest, FixedTriangle, NarrowPlanes, divide};
+use crate::pipeline::{Attributes, TexMode};
+use crate::pixel::{DepthFormat, PixelFormat};
+use crate::sampler::{Filtering, LevelView, clamp_coord};
+use crate::tile_view::TileBuf;
+
+/// Masks an index into the fragment arrays (which never exceeds `CAPACITY + 16`): no bounds
+/// check.
+const M: usize = SLOTS - 1;
+
+/// The planes' values at the first column of the current row, stepped down the rows.
+struct RowValues {
+    z: i64,
+    c: [i64; 3],
+    f: i64,
+    tex: [i64; 3],
+}
+
+/// Draws the rows of `t` (small and narrow, with planes `p` that are `NarrowPlanes::per_pixel`)
+/// inside the tile of `color` and `depth` into `frags`, colouring them whenever the buffer fills.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(crate) fn small_triangle<
+    P: PixelFormat,
+    D: DepthFormat,
+    F: Filtering,
+    const SHADE: bool,
+    const GREY: bool,
+    const FOG: bool,
+>(
+    p: &NarrowPlanes,
+    t: &FixedTriangle,
+    color: &mut TileBuf<P::Pixel>,
+    depth: Option<&mut TileBuf<D::Value>>,
+    frags: &mut Fragments,
+    views: &[LevelView<'_, F::Texel>],
+    attrs: &Attributes,
+    test: DepthTest,
+) {
+    let tile = color.rect();
+    let rows = t.coverage.small_rows(tile.y0 as i64, tile.y1 as i64);
+    if rows.y >= rows.end {
+        return;
+    }
+    let (x0, y0) = (rows.x0, rows.y);
+    let at = |q: &AttrPlane| q.at_pixel(x0, y0);
+    let start = RowValues {
+        z: at(&p.z),
+        c: [at(&p.c[0]), at(&p.c[1]), at(&p.c[2])],
+        f: at(&p.f),
+        tex: [at(&p.tex[0]), at(&p.tex[1]), at(&p.tex[2])],
+    };
+    // The extremes of a plane over the columns and rows the triangle may own here.
+    let (w, h) = (rows.width() - 1, rows.end - y0 - 1);
+    let within = |q: &AttrPlane, v: i64, lo: i64, hi: i64| {
+        let (ex, ey) = (q.dx * w, q.dy * h);
+        v + ex.min(0) + ey.min(0) >= lo && v + ex.max(0) + ey.max(0) < hi
+    };
+    let one = 1i64 << ATTR_FRAC_BITS;
+    let coord = (TEXCOORD_LIMIT << 16, (TEXCOORD_LIMIT + 1) << 16);
+    let in_range = (!D::ENABLED || within(&p.z, start.z, 0, 1 << 48))
+        && (!SHADE
+            || (0..if GREY { 1 } else { 3 }).all(|k| within(&p.c[k], start.c[k], 0, 256 * one)))
+        && (!FOG || within(&p.f, start.f, 0, 257 * one))
+        && match p.tex_mode {
+            TexMode::Affine if F::ENABLED => {
+                within(&p.tex[0], start.tex[0], -coord.0, coord.1)
+                    && within(&p.tex[1], start.tex[1], -coord.0, coord.1)
+            }
+            _ => true,
+        };
+    let args = (p, rows, start, color, depth, frags, views, attrs, test);
+    if in_range {
+        rows_of::<P, D, F, SHADE, GREY, FOG, false>(args)
+    } else {
+        rows_of::<P, D, F, SHADE, GREY, FOG, true>(args)
+    }
+}
+
+/// What `rows_of` walks: the triangle's planes, rows and starting values, and the tile.
+type RowsArgs<'a, 'v, 't, P, D, F> = (
+    &'a NarrowPlanes,
+    crate::edge::SmallRows,
+    RowValues,
+    &'a mut TileBuf<<P as PixelFormat>::Pixel>,
+    Option<&'a mut TileBuf<<D as DepthFormat>::Value>>,
+    &'a mut Fragments,
+    &'a [LevelView<'v, <F as Filtering>::Texel>],
+    &'a Attributes<'t>,
+    DepthTest,
+);
+
+/// The row loop of `small_triangle`; `CLAMP` false when every value is known to be in range.
+#[inline(always)]
+fn rows_of<
+    P: PixelFormat,
+    D: DepthFormat,
+    F: Filtering,
+    const SHADE: bool,
+    const GREY: bool,
+    const FOG: bool,
+    const CLAMP: bool,
+>(
+    (p, mut rows, mut row, color, mut depth, frags, views, attrs, test): RowsArgs<
+        '_,
+        '_,
+        '_,
+        P,
+        D,
+        F,
+    >,
+) {
+    let tile = color.rect();
+    let channels = if !SHADE {
+        0
+    } else if GREY {
+        1
+    } else {
+        3
+    };
+    let tex_mode = if F::ENABLED { p.tex_mode } else { TexMode::Off };
+    let texes = match tex_mode {
+        TexMode::Off => 0,
+        TexMode::Affine => 2,
+        TexMode::Perspective(_) => 3,
+    };
+    // The tile's columns as bits of the rows' masks (a small triangle spans at most 16).
+    let lo = (tile.x0 as i64 - rows.x0).clamp(0, 32);
+    let hi = (tile.x1 as i64 - rows.x0).clamp(0, 32);
+    let inside_tile = ((1u64 << hi) - (1u64 << lo)) as u32;
+    // Index in the tile's buffers of the current row's pixel at the rectangle's first column,
+    // which may lie left of the tile (every run starts inside it).
+    let width = (tile.x1 - tile.x0) as i64;
+    let mut row_at = (rows.y - tile.y0 as i64) * width + (rows.x0 - tile.x0 as i64);
+    while rows.y < rows.end {
+        let owned = rows.next_mask() & inside_tile;
+        if owned != 0 {
+            let first = owned.trailing_zeros() as usize;
+            let n = (32 - owned.leading_zeros()) as usize - first;
+            if n > frags.room() {
+                frags.finish::<P, F, SHADE, FOG>(color, views, attrs);
+            }
+            let at = (row_at + first as i64) as usize;
+            let k = frags.push(at, n);
+            let off = first as i64;
+            let start = |v: i64, q: &AttrPlane| v.wrapping_add(q.dx.wrapping_mul(off));
+            // Depth test, shading and fog.
+            let mut z = start(row.z, &p.z);
+            let mut c = [0i64; 3];
+            for ((c, &r), q) in c.iter_mut().zip(&row.c).zip(&p.c).take(channels) {
+                *c = start(r, q);
+            }
+            let mut f = start(row.f, &p.f);
+            let depth: &mut [D::Value] = match &mut depth {
+                Some(d) if D::ENABLED => &mut d.pixels()[at..at + n],
+                _ => &mut [],
+            };
+            // Texture coordinates (or the perspective accumulators) at the run's start.
+            let mut uv = [0i64; 3];
+            for ((a, &r), q) in uv.iter_mut().zip(&row.tex).zip(&p.tex).take(texes) {
+                *a = start(r, q);
+            }
+            // One iteration per owned bit: a loop whose trip count the compiler cannot see is
+            // not unrolled into lanes, which would only cost runs of a few pixels.
+            let (mut bits, mut j) = (owned >> first, 0);
+            while bits != 0 {
+                bits &= bits - 1;
+                let i = (k + j) & M;
+                if D::ENABLED {
+                    let d = if CLAMP {
+                        D::from_z(z)
+                    } else {
+                        D::from_z_in_range(z)
+                    };
+                    frags.pass[i] = test.apply::<D>(d, &mut depth[j]);
+                    z = z.wrapping_add(p.z.dx);
+                } else {
+                    frags.pass[i] = true;
+                }
+                for ((c, out), q) in c.iter_mut().zip(&mut frags.c).zip(&p.c).take(channels) {
+                    let v = *c >> ATTR_FRAC_BITS;
+                    out[i] = if CLAMP { v.clamp(0, 255) } else { v } as u16;
+                    *c = c.wrapping_add(q.dx);
+                }
+                if FOG {
+                    let v = f >> ATTR_FRAC_BITS;
+                    frags.f[i] = if CLAMP { v.clamp(0, 256) } else { v } as u16;
+                    f = f.wrapping_add(p.f.dx);
+                }
+                match tex_mode {
+                    TexMode::Affine => {
+                        let coord = |c: i64| {
+                            if CLAMP {
+                                clamp_coord(c >> 16) as i32
+                            } else {
+                                (c >> 16) as i32
+                            }
+                        };
+                        (frags.u[i], frags.v[i]) = (coord(uv[0]), coord(uv[1]));
+                        uv[0] = uv[0].wrapping_add(p.tex[0].dx);
+                        uv[1] = uv[1].wrapping_add(p.tex[1].dx);
+                    }
+                    TexMode::Perspective(_) => {
+                        // `divide` clamps to the coordinate range: `clamp_coord` would change
+                        // nothing.
+                        let (u, v) = divide(uv[0], uv[1], uv[2]);
+                        debug_assert_eq!(clamp_coord(u >> 16), u >> 16);
+                        (frags.u[i], frags.v[i]) = ((u >> 16) as i32, (v >> 16) as i32);
+                        for (a, q) in uv.iter_mut().zip(&p.tex) {
+                            *a = a.wrapping_add(q.dx);
+                        }
+                    }
+                    TexMode::Off => {}
+                }
+                j += 1;
+            }
+        }
+        if D::ENABLED {
+            row.z = row.z.wrapping_add(p.z.dy);
+        }
+        for j in 0..channels {
+            row.c[j] = row.c[j].wrapping_add(p.c[j].dy);
+        }
+        if FOG {
+            row.f = row.f.wrapping_add(p.f.dy);
+        }
+        for q in 0..texes {
+            row.tex[q] = row.tex[q].wrapping_add(p.tex[q].dy);
+        }
+        row_at += width;
+    }
+}

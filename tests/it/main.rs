@@ -24,12 +24,14 @@ mod geomorph;
 #[cfg(feature = "wgpu")]
 mod gpu_engine;
 mod layers;
+mod nginx;
 mod pager_archive;
 mod pager_flight;
 mod pager_simulated;
 mod partial_tiles;
 mod pocketpc;
 mod pocketpc_http;
+mod serve_limits;
 mod source_http;
 mod stream_compare;
 mod stream_engine;

@@ -10,6 +10,7 @@ mod archive_roundtrip;
 mod archive_texture_codecs;
 #[cfg(unix)]
 mod boards;
+mod build_safety;
 mod cli_build_info;
 mod cli_demo;
 mod cli_serve;

@@ -13,6 +13,7 @@ mod boards;
 mod build_safety;
 mod cli_build_info;
 mod cli_demo;
+mod cli_flags;
 mod cli_serve;
 mod coarse_base;
 mod crack_switch;

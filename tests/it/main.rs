@@ -18,6 +18,7 @@ mod cli_serve;
 mod coarse_base;
 mod crack_switch;
 mod cracks;
+mod dem_bombs;
 mod dem_formats;
 mod dem_fuzz;
 mod engine;

@@ -6,8 +6,11 @@ use std::path::Path;
 
 use png::{BitDepth, ColorType, Transformations};
 
-use super::{DemInfo, DemReader, check_dimensions};
+use super::{DemInfo, DemReader, check_claim, check_dimensions};
 use crate::error::{Error, Result};
+
+/// The most a PNG's samples may outweigh its file: zlib's DEFLATE stays under 1032 to 1.
+const MAX_EXPANSION: u64 = 1032;
 
 /// The largest interlaced image decoded whole (512 MiB).
 const MAX_INTERLACED_BYTES: usize = 512 << 20;
@@ -28,6 +31,7 @@ impl PngReader {
     pub fn open(path: &Path) -> Result<Self> {
         let name = path.display().to_string();
         let file = File::open(path).map_err(|e| Error::io(&name, e))?;
+        let file_len = file.metadata().map_err(|e| Error::io(&name, e))?.len();
         let mut decoder = png::Decoder::new(BufReader::new(file));
         decoder.set_transformations(Transformations::EXPAND);
         decoder.set_ignore_text_chunk(true);
@@ -55,6 +59,8 @@ impl PngReader {
         };
         let (width, height) = (reader.info().width as usize, reader.info().height as usize);
         check_dimensions(&name, width, height)?;
+        let row_bytes = width as u64 * if sixteen_bit { 2 } else { 1 };
+        check_claim(&name, row_bytes * height as u64, file_len, MAX_EXPANSION)?;
         let frame = if reader.info().interlaced {
             let size = reader
                 .output_buffer_size()

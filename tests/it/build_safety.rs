@@ -4,7 +4,6 @@
 //! their file holds.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 use std::sync::Barrier;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
@@ -14,9 +13,7 @@ use stripmask::db::builder::{BuildOptions, build};
 use stripmask::db::dem::{DemInfo, DemReader, MemoryReader, NodataFill};
 use stripmask::db::source::file::FileSource;
 
-fn stripmask() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_stripmask"))
-}
+use crate::support::cli::stripmask;
 
 fn dem(name: &str, side: usize, lift: f32) -> NodataFill<MemoryReader> {
     let samples = (0..side * side)
@@ -93,7 +90,10 @@ fn two_builds_to_one_path_at_once_leave_one_whole_archive() {
     let report = reader.check().unwrap();
     assert_eq!(report.tiles, reader.index().len());
     let low = reader.header().min_height;
-    assert!(!(-40.0..=900.0).contains(&low), "one build's heights: {low}");
+    assert!(
+        !(-40.0..=900.0).contains(&low),
+        "one build's heights: {low}"
+    );
     assert!(
         leftovers(dir.path()).is_empty(),
         "{:?}",

@@ -2,60 +2,13 @@
 //! run that cannot end; negative values are accepted in the `--flag -0.1` form and refused by
 //! range, like any other.
 
-use std::io::Read;
-use std::path::PathBuf;
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
-
-fn stripmask() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_stripmask"))
-}
-
-/// The exit code and stderr of `stripmask args`, killed (and the test failed) after 30 s.
-fn run(args: &[&str]) -> (Option<i32>, String) {
-    let mut child = stripmask()
-        .args(args)
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let deadline = Instant::now() + Duration::from_secs(30);
-    let status = loop {
-        if let Some(status) = child.try_wait().unwrap() {
-            break status;
-        }
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("stripmask {args:?} did not end");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    };
-    let mut err = String::new();
-    child
-        .stderr
-        .take()
-        .unwrap()
-        .read_to_string(&mut err)
-        .unwrap();
-    (status.code(), err)
-}
+use crate::support::cli::{plain_archive, run_bounded as run};
 
 #[test]
 fn out_of_range_numbers_are_usage_errors() {
     let dir = tempfile::tempdir().unwrap();
     let archive = dir.path().join("plain.smdb");
-    let input = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/plain.asc");
-    let (code, err) = run(&[
-        "build",
-        "--quiet",
-        "--tile-size",
-        "17",
-        "-o",
-        archive.to_str().unwrap(),
-        input.to_str().unwrap(),
-    ]);
-    assert_eq!(code, Some(0), "{err}");
+    plain_archive(&archive);
     let out = dir.path().join("fly");
     let (archive, out) = (archive.to_str().unwrap(), out.to_str().unwrap());
     for (flag, value, extra) in [

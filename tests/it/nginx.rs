@@ -7,9 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-fn stripmask() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_stripmask"))
-}
+use crate::support::cli::{plain_archive, stripmask};
 
 /// The nginx binary, from PATH or its Debian place.
 fn nginx() -> Option<PathBuf> {
@@ -69,15 +67,7 @@ fn an_archive_served_by_nginx_checks_and_flies() {
     let dir = tempfile::tempdir().unwrap();
     let root = dir.path().join("www");
     std::fs::create_dir(&root).unwrap();
-    let archive = root.join("plain.smdb");
-    let input = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/plain.asc");
-    let ok = stripmask()
-        .args(["build", "--quiet", "--tile-size", "17", "-o"])
-        .arg(&archive)
-        .arg(&input)
-        .status()
-        .unwrap();
-    assert!(ok.success());
+    plain_archive(&root.join("plain.smdb"));
 
     // A free port: bound, then let go for nginx.
     let port = TcpListener::bind("127.0.0.1:0")

@@ -5,23 +5,14 @@
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, Stdio};
 use std::time::{Duration, Instant};
 
-fn stripmask() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_stripmask"))
-}
+use crate::support::cli::{plain_archive, run_bounded, stripmask};
 
 fn archive(dir: &Path) -> PathBuf {
     let out = dir.join("plain.smdb");
-    let input = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/plain.asc");
-    let ok = stripmask()
-        .args(["build", "--quiet", "--tile-size", "17", "-o"])
-        .arg(&out)
-        .arg(&input)
-        .status()
-        .unwrap();
-    assert!(ok.success());
+    plain_archive(&out);
     out
 }
 
@@ -232,32 +223,8 @@ fn a_link_serve_cannot_simulate_is_a_usage_error() {
         ("--bandwidth-kbps", "nan"),
         ("--max-connections", "0"),
     ] {
-        let mut child = stripmask()
-            .args(["serve", "Cargo.toml", flag, value])
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        let deadline = Instant::now() + Duration::from_secs(20);
-        let status = loop {
-            if let Some(status) = child.try_wait().unwrap() {
-                break status;
-            }
-            if Instant::now() > deadline {
-                let _ = child.kill();
-                let _ = child.wait();
-                panic!("serve {flag} {value} started instead of refusing");
-            }
-            std::thread::sleep(Duration::from_millis(20));
-        };
-        let mut err = String::new();
-        child
-            .stderr
-            .take()
-            .unwrap()
-            .read_to_string(&mut err)
-            .unwrap();
-        assert_eq!(status.code(), Some(2), "{flag} {value}: {err}");
+        let (code, err) = run_bounded(&["serve", "Cargo.toml", flag, value]);
+        assert_eq!(code, Some(2), "{flag} {value}: {err}");
         assert!(err.contains(flag), "{err}");
     }
 }

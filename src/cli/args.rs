@@ -41,7 +41,7 @@ pub(super) struct StreamingArgs {
     #[arg(long)]
     no_prediction: bool,
     /// With --streaming progressive: seconds ahead the viewpoint is predicted.
-    #[arg(long, default_value_t = PredictionSettings::default().horizon)]
+    #[arg(long, default_value_t = PredictionSettings::default().horizon, allow_negative_numbers = true)]
     predict_seconds: f64,
 }
 
@@ -75,10 +75,10 @@ pub(super) struct SceneArgs {
     #[command(flatten)]
     device: DeviceArgs,
     /// Memory limit as a percentage of available memory (Linux), as in the paper.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     memory_percent: Option<f64>,
     /// Of the memory limit, the most tile textures may take, MB (default: no separate cap).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     texture_mb: Option<f64>,
     /// Use the f32 reference pipeline instead of fixed point.
     #[arg(long)]
@@ -87,7 +87,7 @@ pub(super) struct SceneArgs {
     #[arg(long)]
     pow2_masks: bool,
     /// Importance weight of distance (the height weight is 1 minus it).
-    #[arg(long, default_value_t = Weights::default().distance())]
+    #[arg(long, default_value_t = Weights::default().distance(), allow_negative_numbers = true)]
     distance_weight: f64,
     /// How cracks between tiles at different levels are hidden (docs/cracks.md).
     #[arg(long, value_parser = named::<CrackMode>(), default_value = CrackMode::default().name())]
@@ -97,7 +97,7 @@ pub(super) struct SceneArgs {
     geomorph: Geomorph,
     /// With --geomorph distance: vertices whose grid step spans fewer pixels than this are
     /// fully morphed, those spanning twice as many not at all.
-    #[arg(long, default_value_t = Geomorph::DEFAULT_PIXELS)]
+    #[arg(long, default_value_t = Geomorph::DEFAULT_PIXELS, allow_negative_numbers = true)]
     geomorph_pixels: f64,
     #[command(flatten)]
     streaming: StreamingArgs,
@@ -204,32 +204,32 @@ struct DeviceArgs {
     #[arg(long, value_parser = clap::value_parser!(u8).range(16..=32))]
     depth_bits: Option<u8>,
     /// The frame rate the triangle budget aims at [profile].
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     target_fps: Option<f64>,
     /// The pixel-error bound τ: no tile is drawn finer than needs this many pixels of
     /// geometric error; 0 turns it off [profile].
     #[arg(long)]
     max_error_px: Option<f64>,
     /// Memory limit on loaded tiles, MB (10^6 bytes) [profile].
-    #[arg(long, conflicts_with = "memory_percent")]
+    #[arg(long, conflicts_with = "memory_percent", allow_negative_numbers = true)]
     memory_mb: Option<f64>,
     /// Rasterizer threads (0: all cores) [profile].
     #[arg(long)]
     threads: Option<usize>,
     /// Frame costs are multiplied by this (the device's CPU is this many times slower) [profile].
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     cpu_slowdown: Option<f64>,
     /// Link bandwidth, kilobits per second [profile].
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     bandwidth_kbps: Option<f64>,
     /// Link latency per request, milliseconds [profile].
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     latency_ms: Option<f64>,
     /// Each request's latency varies within ± this many milliseconds (seeded) [profile].
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     jitter_ms: Option<f64>,
     /// Fraction of requests the link drops, 0..1 [profile].
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     drop_rate: Option<f64>,
     /// Seed of the link's delays and drop decisions.
     #[arg(long, default_value_t = LinkProfile::default().seed)]
@@ -268,13 +268,24 @@ pub(super) fn profile_name() -> PossibleValuesParser {
     PossibleValuesParser::new(DeviceProfile::BUILTIN)
 }
 
-/// The flight length of `--frames N` or `--seconds S` (`None`: the whole flight).
-pub(super) fn length(frames: Option<u64>, seconds: Option<f64>) -> Option<Length> {
-    match (frames, seconds) {
+/// The longest flight `--seconds` may ask for (a day).
+const MAX_SECONDS: f64 = 86_400.0;
+
+/// The flight length of `--frames N` or `--seconds S` (`None`: the whole flight); `S` must be
+/// a positive number of seconds up to a day, so that the flight ends.
+pub(super) fn length(frames: Option<u64>, seconds: Option<f64>) -> Result<Option<Length>> {
+    Ok(match (frames, seconds) {
         (Some(n), _) => Some(Length::Frames(n)),
-        (None, Some(s)) => Some(Length::Seconds(s)),
+        (None, Some(s)) if s > 0.0 && s <= MAX_SECONDS => Some(Length::Seconds(s)),
+        (None, Some(s)) => {
+            return Err(Error::setting(
+                "--seconds",
+                s,
+                format!("a positive number up to {MAX_SECONDS}"),
+            ));
+        }
         (None, None) => None,
-    }
+    })
 }
 
 /// `value` of `flag` when it is a positive number; an [`Error::InvalidSetting`] otherwise.

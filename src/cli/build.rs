@@ -46,10 +46,10 @@ pub(super) struct BuildArgs {
     tile_size: usize,
     /// Metres between samples on both axes (default: the file's georeferencing, in metres on
     /// both axes for grids in degrees, else 1).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     spacing: Option<f64>,
     /// Metres per raw height unit.
-    #[arg(long, default_value_t = BuildOptions::default().vertical_scale)]
+    #[arg(long, default_value_t = BuildOptions::default().vertical_scale, allow_negative_numbers = true)]
     vertical_scale: f64,
     /// World x, y of the north-west sample (default: the file's georeferencing, else 0, 0).
     #[arg(long, num_args = 2, value_names = ["X", "Y"], allow_negative_numbers = true)]

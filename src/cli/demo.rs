@@ -38,7 +38,7 @@ pub(super) struct DemoArgs {
     #[arg(long, conflicts_with = "seconds")]
     frames: Option<u64>,
     /// Stop after S seconds of flight time.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     seconds: Option<f64>,
     /// Keep one frame in K as PNG (0: none).
     #[arg(long, default_value_t = DemoOptions::default().every)]
@@ -67,7 +67,7 @@ pub(super) fn run(a: DemoArgs) -> Result<()> {
             },
         )?,
         clock: a.clock,
-        length: length(a.frames, a.seconds),
+        length: length(a.frames, a.seconds)?,
         every: a.every,
         progress: !a.quiet,
         streaming: a.streaming.resolve()?,

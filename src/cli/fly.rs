@@ -18,7 +18,7 @@ pub(super) struct FlyArgs {
     #[arg(long, conflicts_with = "seconds")]
     frames: Option<u64>,
     /// Stop after S seconds of flight time.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     seconds: Option<f64>,
     /// Output folder for stats.csv and frames.
     #[arg(long, default_value = "stripmask-fly")]
@@ -45,7 +45,7 @@ pub(super) fn run(a: FlyArgs) -> Result<()> {
     let options = FlyOptions {
         source: a.source.clone(),
         flight: scene.flight,
-        length: length(a.frames, a.seconds),
+        length: length(a.frames, a.seconds)?,
         size: scene.size,
         color: scene.color,
         depth: scene.depth,

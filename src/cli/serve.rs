@@ -6,11 +6,9 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use clap::Args;
-use stripmask::db::server::Server;
+use stripmask::db::server::{Limits, Server};
 use stripmask::db::source::throttle::LinkProfile;
-use stripmask::error::{Error, Result};
-
-use super::args::positive;
+use stripmask::error::Result;
 
 /// `serve`'s arguments: the archive, the address, and the simulated link.
 #[derive(Args, Debug)]
@@ -21,7 +19,7 @@ pub(super) struct ServeArgs {
     #[arg(long, default_value = "127.0.0.1:0")]
     listen: SocketAddr,
     /// Simulated bandwidth per connection, kilobits per second.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     bandwidth_kbps: Option<f64>,
     /// Simulated latency before each answer, milliseconds.
     #[arg(long, default_value_t = LinkProfile::default().latency.as_millis() as u64)]
@@ -30,25 +28,18 @@ pub(super) struct ServeArgs {
     #[arg(long, default_value_t = LinkProfile::default().jitter.as_millis() as u64)]
     jitter_ms: u64,
     /// Fraction of requests answered 503, 0..1.
-    #[arg(long, default_value_t = LinkProfile::default().drop_rate)]
+    #[arg(long, default_value_t = LinkProfile::default().drop_rate, allow_negative_numbers = true)]
     drop_rate: f64,
     /// Seed of the latency and drop decisions.
     #[arg(long, default_value_t = LinkProfile::default().seed)]
     seed: u64,
+    /// Connections served at once (one worker thread each); more are answered 503.
+    #[arg(long, default_value_t = Limits::default().max_connections)]
+    max_connections: usize,
 }
 
 /// Serves until the process is stopped, after printing the URL.
 pub(super) fn run(a: ServeArgs) -> Result<()> {
-    if !(0.0..=1.0).contains(&a.drop_rate) {
-        return Err(Error::setting(
-            "--drop-rate",
-            a.drop_rate,
-            "a fraction between 0 and 1",
-        ));
-    }
-    if let Some(b) = a.bandwidth_kbps {
-        positive("--bandwidth-kbps", b)?;
-    }
     let profile = LinkProfile {
         bandwidth_kbps: a.bandwidth_kbps,
         latency: Duration::from_millis(a.latency_ms),
@@ -56,7 +47,11 @@ pub(super) fn run(a: ServeArgs) -> Result<()> {
         drop_rate: a.drop_rate,
         seed: a.seed,
     };
-    let server = Server::start(&a.file, a.listen, profile)?;
+    let limits = Limits {
+        max_connections: a.max_connections,
+        ..Limits::default()
+    };
+    let server = Server::start_with(&a.file, a.listen, profile, limits)?;
     println!("{}", server.url());
     let _ = std::io::stdout().flush();
     server.wait();

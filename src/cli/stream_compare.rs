@@ -23,7 +23,7 @@ pub(super) struct StreamCompareArgs {
     #[arg(long, value_parser = named::<Builtin>(), value_delimiter = ',')]
     flights: Option<Vec<Builtin>>,
     /// Seconds of each flight (default: all of it).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     seconds: Option<f64>,
     /// Device profile (its link is replaced by each link).
     #[arg(long, value_parser = profile_name(), default_value_t = DeviceProfile::pocketpc().name)]

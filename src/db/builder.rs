@@ -11,7 +11,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::db::archive::{ArchiveWriter, Codec, Header, compress};
+use crate::db::archive::{ArchiveWriter, Codec, Header, MAX_SPACING, compress};
 use crate::db::dem::{self, DemInfo, DemReader, EastWest, FillStats, NodataFill, OpenOptions};
 use crate::db::texture_gen::{ImageTexture, shaded};
 use crate::db::tile::{Tile, progressive_levels};
@@ -223,15 +223,51 @@ fn header(info: &DemInfo, grid: &Tiling, options: &BuildOptions) -> Result<Heade
             "a finite non-zero number of metres per unit",
         ));
     }
+    if spacing > MAX_SPACING {
+        return Err(Error::setting(
+            "spacing",
+            spacing,
+            format!("at most {MAX_SPACING} metres"),
+        ));
+    }
+    if let Some((x, y)) = options.origin {
+        if !(x.is_finite() && y.is_finite()) {
+            return Err(Error::setting(
+                "origin",
+                format!("{x} {y}"),
+                "two finite numbers of metres",
+            ));
+        }
+    }
+    // A tile far larger than the DEM is all padding: refuse it rather than encode it (any size
+    // up to the default is allowed, so the default always works).
+    let side = info.width.max(info.height).max(2);
+    let needed = ((side - 1).next_power_of_two() + 1).max(BuildOptions::default().tile_size);
+    if grid.tile_size > needed {
+        return Err(Error::setting(
+            "tile size",
+            grid.tile_size,
+            format!(
+                "at most {needed} for a {} x {} DEM (one tile of {needed} holds it all)",
+                info.width, info.height
+            ),
+        ));
+    }
+    let too_wide = |what: &str| {
+        Error::invalid(
+            &info.name,
+            format!("{what} does not fit the archive's 32-bit fields"),
+        )
+    };
     let (origin_x, origin_y) = options.origin.or(info.origin_hint).unwrap_or((0.0, 0.0));
-    Ok(Header {
-        tiles_x: grid.tiles_x as u32,
-        tiles_y: grid.tiles_y as u32,
+    let header = Header {
+        tiles_x: u32::try_from(grid.tiles_x).map_err(|_| too_wide("the tile count"))?,
+        tiles_y: u32::try_from(grid.tiles_y).map_err(|_| too_wide("the tile count"))?,
         tile_size: grid.tile_size as u32,
         texture_size: ((grid.tile_size - 1) * f) as u32,
         codec: options.codec,
-        source_width: grid.width as u32,
-        source_height: info.height as u32,
+        source_width: u32::try_from(grid.width).map_err(|_| too_wide("the width"))?,
+        source_height: u32::try_from(info.height).map_err(|_| too_wide("the height"))?,
         spacing,
         vertical_scale: options.vertical_scale,
         origin_x,
@@ -240,7 +276,11 @@ fn header(info: &DemInfo, grid: &Tiling, options: &BuildOptions) -> Result<Heade
         max_height: 0.0,
         height_quantum: options.height_quantum.unwrap_or(DEFAULT_HEIGHT_QUANTUM),
         base_levels: options.base_levels.min(progressive_levels(grid.tile_size)) as u32,
-    })
+    };
+    // Everything else a reader checks (tile counts, index size, extent), before anything is
+    // read or written.
+    header.validate(&info.name)?;
+    Ok(header)
 }
 
 /// One tile ready to write: its compressed progressive chunks, coarse first.

@@ -533,6 +533,7 @@ mod tests {
                 quantum: 0.25,
                 heights: (-100.0, 100.0),
                 origin: DVec3::new(1e7, 0.0, -3e6),
+                source_samples: (4 * 16 + 1, 4 * 16 + 1),
             };
             let eye = terrain.origin + DVec3::new(eye.0, eye.1, eye.2);
             let camera = Camera::looking_at(eye, eye + DVec3::X);

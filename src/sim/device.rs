@@ -110,6 +110,10 @@ pub struct DeviceProfile {
 /// See `docs/pocketpc.md`.
 pub const POCKETPC_SLOWDOWN: f64 = 42.0;
 
+/// The smallest CPU slowdown (the fastest device, relative to this machine) a profile may
+/// have: below it, a flight on the simulated clock would take too many frames to end.
+pub const MIN_CPU_SLOWDOWN: f64 = 1e-3;
+
 impl DeviceProfile {
     /// The paper's handheld: 400 MHz PocketPC, 320x240 RGB565 with 16-bit depth, 20 MB for
     /// tiles, 7 fps, one thread, tiles over a 1 Mbit/s line with 50 ms latency.
@@ -274,29 +278,48 @@ impl DeviceProfile {
                 "sides 1 ..= 8192",
             ));
         }
-        for (name, value) in [
-            ("memory_mb", self.memory_mb),
-            ("target_fps", self.target_fps),
-            ("cpu_slowdown", self.cpu_slowdown),
+        // Each within what a run can finish with: a slowdown of 1e-30 on the simulated clock
+        // would never reach the end of a flight, a latency of 1e300 ms never starts it.
+        for (name, value, most) in [
+            ("memory_mb", self.memory_mb, 1e9),
+            ("target_fps", self.target_fps, 1e4),
+            ("cpu_slowdown", self.cpu_slowdown, 1e4),
         ] {
-            if !positive(value) {
-                return Err(Error::setting(name, value, "a positive number"));
+            if !(positive(value) && value <= most) {
+                return Err(Error::setting(
+                    name,
+                    value,
+                    format!("a positive number up to {most}"),
+                ));
             }
         }
         self.max_error()?;
-        if let Some(b) = self.link.bandwidth_kbps.filter(|&b| !positive(b)) {
+        if self.cpu_slowdown < MIN_CPU_SLOWDOWN {
+            return Err(Error::setting(
+                "cpu_slowdown",
+                self.cpu_slowdown,
+                format!("at least {MIN_CPU_SLOWDOWN}"),
+            ));
+        }
+        let slowest = LinkProfile::MIN_BANDWIDTH_KBPS;
+        if let Some(b) = self
+            .link
+            .bandwidth_kbps
+            .filter(|&b| !(b.is_finite() && b >= slowest))
+        {
             return Err(Error::setting(
                 "link bandwidth_kbps",
                 b,
-                "a positive number",
+                format!("a finite number of at least {slowest}"),
             ));
         }
+        let longest = LinkProfile::MAX_DELAY.as_secs_f64() * 1e3;
         for (name, value) in [
             ("link latency_ms", self.link.latency_ms),
             ("link jitter_ms", self.link.jitter_ms),
         ] {
-            if !at_least_zero(value) {
-                return Err(Error::setting(name, value, "0 or more"));
+            if !(at_least_zero(value) && value <= longest) {
+                return Err(Error::setting(name, value, format!("0 ..= {longest}")));
             }
         }
         if !(0.0..=1.0).contains(&self.link.drop_rate) {

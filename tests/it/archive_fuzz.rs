@@ -11,6 +11,9 @@ use stripmask::db::builder::{BuildOptions, build};
 use stripmask::db::dem::{MemoryReader, NodataFill};
 use stripmask::db::source::file::FileSource;
 use stripmask::db::tile::{Tile, progressive_levels};
+use stripmask::engine::terrain::TerrainFrame;
+use stripmask::sim::flight::{Builtin, Flight};
+use stripmask::{Error, Named};
 
 fn cases() -> u32 {
     std::env::var("PROPTEST_CASES")
@@ -92,8 +95,95 @@ fn read_everything(bytes: &[u8]) {
     }
 }
 
+/// The header's numbers: (offset, width in bytes) of spacing, vertical scale, origin x and y
+/// (f64), min and max height and the height quantum (f32).
+const NUMBERS: [(usize, usize); 7] = [
+    (48, 8),
+    (56, 8),
+    (64, 8),
+    (72, 8),
+    (80, 4),
+    (84, 4),
+    (88, 4),
+];
+
+/// Numbers no terrain has, and ordinary ones: non-finite, huge, tiny, negative.
+fn extreme() -> impl Strategy<Value = f64> {
+    prop_oneof![
+        Just(f64::NAN),
+        Just(f64::INFINITY),
+        Just(f64::NEG_INFINITY),
+        Just(f64::MAX),
+        Just(-f64::MAX),
+        Just(1e300),
+        Just(1e38),
+        Just(3.5e38),
+        Just(1e12),
+        Just(1e-300),
+        Just(0.0),
+        Just(-1.0),
+        -1e7..1e7f64,
+    ]
+}
+
+/// `good`'s header with number `field` set to `value`, its checksum restored.
+fn header_with(good: &[u8], field: usize, value: f64) -> Vec<u8> {
+    let mut b = good[..HEADER_LEN].to_vec();
+    let (at, width) = NUMBERS[field];
+    if width == 8 {
+        b[at..at + 8].copy_from_slice(&value.to_le_bytes());
+    } else {
+        b[at..at + 4].copy_from_slice(&(value as f32).to_le_bytes());
+    }
+    let crc = crc32fast::hash(&b[..HEADER_LEN - 4]);
+    b[HEADER_LEN - 4..].copy_from_slice(&crc.to_le_bytes());
+    b
+}
+
+#[test]
+fn a_header_with_an_infinite_height_is_refused_though_its_checksum_holds() {
+    let (_, _, good) = valid();
+    let mut bytes = good.clone();
+    bytes[..HEADER_LEN].copy_from_slice(&header_with(good, 5, f64::INFINITY));
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("inf.smdb");
+    std::fs::write(&path, bytes).unwrap();
+    match ArchiveReader::open(FileSource::open(&path).unwrap()) {
+        Err(Error::Invalid { name, problem }) => {
+            assert!(
+                name.ends_with("inf.smdb") && problem.contains("inf"),
+                "{problem}"
+            );
+        }
+        Err(e) => panic!("{e}"),
+        Ok(_) => panic!("opened an archive whose max height is infinite"),
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(cases()))]
+
+    /// Every header number set to an extreme value, with a valid checksum: the header is refused,
+    /// or its numbers are finite and every built-in flight can be laid over it.
+    #[test]
+    fn extreme_header_numbers_are_refused_or_fly(
+        values in proptest::collection::vec((0usize..NUMBERS.len(), extreme()), 1..4),
+    ) {
+        let (_, _, good) = valid();
+        let mut bytes = good[..HEADER_LEN].to_vec();
+        for &(field, value) in &values {
+            bytes = header_with(&bytes, field, value);
+        }
+        if let Ok(h) = Header::parse(&bytes, "extreme") {
+            let numbers = [h.spacing, h.vertical_scale, h.origin_x, h.origin_y];
+            prop_assert!(numbers.iter().all(|v| v.is_finite()));
+            prop_assert!(h.min_height.is_finite() && h.max_height.is_finite());
+            for which in Builtin::all() {
+                let flight = Flight::builtin(which, &TerrainFrame::new(&h));
+                prop_assert!(flight.duration().is_finite());
+            }
+        }
+    }
 
     #[test]
     fn mutated_archives_never_panic((edits, cut) in mutations(), fix in any::<bool>()) {

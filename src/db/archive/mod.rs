@@ -44,6 +44,17 @@ pub const HEADER_LEN: usize = 96;
 pub const MAX_TILES: usize = 1 << 24;
 /// The largest index a reader accepts (bounds what it allocates: 256 MiB).
 pub const MAX_INDEX_LEN: usize = 1 << 28;
+/// The widest spacing between samples an archive may have, metres.
+pub const MAX_SPACING: f64 = 1e5;
+/// The narrowest spacing between samples an archive may have, metres (a millimetre): below it,
+/// a terrain is too small for a camera to fly over in f64.
+pub const MIN_SPACING: f64 = 1e-3;
+/// The finest height quantum an archive may have, metres.
+pub const MIN_QUANTUM: f64 = 1e-6;
+/// The farthest a terrain may reach, metres: its origin from zero, and its extent.
+pub const MAX_EXTENT: f64 = 1e9;
+/// The largest height (and vertical scale, and height quantum) an archive may hold, in size.
+pub const MAX_HEIGHT: f64 = 1e6;
 
 /// How tile payloads are stored.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -189,6 +200,110 @@ impl Header {
         b.try_into().expect("header is HEADER_LEN bytes")
     }
 
+    /// Checks every number of the header against what a reader (and the engine after it) can
+    /// work with: tile counts, index size, levels, texture size, and finite, bounded spacing,
+    /// extent, origin and heights. The reader calls it on every header it parses, and `build`
+    /// before it writes anything, so a build never writes what a reader would refuse.
+    pub fn validate(&self, name: &str) -> Result<()> {
+        let bad = |p: String| Error::invalid(name, p);
+        let count = self.tiles_x as usize * self.tiles_y as usize;
+        if count == 0 || count > MAX_TILES {
+            return Err(bad(format!(
+                "{} x {} tiles is outside 1 ..= {MAX_TILES}",
+                self.tiles_x, self.tiles_y
+            )));
+        }
+        if !is_valid_tile_size(self.tile_size as usize) {
+            return Err(bad(format!("tile size {} is not 2^n + 1", self.tile_size)));
+        }
+        if self.index_len() > MAX_INDEX_LEN {
+            return Err(bad(format!(
+                "the index of {} x {} tiles would take {} bytes, more than {MAX_INDEX_LEN}",
+                self.tiles_x,
+                self.tiles_y,
+                self.index_len()
+            )));
+        }
+        if self.base_levels as usize > self.levels() {
+            return Err(bad(format!(
+                "a base of {} levels, but tiles have {}",
+                self.base_levels,
+                self.levels()
+            )));
+        }
+        let t = self.texture_size as usize;
+        if !t.is_power_of_two() || t > MAX_TEXTURE_SIZE {
+            return Err(bad(format!(
+                "texture size {t} is not a power of two up to {MAX_TEXTURE_SIZE}"
+            )));
+        }
+        let finite = [
+            self.spacing,
+            self.vertical_scale,
+            self.origin_x,
+            self.origin_y,
+        ]
+        .iter()
+        .all(|v| v.is_finite());
+        if !finite
+            || self.spacing <= 0.0
+            || !(self.height_quantum.is_finite() && self.height_quantum > 0.0)
+        {
+            return Err(bad(
+                "spacing, vertical scale, origin or height quantum is not a finite number \
+                 (or spacing or quantum is not positive)"
+                    .into(),
+            ));
+        }
+        if !(MIN_SPACING..=MAX_SPACING).contains(&self.spacing) {
+            return Err(bad(format!(
+                "spacing {} m is outside {MIN_SPACING} ..= {MAX_SPACING} m",
+                self.spacing
+            )));
+        }
+        if f64::from(self.height_quantum) < MIN_QUANTUM {
+            return Err(bad(format!(
+                "height quantum {} m is finer than {MIN_QUANTUM} m",
+                self.height_quantum
+            )));
+        }
+        let side = f64::from(
+            self.source_width
+                .max(self.source_height)
+                .max(self.tile_size),
+        );
+        let extent = self.spacing * side;
+        if extent > MAX_EXTENT
+            || self.origin_x.abs() > MAX_EXTENT
+            || self.origin_y.abs() > MAX_EXTENT
+        {
+            return Err(bad(format!(
+                "the terrain spans {extent} m from origin ({}, {}); each must be within \
+                 {MAX_EXTENT} m",
+                self.origin_x, self.origin_y
+            )));
+        }
+        let heights = [
+            f64::from(self.min_height),
+            f64::from(self.max_height),
+            self.vertical_scale,
+            f64::from(self.height_quantum),
+        ];
+        if heights
+            .iter()
+            .any(|v| !v.is_finite() || v.abs() > MAX_HEIGHT)
+            || self.vertical_scale == 0.0
+            || self.min_height > self.max_height
+        {
+            return Err(bad(format!(
+                "heights {} ..= {} m, vertical scale {} or quantum {}: each must be finite, \
+                 within {MAX_HEIGHT} in size, the scale non-zero and the range in order",
+                self.min_height, self.max_height, self.vertical_scale, self.height_quantum
+            )));
+        }
+        Ok(())
+    }
+
     /// Parses and validates a header; `name` labels errors.
     pub fn parse(bytes: &[u8], name: &str) -> Result<Header> {
         let bad = |p: String| Error::invalid(name, p);
@@ -250,48 +365,7 @@ impl Header {
                 h.base_levels
             )));
         }
-        let count = h.tiles_x as usize * h.tiles_y as usize;
-        if count == 0 || count > MAX_TILES {
-            return Err(bad(format!(
-                "{} x {} tiles is outside 1 ..= {MAX_TILES}",
-                h.tiles_x, h.tiles_y
-            )));
-        }
-        if !is_valid_tile_size(h.tile_size as usize) {
-            return Err(bad(format!("tile size {} is not 2^n + 1", h.tile_size)));
-        }
-        if h.index_len() > MAX_INDEX_LEN {
-            return Err(bad(format!(
-                "the index of {} x {} tiles would take {} bytes, more than {MAX_INDEX_LEN}",
-                h.tiles_x,
-                h.tiles_y,
-                h.index_len()
-            )));
-        }
-        if h.base_levels as usize > h.levels() {
-            return Err(bad(format!(
-                "a base of {} levels, but tiles have {}",
-                h.base_levels,
-                h.levels()
-            )));
-        }
-        let t = h.texture_size as usize;
-        if !t.is_power_of_two() || t > MAX_TEXTURE_SIZE {
-            return Err(bad(format!(
-                "texture size {t} is not a power of two up to {MAX_TEXTURE_SIZE}"
-            )));
-        }
-        let finite = [h.spacing, h.vertical_scale, h.origin_x, h.origin_y]
-            .iter()
-            .all(|v| v.is_finite());
-        if !finite || h.spacing <= 0.0 || !(h.height_quantum.is_finite() && h.height_quantum > 0.0)
-        {
-            return Err(bad(
-                "spacing, vertical scale, origin or height quantum is not a finite number \
-                 (or spacing or quantum is not positive)"
-                    .into(),
-            ));
-        }
+        h.validate(name)?;
         Ok(h)
     }
 }

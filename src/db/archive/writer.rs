@@ -3,6 +3,7 @@
 use std::fs::File;
 use std::io::{BufWriter, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use super::{Header, IndexEntry, LevelEntry, index_to_bytes};
 use crate::error::{Error, Result};
@@ -26,14 +27,36 @@ pub struct ArchiveWriter {
 }
 
 impl ArchiveWriter {
-    /// Creates `path.partial` for an archive described by `header` (its height range is filled
-    /// in by [`ArchiveWriter::finish`]).
+    /// Creates a temporary file beside `path` for an archive described by `header` (its height
+    /// range is filled in by [`ArchiveWriter::finish`]). The temporary name is unique to this
+    /// writer (`.NAME.PID-N.partial`, created exclusively), so builds to the same path at once
+    /// never write into each other's file; the last to finish wins, whole.
     pub fn create(path: &Path, header: Header) -> Result<Self> {
-        let mut partial = path.as_os_str().to_owned();
-        partial.push(".partial");
-        let partial = PathBuf::from(partial);
+        static WRITERS: AtomicU64 = AtomicU64::new(0);
+        let shown = path.display().to_string();
+        if path.is_dir() {
+            return Err(Error::invalid(
+                &shown,
+                "is a directory, not an archive file",
+            ));
+        }
+        let file_name = path
+            .file_name()
+            .ok_or_else(|| Error::invalid(&shown, "names no file"))?;
+        let mut temporary = std::ffi::OsString::from(".");
+        temporary.push(file_name);
+        temporary.push(format!(
+            ".{}-{}.partial",
+            std::process::id(),
+            WRITERS.fetch_add(1, Ordering::Relaxed)
+        ));
+        let partial = path.with_file_name(temporary);
         let name = partial.display().to_string();
-        let file = File::create(&partial).map_err(|e| Error::io(&name, e))?;
+        let file = File::options()
+            .write(true)
+            .create_new(true)
+            .open(&partial)
+            .map_err(|e| Error::io(&name, e))?;
         let mut file = BufWriter::with_capacity(1 << 20, file);
         let start = header.payload_start();
         file.write_all(&vec![0; start as usize])
@@ -100,6 +123,7 @@ impl ArchiveWriter {
             .collect::<Result<_>>()?;
         self.header.min_height = min_height;
         self.header.max_height = max_height;
+        self.header.validate(&name)?;
         let io = |e| Error::io(&name, e);
         let mut file = self.file.take().expect("writer not finished");
         for base in &self.base {

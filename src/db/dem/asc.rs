@@ -127,6 +127,24 @@ impl AscReader {
         let width = dim(ncols, "ncols")?;
         let height = dim(nrows, "nrows")?;
         check_dimensions(&name, width, height)?;
+        // Every sample takes at least a digit and a separator: a header claiming more samples
+        // than the file can hold is refused before anything is allocated or written.
+        let file_len = tokens
+            .input
+            .get_ref()
+            .metadata()
+            .map_err(|e| Error::io(&name, e))?
+            .len();
+        let least = (width as u64 * height as u64).saturating_mul(2) - 1;
+        if least > file_len {
+            return Err(Error::invalid(
+                &name,
+                format!(
+                    "the header claims {width} x {height} samples, which take at least \
+                     {least} bytes, but the file has {file_len}"
+                ),
+            ));
+        }
         let cell = cell.filter(|c| c.is_finite() && *c > 0.0);
         let origin_hint = match (xll, yll, cell) {
             (Some(x), Some(y), Some(c)) => {

@@ -10,7 +10,7 @@ use tiff::decoder::{Decoder, DecodingResult};
 use tiff::tags::Tag;
 
 use super::geographic::Geographic;
-use super::{DemInfo, DemReader, check_dimensions};
+use super::{DemInfo, DemReader, check_claim, check_dimensions};
 use crate::error::{Error, Result};
 
 /// Streams rows of a single-band TIFF. Holds one chunk row: one strip, or one row of tiles.
@@ -34,6 +34,7 @@ impl TiffReader {
         let name = path.display().to_string();
         let bad = |e: tiff::TiffError| Error::invalid(&name, format!("not a readable TIFF: {e}"));
         let file = File::open(path).map_err(|e| Error::io(&name, e))?;
+        let file_len = file.metadata().map_err(|e| Error::io(&name, e))?.len();
         let mut decoder = Decoder::new(BufReader::new(file)).map_err(bad)?;
         let (w, h) = decoder.dimensions().map_err(bad)?;
         let (width, height) = (w as usize, h as usize);
@@ -65,6 +66,30 @@ impl TiffReader {
                 &name,
                 "TIFF has an empty strip or tile size",
             ));
+        }
+        let bits = match decoder.colortype().map_err(bad)? {
+            ColorType::Gray(b) => u64::from(b),
+            _ => 64,
+        };
+        check_claim(
+            &name,
+            width as u64 * height as u64 * bits / 8,
+            file_len,
+            MAX_EXPANSION,
+        )?;
+        for (offsets, counts) in [
+            (Tag::StripOffsets, Tag::StripByteCounts),
+            (Tag::TileOffsets, Tag::TileByteCounts),
+        ] {
+            let list = |decoder: &mut Decoder<BufReader<File>>, tag| -> Result<Vec<u64>> {
+                match decoder.find_tag(tag).map_err(bad)? {
+                    Some(v) => v.into_u64_vec().map_err(bad),
+                    None => Ok(Vec::new()),
+                }
+            };
+            let offsets = list(&mut decoder, offsets)?;
+            let counts = list(&mut decoder, counts)?;
+            check_chunks(&name, &offsets, &counts, file_len)?;
         }
         Ok(TiffReader {
             info,
@@ -228,4 +253,49 @@ impl DemReader for TiffReader {
         self.next_row += 1;
         Ok(())
     }
+}
+
+/// The most a TIFF's samples may outweigh its file: LZW, the most compressing of the codecs
+/// read here, stays under 4096 to 1 (DEFLATE under 1032 to 1).
+const MAX_EXPANSION: u64 = 4096;
+
+/// Refuses strips or tiles outside the file or sharing bytes: each chunk must have bytes of
+/// its own, or one stored chunk could be decoded over and over as many.
+fn check_chunks(name: &str, offsets: &[u64], counts: &[u64], file_len: u64) -> Result<()> {
+    if offsets.len() != counts.len() {
+        return Err(Error::invalid(
+            name,
+            format!(
+                "the TIFF lists {} chunk offsets but {} byte counts",
+                offsets.len(),
+                counts.len()
+            ),
+        ));
+    }
+    let mut ranges: Vec<(u64, u64, usize)> = offsets
+        .iter()
+        .zip(counts)
+        .enumerate()
+        .filter(|(_, (_, count))| **count > 0)
+        .map(|(i, (&offset, &count))| (offset, offset.saturating_add(count), i))
+        .collect();
+    ranges.sort_unstable();
+    if let Some(&(_, end, i)) = ranges.iter().find(|r| r.1 > file_len) {
+        return Err(Error::invalid(
+            name,
+            format!("TIFF chunk {i} ends at byte {end}, past the file's {file_len}"),
+        ));
+    }
+    for pair in ranges.windows(2) {
+        let ((_, end, a), (start, _, b)) = (pair[0], pair[1]);
+        if start < end {
+            return Err(Error::invalid(
+                name,
+                format!(
+                    "TIFF chunks {a} and {b} share bytes (a decompression bomb or a corrupt file)"
+                ),
+            ));
+        }
+    }
+    Ok(())
 }

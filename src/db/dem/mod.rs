@@ -549,6 +549,27 @@ pub(crate) fn check_dimensions(name: &str, width: usize, height: usize) -> Resul
     Ok(())
 }
 
+/// Refuses a compressed DEM whose `decoded` bytes of samples cannot come from a file of
+/// `file_len` bytes compressed at most `max_expansion` to 1: a decompression bomb or a corrupt
+/// header, refused before anything is allocated or written.
+pub(crate) fn check_claim(
+    name: &str,
+    decoded: u64,
+    file_len: u64,
+    max_expansion: u64,
+) -> Result<()> {
+    if decoded > file_len.saturating_mul(max_expansion) {
+        return Err(Error::invalid(
+            name,
+            format!(
+                "the header claims {decoded} bytes of samples, more than {max_expansion} times \
+                 the file's {file_len} bytes: a decompression bomb or a corrupt file"
+            ),
+        ));
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -7,12 +7,15 @@ use std::path::Path;
 
 use png::{BitDepth, ColorType, Transformations};
 
-use super::{DemInfo, DemReader, check_dimensions};
+use super::{DemInfo, DemReader, check_claim, check_dimensions};
 use crate::error::{Error, Result};
 
 /// What `build` says about an 8-bit height map: 256 levels, scaled by `--vertical-scale`.
 pub(crate) const EIGHT_BIT_NOTE: &str =
     "8-bit samples: 256 height levels of --vertical-scale metres each (1 m unless given)";
+
+/// The most a PNG's samples may outweigh its file: zlib's DEFLATE stays under 1032 to 1.
+const MAX_EXPANSION: u64 = 1032;
 
 /// The largest interlaced image decoded whole (512 MiB).
 const MAX_INTERLACED_BYTES: usize = 512 << 20;
@@ -36,20 +39,21 @@ impl PngReader {
     pub fn open(path: &Path) -> Result<Self> {
         let name = path.display().to_string();
         let file = File::open(path).map_err(|e| Error::io(&name, e))?;
-        PngReader::from_reader(name, BufReader::new(file))
+        let file_len = file.metadata().map_err(|e| Error::io(&name, e))?.len();
+        PngReader::from_reader(name, BufReader::new(file), file_len)
     }
 }
 
 impl PngReader<Cursor<&'static [u8]>> {
     /// Reads a PNG held in the program itself, called `name` in messages.
     pub fn from_bytes(name: &str, bytes: &'static [u8]) -> Result<Self> {
-        PngReader::from_reader(name.to_string(), Cursor::new(bytes))
+        PngReader::from_reader(name.to_string(), Cursor::new(bytes), bytes.len() as u64)
     }
 }
 
 impl<R: BufRead + Seek> PngReader<R> {
-    /// Reads the header of the PNG that `input` yields.
-    fn from_reader(name: String, input: R) -> Result<Self> {
+    /// Reads the header of the PNG that `input` yields, `input_len` bytes long.
+    fn from_reader(name: String, input: R, input_len: u64) -> Result<Self> {
         let mut decoder = png::Decoder::new(input);
         decoder.set_transformations(Transformations::EXPAND);
         decoder.set_ignore_text_chunk(true);
@@ -82,6 +86,8 @@ impl<R: BufRead + Seek> PngReader<R> {
         };
         let (width, height) = (reader.info().width as usize, reader.info().height as usize);
         check_dimensions(&name, width, height)?;
+        let row_bytes = (width * channels) as u64 * if sixteen_bit { 2 } else { 1 };
+        check_claim(&name, row_bytes * height as u64, input_len, MAX_EXPANSION)?;
         let frame = if reader.info().interlaced {
             let size = reader
                 .output_buffer_size()

@@ -42,6 +42,44 @@ impl Default for LinkProfile {
 }
 
 impl LinkProfile {
+    /// The slowest bandwidth a link may have, kbit/s: slower, one tile would take days, and
+    /// transfer times overflow what a clock can wait.
+    pub const MIN_BANDWIDTH_KBPS: f64 = 0.1;
+    /// The longest latency or jitter a link may have.
+    pub const MAX_DELAY: Duration = Duration::from_secs(3600);
+
+    /// The profile when every number is one a link can have: a finite bandwidth of at least
+    /// [`Self::MIN_BANDWIDTH_KBPS`], latency and jitter up to [`Self::MAX_DELAY`], a drop rate
+    /// in 0 ..= 1.
+    pub fn validate(&self) -> Result<()> {
+        if let Some(b) = self.bandwidth_kbps {
+            if !(b.is_finite() && b >= Self::MIN_BANDWIDTH_KBPS) {
+                return Err(Error::setting(
+                    "--bandwidth-kbps",
+                    b,
+                    format!("a finite number of at least {}", Self::MIN_BANDWIDTH_KBPS),
+                ));
+            }
+        }
+        for (name, d) in [("--latency-ms", self.latency), ("--jitter-ms", self.jitter)] {
+            if d > Self::MAX_DELAY {
+                return Err(Error::setting(
+                    name,
+                    d.as_secs_f64() * 1e3,
+                    format!("at most {} ms", Self::MAX_DELAY.as_millis()),
+                ));
+            }
+        }
+        if !(0.0..=1.0).contains(&self.drop_rate) {
+            return Err(Error::setting(
+                "--drop-rate",
+                self.drop_rate,
+                "a fraction between 0 and 1",
+            ));
+        }
+        Ok(())
+    }
+
     /// Bytes per second, or `None` when unlimited.
     pub fn bytes_per_second(&self) -> Option<f64> {
         self.bandwidth_kbps

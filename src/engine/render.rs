@@ -11,13 +11,13 @@ use glam::{DMat4, DVec3};
 use stripmask_raster::{
     CullMode, DepthMode, DrawBatch, DrawStats, DrawTarget, Fog, Indices, LineDepth, LineState,
     LineStats, Mesh, Perspective, Precision, RasterError, RenderState, Sampler, Shading,
-    TextureBinding, Topology, Transform,
+    TextureBinding, Topology, Transform, Vertex,
 };
 
 use crate::db::tile::PartialGrid;
 use crate::engine::camera::Camera;
 use crate::engine::cracks::{CrackMode, TileIndices, shadow};
-use crate::engine::geomorph::{self, Morpher};
+use crate::engine::geomorph::{self, MorphView, Morpher};
 use crate::engine::masks::{FRONT_FACE, MaskSet};
 use crate::engine::partial_meshes::{PartialMeshes, compact_level};
 use crate::engine::resident::ResidentTile;
@@ -232,19 +232,8 @@ pub fn draw_tiles<T: DrawTarget>(
     });
     let shadows = meshes.cracks.mode() == CrackMode::Shadow;
     let wire = settings.wireframe.lines(settings.depth_test);
-    let surface = match settings.wireframe {
-        Wireframe::Only => RenderSettings {
-            sampler: None,
-            lighting: false,
-            fog: false,
-            ..*settings
-        },
-        Wireframe::Off | Wireframe::Over => *settings,
-    };
-    let (settings, fog) = match settings.wireframe {
-        Wireframe::Only => (&surface, None),
-        Wireframe::Off | Wireframe::Over => (settings, fog),
-    };
+    let (surface, fog) = surface_settings(settings, fog);
+    let settings = &surface;
     // One batch for the frame's draws: the CPU rasterizer sets them up and bins them into
     // screen tiles together, instead of paying for threads and tiles per tile draw.
     let ((stats, lines), done) = target.batch(|target| {
@@ -269,26 +258,12 @@ pub fn draw_tiles<T: DrawTarget>(
             let (indices, topology) = if stride == 1 {
                 meshes.cracks.tile(meshes.masks, t.level, t.neighbours)
             } else {
-                let (masks, cracks) = held.get(mode, t.tile.side());
-                let neighbours = t.neighbours.map(|n| compact_level(n, stride));
-                cracks.tile(masks, compact_level(t.level, stride), neighbours)
+                partial_indices(held, mode, t)
             };
             let (vertices, tile_transform) = match &mut morph {
-                Some((view, fine, morpher)) if stride == 1 => (
-                    morpher.tile(
-                        view,
-                        &t.tile.vertices,
-                        (t.x, t.y),
-                        &[
-                            t.level,
-                            t.neighbours[0],
-                            t.neighbours[1],
-                            t.neighbours[2],
-                            t.neighbours[3],
-                        ],
-                    ),
-                    fine.tile(t.x, t.y)?,
-                ),
+                Some((view, fine, morpher)) if stride == 1 => {
+                    (morphed(morpher, view, t), fine.tile(t.x, t.y)?)
+                }
                 _ => (&t.tile.vertices[..], transform.tile(t.x, t.y)?),
             };
             let mesh = Mesh {
@@ -309,6 +284,48 @@ pub fn draw_tiles<T: DrawTarget>(
     let mut triangles = stats;
     triangles += done;
     Ok(TilesDrawn { triangles, lines })
+}
+
+/// The render state of the terrain surface and its fog: as set, or, with only the wireframe
+/// shown, plain white without texture, lighting or fog under the lines.
+fn surface_settings(settings: &RenderSettings, fog: Option<Fog>) -> (RenderSettings, Option<Fog>) {
+    match settings.wireframe {
+        Wireframe::Only => (
+            RenderSettings {
+                sampler: None,
+                lighting: false,
+                fog: false,
+                ..*settings
+            },
+            None,
+        ),
+        Wireframe::Off | Wireframe::Over => (*settings, fog),
+    }
+}
+
+/// Whole tile `t`'s vertices morphed for this frame, only the samples its level's mask and its
+/// neighbours' stitches read.
+fn morphed<'m>(morpher: &'m mut Morpher, view: &MorphView, t: &TileDraw<'_>) -> &'m [Vertex] {
+    let [n0, n1, n2, n3] = t.neighbours;
+    morpher.tile(
+        view,
+        &t.tile.vertices,
+        (t.x, t.y),
+        &[t.level, n0, n1, n2, n3],
+    )
+}
+
+/// The strip indices of partial tile `t` (levels held at a stride above one): its levels and
+/// its neighbours' counted in the tile's own compact grid.
+fn partial_indices<'h>(
+    held: &'h mut PartialMeshes,
+    mode: CrackMode,
+    t: &TileDraw<'_>,
+) -> (Indices<'h>, Topology) {
+    let stride = t.tile.stride();
+    let (masks, cracks) = held.get(mode, t.tile.side());
+    let neighbours = t.neighbours.map(|n| compact_level(n, stride));
+    cracks.tile(masks, compact_level(t.level, stride), neighbours)
 }
 
 /// Draws the shadow quad of every tile in `tiles` ([`crate::engine::cracks::shadow`]), in their order,

@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use stripmask::Error;
-use stripmask::db::archive::{ArchiveReader, HEADER_LEN};
+use stripmask::db::archive::{ArchiveReader, HEADER_LEN, base_range, index_to_bytes};
 use stripmask::db::builder::{BuildOptions, build};
 use stripmask::db::dem::{MemoryReader, NodataFill};
 use stripmask::db::source::file::FileSource;
@@ -111,7 +111,12 @@ fn a_tile_whose_bytes_changed_fails_its_checksum_and_others_still_read() {
     let reader = ArchiveReader::open(FileSource::open(&path).unwrap()).unwrap();
     let check = reader.check().unwrap();
     let stored: u64 = reader.index().iter().map(|e| e.stored_len()).sum();
-    assert_eq!((check.tiles, check.bytes), (reader.index().len(), stored));
+    let (_, base) = base_range(reader.index(), reader.header().base_levels as usize);
+    assert!(base > 0);
+    assert_eq!(
+        (check.tiles, check.bytes),
+        (reader.index().len(), stored + base)
+    );
     // A byte of tile 1's level-2 chunk.
     let (offset, _) = reader.level_range(1, 0, 2..3);
     drop(reader);
@@ -165,4 +170,47 @@ fn a_changed_byte_of_the_base_fails_its_checksum_by_tile_and_level() {
     let x = last % reader.header().tiles_x as usize;
     let y = last / reader.header().tiles_x as usize;
     assert!(reader.tile(x, y).is_ok());
+}
+
+#[test]
+fn index_entries_that_share_bytes_are_refused_on_open() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = small_archive(dir.path());
+    let name = path.display().to_string();
+    let reader = ArchiveReader::open(FileSource::open(&path).unwrap()).unwrap();
+    let header = reader.header().clone();
+    let mut index = reader.index().to_vec();
+    drop(reader);
+    // Every tile pointing at tile 0's payload, checksums and the index's crc32 all valid: each
+    // entry alone passes, together they would decode one payload once per tile.
+    let first = index[0].clone();
+    index.iter_mut().for_each(|e| *e = first.clone());
+    let bytes = index_to_bytes(&index);
+    rewrite(&path, |b| {
+        b[HEADER_LEN..HEADER_LEN + bytes.len()].copy_from_slice(&bytes)
+    });
+    let e = open_err(&path);
+    assert!(
+        e.contains(&name) && e.contains("index entries 0 and 1 overlap"),
+        "{e}"
+    );
+    assert_eq!(header.index_len(), bytes.len());
+}
+
+#[test]
+fn bytes_appended_to_an_archive_fail_its_check_but_not_its_reading() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = small_archive(dir.path());
+    let name = path.display().to_string();
+    let reader = ArchiveReader::open(FileSource::open(&path).unwrap()).unwrap();
+    reader.check().unwrap();
+    drop(reader);
+    rewrite(&path, |b| b.extend_from_slice(b"appended junk"));
+    let reader = ArchiveReader::open(FileSource::open(&path).unwrap()).unwrap();
+    reader.tile(0, 0).unwrap();
+    let e = reader.check().unwrap_err().to_string();
+    assert!(
+        e.contains(&name) && e.contains("13 bytes after the archive's end"),
+        "{e}"
+    );
 }

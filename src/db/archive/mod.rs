@@ -520,7 +520,32 @@ pub fn parse_index(
                 _ => Ok(entry),
             }
         })
-        .collect()
+        .collect::<Result<Vec<_>>>()
+        .and_then(|entries| disjoint(entries, name))
+}
+
+/// `entries` if no two of them share a byte: an index whose entries overlap (or repeat) would
+/// make readers decode one payload many times over, a decompression bomb of the index.
+fn disjoint(entries: Vec<IndexEntry>, name: &str) -> Result<Vec<IndexEntry>> {
+    let mut spans: Vec<(u64, u64, usize)> = entries
+        .iter()
+        .enumerate()
+        .map(|(i, e)| (e.offset, e.offset + e.stored_len(), i))
+        .collect();
+    spans.sort_unstable();
+    for pair in spans.windows(2) {
+        let ((start_a, end_a, a), (start_b, end_b, b)) = (pair[0], pair[1]);
+        if start_b < end_a {
+            return Err(Error::invalid(
+                name,
+                format!(
+                    "index entries {a} and {b} overlap: bytes {start_a}..{end_a} and \
+                     {start_b}..{end_b} (an index must give every tile its own bytes)"
+                ),
+            ));
+        }
+    }
+    Ok(entries)
 }
 
 /// The most bytes a stored chunk of `raw` bytes may take (the codec's worst case).

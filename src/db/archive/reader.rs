@@ -15,6 +15,8 @@ pub struct ArchiveReader<S> {
     header: Header,
     index: Vec<IndexEntry>,
     attempts: u32,
+    /// The source's size in bytes, for [`ArchiveReader::check`]'s end-of-archive test.
+    file_len: u64,
 }
 
 /// How many times a reader fetches a piece (header, index, tile levels) before giving up.
@@ -75,6 +77,7 @@ impl<S: TileSource> ArchiveReader<S> {
             header,
             index,
             attempts,
+            file_len,
         })
     }
 
@@ -86,6 +89,11 @@ impl<S: TileSource> ArchiveReader<S> {
     /// The index, one entry per tile in row-major order.
     pub fn index(&self) -> &[IndexEntry] {
         &self.index
+    }
+
+    /// The source's size in bytes.
+    pub fn file_len(&self) -> u64 {
+        self.file_len
     }
 
     /// The source's name (file path or URL).

@@ -90,6 +90,21 @@ pub enum Error {
         /// The quantum that was too fine, metres.
         quantum: f32,
     },
+    /// A flight drew no terrain at all because its fetches failed: the source is unusable.
+    #[error(
+        "{name}: no terrain could be drawn in {frames} frame(s): {errors} fetch(es) failed; the first: {}",
+        first.join("; ")
+    )]
+    NothingLoaded {
+        /// The archive file or URL.
+        name: String,
+        /// Frames flown.
+        frames: u64,
+        /// Failed fetches, of tiles and of the coarse base.
+        errors: u64,
+        /// The messages of the first failures, each naming its tile.
+        first: Vec<String>,
+    },
     /// A command this build of stripmask was made without: a cargo feature left out, or one
     /// for another platform.
     #[error("{command} needs {needs}, which this stripmask was built without")]

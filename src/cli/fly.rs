@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 use stripmask::ErrorBound;
-use stripmask::error::Result;
+use stripmask::error::{Error, Result};
 use stripmask::sim::fly::{FlyOptions, fly};
 
 use super::args::{SceneArgs, length};
@@ -82,5 +82,14 @@ pub(super) fn run(a: FlyArgs) -> Result<()> {
         a.out.join("stats.csv").display(),
         s.holes
     );
+    let (errors, first) = s.errors;
+    if s.holes.first_frame_s.is_none() && errors > 0 {
+        return Err(Error::NothingLoaded {
+            name: a.source.clone(),
+            frames: s.frames,
+            errors,
+            first,
+        });
+    }
     Ok(())
 }

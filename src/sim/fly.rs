@@ -83,7 +83,7 @@ pub struct LiveView<'a> {
 }
 
 /// A run's summary.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct FlySummary {
     /// Frames rendered.
     pub frames: u64,
@@ -109,6 +109,8 @@ pub struct FlySummary {
     pub downloaded_bytes: u64,
     /// Frames with holes and why, the first frame, the first without a hole, the base.
     pub holes: HoleTally,
+    /// Fetches that failed (tiles and the base), and the messages of the first few.
+    pub errors: (u64, Vec<String>),
 }
 
 /// Flies `o.flight` and writes `stats.csv` (and frames) into `o.out`.
@@ -289,6 +291,7 @@ impl Tally {
             memory_limit_bytes: stats.memory_limit_bytes,
             downloaded_bytes: stats.downloaded_bytes,
             holes: self.holes,
+            errors: (stats.errors, engine.pager().first_errors().to_vec()),
         }
     }
 }

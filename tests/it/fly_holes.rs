@@ -1,7 +1,8 @@
 //! What `fly` reports of holes and how it paces frames: on the wall clock no frame is shorter
 //! than one at twice the target rate, however empty; the summary and `stats.csv` say which
 //! frames had holes and why; with the PocketPC profile over a model larger than the belts
-//! reach, no frame has a hole once the coarse base arrived, in both streaming modes.
+//! reach, no frame has a hole once the coarse base arrived, in both streaming modes; a flight
+//! whose every fetch fails ends with an error naming the failed tiles.
 
 use std::path::{Path, PathBuf};
 
@@ -17,6 +18,8 @@ use stripmask::sim::device::DeviceProfile;
 use stripmask::sim::flight::{Builtin, Flight};
 use stripmask::sim::fly::{FlyOptions, FlySummary, Length, fly};
 use stripmask::sim::report::StatsTable;
+
+use crate::support::cli::{plain_archive, run_bounded};
 
 /// A ridged model of `n x n` samples 40 m apart in tiles of 65 samples, written into `dir`.
 fn ridges(dir: &Path, n: usize) -> PathBuf {
@@ -167,4 +170,61 @@ fn a_pocketpc_flight_over_a_large_model_has_no_hole_once_the_base_arrived() {
         assert_eq!(late.count(), 0, "{name}");
         assert!(s.peak_memory_bytes <= s.memory_limit_bytes);
     }
+}
+
+#[test]
+fn a_flight_whose_every_fetch_fails_says_which_tiles_failed_and_exits_non_zero() {
+    let dir = tempfile::tempdir().unwrap();
+    let archive = dir.path().join("broken.smdb");
+    plain_archive(&archive);
+    let payload_start = {
+        let reader = ArchiveReader::open(source::open(archive.to_str().unwrap()).unwrap()).unwrap();
+        reader.header().payload_start() as usize
+    };
+    // Header and index intact, every payload byte (tiles and the base) flipped: every fetch
+    // fails its checksum.
+    let mut bytes = std::fs::read(&archive).unwrap();
+    bytes[payload_start..].iter_mut().for_each(|b| *b ^= 0x5a);
+    std::fs::write(&archive, bytes).unwrap();
+    let out = dir.path().join("run");
+    let (code, err) = run_bounded(&[
+        "fly",
+        archive.to_str().unwrap(),
+        "--clock",
+        "simulated",
+        "--frames",
+        "40",
+        "--every",
+        "0",
+        "--no-plots",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains("no terrain could be drawn in 40 frame(s)")
+            && err.contains("fetch(es) failed")
+            && err.contains("checksum")
+            && err.contains(archive.to_str().unwrap()),
+        "{err}"
+    );
+    // The healthy archive flies and exits 0.
+    let healthy = dir.path().join("healthy.smdb");
+    plain_archive(&healthy);
+    let (code, err) = run_bounded(&[
+        "fly",
+        healthy.to_str().unwrap(),
+        "--clock",
+        "simulated",
+        "--frames",
+        "10",
+        "--every",
+        "0",
+        "--no-plots",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(0), "{err}");
 }

@@ -96,7 +96,7 @@ fn a_jittery_simulated_link_repeats_byte_for_byte_and_changes_the_arrivals() {
     let (a, csv_a) = run(&jittery, "a");
     let (b, csv_b) = run(&jittery, "b");
     let (c, csv_c) = run(&steady, "c");
-    assert_eq!((a, &csv_a), (b, &csv_b));
+    assert_eq!((&a, &csv_a), (&b, &csv_b));
     assert_ne!(csv_a, csv_c, "jitter moves the arrivals");
     assert!(c.downloaded_bytes > 0);
     let earliest = (jittery.link.latency_ms - jittery.link.jitter_ms) / 1e3;

@@ -191,7 +191,12 @@ pub struct Residency<T> {
     evictions: u64,
     errors: u64,
     last_error: Option<String>,
+    /// The first [`FIRST_ERRORS`] errors, for a summary that says what went wrong from the start.
+    first_errors: Vec<String>,
 }
+
+/// How many of a pager's first errors it keeps, beside the count and the last one.
+pub const FIRST_ERRORS: usize = 5;
 
 impl<T> Residency<T> {
     fn new(grid: Grid, config: &PagerConfig) -> Self {
@@ -212,6 +217,7 @@ impl<T> Residency<T> {
             evictions: 0,
             errors: 0,
             last_error: None,
+            first_errors: Vec::new(),
         }
     }
 
@@ -262,6 +268,11 @@ impl<T> Residency<T> {
     /// The message of the last error (a failed fetch names its tile), if any.
     pub fn last_error(&self) -> Option<&str> {
         self.last_error.as_deref()
+    }
+
+    /// The messages of the first [`FIRST_ERRORS`] errors, oldest first.
+    pub fn first_errors(&self) -> &[String] {
+        &self.first_errors
     }
 
     /// Seconds on the pager's clock: the wall clock when threaded, else the time set.
@@ -422,6 +433,9 @@ impl<T> Residency<T> {
 
     fn record_error(&mut self, message: String) {
         self.errors += 1;
+        if self.first_errors.len() < FIRST_ERRORS {
+            self.first_errors.push(message.clone());
+        }
         self.last_error = Some(message);
     }
 }

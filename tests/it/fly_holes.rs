@@ -187,20 +187,23 @@ fn a_flight_whose_every_fetch_fails_says_which_tiles_failed_and_exits_non_zero()
     bytes[payload_start..].iter_mut().for_each(|b| *b ^= 0x5a);
     std::fs::write(&archive, bytes).unwrap();
     let out = dir.path().join("run");
-    let (code, err) = run_bounded(&[
-        "fly",
-        archive.to_str().unwrap(),
-        "--clock",
-        "simulated",
-        "--frames",
-        "40",
-        "--every",
-        "0",
-        "--no-plots",
-        "--quiet",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let fly_frames = |archive: &Path, frames: &str| {
+        run_bounded(&[
+            "fly",
+            archive.to_str().unwrap(),
+            "--clock",
+            "simulated",
+            "--frames",
+            frames,
+            "--every",
+            "0",
+            "--no-plots",
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
+    let (code, err) = fly_frames(&archive, "40");
     assert_eq!(code, Some(1), "{err}");
     assert!(
         err.contains("no terrain could be drawn in 40 frame(s)")
@@ -212,19 +215,6 @@ fn a_flight_whose_every_fetch_fails_says_which_tiles_failed_and_exits_non_zero()
     // The healthy archive flies and exits 0.
     let healthy = dir.path().join("healthy.smdb");
     plain_archive(&healthy);
-    let (code, err) = run_bounded(&[
-        "fly",
-        healthy.to_str().unwrap(),
-        "--clock",
-        "simulated",
-        "--frames",
-        "10",
-        "--every",
-        "0",
-        "--no-plots",
-        "--quiet",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let (code, err) = fly_frames(&healthy, "10");
     assert_eq!(code, Some(0), "{err}");
 }

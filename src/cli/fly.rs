@@ -82,13 +82,12 @@ pub(super) fn run(a: FlyArgs) -> Result<()> {
         a.out.join("stats.csv").display(),
         s.holes
     );
-    let (errors, first) = s.errors;
-    if s.holes.first_frame_s.is_none() && errors > 0 {
+    if s.holes.first_frame_s.is_none() && s.errors > 0 {
         return Err(Error::NothingLoaded {
             name: a.source.clone(),
             frames: s.frames,
-            errors,
-            first,
+            errors: s.errors,
+            first: s.first_errors,
         });
     }
     Ok(())

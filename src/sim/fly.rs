@@ -109,8 +109,11 @@ pub struct FlySummary {
     pub downloaded_bytes: u64,
     /// Frames with holes and why, the first frame, the first without a hole, the base.
     pub holes: HoleTally,
-    /// Fetches that failed (tiles and the base), and the messages of the first few.
-    pub errors: (u64, Vec<String>),
+    /// Fetches that failed (tiles and the base).
+    pub errors: u64,
+    /// The messages of the first failures, each naming its tile (at most
+    /// [`crate::engine::paging::FIRST_ERRORS`]).
+    pub first_errors: Vec<String>,
 }
 
 /// Flies `o.flight` and writes `stats.csv` (and frames) into `o.out`.
@@ -291,7 +294,8 @@ impl Tally {
             memory_limit_bytes: stats.memory_limit_bytes,
             downloaded_bytes: stats.downloaded_bytes,
             holes: self.holes,
-            errors: (stats.errors, engine.pager().first_errors().to_vec()),
+            errors: stats.errors,
+            first_errors: engine.pager().first_errors().to_vec(),
         }
     }
 }

@@ -29,8 +29,8 @@ use crate::engine::importance::{TileMeasure, Weights, visual_importance};
 use crate::engine::masks::{LevelSet, MaskSet};
 use crate::engine::paging::stream::{PredictedView, Predictor, StreamPager, Streaming, Want};
 use crate::engine::paging::{
-    ArchiveLoader, BeltPager, PagerConfig, PagerMode, PagerStats, Paging, Residency, StreamStats,
-    TransferClock,
+    ArchiveLoader, BeltPager, PagerConfig, PagerMode, PagerStats, Paging, Residency,
+    ResidentLoader, StreamStats, TransferClock,
 };
 use crate::engine::partial_meshes::PartialMeshes;
 use crate::engine::render::{RenderSettings, TileDraw, TileMeshes, draw_tiles};

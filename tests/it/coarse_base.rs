@@ -10,7 +10,9 @@ use stripmask::Error;
 use stripmask::db::grid::{Grid, TileId};
 use stripmask::db::source;
 use stripmask::engine::paging::stream::{StreamSettings, Streaming};
-use stripmask::engine::paging::{BeltPager, PagerConfig, PagerMode, RetryPolicy, TileLoader};
+use stripmask::engine::paging::{
+    BeltPager, PagerConfig, PagerMode, ResidentLoader, RetryPolicy, TileLoader,
+};
 use stripmask::engine::{Engine, EngineSettings};
 use stripmask::sim::flight::{Builtin, Flight};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
@@ -126,23 +128,10 @@ struct FailingBase {
     tiles: Mutex<Vec<TileId>>,
 }
 
-impl TileLoader for FailingBase {
+impl ResidentLoader for FailingBase {
     type Loaded = usize;
 
-    fn predicted_bytes(&self, _: TileId, _: u32) -> usize {
-        100
-    }
-
-    fn load(&self, id: TileId, _: u32) -> stripmask::Result<(usize, u64)> {
-        self.tiles.lock().unwrap().push(id);
-        Ok((100, 100))
-    }
-
     fn loaded_bytes(&self, tile: &usize) -> usize {
-        *tile
-    }
-
-    fn shrink(&self, tile: &mut usize, _: u32) -> usize {
         *tile
     }
 
@@ -159,6 +148,21 @@ impl TileLoader for FailingBase {
         }
         let tiles = (0..9).map(|k| (TileId::new(k % 3, k / 3), 10)).collect();
         Ok((tiles, 90))
+    }
+}
+
+impl TileLoader for FailingBase {
+    fn predicted_bytes(&self, _: TileId, _: u32) -> usize {
+        100
+    }
+
+    fn load(&self, id: TileId, _: u32) -> stripmask::Result<(usize, u64)> {
+        self.tiles.lock().unwrap().push(id);
+        Ok((100, 100))
+    }
+
+    fn shrink(&self, tile: &mut usize, _: u32) -> usize {
+        *tile
     }
 }
 

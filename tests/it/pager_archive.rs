@@ -11,7 +11,9 @@ use stripmask::db::grid::Grid;
 use stripmask::db::grid::TileId;
 use stripmask::db::source::file::FileSource;
 use stripmask::db::tile::Tile;
-use stripmask::engine::paging::{BeltPager, PagerConfig, PagerMode, TileLoader, TileState};
+use stripmask::engine::paging::{
+    BeltPager, PagerConfig, PagerMode, ResidentLoader, TileLoader, TileState,
+};
 
 /// Builds an 8 x 6 tile archive of 17-sample tiles (129 x 97 samples) with 16-texel textures.
 fn build_archive(dir: &Path) -> PathBuf {
@@ -51,9 +53,15 @@ impl ArchiveLoader {
     }
 }
 
-impl TileLoader for ArchiveLoader {
+impl ResidentLoader for ArchiveLoader {
     type Loaded = Tile;
 
+    fn loaded_bytes(&self, tile: &Tile) -> usize {
+        2 * tile.heights.len() + 2 * tile.texture_mips.iter().map(Vec::len).sum::<usize>()
+    }
+}
+
+impl TileLoader for ArchiveLoader {
     fn predicted_bytes(&self, _: TileId, ring: u32) -> usize {
         let h = self.reader.header();
         let (s, t) = (h.tile_size as usize, h.texture_size as usize);
@@ -68,10 +76,6 @@ impl TileLoader for ArchiveLoader {
         tile.texture_mips.drain(..self.first_mip(ring));
         let i = (id.y * self.reader.header().tiles_x + id.x) as usize;
         Ok((tile, self.reader.index()[i].stored_len()))
-    }
-
-    fn loaded_bytes(&self, tile: &Tile) -> usize {
-        2 * tile.heights.len() + 2 * tile.texture_mips.iter().map(Vec::len).sum::<usize>()
     }
 
     fn shrink(&self, tile: &mut Tile, ring: u32) -> usize {

@@ -10,7 +10,9 @@ use proptest::prelude::*;
 use stripmask::Error;
 use stripmask::db::grid::Grid;
 use stripmask::db::grid::TileId;
-use stripmask::engine::paging::{BeltPager, PagerConfig, PagerMode, TileLoader, TileState};
+use stripmask::engine::paging::{
+    BeltPager, PagerConfig, PagerMode, ResidentLoader, TileLoader, TileState,
+};
 use stripmask::engine::paging::{Failure, RetryPolicy};
 
 type Cost = Arc<dyn Fn(TileId, u32) -> usize + Send + Sync>;
@@ -57,9 +59,15 @@ impl Fake {
     }
 }
 
-impl TileLoader for Fake {
+impl ResidentLoader for Fake {
     type Loaded = FakeTile;
 
+    fn loaded_bytes(&self, tile: &FakeTile) -> usize {
+        tile.bytes
+    }
+}
+
+impl TileLoader for Fake {
     fn predicted_bytes(&self, id: TileId, ring: u32) -> usize {
         (self.cost)(id, ring)
     }
@@ -82,10 +90,6 @@ impl TileLoader for Fake {
         }
         let bytes = (self.cost)(id, ring) + usize::from(self.lie_on == Some(id));
         Ok((FakeTile { id, ring, bytes }, bytes as u64 / 4))
-    }
-
-    fn loaded_bytes(&self, tile: &FakeTile) -> usize {
-        tile.bytes
     }
 
     fn shrink(&self, tile: &mut FakeTile, ring: u32) -> usize {

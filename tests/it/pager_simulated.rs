@@ -7,7 +7,9 @@ use std::sync::{Arc, Mutex};
 
 use stripmask::db::grid::Grid;
 use stripmask::db::grid::TileId;
-use stripmask::engine::paging::{BeltPager, PagerConfig, PagerMode, TileLoader, TransferClock};
+use stripmask::engine::paging::{
+    BeltPager, PagerConfig, PagerMode, ResidentLoader, TileLoader, TransferClock,
+};
 
 /// Seconds of transfer so far, as exact binary fractions so that due times compare exactly.
 #[derive(Default)]
@@ -32,9 +34,15 @@ struct Timed {
     log: Arc<Mutex<Vec<TileId>>>,
 }
 
-impl TileLoader for Timed {
+impl ResidentLoader for Timed {
     type Loaded = Tile;
 
+    fn loaded_bytes(&self, tile: &Tile) -> usize {
+        tile.bytes
+    }
+}
+
+impl TileLoader for Timed {
     fn predicted_bytes(&self, _: TileId, _: u32) -> usize {
         self.bytes
     }
@@ -43,10 +51,6 @@ impl TileLoader for Timed {
         *self.meter.0.lock().unwrap() += self.seconds;
         self.log.lock().unwrap().push(id);
         Ok((Tile { bytes: self.bytes }, self.bytes as u64))
-    }
-
-    fn loaded_bytes(&self, tile: &Tile) -> usize {
-        tile.bytes
     }
 
     fn shrink(&self, tile: &mut Tile, _: u32) -> usize {

@@ -9,7 +9,7 @@ use proptest::prelude::*;
 use stripmask::db::grid::Grid;
 use stripmask::db::grid::TileId;
 use stripmask::engine::paging::stream::{LevelLoader, StreamPager, StreamSettings, Want};
-use stripmask::engine::paging::{PagerConfig, PagerMode};
+use stripmask::engine::paging::{PagerConfig, PagerMode, ResidentLoader};
 use stripmask::error::{Error, Result};
 
 /// Levels per tile and the bytes a tile holding `k` of them takes: 100 * 4^(k-1).
@@ -34,8 +34,15 @@ struct Synthetic {
     broken: Mutex<Vec<TileId>>,
 }
 
-impl LevelLoader for Synthetic {
+impl ResidentLoader for Synthetic {
     type Loaded = Held;
+
+    fn loaded_bytes(&self, tile: &Held) -> usize {
+        bytes_at(tile.levels)
+    }
+}
+
+impl LevelLoader for Synthetic {
     type Piece = (TileId, usize, usize);
 
     fn levels(&self) -> usize {
@@ -64,10 +71,6 @@ impl LevelLoader for Synthetic {
 
     fn held_levels(&self, tile: &Held) -> usize {
         tile.levels
-    }
-
-    fn loaded_bytes(&self, tile: &Held) -> usize {
-        bytes_at(tile.levels)
     }
 
     fn drop_levels(&self, tile: &mut Held, levels: usize) -> usize {

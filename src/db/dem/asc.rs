@@ -6,11 +6,11 @@ use std::path::Path;
 
 use super::geographic::Geographic;
 use super::{DemInfo, DemReader, check_dimensions};
+use crate::error::{Error, Result};
 
 /// Cell sizes below this with no unit given are taken as degrees: no metric grid has samples
 /// closer than a centimetre, and 0.01 degree is over a kilometre.
 pub const DEGREE_CELL_LIMIT: f64 = 0.01;
-use crate::error::{Error, Result};
 
 /// The longest token (number or header key) accepted, to bound memory on garbage input.
 const MAX_TOKEN: usize = 64;
@@ -78,82 +78,20 @@ impl AscReader {
             input: BufReader::new(file),
             pending: None,
         };
-        let (mut ncols, mut nrows, mut cell, mut nodata) = (None, None, None, None);
-        let (mut xll, mut yll, mut centre) = (None, None, false);
-        while let Some(key) = tokens.next(&name)? {
-            if key.parse::<f64>().is_ok() {
-                tokens.pending = Some(key);
-                break;
-            }
-            let value = tokens
-                .next(&name)?
-                .ok_or_else(|| Error::invalid(&name, format!("header key {key} has no value")))?;
-            let number: f64 = value.parse().map_err(|_| {
-                Error::invalid(
-                    &name,
-                    format!("header {key} has a non-numeric value {value:?}"),
-                )
-            })?;
-            match key.to_ascii_lowercase().as_str() {
-                "ncols" => ncols = Some(number),
-                "nrows" => nrows = Some(number),
-                "cellsize" | "dx" | "dy" => cell = Some(number),
-                "xllcorner" => xll = Some(number),
-                "yllcorner" => yll = Some(number),
-                "xllcenter" => {
-                    xll = Some(number);
-                    centre = true;
-                }
-                "yllcenter" => yll = Some(number),
-                "nodata_value" => nodata = Some(number),
-                _ => {
-                    return Err(Error::invalid(
-                        &name,
-                        format!("unknown ASCII grid header key {key:?}"),
-                    ));
-                }
-            }
-        }
-        let dim = |v: Option<f64>, key: &str| -> Result<usize> {
-            match v {
-                Some(n) if n >= 1.0 && n.fract() == 0.0 && n < 1e9 => Ok(n as usize),
-                Some(n) => Err(Error::invalid(
-                    &name,
-                    format!("{key} {n} is not a positive integer"),
-                )),
-                None => Err(Error::invalid(&name, format!("the header has no {key}"))),
-            }
-        };
-        let width = dim(ncols, "ncols")?;
-        let height = dim(nrows, "nrows")?;
+        let header = Header::read(&mut tokens, &name)?;
+        let width = dimension(header.ncols, "ncols", &name)?;
+        let height = dimension(header.nrows, "nrows", &name)?;
         check_dimensions(&name, width, height)?;
-        // Every sample takes at least a digit and a separator: a header claiming more samples
-        // than the file can hold is refused before anything is allocated or written.
         let file_len = tokens
             .input
             .get_ref()
             .metadata()
             .map_err(|e| Error::io(&name, e))?
             .len();
-        let least = (width as u64 * height as u64).saturating_mul(2) - 1;
-        if least > file_len {
-            return Err(Error::invalid(
-                &name,
-                format!(
-                    "the header claims {width} x {height} samples, which take at least \
-                     {least} bytes, but the file has {file_len}"
-                ),
-            ));
-        }
-        let cell = cell.filter(|c| c.is_finite() && *c > 0.0);
-        let origin_hint = match (xll, yll, cell) {
-            (Some(x), Some(y), Some(c)) => {
-                let half = if centre { 0.0 } else { c / 2.0 };
-                Some((x + half, y + half + (height - 1) as f64 * c))
-            }
-            _ => None,
-        };
+        check_file_holds(&name, width, height, file_len)?;
         let mut info = DemInfo::new(&name, width, height);
+        let cell = header.cell.filter(|c| c.is_finite() && *c > 0.0);
+        let origin_hint = cell.and_then(|c| header.north_west(c, height));
         match cell {
             Some(c) if c < DEGREE_CELL_LIMIT => in_degrees(&mut info, c, origin_hint),
             _ => {
@@ -164,10 +102,108 @@ impl AscReader {
         Ok(AscReader {
             info,
             tokens,
-            nodata,
+            nodata: header.nodata,
             next_row: 0,
         })
     }
+}
+
+/// The `key value` lines before the first sample.
+#[derive(Default)]
+struct Header {
+    ncols: Option<f64>,
+    nrows: Option<f64>,
+    cell: Option<f64>,
+    nodata: Option<f64>,
+    xll: Option<f64>,
+    yll: Option<f64>,
+    /// `xllcenter`/`yllcenter` place the lower-left sample's centre, the `corner` keys its corner.
+    centre: bool,
+}
+
+impl Header {
+    /// Reads keys until the first number, which is left pending as the first sample.
+    fn read<R: BufRead>(tokens: &mut Tokens<R>, name: &str) -> Result<Self> {
+        let mut header = Header::default();
+        while let Some(key) = tokens.next(name)? {
+            if key.parse::<f64>().is_ok() {
+                tokens.pending = Some(key);
+                break;
+            }
+            let value = tokens
+                .next(name)?
+                .ok_or_else(|| Error::invalid(name, format!("header key {key} has no value")))?;
+            let number: f64 = value.parse().map_err(|_| {
+                Error::invalid(
+                    name,
+                    format!("header {key} has a non-numeric value {value:?}"),
+                )
+            })?;
+            header.set(&key, number, name)?;
+        }
+        Ok(header)
+    }
+
+    fn set(&mut self, key: &str, number: f64, name: &str) -> Result<()> {
+        match key.to_ascii_lowercase().as_str() {
+            "ncols" => self.ncols = Some(number),
+            "nrows" => self.nrows = Some(number),
+            "cellsize" | "dx" | "dy" => self.cell = Some(number),
+            "xllcorner" => self.xll = Some(number),
+            "yllcorner" => self.yll = Some(number),
+            "xllcenter" => {
+                self.xll = Some(number);
+                self.centre = true;
+            }
+            "yllcenter" => {
+                self.yll = Some(number);
+                self.centre = true;
+            }
+            "nodata_value" => self.nodata = Some(number),
+            _ => {
+                return Err(Error::invalid(
+                    name,
+                    format!("unknown ASCII grid header key {key:?}"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The centre of the first (north-west) sample, when the header places the grid.
+    fn north_west(&self, cell: f64, height: usize) -> Option<(f64, f64)> {
+        let (x, y) = (self.xll?, self.yll?);
+        let half = if self.centre { 0.0 } else { cell / 2.0 };
+        Some((x + half, y + half + (height - 1) as f64 * cell))
+    }
+}
+
+/// A header count: a positive integer below a billion.
+fn dimension(value: Option<f64>, key: &str, name: &str) -> Result<usize> {
+    match value {
+        Some(n) if n >= 1.0 && n.fract() == 0.0 && n < 1e9 => Ok(n as usize),
+        Some(n) => Err(Error::invalid(
+            name,
+            format!("{key} {n} is not a positive integer"),
+        )),
+        None => Err(Error::invalid(name, format!("the header has no {key}"))),
+    }
+}
+
+/// Every sample takes at least a digit and a separator: a header claiming more samples than the
+/// file can hold is refused before anything is allocated or written.
+fn check_file_holds(name: &str, width: usize, height: usize, file_len: u64) -> Result<()> {
+    let least = (width as u64 * height as u64).saturating_mul(2) - 1;
+    if least > file_len {
+        return Err(Error::invalid(
+            name,
+            format!(
+                "the header claims {width} x {height} samples, which take at least \
+                 {least} bytes, but the file has {file_len}"
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// Describes a grid whose cell size `cell` is small enough to be degrees: geographic when the

@@ -148,23 +148,9 @@ impl Server {
     ) -> Result<Server> {
         profile.validate()?;
         limits.validate()?;
-        let name = archive.display().to_string();
         // Refuse anything that is not a readable archive (checks the header and the index).
         ArchiveReader::open(FileSource::open(archive)?)?;
-        let file_name = archive
-            .file_name()
-            .and_then(|n| n.to_str())
-            .filter(|n| {
-                n.bytes()
-                    .all(|b| b.is_ascii_alphanumeric() || b"._-".contains(&b))
-            })
-            .ok_or_else(|| {
-                Error::invalid(
-                    &name,
-                    "serve needs a file name of ASCII letters, digits, '.', '_' or '-'",
-                )
-            })?
-            .to_string();
+        let file_name = served_name(archive)?;
         let cannot_listen = |e: std::io::Error| Error::Http {
             url: format!("http://{listen}"),
             problem: format!("cannot listen: {e}"),
@@ -182,40 +168,7 @@ impl Server {
             stop: AtomicBool::new(false),
             open: Mutex::new(HashMap::new()),
         });
-        let spawn_failed = |e: std::io::Error| Error::Http {
-            url: format!("http://{addr}"),
-            problem: format!("cannot start the server's threads: {e}"),
-        };
-        // The pool: one worker per connection served at once, all started now, so that no
-        // request ever needs a new thread.
-        let (work, jobs) = sync_channel::<(u64, TcpStream)>(limits.max_connections);
-        let jobs = Arc::new(Mutex::new(jobs));
-        for i in 0..limits.max_connections {
-            let (jobs, shared) = (Arc::clone(&jobs), Arc::clone(&shared));
-            std::thread::Builder::new()
-                .name(format!("serve-{i}"))
-                .spawn(move || work_loop(&jobs, &shared))
-                .map_err(spawn_failed)?;
-        }
-        let (refusals, refused) = sync_channel::<TcpStream>(limits.max_connections);
-        {
-            let limits = shared.limits;
-            std::thread::Builder::new()
-                .name("serve-refuse".into())
-                .spawn(move || {
-                    for stream in refused {
-                        answer::refuse(stream, &limits);
-                    }
-                })
-                .map_err(spawn_failed)?;
-        }
-        let accept = {
-            let shared = Arc::clone(&shared);
-            std::thread::Builder::new()
-                .name("serve-accept".into())
-                .spawn(move || accept_loop(&listener, &shared, &work, &refusals))
-                .map_err(spawn_failed)?
-        };
+        let accept = spawn_threads(listener, &shared, addr)?;
         Ok(Server {
             addr,
             url: format!("http://{addr}/{file_name}"),
@@ -269,6 +222,62 @@ impl Drop for Server {
             let _ = handle.join();
         }
     }
+}
+/// The archive's file name, which becomes its URL path: plain ASCII only, so that no request
+/// path needs decoding.
+fn served_name(archive: &Path) -> Result<String> {
+    archive
+        .file_name()
+        .and_then(|n| n.to_str())
+        .filter(|n| {
+            n.bytes()
+                .all(|b| b.is_ascii_alphanumeric() || b"._-".contains(&b))
+        })
+        .map(str::to_string)
+        .ok_or_else(|| {
+            Error::invalid(
+                archive.display().to_string(),
+                "serve needs a file name of ASCII letters, digits, '.', '_' or '-'",
+            )
+        })
+}
+
+/// Starts the pool (one worker per connection served at once, all started now, so that no
+/// request ever needs a new thread), the thread that answers refused connections, and the
+/// accept loop, whose handle is returned.
+fn spawn_threads(
+    listener: TcpListener,
+    shared: &Arc<Shared>,
+    addr: SocketAddr,
+) -> Result<JoinHandle<()>> {
+    let limits = shared.limits;
+    let spawn_failed = |e: std::io::Error| Error::Http {
+        url: format!("http://{addr}"),
+        problem: format!("cannot start the server's threads: {e}"),
+    };
+    let (work, jobs) = sync_channel::<(u64, TcpStream)>(limits.max_connections);
+    let jobs = Arc::new(Mutex::new(jobs));
+    for i in 0..limits.max_connections {
+        let (jobs, shared) = (Arc::clone(&jobs), Arc::clone(shared));
+        std::thread::Builder::new()
+            .name(format!("serve-{i}"))
+            .spawn(move || work_loop(&jobs, &shared))
+            .map_err(spawn_failed)?;
+    }
+    let (refusals, refused) = sync_channel::<TcpStream>(limits.max_connections);
+    std::thread::Builder::new()
+        .name("serve-refuse".into())
+        .spawn(move || {
+            for stream in refused {
+                answer::refuse(stream, &limits);
+            }
+        })
+        .map_err(spawn_failed)?;
+    let shared = Arc::clone(shared);
+    std::thread::Builder::new()
+        .name("serve-accept".into())
+        .spawn(move || accept_loop(&listener, &shared, &work, &refusals))
+        .map_err(spawn_failed)
 }
 
 /// Accepts connections until the server stops: each goes to a worker when one is free, or to

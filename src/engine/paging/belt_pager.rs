@@ -15,26 +15,20 @@
 use std::marker::PhantomData;
 use std::sync::Arc;
 
-use super::base::BaseTiles;
 use super::belts::{self, Plan};
 use super::ledger::Fetch;
 use super::worker::Job;
-use super::{Pager, PagerConfig, PagerMode, Strategy};
+use super::{Pager, PagerConfig, PagerMode, ResidentLoader, Strategy};
 use crate::db::grid::{Grid, TileId};
 use crate::error::Result;
 
 /// What the engine gives the pager: costs known before fetching, fetching itself, and shrinking.
-pub trait TileLoader: Send + Sync + 'static {
-    /// A loaded tile.
-    type Loaded: Send + 'static;
+pub trait TileLoader: ResidentLoader {
     /// Bytes a tile will hold once loaded for belt distance `ring` (known before fetching).
     fn predicted_bytes(&self, id: TileId, ring: u32) -> usize;
     /// Fetches and decodes a tile for belt distance `ring` (on the fetch thread in threaded
     /// mode). Returns the tile and the bytes downloaded.
     fn load(&self, id: TileId, ring: u32) -> Result<(Self::Loaded, u64)>;
-    /// Bytes a loaded tile holds; at most what [`TileLoader::predicted_bytes`] said for the ring
-    /// it was loaded for (a tile holding more is refused as an error).
-    fn loaded_bytes(&self, tile: &Self::Loaded) -> usize;
     /// Drops detail a tile no longer needs at the larger belt distance `ring` (for example its
     /// finest texture mips); returns the bytes it holds now, never more than before.
     fn shrink(&self, tile: &mut Self::Loaded, ring: u32) -> usize;
@@ -45,15 +39,6 @@ pub trait TileLoader: Send + Sync + 'static {
     fn refit(&self, tile: &mut Self::Loaded, ring: u32) -> usize {
         let _ = ring;
         self.loaded_bytes(tile)
-    }
-    /// Bytes the coarse base will hold (every tile's first levels, resident for good), known
-    /// before it is fetched; 0, the default, when there is none.
-    fn base_bytes(&self) -> usize {
-        0
-    }
-    /// Fetches the coarse base (every tile's first levels), and the bytes downloaded.
-    fn load_base(&self) -> Result<(BaseTiles<Self::Loaded>, u64)> {
-        Ok((Vec::new(), 0))
     }
 }
 
@@ -72,18 +57,6 @@ impl<L: TileLoader> Strategy for Belts<L> {
 
     fn job(loader: Arc<L>) -> Job<Fetch, L::Loaded> {
         Arc::new(move |fetch: Fetch| loader.load(fetch.id, fetch.ring))
-    }
-
-    fn base_bytes(loader: &L) -> usize {
-        loader.base_bytes()
-    }
-
-    fn load_base(loader: &L) -> Result<(BaseTiles<L::Loaded>, u64)> {
-        loader.load_base()
-    }
-
-    fn tile_bytes(loader: &L, tile: &L::Loaded) -> usize {
-        loader.loaded_bytes(tile)
     }
 
     fn refit_base(loader: &L, tile: &mut L::Loaded) -> usize {

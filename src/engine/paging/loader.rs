@@ -22,8 +22,8 @@ use crate::db::source::TileSource;
 use crate::db::tile::Tile;
 use crate::db::tile::progressive_levels;
 use crate::engine::cracks::CrackMode;
-use crate::engine::paging::TileLoader;
 use crate::engine::paging::stream::LevelLoader;
+use crate::engine::paging::{ResidentLoader, TileLoader};
 use crate::engine::resident::{Light, ResidentTile, predicted_bytes};
 use crate::engine::terrain::TerrainFrame;
 use crate::error::{Error, Result};
@@ -72,38 +72,6 @@ impl ArchiveLoader {
     pub fn use_base(&mut self, levels: usize) -> usize {
         self.base_levels = levels.min(self.reader.header().base_levels as usize);
         self.base_levels
-    }
-
-    /// Bytes the base holds once resident: every tile at the base's levels.
-    pub fn base_bytes(&self) -> usize {
-        match self.base_levels {
-            0 => 0,
-            levels => {
-                self.reader.header().tile_count() * LevelLoader::predicted_bytes(self, levels)
-            }
-        }
-    }
-
-    /// The base, resident: every tile at the base's levels, and the stored bytes read.
-    fn load_base(&self) -> Result<(Vec<(TileId, ResidentTile)>, u64)> {
-        if self.base_levels == 0 {
-            return Ok((Vec::new(), 0));
-        }
-        let h = self.reader.header();
-        let (tiles, stored) = self.reader.base()?;
-        let tiles_x = h.tiles_x as usize;
-        let resident = tiles
-            .into_iter()
-            .enumerate()
-            .map(|(i, tile)| {
-                let id = TileId::new((i % tiles_x) as u32, (i / tiles_x) as u32);
-                let tile = tile.truncated(self.base_levels.min(tile.levels));
-                let resident = ResidentTile::new(&tile, 0, h.spacing, &self.light, self.cracks())
-                    .clipped(self.extent(id));
-                (id, resident)
-            })
-            .collect();
-        Ok((resident, stored))
     }
 
     /// Coarsens textures until those of the largest square of belts that fits `memory_limit`
@@ -195,9 +163,47 @@ fn mode_index(cracks: CrackMode) -> u8 {
         .expect("ALL lists every mode") as u8
 }
 
-impl TileLoader for ArchiveLoader {
+/// Both strategies hold the same resident tiles and share the base.
+impl ResidentLoader for ArchiveLoader {
     type Loaded = ResidentTile;
 
+    fn loaded_bytes(&self, tile: &ResidentTile) -> usize {
+        tile.bytes()
+    }
+
+    /// Every tile at the base's levels.
+    fn base_bytes(&self) -> usize {
+        match self.base_levels {
+            0 => 0,
+            levels => {
+                self.reader.header().tile_count() * LevelLoader::predicted_bytes(self, levels)
+            }
+        }
+    }
+
+    fn load_base(&self) -> Result<(Vec<(TileId, ResidentTile)>, u64)> {
+        if self.base_levels == 0 {
+            return Ok((Vec::new(), 0));
+        }
+        let h = self.reader.header();
+        let (tiles, stored) = self.reader.base()?;
+        let tiles_x = h.tiles_x as usize;
+        let resident = tiles
+            .into_iter()
+            .enumerate()
+            .map(|(i, tile)| {
+                let id = TileId::new((i % tiles_x) as u32, (i / tiles_x) as u32);
+                let tile = tile.truncated(self.base_levels.min(tile.levels));
+                let resident = ResidentTile::new(&tile, 0, h.spacing, &self.light, self.cracks())
+                    .clipped(self.extent(id));
+                (id, resident)
+            })
+            .collect();
+        Ok((resident, stored))
+    }
+}
+
+impl TileLoader for ArchiveLoader {
     fn predicted_bytes(&self, _id: TileId, ring: u32) -> usize {
         let h = self.reader.header();
         predicted_bytes(
@@ -228,10 +234,6 @@ impl TileLoader for ArchiveLoader {
         ))
     }
 
-    fn loaded_bytes(&self, tile: &ResidentTile) -> usize {
-        tile.bytes()
-    }
-
     fn shrink(&self, tile: &mut ResidentTile, ring: u32) -> usize {
         tile.coarsen_texture(self.texture_base(ring))
     }
@@ -239,14 +241,6 @@ impl TileLoader for ArchiveLoader {
     fn refit(&self, tile: &mut ResidentTile, ring: u32) -> usize {
         tile.set_cracks(self.cracks(), self.reader.header().height_quantum);
         tile.coarsen_texture(self.texture_base(ring))
-    }
-
-    fn base_bytes(&self) -> usize {
-        ArchiveLoader::base_bytes(self)
-    }
-
-    fn load_base(&self) -> Result<(Vec<(TileId, ResidentTile)>, u64)> {
-        ArchiveLoader::load_base(self)
     }
 }
 
@@ -262,7 +256,6 @@ pub struct LevelPiece {
 /// resident tile; its texture is exactly the mips its levels carry (texture detail follows the
 /// levels importance asked for, so the belt-distance rule and the texture budget do not apply).
 impl LevelLoader for ArchiveLoader {
-    type Loaded = ResidentTile;
     type Piece = LevelPiece;
 
     fn levels(&self) -> usize {
@@ -349,23 +342,11 @@ impl LevelLoader for ArchiveLoader {
         tile.levels
     }
 
-    fn loaded_bytes(&self, tile: &ResidentTile) -> usize {
-        tile.bytes()
-    }
-
     fn drop_levels(&self, tile: &mut ResidentTile, levels: usize) -> usize {
         tile.drop_levels(levels)
     }
 
     fn refit(&self, tile: &mut ResidentTile) -> usize {
         tile.set_cracks(self.cracks(), self.reader.header().height_quantum)
-    }
-
-    fn base_bytes(&self) -> usize {
-        ArchiveLoader::base_bytes(self)
-    }
-
-    fn load_base(&self) -> Result<(Vec<(TileId, ResidentTile)>, u64)> {
-        ArchiveLoader::load_base(self)
     }
 }

@@ -440,12 +440,30 @@ impl<T> Residency<T> {
     }
 }
 
+/// What the loaders of both strategies share: the size of a resident tile and the coarse base.
+pub trait ResidentLoader: Send + Sync + 'static {
+    /// A resident tile.
+    type Loaded: Send + 'static;
+    /// Bytes a resident tile holds: at most what the loader predicted for what it holds (a tile
+    /// holding more is refused as an error).
+    fn loaded_bytes(&self, tile: &Self::Loaded) -> usize;
+    /// Bytes the coarse base will hold (every tile's first levels, resident for good), known
+    /// before it is fetched; 0, the default, when there is none.
+    fn base_bytes(&self) -> usize {
+        0
+    }
+    /// Fetches the coarse base (every tile's first levels), and the bytes downloaded.
+    fn load_base(&self) -> Result<(BaseTiles<Self::Loaded>, u64)> {
+        Ok((Vec::new(), 0))
+    }
+}
+
 /// How a pager decides what to fetch and how an arrival joins the resident tile: the part of a
 /// [`Pager`] that differs between whole tiles in belts ([`Belts`]) and progressive levels
 /// ([`stream::Progressive`]).
 pub trait Strategy: Sized + Send + 'static {
     /// What fetches and prepares tiles.
-    type Loader: Send + Sync + 'static;
+    type Loader: ResidentLoader<Loaded = Self::Tile>;
     /// A resident tile.
     type Tile: Send + 'static;
     /// A request on the link.
@@ -454,12 +472,6 @@ pub trait Strategy: Sized + Send + 'static {
     type Piece: Send + 'static;
     /// The fetch thread's job for `loader`.
     fn job(loader: Arc<Self::Loader>) -> Job<Self::Request, Self::Piece>;
-    /// Bytes the coarse base will hold, known before it is fetched (0: no base).
-    fn base_bytes(loader: &Self::Loader) -> usize;
-    /// Fetches the coarse base: every tile's first levels, and the bytes downloaded.
-    fn load_base(loader: &Self::Loader) -> Result<(BaseTiles<Self::Tile>, u64)>;
-    /// Bytes a resident tile holds.
-    fn tile_bytes(loader: &Self::Loader, tile: &Self::Tile) -> usize;
     /// Brings a tile of the base to the loader's current settings; returns its bytes.
     fn refit_base(loader: &Self::Loader, tile: &mut Self::Tile) -> usize;
     /// Once per frame: takes in arrivals and plans.
@@ -510,8 +522,8 @@ impl<S: Strategy> Pager<S> {
         let link = config.mode.link(S::job(Arc::clone(&loader)))?;
         let base_loader = Arc::clone(&loader);
         let base = BaseFetch::new(
-            Arc::new(move |_: BaseRequest| S::load_base(&base_loader)),
-            S::base_bytes(&loader),
+            Arc::new(move |_: BaseRequest| base_loader.load_base()),
+            loader.base_bytes(),
             config.mode,
             config.retry,
         )?;
@@ -599,7 +611,7 @@ impl<S: Strategy> Pager<S> {
         self.resident.begin(viewer);
         let loader = &*self.loader;
         self.base
-            .poll(&mut self.resident, |t| S::tile_bytes(loader, t));
+            .poll(&mut self.resident, |t| loader.loaded_bytes(t));
         self.resident.receive(&mut self.link)
     }
 

@@ -115,7 +115,19 @@ geometric error px (max / mean) | Pareto |\n| --- | ---: | ---: | ---: | ---: | 
 /// The Markdown report: how it was measured, every setting, the feature costs, the front.
 pub fn markdown(report: &TradeoffReport) -> String {
     let mut md = String::new();
-    let w = &mut md;
+    intro(&mut md, report);
+    let _ = writeln!(md, "## Every setting\n");
+    md.push_str(HEADER);
+    for row in &report.rows {
+        let _ = writeln!(md, "{}", table_row(row));
+    }
+    features(&mut md, report);
+    pareto(&mut md, report);
+    md
+}
+
+/// The title and how the figures were taken.
+fn intro(w: &mut String, report: &TradeoffReport) {
     let views: Vec<_> = report.views.iter().map(|v| v.name.as_str()).collect();
     let _ = writeln!(w, "# Speed against accuracy: {}\n", report.source);
     let _ = writeln!(
@@ -137,52 +149,51 @@ pub fn markdown(report: &TradeoffReport) -> String {
         report.references[0],
         report.threshold
     );
-    let _ = writeln!(w, "## Every setting\n");
-    w.push_str(HEADER);
-    for row in &report.rows {
-        let _ = writeln!(w, "{}", table_row(row));
-    }
+}
 
+/// Each rendering feature off alone (and all of them off) against the defaults.
+fn features(w: &mut String, report: &TradeoffReport) {
     let defaults = &report.rows[0];
-    let features: Vec<_> = knobs().into_iter().filter(|k| k.feature).collect();
-    let mut lines = Vec::new();
-    for knob in &features {
-        if let Some(off) = report
-            .rows
-            .iter()
-            .find(|r| r.entry.changes == [(knob.name, "off")])
-        {
-            lines.push(format!(
-                "| {} | {:.2} | {:.2} | {:.2} | {:.1} |",
-                knob.name,
-                defaults.measurement.frame_seconds * 1e3,
-                off.measurement.frame_seconds * 1e3,
-                off.ratio,
-                psnr(off.measurement.errors[0].mse)
-            ));
-        }
-    }
-    if let Some(off) = report.rows.iter().find(|r| r.entry.name == "features-off") {
-        lines.push(format!(
-            "| all of them | {:.2} | {:.2} | {:.2} | {:.1} |",
+    let line = |name: &str, off: &Row| {
+        format!(
+            "| {} | {:.2} | {:.2} | {:.2} | {:.1} |",
+            name,
             defaults.measurement.frame_seconds * 1e3,
             off.measurement.frame_seconds * 1e3,
             off.ratio,
             psnr(off.measurement.errors[0].mse)
-        ));
+        )
+    };
+    let mut lines: Vec<_> = knobs()
+        .into_iter()
+        .filter(|k| k.feature)
+        .filter_map(|knob| {
+            let off = report
+                .rows
+                .iter()
+                .find(|r| r.entry.changes == [(knob.name, "off")])?;
+            Some(line(knob.name, off))
+        })
+        .collect();
+    if let Some(off) = report.rows.iter().find(|r| r.entry.name == "features-off") {
+        lines.push(line("all of them", off));
     }
-    if !lines.is_empty() {
-        let _ = writeln!(
-            w,
-            "\n## Rendering features on and off\n\nEach feature off alone, everything else at \
-             the defaults: what a scene that does not need it saves (CPU time).\n\n| feature | \
-             on: ms | off: ms | off / on | PSNR dB off |\n| --- | ---: | ---: | ---: | ---: |"
-        );
-        for line in lines {
-            let _ = writeln!(w, "{line}");
-        }
+    if lines.is_empty() {
+        return;
     }
+    let _ = writeln!(
+        w,
+        "\n## Rendering features on and off\n\nEach feature off alone, everything else at \
+         the defaults: what a scene that does not need it saves (CPU time).\n\n| feature | \
+         on: ms | off: ms | off / on | PSNR dB off |\n| --- | ---: | ---: | ---: | ---: |"
+    );
+    for line in lines {
+        let _ = writeln!(w, "{line}");
+    }
+}
 
+/// The settings no other setting beats on both speed and accuracy, fastest first.
+fn pareto(w: &mut String, report: &TradeoffReport) {
     let mut front: Vec<_> = report.rows.iter().filter(|r| r.pareto).collect();
     front.sort_by(|a, b| {
         a.measurement
@@ -198,5 +209,4 @@ pub fn markdown(report: &TradeoffReport) -> String {
     for row in front {
         let _ = writeln!(w, "{}", table_row(row));
     }
-    md
 }

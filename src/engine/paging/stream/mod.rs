@@ -42,11 +42,10 @@ pub use predict::{PredictedView, PredictionSettings, Predictor};
 pub use queue::{LevelRequest, Reason, RequestQueue};
 pub use stats::{Delivery, HIT_WINDOW, RENDER_WINDOW, StreamStats};
 
-use super::base::BaseTiles;
 use super::belts;
 use super::ledger::{Fetch, Ledger};
 use super::worker::Job;
-use super::{Pager, PagerConfig, PagerMode, Strategy};
+use super::{Pager, PagerConfig, PagerMode, ResidentLoader, Strategy};
 use crate::db::grid::{Grid, TileId};
 use crate::error::{Error, Result};
 use crate::named::Named;
@@ -112,9 +111,7 @@ const BELT_PRIORITY: f64 = 1e-3;
 
 /// What the engine gives the stream pager: level costs known before fetching, fetching a range
 /// of levels, and merging them into the resident tile.
-pub trait LevelLoader: Send + Sync + 'static {
-    /// A resident tile.
-    type Loaded: Send + 'static;
+pub trait LevelLoader: ResidentLoader {
     /// Fetched levels not yet merged (made on the fetch thread).
     type Piece: Send + 'static;
     /// Progressive levels of a whole tile.
@@ -134,23 +131,12 @@ pub trait LevelLoader: Send + Sync + 'static {
     ) -> Result<Self::Loaded>;
     /// Progressive levels a resident tile holds.
     fn held_levels(&self, tile: &Self::Loaded) -> usize;
-    /// Bytes a resident tile holds: at most [`LevelLoader::predicted_bytes`] of its levels.
-    fn loaded_bytes(&self, tile: &Self::Loaded) -> usize;
     /// Keeps only the first `levels` levels; returns the bytes held now.
     fn drop_levels(&self, tile: &mut Self::Loaded, levels: usize) -> usize;
     /// Brings a tile to the loader's current settings (see [`StreamPager::refit`]); returns its
     /// bytes.
     fn refit(&self, tile: &mut Self::Loaded) -> usize {
         self.loaded_bytes(tile)
-    }
-    /// Bytes the coarse base will hold (every tile's first levels, resident for good), known
-    /// before it is fetched; 0, the default, when there is none.
-    fn base_bytes(&self) -> usize {
-        0
-    }
-    /// Fetches the coarse base (every tile's first levels), and the bytes downloaded.
-    fn load_base(&self) -> Result<(BaseTiles<Self::Loaded>, u64)> {
-        Ok((Vec::new(), 0))
     }
 }
 
@@ -225,18 +211,6 @@ impl<L: LevelLoader> Strategy for Progressive<L> {
 
     fn job(loader: Arc<L>) -> Job<LevelFetch, L::Piece> {
         Arc::new(move |f: LevelFetch| loader.fetch(f.id, f.have, f.want))
-    }
-
-    fn base_bytes(loader: &L) -> usize {
-        loader.base_bytes()
-    }
-
-    fn load_base(loader: &L) -> Result<(BaseTiles<L::Loaded>, u64)> {
-        loader.load_base()
-    }
-
-    fn tile_bytes(loader: &L, tile: &L::Loaded) -> usize {
-        loader.loaded_bytes(tile)
     }
 
     fn refit_base(loader: &L, tile: &mut L::Loaded) -> usize {

@@ -117,8 +117,9 @@ struct Header {
     nodata: Option<f64>,
     xll: Option<f64>,
     yll: Option<f64>,
-    /// `xllcenter`/`yllcenter` place the lower-left sample's centre, the `corner` keys its corner.
-    centre: bool,
+    /// Whether `xll`/`yll` came from `xllcenter`/`yllcenter` (the lower-left sample's centre)
+    /// rather than the `corner` keys (its outer corner).
+    centre: [bool; 2],
 }
 
 impl Header {
@@ -149,16 +150,10 @@ impl Header {
             "ncols" => self.ncols = Some(number),
             "nrows" => self.nrows = Some(number),
             "cellsize" | "dx" | "dy" => self.cell = Some(number),
-            "xllcorner" => self.xll = Some(number),
-            "yllcorner" => self.yll = Some(number),
-            "xllcenter" => {
-                self.xll = Some(number);
-                self.centre = true;
-            }
-            "yllcenter" => {
-                self.yll = Some(number);
-                self.centre = true;
-            }
+            "xllcorner" => (self.xll, self.centre[0]) = (Some(number), false),
+            "yllcorner" => (self.yll, self.centre[1]) = (Some(number), false),
+            "xllcenter" => (self.xll, self.centre[0]) = (Some(number), true),
+            "yllcenter" => (self.yll, self.centre[1]) = (Some(number), true),
             "nodata_value" => self.nodata = Some(number),
             _ => {
                 return Err(Error::invalid(
@@ -173,8 +168,8 @@ impl Header {
     /// The centre of the first (north-west) sample, when the header places the grid.
     fn north_west(&self, cell: f64, height: usize) -> Option<(f64, f64)> {
         let (x, y) = (self.xll?, self.yll?);
-        let half = if self.centre { 0.0 } else { cell / 2.0 };
-        Some((x + half, y + half + (height - 1) as f64 * cell))
+        let half = self.centre.map(|c| if c { 0.0 } else { cell / 2.0 });
+        Some((x + half[0], y + half[1] + (height - 1) as f64 * cell))
     }
 }
 
@@ -265,5 +260,32 @@ impl DemReader for AscReader {
         }
         self.next_row += 1;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn header(text: &str) -> Header {
+        let mut tokens = Tokens {
+            input: text.as_bytes(),
+            pending: None,
+        };
+        Header::read(&mut tokens, "test.asc").unwrap()
+    }
+
+    #[test]
+    fn corner_and_centre_keys_place_the_first_sample_per_axis() {
+        let corners = header("ncols 3 nrows 2 xllcorner 100 yllcorner 200 cellsize 10 1");
+        assert_eq!(corners.north_west(10.0, 2), Some((105.0, 215.0)));
+        let centres = header("ncols 3 nrows 2 xllcenter 100 yllcenter 200 cellsize 10 1");
+        assert_eq!(centres.north_west(10.0, 2), Some((100.0, 210.0)));
+        let mixed = header("ncols 3 nrows 2 xllcorner 100 yllcenter 200 cellsize 10 1");
+        assert_eq!(mixed.north_west(10.0, 2), Some((105.0, 210.0)));
+        assert_eq!(
+            header("ncols 3 nrows 2 cellsize 10 1").north_west(10.0, 2),
+            None
+        );
     }
 }

@@ -1,18 +1,20 @@
 //! The CPU cost of one frame's bookkeeping: frustum culling of the tiles' boxes, visual
-//! importance (Algorithm 2), the budget controller's update, the greedy budget allocation with
-//! its mask choice per tile, and the look-up of each chosen mask's index buffer.
+//! importance (Algorithm 2), the budget controller's update, the budget's share with its mask
+//! choice per tile (by importance or by projected error), and the look-up of each chosen mask's
+//! index buffer.
 //!
 //! `cargo bench --bench frame`. Scenes: 1,000 tiles all in view (a 40 x 25 grid seen from high
-//! above), and a 32 x 32 grid seen from its southern edge, where about half the tiles are culled.
-//! Tiles have 65 x 65 samples. To compare with a frame: 5 % of a 7 fps frame is 7.1 ms, of a
-//! 25 fps frame 2 ms.
+//! above), and a 32 x 32 grid seen from its southern edge, where about half the tiles are culled;
+//! each with either allocation. Tiles have 65 x 65 samples. To compare with a frame: 5 % of a
+//! 7 fps frame is 7.1 ms, of a 25 fps frame 2 ms.
 
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::dcamera::rh::{proj::directx::perspective, view::look_at_mat4};
 use glam::{DMat4, DVec3};
-use stripmask::engine::budget::{BudgetController, BudgetSettings, allocate};
+use stripmask::engine::allocation::{Allocation, TileErrors};
+use stripmask::engine::budget::{BudgetController, BudgetSettings};
 use stripmask::engine::frustum::{Aabb, Frustum};
 use stripmask::engine::importance::{TileMeasure, Weights, visual_importance};
 use stripmask::engine::masks::{LevelSet, MaskSet};
@@ -20,9 +22,14 @@ use stripmask::engine::masks::{LevelSet, MaskSet};
 /// Tile side in metres: 64 cells of 10 m.
 const TILE: f64 = 640.0;
 
+/// Pixels per metre at one metre: the focal length of a 240-pixel-tall 60° view.
+const FOCAL_PX: f64 = 207.8;
+
 struct Scene {
     boxes: Vec<Aabb>,
     relief: Vec<f64>,
+    /// Per tile, its levels' errors, metres: growing with the level up to a third of its relief.
+    level_errors: Vec<Vec<f32>>,
     eye: DVec3,
     view_projection: DMat4,
 }
@@ -49,9 +56,18 @@ impl Scene {
                 relief.push(high - low);
             }
         }
+        let level_errors = relief
+            .iter()
+            .map(|&r| {
+                (0..64)
+                    .map(|l| (r / 3.0 * l as f64 / 63.0) as f32)
+                    .collect()
+            })
+            .collect();
         Self {
             boxes,
             relief,
+            level_errors,
             eye,
             view_projection: perspective(60f64.to_radians(), aspect, 1.0, 100_000.0)
                 * look_at_mat4(eye, target, up),
@@ -64,6 +80,7 @@ impl Scene {
 struct Frame {
     visible: Vec<usize>,
     measures: Vec<TileMeasure>,
+    finest: Vec<usize>,
 }
 
 /// One frame's bookkeeping; returns the triangles to draw and the index count of their masks.
@@ -73,6 +90,7 @@ fn bookkeeping(
     masks: &MaskSet,
     controller: &mut BudgetController,
     last_frame: (f64, usize),
+    rule: Allocation,
 ) -> (usize, usize) {
     let frustum = Frustum::from_view_projection(&scene.view_projection);
     frame.visible.clear();
@@ -88,7 +106,18 @@ fn bookkeeping(
     }
     let importance = visual_importance(&frame.measures, Weights::default());
     let budget = controller.record(last_frame.0, last_frame.1);
-    let allocation = allocate(budget, &importance, masks);
+    let errors: Vec<TileErrors<'_>> = frame
+        .visible
+        .iter()
+        .zip(&frame.measures)
+        .map(|(&tile, m)| TileErrors {
+            metres: &scene.level_errors[tile],
+            pixels_per_metre: FOCAL_PX / m.distance.max(20.0),
+        })
+        .collect();
+    frame.finest.clear();
+    frame.finest.resize(frame.visible.len(), 0);
+    let allocation = rule.share(budget, &importance, masks, &errors, &frame.finest);
     let triangles = allocation.iter().map(|a| a.triangles).sum();
     let indices = allocation
         .iter()
@@ -97,12 +126,13 @@ fn bookkeeping(
     (triangles, indices)
 }
 
-fn bench_scene(c: &mut Criterion, name: &str, scene: &Scene) {
+fn bench_scene(c: &mut Criterion, name: &str, scene: &Scene, rule: Allocation) {
     let masks = MaskSet::new(65, LevelSet::All);
     let mut controller = BudgetController::new(BudgetSettings::default());
     let mut frame = Frame::default();
     let budget = controller.budget();
-    let (triangles, _) = bookkeeping(scene, &mut frame, &masks, &mut controller, (0.04, budget));
+    let last = (0.04, budget);
+    let (triangles, _) = bookkeeping(scene, &mut frame, &masks, &mut controller, last, rule);
     println!(
         "{name}: {} of {} tiles visible, {triangles} triangles of a {budget} budget",
         frame.visible.len(),
@@ -118,6 +148,7 @@ fn bench_scene(c: &mut Criterion, name: &str, scene: &Scene) {
                 &masks,
                 &mut controller,
                 last,
+                rule,
             ))
         })
     });
@@ -142,7 +173,18 @@ fn frames(c: &mut Criterion) {
             .count(),
         1_000
     );
-    bench_scene(c, "bookkeeping_1000_visible_tiles", &overview);
+    bench_scene(
+        c,
+        "bookkeeping_1000_visible_tiles",
+        &overview,
+        Allocation::Importance,
+    );
+    bench_scene(
+        c,
+        "bookkeeping_1000_visible_tiles_by_error",
+        &overview,
+        Allocation::Error,
+    );
 
     // 32 x 32 tiles seen from 500 m above the middle of the southern edge, looking north
     // through a 3:4 portrait view: 488 tiles in view.
@@ -161,7 +203,18 @@ fn frames(c: &mut Criterion) {
         .filter(|b| Frustum::from_view_projection(&edge.view_projection).intersects(b))
         .count();
     assert!((400..=600).contains(&in_view), "{in_view}");
-    bench_scene(c, "bookkeeping_32x32_grid_about_half_culled", &edge);
+    bench_scene(
+        c,
+        "bookkeeping_32x32_grid_about_half_culled",
+        &edge,
+        Allocation::Importance,
+    );
+    bench_scene(
+        c,
+        "bookkeeping_32x32_grid_about_half_culled_by_error",
+        &edge,
+        Allocation::Error,
+    );
 }
 
 criterion_group!(benches, frames);

@@ -35,6 +35,7 @@ pub use db::dem::{DemFormat, OpenOptions, open as open_dem};
 pub use db::grid::TileId;
 pub use db::server::Server;
 pub use db::source::{TileSource, open as open_source};
+pub use engine::allocation::Allocation;
 pub use engine::camera::Camera;
 pub use engine::cracks::CrackMode;
 pub use engine::error_bound::{Bound, ErrorBound};

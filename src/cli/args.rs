@@ -13,6 +13,7 @@ use stripmask::Named;
 use stripmask::db::archive::ArchiveReader;
 use stripmask::db::source::{self, throttle::LinkProfile};
 use stripmask::engine::EngineSettings;
+use stripmask::engine::allocation::Allocation;
 use stripmask::engine::cracks::CrackMode;
 use stripmask::engine::geomorph::Geomorph;
 use stripmask::engine::importance::Weights;
@@ -156,6 +157,7 @@ impl SceneArgs {
             },
             streaming: self.streaming.resolve()?,
             max_error: device.max_error()?,
+            allocation: device.allocation,
             ..EngineSettings::default()
         };
         engine.budget.target_fps = device.target_fps;
@@ -210,6 +212,10 @@ struct DeviceArgs {
     /// geometric error; 0 turns it off [profile].
     #[arg(long)]
     max_error_px: Option<f64>,
+    /// How the tiles in view share the triangle budget: importance (the paper's distance and
+    /// height shares) or error (the largest projected error first) [profile].
+    #[arg(long, value_parser = named::<Allocation>())]
+    allocation: Option<Allocation>,
     /// Memory limit on loaded tiles, MB (10^6 bytes) [profile].
     #[arg(long, conflicts_with = "memory_percent", allow_negative_numbers = true)]
     memory_mb: Option<f64>,
@@ -246,6 +252,7 @@ impl DeviceArgs {
             memory_mb: self.memory_mb,
             target_fps: self.target_fps,
             max_error_px: self.max_error_px,
+            allocation: self.allocation,
             threads: self.threads,
             cpu_slowdown: self.cpu_slowdown,
             bandwidth_kbps: self.bandwidth_kbps,

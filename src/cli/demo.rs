@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 use stripmask::Named;
+use stripmask::engine::allocation::Allocation;
 use stripmask::error::Result;
 use stripmask::sim::clock::Clock;
 use stripmask::sim::demo::DemoOptions;
@@ -31,6 +32,9 @@ pub(super) struct DemoArgs {
     /// The pixel-error bound τ in pixels, 0 for off [profile].
     #[arg(long)]
     max_error_px: Option<f64>,
+    /// How tiles share the triangle budget: importance or error [profile].
+    #[arg(long, value_parser = named::<Allocation>())]
+    allocation: Option<Allocation>,
     /// simulated (reproducible) or wall (measured frame costs).
     #[arg(long, value_parser = named::<Clock>(), default_value = DemoOptions::default().clock.name())]
     clock: Clock,
@@ -63,6 +67,7 @@ pub(super) fn run(a: DemoArgs) -> Result<()> {
             a.profile_file.as_deref(),
             &Overrides {
                 max_error_px: a.max_error_px,
+                allocation: a.allocation,
                 ..Overrides::default()
             },
         )?,

@@ -3,9 +3,9 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use stripmask::ErrorBound;
 use stripmask::error::{Error, Result};
 use stripmask::sim::fly::{FlyOptions, fly};
+use stripmask::{ErrorBound, Named};
 
 use super::args::{SceneArgs, length};
 
@@ -61,8 +61,8 @@ pub(super) fn run(a: FlyArgs) -> Result<()> {
     let s = fly(&options)?;
     println!(
         "{} frames over {:.1} s of flight: median {:.1} fps (target {}), {:.0} triangles and \
-         {:.2} ms per frame, screen error max {:.1} / mean {:.2} px (τ {}; the budget bound \
-         {:.0} % of frames), peak memory {:.1} of {:.1} MB, {:.2} MB downloaded -> {}\nholes: {}",
+         {:.2} ms per frame, screen error max {:.1} / mean {:.2} px (τ {}; the budget, shared \
+         by {}, bound {:.0} % of frames), peak memory {:.1} of {:.1} MB, {:.2} MB downloaded -> {}\nholes: {}",
         s.frames,
         s.seconds,
         s.median_fps,
@@ -75,6 +75,7 @@ pub(super) fn run(a: FlyArgs) -> Result<()> {
             ErrorBound::Off => "off".to_string(),
             ErrorBound::Pixels(px) => format!("{px} px"),
         },
+        scene.engine.allocation.name(),
         100.0 * s.budget_share,
         s.peak_memory_bytes as f64 / 1e6,
         s.memory_limit_bytes as f64 / 1e6,

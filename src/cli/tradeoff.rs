@@ -4,12 +4,13 @@ use std::path::PathBuf;
 
 use clap::Args;
 use clap::builder::PossibleValuesParser;
-use stripmask::ErrorBound;
+use stripmask::engine::allocation::Allocation;
 use stripmask::error::Result;
 use stripmask::sim::tradeoff::reference::{CpuFloat, Reference};
 use stripmask::sim::tradeoff::{TradeoffOptions, knobs, run_with};
+use stripmask::{ErrorBound, Named};
 
-use super::args::{flight, parse_size};
+use super::args::{flight, named, parse_size};
 
 /// `tradeoff`'s arguments: the archive, the views, the frame size, the repeats and the knobs.
 #[derive(Args, Debug)]
@@ -40,6 +41,10 @@ pub(super) struct TradeoffArgs {
     /// The pixel-error bound τ of the defaults, pixels (0: off); the max-error knob turns it.
     #[arg(long, default_value_t = ErrorBound::DEFAULT_PIXELS)]
     max_error_px: f64,
+    /// How the defaults share the triangle budget (importance or error); the allocation knob
+    /// turns it.
+    #[arg(long, value_parser = named::<Allocation>(), default_value = Allocation::default().name())]
+    allocation: Allocation,
     /// Turn only these knobs, comma-separated.
     #[arg(long, value_delimiter = ',', value_parser = knob_name())]
     knobs: Option<Vec<String>>,
@@ -70,6 +75,7 @@ pub(super) fn run(a: TradeoffArgs) -> Result<()> {
         threshold: a.threshold,
         knobs: a.knobs,
         max_error: ErrorBound::from_pixels("--max-error-px", a.max_error_px)?,
+        allocation: a.allocation,
         progress: !a.quiet,
     };
     let report = run_with(&options, references(a.size))?;

@@ -17,6 +17,7 @@ use crate::db::archive::ArchiveReader;
 use crate::db::grid::{Grid, TileId};
 use crate::db::source::TileSource;
 use crate::db::tile::{PartialGrid, progressive_levels};
+use crate::engine::allocation::{Allocation, TileErrors};
 use crate::engine::budget::{
     BudgetController, BudgetSettings, TileAllocation, allocate_capped, drawable_level,
 };
@@ -63,6 +64,8 @@ pub struct EngineSettings {
     pub budget: BudgetSettings,
     /// The pixel-error bound τ: no tile finer than its projected error needs.
     pub max_error: ErrorBound,
+    /// How the tiles in view share the triangle budget: by importance or by projected error.
+    pub allocation: Allocation,
     /// Sun direction and ambient light.
     pub light: Light,
     /// Vertical field of view, radians.
@@ -92,6 +95,7 @@ impl Default for EngineSettings {
             weights: Weights::default(),
             budget: BudgetSettings::default(),
             max_error: ErrorBound::default(),
+            allocation: Allocation::default(),
             light: Light::default(),
             fov_y: 60f64.to_radians(),
             clearance: 20.0,
@@ -115,6 +119,8 @@ pub struct FrameReport {
     pub rendered_tiles: usize,
     /// What capped the frame's detail: the budget (time) or the error bound τ.
     pub bound: Bound,
+    /// The rule that shared the budget among the tiles.
+    pub allocation: Allocation,
     /// The largest geometric error of a drawn tile on screen, pixels (see
     /// [`RenderedTile::error_px`]).
     pub max_error_px: f64,
@@ -364,6 +370,7 @@ impl Engine {
             budget: self.budget.budget(),
             forced_levels: self.forced_levels.as_deref(),
             max_error: self.settings.max_error,
+            allocation: self.settings.allocation,
             height,
             clearance: self.settings.clearance,
         };
@@ -418,6 +425,7 @@ impl Engine {
             triangles,
             rendered_tiles,
             bound,
+            allocation: self.settings.allocation,
             max_error_px,
             rendered,
             holes,
@@ -500,6 +508,11 @@ impl Engine {
         self.settings.max_error = bound;
     }
 
+    /// Changes how the tiles share the triangle budget between frames.
+    pub fn set_allocation(&mut self, allocation: Allocation) {
+        self.settings.allocation = allocation;
+    }
+
     /// Near plane from the height above the ground (depth precision where it matters), far
     /// plane at the farthest drawable tile (nothing beyond it can be drawn). The near plane stays
     /// below the eye's height, or the ground under the lower screen edge would be clipped away
@@ -560,6 +573,8 @@ struct FrameInputs<'e> {
     forced_levels: Option<&'e (dyn Fn(TileId) -> usize + Send)>,
     /// The pixel-error bound τ.
     max_error: ErrorBound,
+    /// How the tiles share the budget.
+    allocation: Allocation,
     /// The screen's height, pixels.
     height: u32,
     /// No tile is seen from nearer than this (the eye's clearance), metres.
@@ -641,9 +656,26 @@ fn plan_frame<'p>(
         .zip(&needed)
         .map(|((_, tile, _), &level)| tile.finest_mask_level().max(level))
         .collect();
-    let mut allocation = allocate_capped(inputs.budget, &importance, inputs.masks, &finest);
+    let pixels_per_metre: Vec<f64> = visible
+        .iter()
+        .map(|&(_, _, distance)| inputs.pixels_per_metre(camera, distance))
+        .collect();
+    let errors: Vec<TileErrors<'_>> = visible
+        .iter()
+        .zip(&pixels_per_metre)
+        .map(|(&(_, tile, _), &ppm)| TileErrors {
+            metres: &tile.level_errors,
+            pixels_per_metre: ppm,
+        })
+        .collect();
+    let share = |caps: &[usize]| {
+        inputs
+            .allocation
+            .share(inputs.budget, &importance, inputs.masks, &errors, caps)
+    };
+    let mut allocation = share(&finest);
     let mut offered = if partial.is_some() {
-        allocate_capped(inputs.budget, &importance, inputs.masks, &needed)
+        share(&needed)
     } else {
         allocation.clone()
     };
@@ -660,10 +692,6 @@ fn plan_frame<'p>(
             a.triangles = inputs.masks.triangle_count(a.level);
         }
     }
-    let pixels_per_metre = visible
-        .iter()
-        .map(|&(_, _, distance)| inputs.pixels_per_metre(camera, distance))
-        .collect();
     Ok(FramePlan {
         visible,
         importance: importance.values,

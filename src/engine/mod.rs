@@ -1,6 +1,7 @@
 //! The client: pages tiles in belts under a memory limit and draws each frame with a strip mask
 //! per tile under a triangle budget.
 
+pub mod allocation;
 pub mod budget;
 pub mod camera;
 mod client;

@@ -201,6 +201,7 @@ pub fn run_live(o: &DemoOptions, live: Option<LiveView<'_>>) -> Result<DemoSumma
         threads: p.threads,
         streaming: o.streaming,
         max_error: p.max_error()?,
+        allocation: p.allocation,
         ..EngineSettings::default()
     };
     engine.budget.target_fps = p.target_fps;

@@ -18,7 +18,8 @@
 //! ```
 //!
 //! Fields: `name`, `width`, `height`, `color` (`"rgb565"` or `"rgba8888"`), `depth_bits` (16 or
-//! 32), `memory_mb`, `target_fps`, `max_error_px` (the pixel-error bound τ, 0: off), `threads`
+//! 32), `memory_mb`, `target_fps`, `max_error_px` (the pixel-error bound τ, 0: off),
+//! `allocation` (`"importance"` or `"error"`: how tiles share the triangle budget), `threads`
 //! (0: all cores), `cpu_slowdown`, and `[link]` with
 //! `bandwidth_kbps` (absent: unlimited), `latency_ms`, `jitter_ms`, `drop_rate`.
 //!
@@ -34,6 +35,7 @@ use serde::Deserialize;
 use stripmask_raster::{ColorFormat, DepthFormat};
 
 use crate::db::source::throttle::LinkProfile;
+use crate::engine::allocation::Allocation;
 use crate::engine::error_bound::ErrorBound;
 use crate::error::{Error, Result};
 use crate::named::Named;
@@ -96,6 +98,8 @@ pub struct DeviceProfile {
     pub target_fps: f64,
     /// The pixel-error bound τ: no tile finer than this many pixels of error needs (0: off).
     pub max_error_px: f64,
+    /// How the tiles in view share the triangle budget.
+    pub allocation: Allocation,
     /// Rasterizer threads (0: all cores).
     pub threads: usize,
     /// The link tiles come over.
@@ -127,6 +131,7 @@ impl DeviceProfile {
             memory_mb: 20.0,
             target_fps: 7.0,
             max_error_px: ErrorBound::DEFAULT_PIXELS,
+            allocation: Allocation::default(),
             threads: 1,
             link: Link {
                 bandwidth_kbps: Some(1000.0),
@@ -150,6 +155,7 @@ impl DeviceProfile {
             memory_mb: 256.0,
             target_fps: 25.0,
             max_error_px: ErrorBound::DEFAULT_PIXELS,
+            allocation: Allocation::default(),
             threads: 0,
             link: Link::UNLIMITED,
             cpu_slowdown: 1.0,
@@ -241,6 +247,10 @@ impl DeviceProfile {
         }
         if let Some(v) = file.max_error_px {
             p.max_error_px = v;
+        }
+        if let Some(v) = file.allocation {
+            p.allocation =
+                Allocation::from_name(&v).map_err(|e| Error::invalid(name, e.to_string()))?;
         }
         if let Some(v) = file.threads {
             p.threads = v;
@@ -358,6 +368,8 @@ pub struct Overrides {
     pub target_fps: Option<f64>,
     /// The pixel-error bound τ, pixels (0: off).
     pub max_error_px: Option<f64>,
+    /// How tiles share the budget.
+    pub allocation: Option<Allocation>,
     /// Rasterizer threads.
     pub threads: Option<usize>,
     /// CPU slowdown factor.
@@ -383,6 +395,7 @@ impl Overrides {
         p.memory_mb = self.memory_mb.unwrap_or(p.memory_mb);
         p.target_fps = self.target_fps.unwrap_or(p.target_fps);
         p.max_error_px = self.max_error_px.unwrap_or(p.max_error_px);
+        p.allocation = self.allocation.unwrap_or(p.allocation);
         p.threads = self.threads.unwrap_or(p.threads);
         p.cpu_slowdown = self.cpu_slowdown.unwrap_or(p.cpu_slowdown);
         if self.bandwidth_kbps.is_some() {
@@ -415,6 +428,7 @@ struct ProfileFile {
     memory_mb: Option<f64>,
     target_fps: Option<f64>,
     max_error_px: Option<f64>,
+    allocation: Option<String>,
     threads: Option<usize>,
     cpu_slowdown: Option<f64>,
     link: Option<LinkFile>,
@@ -472,6 +486,9 @@ mod tests {
         let plain = DeviceProfile::parse_toml("color = \"rgb565\"\n", "x.toml").unwrap();
         assert_eq!(plain.width, 1280);
         assert_eq!(plain.color, ColorFormat::Rgb565);
+        assert_eq!(plain.allocation, Allocation::Error);
+        let paper = DeviceProfile::parse_toml("allocation = \"importance\"\n", "i.toml").unwrap();
+        assert_eq!(paper.allocation, Allocation::Importance);
     }
 
     #[test]
@@ -491,6 +508,13 @@ mod tests {
         };
         let p = DeviceProfile::resolve("pocketpc", None, &off).unwrap();
         assert_eq!(p.max_error().unwrap(), ErrorBound::Off);
+        assert_eq!(p.allocation, Allocation::default());
+        let paper = Overrides {
+            allocation: Some(Allocation::Importance),
+            ..o
+        };
+        let p = DeviceProfile::resolve("pocketpc", None, &paper).unwrap();
+        assert_eq!(p.allocation, Allocation::Importance);
         assert_eq!(p.link.bandwidth_kbps, Some(64.0));
         assert_eq!(p.memory_mb, 20.0);
         let bad = Overrides {
@@ -515,6 +539,7 @@ mod tests {
             ("cpu_speed = 3.0\n", "cpu_speed"),
             ("width = 0\n", "sides"),
             ("color = \"rgb555\"\n", "colour format rgb555"),
+            ("allocation = \"height\"\n", "allocation height"),
         ] {
             let e = DeviceProfile::parse_toml(text, "bad.toml")
                 .unwrap_err()

@@ -17,6 +17,7 @@ use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
 use crate::db::source;
 use crate::db::source::throttle::LinkProfile;
+use crate::engine::allocation::Allocation;
 use crate::engine::error_bound::Bound;
 use crate::engine::paging::{PagerMode, PagerStats};
 use crate::engine::{Engine, EngineSettings, FrameReport};
@@ -234,6 +235,7 @@ fn frame_record(
         tau_px,
         error_px: report.max_error_px,
         budget_binds: u64::from(report.bound == Bound::Budget),
+        by_error: u64::from(report.allocation == Allocation::Error),
     }
 }
 

@@ -4,6 +4,8 @@
 use stripmask_platform::{HudInfo, Minimap, MinimapCell};
 
 use crate::db::grid::TileId;
+use crate::engine::allocation::Allocation;
+use crate::engine::error_bound::Bound;
 use crate::engine::paging::TileState;
 use crate::engine::{Engine, FrameReport};
 
@@ -52,7 +54,7 @@ pub fn hud_info(engine: &Engine, report: &FrameReport, fps: f64) -> HudInfo {
         tiles_rendered: report.rendered_tiles as u32,
         holes: report.holes as u32,
         max_error_px: report.max_error_px as f32,
-        bound: report.bound.name(),
+        bound: bound_name(report),
         minimap: Some(Minimap {
             width: mw,
             height: mh,
@@ -61,5 +63,14 @@ pub fn hud_info(engine: &Engine, report: &FrameReport, fps: f64) -> HudInfo {
             heading: report.camera.heading() as f32,
             importance: Some(importance),
         }),
+    }
+}
+
+/// What bounded the frame, and when the budget did, how it was shared: the HUD's error line.
+fn bound_name(report: &FrameReport) -> &'static str {
+    match (report.bound, report.allocation) {
+        (Bound::Budget, Allocation::Importance) => "budget by importance",
+        (Bound::Budget, Allocation::Error) => "budget by error",
+        (bound, _) => bound.name(),
     }
 }

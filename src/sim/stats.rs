@@ -50,16 +50,18 @@ pub struct FrameRecord {
     pub error_px: f64,
     /// 1 when the triangle budget capped the frame's detail, 0 when τ (or full resolution) did.
     pub budget_binds: u64,
+    /// 1 when the budget was shared by projected error, 0 by visual importance.
+    pub by_error: u64,
 }
 
 /// The CSV header, matching [`FrameRecord`]'s fields.
-pub const CSV_HEADER: &str = "frame,time_s,frame_ms,fps,target_fps,budget,triangles,fragments,rendered_tiles,loaded_tiles,memory_bytes,memory_limit_bytes,downloaded_bytes,downloads,complete_belts,fetching,holes,base_bytes,tau_px,error_px,budget_binds";
+pub const CSV_HEADER: &str = "frame,time_s,frame_ms,fps,target_fps,budget,triangles,fragments,rendered_tiles,loaded_tiles,memory_bytes,memory_limit_bytes,downloaded_bytes,downloads,complete_belts,fetching,holes,base_bytes,tau_px,error_px,budget_binds,by_error";
 
 impl FrameRecord {
     /// The record as one CSV line, without the newline.
     pub fn csv_line(&self) -> String {
         format!(
-            "{},{:.4},{:.3},{:.2},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{}",
+            "{},{:.4},{:.3},{:.2},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{},{}",
             self.frame,
             self.time_s,
             self.frame_ms,
@@ -80,7 +82,8 @@ impl FrameRecord {
             self.base_bytes,
             self.tau_px,
             self.error_px,
-            self.budget_binds
+            self.budget_binds,
+            self.by_error
         )
     }
 }

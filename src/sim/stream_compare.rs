@@ -232,6 +232,7 @@ impl Run<'_> {
             threads: p.threads,
             pager_mode: PagerMode::Simulated { queue_depth: 4 },
             streaming: self.strategy.streaming(),
+            allocation: p.allocation,
             ..EngineSettings::default()
         };
         settings.budget.target_fps = p.target_fps;

@@ -100,6 +100,7 @@ fn the_tradeoff_report_measures_every_setting_against_the_gpu_reference_too() {
         threshold: 16,
         knobs: Some(vec!["budget".into()]),
         max_error: stripmask::ErrorBound::default(),
+        allocation: stripmask::engine::allocation::Allocation::default(),
         progress: false,
     };
     let references: Vec<Box<dyn Reference>> = vec![Box::new(CpuFloat), Box::new(gpu)];

@@ -3,6 +3,7 @@
 
 mod support;
 
+mod allocation;
 mod archive_corrupt;
 mod archive_fuzz;
 mod archive_levels;

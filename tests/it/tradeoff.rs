@@ -16,6 +16,7 @@ fn options(source: String, out: std::path::PathBuf, knobs: &[&str]) -> TradeoffO
         threshold: 16,
         knobs: Some(knobs.iter().map(|k| k.to_string()).collect()),
         max_error: stripmask::ErrorBound::default(),
+        allocation: stripmask::engine::allocation::Allocation::default(),
         progress: false,
     }
 }

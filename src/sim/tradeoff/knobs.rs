@@ -6,6 +6,7 @@
 
 use stripmask_raster::{ColorFormat, DepthFormat, Perspective, Precision, Sampler};
 
+use crate::engine::allocation::Allocation;
 use crate::engine::cracks::CrackMode;
 use crate::engine::error_bound::ErrorBound;
 use crate::engine::geomorph::Geomorph;
@@ -17,7 +18,7 @@ pub const POCKETPC_BUDGET: usize = 3_000;
 /// How many triangles a frame may draw.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Budget {
-    /// Shared by the engine's allocation (visual importance), held fixed for the measurement.
+    /// Shared by the engine's allocation (importance or error), held fixed for the measurement.
     Triangles(usize),
     /// Every drawn tile at mask level 0.
     Full,
@@ -30,6 +31,8 @@ pub struct Setting {
     pub budget: Budget,
     /// The pixel-error bound τ: no tile finer than it needs.
     pub max_error: ErrorBound,
+    /// How the tiles share the budget.
+    pub allocation: Allocation,
     /// Precision, perspective, texture filter, and the features on or off.
     pub render: RenderSettings,
     /// Colour-buffer format.
@@ -47,11 +50,13 @@ pub struct Setting {
 impl Default for Setting {
     /// The engine's defaults on the handheld: [`RenderSettings::default`], RGB565, 16-bit depth,
     /// stitched cracks, one thread (the PocketPC has one core), 20,000 triangles (the budget
-    /// controller's starting budget) and τ = 1 px ([`ErrorBound::default`]).
+    /// controller's starting budget), τ = 1 px ([`ErrorBound::default`]) and the engine's
+    /// default allocation.
     fn default() -> Self {
         Setting {
             budget: Budget::Triangles(20_000),
             max_error: ErrorBound::default(),
+            allocation: Allocation::default(),
             render: RenderSettings::default(),
             color: ColorFormat::Rgb565,
             depth: DepthFormat::D16,
@@ -125,6 +130,14 @@ pub fn knobs() -> Vec<Knob> {
                 value!("1", |s| s.max_error = ErrorBound::Pixels(1.0)),
                 value!("2", |s| s.max_error = ErrorBound::Pixels(2.0)),
                 value!("4", |s| s.max_error = ErrorBound::Pixels(4.0)),
+            ],
+        ),
+        knob(
+            "allocation",
+            false,
+            vec![
+                value!("importance", |s| s.allocation = Allocation::Importance),
+                value!("error", |s| s.allocation = Allocation::Error),
             ],
         ),
         knob(

@@ -268,6 +268,7 @@ fn pooled(per_view: &[(Vec<ImageError>, f64, f64)], references: usize) -> Measur
 fn apply(engine: &mut Engine, setting: &Setting) {
     *engine.render_settings_mut() = setting.render;
     engine.set_max_error(setting.max_error);
+    engine.set_allocation(setting.allocation);
     match setting.budget {
         Budget::Full => engine.force_levels(Some(Box::new(|_| 0))),
         Budget::Triangles(n) => {

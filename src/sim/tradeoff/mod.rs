@@ -20,6 +20,7 @@ use std::path::PathBuf;
 
 use crate::db::archive::ArchiveReader;
 use crate::db::source;
+use crate::engine::allocation::Allocation;
 use crate::engine::error_bound::ErrorBound;
 use crate::engine::terrain::TerrainFrame;
 use crate::error::{Error, Result};
@@ -52,6 +53,8 @@ pub struct TradeoffOptions {
     pub knobs: Option<Vec<String>>,
     /// The pixel-error bound τ of the defaults (every setting but the `max-error` knob's).
     pub max_error: ErrorBound,
+    /// How the defaults share the triangle budget (every setting but the `allocation` knob's).
+    pub allocation: Allocation,
     /// Print a line per setting measured.
     pub progress: bool,
 }
@@ -131,6 +134,7 @@ pub fn run_with(
     }
     let defaults = Setting {
         max_error: options.max_error,
+        allocation: options.allocation,
         ..Setting::default()
     };
     let entries = sweep::plan(&all_knobs, options.knobs.as_deref(), defaults);

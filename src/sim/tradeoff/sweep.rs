@@ -7,9 +7,11 @@ use super::knobs::{Knob, Setting};
 /// pipeline precision (does float matter once triangles are coarse?) and with the crack mode
 /// (coarser budgets mean more level changes to hide); perspective with the texture filter (both
 /// decide the texels a pixel shows); the budget with the pixel-error bound (which of time and
-/// error caps detail).
-pub const CROSSES: [[&str; 2]; 4] = [
+/// error caps detail) and with the allocation (how the budget is shared matters most when it
+/// is small).
+pub const CROSSES: [[&str; 2]; 5] = [
     ["budget", "max-error"],
+    ["budget", "allocation"],
     ["budget", "precision"],
     ["perspective", "filter"],
     ["budget", "cracks"],

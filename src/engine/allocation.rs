@@ -1,0 +1,375 @@
+//! How the visible tiles share the triangle budget: by visual importance (the paper's
+//! Algorithm 2, [`crate::engine::budget::allocate_capped`]) or by projected error.
+//!
+//! Importance weighs a tile by its distance and relief shares, so on a flight low over the
+//! ground the tiles nearest the eye, whose errors span the most pixels, may stay coarse while
+//! farther ones refine. [`allocate_by_error`] shares the budget the other way round: every tile
+//! starts at its coarsest mask, and the tile whose level's error spans the most pixels on
+//! screen moves to its next finer level with a smaller error, again and again, while the pool
+//! affords the move. The result minimises the largest projected error a frame draws with its
+//! budget (see [`allocate_by_error`]); the triangles it leaves are spent in importance order
+//! on finer levels that add no error.
+//!
+//! Cost: every move is one pop and one push on a heap of at most one entry per tile, and a
+//! tile moves at most once per level, so a frame costs `O(tiles × levels × log tiles)` at worst
+//! (in practice the pool runs out after a few moves per tile), against `O(tiles)` for the
+//! importance share.
+
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+use crate::engine::budget::{TileAllocation, allocate_capped};
+use crate::engine::importance::Importance;
+use crate::engine::masks::MaskSet;
+use crate::named::named_enum;
+
+/// Which rule shares the triangle budget among the tiles in view.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Allocation {
+    /// The paper's: in decreasing visual importance (distance and relief shares).
+    Importance,
+    /// The tile whose error spans the most pixels refines first: the largest projected error
+    /// of the frame is as small as the budget allows. The default: over the Puget Sound
+    /// flights it halves the mean worst error of the low flight as the PocketPC and never does
+    /// worse than importance on another (`docs/tradeoff.md`).
+    #[default]
+    Error,
+}
+
+named_enum!(Allocation, "allocation", {
+    Importance => "importance",
+    Error => "error",
+});
+
+/// What the error allocation knows of one tile: its levels' geometric errors and how many
+/// pixels a metre of error spans at its distance.
+#[derive(Clone, Copy, Debug)]
+pub struct TileErrors<'a> {
+    /// Per mask level, the largest height difference to the full tile, metres (the archive's
+    /// level errors, [`crate::db::level_error`]).
+    pub metres: &'a [f32],
+    /// Pixels per metre of height error at the tile's distance from the eye.
+    pub pixels_per_metre: f64,
+}
+
+impl TileErrors<'_> {
+    /// Level `level`'s error on screen, pixels; a level without a known error counts as
+    /// infinitely wrong, and a level without error as exact even when seen from nowhere.
+    pub fn pixels(&self, level: usize) -> f64 {
+        match self.metres.get(level) {
+            Some(&e) if e <= 0.0 => 0.0,
+            Some(&e) => {
+                let px = f64::from(e) * self.pixels_per_metre;
+                if px.is_nan() { f64::INFINITY } else { px }
+            }
+            None => f64::INFINITY,
+        }
+    }
+}
+
+impl Allocation {
+    /// Shares `budget` among the tiles of `importance` (drawn with `masks`), tile `t` never
+    /// finer than level `finest[t]`: one allocation per tile, in the tiles' input order.
+    pub fn share(
+        self,
+        budget: usize,
+        importance: &Importance,
+        masks: &MaskSet,
+        errors: &[TileErrors<'_>],
+        finest: &[usize],
+    ) -> Vec<TileAllocation> {
+        match self {
+            Allocation::Importance => allocate_capped(budget, importance, masks, finest),
+            Allocation::Error => allocate_by_error(budget, importance, masks, errors, finest),
+        }
+    }
+}
+
+/// One tile's next move on the heap: the error it has now (the largest moves first), then its
+/// rank in importance order (the more important first).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Move {
+    error_px: f64,
+    rank: usize,
+    tile: usize,
+    to: usize,
+}
+
+impl Eq for Move {}
+
+impl Ord for Move {
+    fn cmp(&self, other: &Self) -> Ordering {
+        self.error_px
+            .total_cmp(&other.error_px)
+            .then(other.rank.cmp(&self.rank))
+    }
+}
+
+impl PartialOrd for Move {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+/// Shares `budget` triangles by projected error: tile `t`'s levels err by
+/// `errors[t].pixels(level)` on screen, and it is never drawn finer than `finest[t]`.
+///
+/// Every tile starts at the coarsest mask of the set (as with [`allocate_capped`], the sum
+/// exceeds `budget` only when the coarsest masks alone do). Then, repeatedly, the tile with the
+/// largest error moves to the coarsest level of the set finer than its own, within its cap,
+/// whose error is smaller — the cheapest move that lowers its error — when what is left of the
+/// budget pays for the move; a tile whose move the pool cannot pay keeps its level. This gives
+/// the smallest largest error of any allocation within the budget and the caps: each move was
+/// forced for any allocation whose largest error is below the current one, and the move that
+/// ends the descent is unaffordable. What the pool holds then goes, in importance order, to the
+/// finest affordable level within each cap whose error is no larger (finer texture and shading
+/// at no cost in error).
+pub fn allocate_by_error(
+    budget: usize,
+    importance: &Importance,
+    masks: &MaskSet,
+    errors: &[TileErrors<'_>],
+    finest: &[usize],
+) -> Vec<TileAllocation> {
+    let n = importance.order.len();
+    debug_assert!(errors.len() == n && finest.len() == n);
+    let coarsest = masks.coarsest_level();
+    let floor = masks.triangle_count(coarsest);
+    let mut tiles = vec![
+        TileAllocation {
+            level: coarsest,
+            triangles: floor,
+        };
+        n
+    ];
+    let mut pool = budget.saturating_sub(n * floor);
+    // The levels of the set, coarsest first.
+    let levels: Vec<usize> = masks.levels().iter().rev().copied().collect();
+    let next = |t: usize, from: usize| -> Option<Move> {
+        let now = errors[t].pixels(from);
+        levels
+            .iter()
+            .copied()
+            .filter(|&l| l < from && l >= finest[t])
+            .find(|&l| errors[t].pixels(l) < now)
+            .map(|to| Move {
+                error_px: now,
+                rank: 0,
+                tile: t,
+                to,
+            })
+    };
+    let mut heap = BinaryHeap::with_capacity(n);
+    for (rank, &t) in importance.order.iter().enumerate() {
+        if let Some(m) = next(t, coarsest) {
+            heap.push(Move { rank, ..m });
+        }
+    }
+    while let Some(m) = heap.pop() {
+        let current = tiles[m.tile];
+        let triangles = masks.triangle_count(m.to);
+        let cost = triangles - current.triangles;
+        if cost > pool {
+            continue;
+        }
+        pool -= cost;
+        tiles[m.tile] = TileAllocation {
+            level: m.to,
+            triangles,
+        };
+        if let Some(following) = next(m.tile, m.to) {
+            heap.push(Move {
+                rank: m.rank,
+                ..following
+            });
+        }
+    }
+    for &t in &importance.order {
+        let current = tiles[t];
+        let now = errors[t].pixels(current.level);
+        let finer = levels.iter().rev().copied().find(|&l| {
+            l >= finest[t]
+                && l < current.level
+                && masks.triangle_count(l) <= current.triangles + pool
+                && errors[t].pixels(l) <= now
+        });
+        if let Some(level) = finer {
+            let triangles = masks.triangle_count(level);
+            pool -= triangles - current.triangles;
+            tiles[t] = TileAllocation { level, triangles };
+        }
+    }
+    tiles
+}
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+
+    use super::*;
+    use crate::engine::importance::{TileMeasure, Weights, visual_importance};
+    use crate::engine::masks::LevelSet;
+    use crate::named::Named;
+
+    /// The largest projected error of an allocation.
+    fn worst(a: &[TileAllocation], errors: &[TileErrors<'_>]) -> f64 {
+        a.iter()
+            .zip(errors)
+            .map(|(t, e)| e.pixels(t.level))
+            .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn the_nearest_tile_refines_first_even_when_importance_ranks_it_last() {
+        // 9 x 9 tiles: levels 0..=7 with 128, 32, 18, 8, 8, 8, 8, 2 triangles.
+        let masks = MaskSet::new(9, LevelSet::All);
+        let rugged = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0];
+        // A near flat tile the importance puts last, and a far tall one it puts first.
+        let imp = Importance {
+            values: vec![0.1, 0.9],
+            order: vec![1, 0],
+        };
+        let errors = [
+            TileErrors {
+                metres: &rugged,
+                pixels_per_metre: 10.0,
+            },
+            TileErrors {
+                metres: &rugged,
+                pixels_per_metre: 1.0,
+            },
+        ];
+        let by_importance = allocate_capped(40, &imp, &masks, &[0, 0]);
+        assert_eq!((by_importance[0].level, by_importance[1].level), (3, 1));
+        let by_error = allocate_by_error(40, &imp, &masks, &errors, &[0, 0]);
+        assert_eq!((by_error[0].level, by_error[1].level), (1, 3));
+        assert!(worst(&by_error, &errors) < worst(&by_importance, &errors));
+    }
+
+    #[test]
+    fn a_move_that_lowers_no_error_waits_for_the_leftovers() {
+        let masks = MaskSet::new(9, LevelSet::All);
+        // Levels 7 down to 3 have the same error: the first move that lowers it is to level 2.
+        let plateau = [0.0, 0.5, 1.0, 4.0, 4.0, 4.0, 4.0, 4.0];
+        let imp = Importance {
+            values: vec![1.0],
+            order: vec![0],
+        };
+        let errors = [TileErrors {
+            metres: &plateau,
+            pixels_per_metre: 1.0,
+        }];
+        // 10 triangles: levels 6 to 3 (8) are affordable but no better than 7, level 2 (18)
+        // is not.
+        let a = allocate_by_error(10, &imp, &masks, &errors, &[0]);
+        assert_eq!(
+            a[0].level, 3,
+            "the leftovers buy the finest level as good as the coarsest"
+        );
+        let a = allocate_by_error(20, &imp, &masks, &errors, &[0]);
+        assert_eq!(a[0].level, 2);
+        let a = allocate_by_error(40, &imp, &masks, &errors, &[0]);
+        assert_eq!(a[0].level, 1);
+        // Capped at level 3: never finer, whatever the budget.
+        let a = allocate_by_error(1_000, &imp, &masks, &errors, &[3]);
+        assert_eq!(a[0].level, 3);
+        let a = allocate_by_error(1_000, &imp, &masks, &errors, &[0]);
+        assert_eq!(a[0].level, 0);
+    }
+
+    #[test]
+    fn names_round_trip() {
+        for a in Allocation::all() {
+            assert_eq!(Allocation::from_name(a.name()).unwrap(), a);
+        }
+        assert_eq!(Allocation::default().name(), "error");
+        assert!(Allocation::from_name("distance").is_err());
+    }
+
+    /// Per tile: distance, relief, pixels per metre and the seed of its level errors.
+    type Tiles = Vec<(f64, f64, f64, u64)>;
+
+    fn frame() -> impl Strategy<Value = (usize, LevelSet, Tiles)> {
+        (
+            prop::sample::select(vec![3usize, 9, 17, 33, 65]),
+            prop::sample::select(vec![LevelSet::All, LevelSet::PowerOfTwo]),
+            prop::collection::vec(
+                (0.0..1e4f64, 0.0..500.0f64, 0.0..50.0f64, any::<u64>()),
+                0..40,
+            ),
+        )
+    }
+
+    /// Level errors of a tile of `s` samples from `seed`: growing with the level on the whole,
+    /// not always (errors of coarser levels may be smaller).
+    fn level_errors(s: usize, seed: u64) -> Vec<f32> {
+        let mut state = seed;
+        (0..s - 1)
+            .map(|l| {
+                state = state
+                    .wrapping_mul(6_364_136_223_846_793_005)
+                    .wrapping_add(1_442_695_040_888_963_407);
+                if l == 0 {
+                    0.0
+                } else {
+                    l as f32 * (0.5 + (state >> 40) as f32 / (1u64 << 24) as f32)
+                }
+            })
+            .collect()
+    }
+
+    proptest! {
+        #[test]
+        fn within_the_budget_and_the_caps_and_never_worse_than_importance_at_its_worst(
+            (s, set, tiles) in frame(),
+            fraction in 0.0..1.3f64,
+            caps in prop::collection::vec(0usize..64, 40),
+        ) {
+            let masks = MaskSet::new(s, set);
+            let measures: Vec<TileMeasure> = tiles
+                .iter()
+                .map(|&(distance, height, _, _)| TileMeasure { distance, height })
+                .collect();
+            let imp = visual_importance(&measures, Weights::default());
+            let metres: Vec<Vec<f32>> =
+                tiles.iter().map(|t| level_errors(s, t.3)).collect();
+            let errors: Vec<TileErrors> = tiles
+                .iter()
+                .zip(&metres)
+                .map(|(t, m)| TileErrors { metres: m, pixels_per_metre: t.2 })
+                .collect();
+            let levels = masks.levels();
+            let finest: Vec<usize> = (0..tiles.len())
+                .map(|t| levels[caps[t] % levels.len()])
+                .collect();
+            let all = tiles.len() * masks.triangle_count(0);
+            let budget = (all as f64 * fraction) as usize;
+            let a = allocate_by_error(budget, &imp, &masks, &errors, &finest);
+            prop_assert_eq!(a.len(), tiles.len());
+            let total: usize = a.iter().map(|t| t.triangles).sum();
+            let floor = masks.triangle_count(masks.coarsest_level());
+            prop_assert!(total <= budget || a.iter().all(|t| t.triangles == floor));
+            for (t, alloc) in a.iter().enumerate() {
+                prop_assert!(levels.contains(&alloc.level));
+                prop_assert!(alloc.level >= finest[t]);
+                prop_assert_eq!(alloc.triangles, masks.triangle_count(alloc.level));
+            }
+            let by_importance = allocate_capped(budget, &imp, &masks, &finest);
+            prop_assert!(
+                worst(&a, &errors) <= worst(&by_importance, &errors),
+                "error {} against importance {}", worst(&a, &errors), worst(&by_importance, &errors)
+            );
+            if budget >= all {
+                // Every tile as exact as its cap allows.
+                for (t, alloc) in a.iter().enumerate() {
+                    let best = levels
+                        .iter()
+                        .filter(|&&l| l >= finest[t])
+                        .map(|&l| errors[t].pixels(l))
+                        .fold(f64::INFINITY, f64::min);
+                    prop_assert_eq!(errors[t].pixels(alloc.level), best);
+                }
+            }
+        }
+    }
+}

@@ -298,23 +298,82 @@ struct Geometry {
     d2: [i64; 2],
     inv_area: i64,
     shift: i32,
+    /// Edge vectors below `SMALL_EDGE` (a small triangle): the planes take `plane_small`.
+    small: bool,
 }
 
+/// Edge vectors of a triangle within 16x16 pixels (`Coverage::is_small`) stay below this many
+/// sub-pixels: its extreme vertices lie in 17 pixel columns and rows, `|d| < 17 * 256 = 4352`.
+///
+/// With them, a plane needs no 128-bit sum (see `Geometry::plane_small`): attribute differences
+/// stay below 2^45 (`s, t` under perspective: 2^24 texture units times `q < 2^20`, doubled),
+/// so `nx = a1 * d2y - a2 * d1y` stays below 2 * 2^45 * 2^13 = 2^59; the doubled area below
+/// `4352^2 < 2^25`, so it is shifted up by at least 6 to normalise it, and the plane's shift lies
+/// in 8..=32.
+const SMALL_EDGE: i64 = 1 << 13;
+
 impl Geometry {
-    fn new(v: &[&FixedScreen; 3], area2: i64) -> Self {
-        let (an, ash) = normalise_positive(area2 as i128);
+    /// The geometry of `v` (`small`: within 16x16 pixels, `Coverage::is_small`).
+    fn new(v: &[&FixedScreen; 3], area2: i64, small: bool) -> Self {
         let d = |i: usize| [v[i].xy[0] - v[0].xy[0], v[i].xy[1] - v[0].xy[1]];
+        let (d1, d2) = (d(1), d(2));
+        debug_assert!(!small || d1.iter().chain(&d2).all(|c| c.abs() < SMALL_EDGE));
+        let (an, ash) = if small {
+            // `normalise_positive` without 128-bit shifts: the area is below 2^25.
+            debug_assert!(area2 > 0 && area2 < 1 << 25);
+            let up = (area2 as u64).leading_zeros() as i32 - 33;
+            (area2 << up, -up)
+        } else {
+            normalise_positive(area2 as i128)
+        };
         // gradient per pixel, with ATTR_FRAC_BITS = num * 2^(SUBPIXEL_BITS + ATTR_FRAC_BITS) / area2
         let shift = 62 - (SUBPIXEL_BITS + ATTR_FRAC_BITS) as i32 + ash;
         Self {
-            d1: d(1),
-            d2: d(2),
+            d1,
+            d2,
             inv_area: ((1u64 << 62) / an as u64) as i64,
             shift,
+            small,
         }
     }
 
+    #[inline(always)]
     fn plane(&self, a: [i64; 3]) -> AttrPlane {
+        let (dx, dy) = if self.small {
+            self.plane_small(a)
+        } else {
+            self.plane_wide(a)
+        };
+        AttrPlane {
+            base: a[0] << ATTR_FRAC_BITS,
+            dx,
+            dy,
+        }
+    }
+
+    /// The gradients of a small triangle's plane: the products of `plane_wide` in i64, the
+    /// scaled ones as one widening multiplication each (see `SMALL_EDGE` for the bounds). The
+    /// same integers as `plane_wide`, so the same pixels.
+    #[inline(always)]
+    fn plane_small(&self, a: [i64; 3]) -> (i64, i64) {
+        let (a1, a2) = (a[1] - a[0], a[2] - a[0]);
+        debug_assert!(a1.abs() < 1 << 46 && a2.abs() < 1 << 46);
+        let nx = a1 * self.d2[1] - a2 * self.d1[1];
+        let ny = a2 * self.d1[0] - a1 * self.d2[0];
+        debug_assert!((8..=32).contains(&self.shift));
+        // Masked: the compiler then knows the shift is below 64.
+        let s = self.shift as u32 & 63;
+        let half = 1i128 << (s - 1);
+        let inv = self.inv_area as i128;
+        let scaled = |n: i64| i64::try_from((n as i128 * inv + half) >> s);
+        match (scaled(nx), scaled(ny)) {
+            (Ok(dx), Ok(dy)) => (dx, dy),
+            _ => (0, 0),
+        }
+    }
+
+    /// The gradients of a plane, in 128-bit products.
+    fn plane_wide(&self, a: [i64; 3]) -> (i64, i64) {
         let wide = |x: i64, y: i64| x as i128 * y as i128;
         // Attribute differences stay below 2^62 (depth 2^32, s and t 2^44, colour 2^8).
         let (a1, a2) = (a[1] - a[0], a[2] - a[0]);
@@ -325,14 +384,12 @@ impl Geometry {
             shift_round(nx * inv, self.shift),
             shift_round(ny * inv, self.shift),
         );
-        let base = a[0] << ATTR_FRAC_BITS;
-        let (dx, dy) = match (i64::try_from(dx), i64::try_from(dy)) {
+        match (i64::try_from(dx), i64::try_from(dy)) {
             (Ok(dx), Ok(dy)) => (dx, dy),
             // A gradient beyond i64 means the triangle is thinner than 2^-15 pixel across this
             // attribute's range: it can own at most isolated pixels, which take vertex 0's value.
             _ => (0, 0),
-        };
-        AttrPlane { base, dx, dy }
+        }
     }
 }
 
@@ -380,7 +437,7 @@ impl FixedTriangle {
         if !a.interpolates() {
             return t;
         }
-        let g = Geometry::new(&v, area2);
+        let g = Geometry::new(&v, area2, coverage.is_small());
         let pick = |f: fn(&FixedScreen) -> i64| g.plane([f(v[0]), f(v[1]), f(v[2])]);
         if a.depth {
             planes.push(pick(|s| s.depth));
@@ -433,10 +490,11 @@ impl FixedTriangle {
     }
 }
 
-/// Doubled texture-space area in 16.16 repeats squared.
+/// Doubled texture-space area in 16.16 repeats squared. In i64: coordinates stay within
+/// `TEXCOORD_LIMIT` (2^24), so differences below 2^25 and their products below 2^50.
 fn texel_area(v: &[&FixedScreen; 3]) -> i128 {
-    let d = |i: usize, k: usize| (v[i].uv[k] - v[0].uv[k]) as i128;
-    (d(1, 0) * d(2, 1) - d(2, 0) * d(1, 1)).abs()
+    let d = |i: usize, k: usize| v[i].uv[k] - v[0].uv[k];
+    (d(1, 0) * d(2, 1) - d(2, 0) * d(1, 1)).abs() as i128
 }
 
 impl Setup for FixedTriangle {
@@ -507,6 +565,69 @@ pub(crate) use rows::{DepthTest, NarrowPlanes, RunPiece, run_fragments};
 mod tests {
     use super::*;
     use crate::fixed_point::SUBPIXEL_ONE;
+
+    /// The geometry `Geometry::new` makes of the triangle `v` (sub-pixels), if its orientation
+    /// is positive.
+    fn geometry(v: [[i64; 2]; 3], small: bool) -> Option<Geometry> {
+        let d = |i: usize| [v[i][0] - v[0][0], v[i][1] - v[0][1]];
+        let area2 = d(1)[0] * d(2)[1] - d(2)[0] * d(1)[1];
+        let screen = v.map(|xy| FixedScreen {
+            xy,
+            ..FixedScreen::default()
+        });
+        (area2 > 0).then(|| Geometry::new(&[&screen[0], &screen[1], &screen[2]], area2, small))
+    }
+
+    /// The largest attribute difference a plane meets: `s, t` under perspective.
+    const MAX_ATTR: i64 = 1 << 45;
+    /// The last sub-pixel of the 17 pixel columns (rows) a small triangle's vertices lie in.
+    const EDGE: i64 = 17 * SUBPIXEL_ONE - 1;
+
+    #[test]
+    fn small_planes_equal_wide_planes_at_the_bounds() {
+        let at = [0, 1, EDGE / 3, EDGE / 2 + 7, EDGE - 1, EDGE];
+        let points: Vec<[i64; 2]> = at.iter().flat_map(|&x| at.map(|y| [x, y])).collect();
+        let attrs = [-MAX_ATTR, -(1 << 32), -255, 0, 1, 1 << 24, MAX_ATTR];
+        let (mut checked, mut largest) = (0, 0);
+        for &a in &points {
+            for &b in &points {
+                for &c in &points {
+                    let (Some(small), Some(wide)) =
+                        (geometry([a, b, c], true), geometry([a, b, c], false))
+                    else {
+                        continue;
+                    };
+                    assert_eq!((small.inv_area, small.shift), (wide.inv_area, wide.shift));
+                    largest = largest.max(small.shift);
+                    for a1 in attrs {
+                        for a2 in attrs {
+                            let q = [0, a1, a2];
+                            assert_eq!(small.plane_small(q), wide.plane_wide(q));
+                            checked += 1;
+                        }
+                    }
+                }
+            }
+        }
+        // The largest area (a right angle on the box's corners) has the largest shift.
+        assert_eq!(largest, 32);
+        assert!(checked > 100_000, "{checked} planes");
+    }
+
+    proptest::proptest! {
+        /// The small triangles' planes (i64 products) are the integers of the 128-bit ones.
+        #[test]
+        fn small_planes_equal_wide_planes(
+            v in proptest::collection::vec(0..=EDGE, 6),
+            a in proptest::collection::vec(-MAX_ATTR / 2..=MAX_ATTR / 2, 3),
+        ) {
+            let v = [[v[0], v[1]], [v[2], v[3]], [v[4], v[5]]];
+            if let (Some(small), Some(wide)) = (geometry(v, true), geometry(v, false)) {
+                let a = [a[0], a[1], a[2]];
+                proptest::prop_assert_eq!(small.plane_small(a), wide.plane_wide(a));
+            }
+        }
+    }
 
     proptest::proptest! {
         /// Rows of narrow triangles start from the plane moved onto the pixel grid: it must give

@@ -18,6 +18,7 @@
 //! `ty * tiles_x + tx`.
 
 mod check;
+pub mod partial;
 mod reader;
 mod writer;
 

@@ -32,7 +32,7 @@ use crate::error::{Error, Result};
 use crate::named::named_enum;
 
 pub use check::CheckReport;
-pub use reader::{ArchiveReader, DEFAULT_ATTEMPTS, LevelBytes};
+pub use reader::{ArchiveReader, DEFAULT_ATTEMPTS, LevelBytes, RETRY_BACKOFF};
 pub use writer::ArchiveWriter;
 
 /// The first 8 bytes of every archive.

@@ -53,6 +53,22 @@ pub enum Error {
         /// What went wrong.
         problem: String,
     },
+    /// An HTTP request had no whole answer in time: the server accepted and then hung, or
+    /// stopped in the middle of a body.
+    #[error(
+        "{url}: {request} had no whole answer within {seconds} s ({})",
+        if *by_deadline { "the run's deadline" } else { "the request timeout" }
+    )]
+    TimedOut {
+        /// The URL requested.
+        url: String,
+        /// The request, as `GET bytes a-b` or `HEAD`.
+        request: String,
+        /// Seconds it was given (0 when the deadline had passed before it started).
+        seconds: f64,
+        /// Whether the run's deadline, not the request timeout, cut it short.
+        by_deadline: bool,
+    },
     /// A setting outside the values it may take: a build option, an engine or device setting,
     /// a command-line option.
     #[error("{name} {value}: expected {expected}")]
@@ -92,8 +108,9 @@ pub enum Error {
     },
     /// A flight drew no terrain at all because its fetches failed: the source is unusable.
     #[error(
-        "{name}: no terrain could be drawn in {frames} frame(s): {errors} fetch(es) failed; the first: {}",
-        first.join("; ")
+        "{name}: no terrain could be drawn in {frames} frame(s): {errors} fetch(es) failed, \
+         {in_flight} still on their way when the flight ended; the first failures: {}",
+        if first.is_empty() { "none".to_string() } else { first.join("; ") }
     )]
     NothingLoaded {
         /// The archive file or URL.
@@ -104,6 +121,8 @@ pub enum Error {
         errors: u64,
         /// The messages of the first failures, each naming its tile.
         first: Vec<String>,
+        /// Fetches (tiles and the base) still unanswered at the end, abandoned.
+        in_flight: usize,
     },
     /// A command this build of stripmask was made without: a cargo feature left out, or one
     /// for another platform.

@@ -11,6 +11,7 @@ use clap::Args;
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use stripmask::Named;
 use stripmask::db::archive::ArchiveReader;
+use stripmask::db::source::http::HttpOptions;
 use stripmask::db::source::{self, throttle::LinkProfile};
 use stripmask::engine::EngineSettings;
 use stripmask::engine::allocation::Allocation;
@@ -118,9 +119,10 @@ pub(super) struct Scene {
 }
 
 impl SceneArgs {
-    /// The scene over the archive `source_name` (read for the terrain the flight is scaled to).
-    pub(super) fn resolve(&self, source_name: &str) -> Result<Scene> {
-        let flight = flight(&self.flight, source_name)?;
+    /// The scene over the archive `source_name` (read for the terrain the flight is scaled to,
+    /// its requests bounded by `http`).
+    pub(super) fn resolve(&self, source_name: &str, http: HttpOptions) -> Result<Scene> {
+        let flight = flight_with(&self.flight, source_name, http)?;
         let device = self.device.resolve()?;
         let memory_limit_bytes = match self.memory_percent {
             Some(p) => memory_limit_from_available(p)?,
@@ -180,8 +182,20 @@ impl SceneArgs {
 
 /// The flight `name` (built in, or a TOML file) over the archive `source_name`.
 pub(super) fn flight(name: &str, source_name: &str) -> Result<Flight> {
-    let reader = ArchiveReader::open(source::open(source_name)?)?;
+    flight_with(name, source_name, HttpOptions::default())
+}
+
+/// [`flight`], its requests bounded by `http`.
+fn flight_with(name: &str, source_name: &str, http: HttpOptions) -> Result<Flight> {
+    let reader = ArchiveReader::open(source::open_with(source_name, http)?)?;
     Flight::builtin_or_file(name, &TerrainFrame::new(reader.header()))
+}
+
+impl SceneArgs {
+    /// Whether the flight runs on the wall clock.
+    pub(super) fn wall_clock(&self) -> bool {
+        !self.device.clock.is_simulated()
+    }
 }
 
 /// The device a flight runs as: a profile, and values that override it.
@@ -293,6 +307,19 @@ pub(super) fn length(frames: Option<u64>, seconds: Option<f64>) -> Result<Option
         }
         (None, None) => None,
     })
+}
+
+/// `value` of `flag` as a time, when it is a positive number of seconds up to a day.
+pub(super) fn duration(flag: &'static str, value: f64) -> Result<std::time::Duration> {
+    if value > 0.0 && value <= MAX_SECONDS {
+        Ok(std::time::Duration::from_secs_f64(value))
+    } else {
+        Err(Error::setting(
+            flag,
+            value,
+            format!("a positive number of seconds up to {MAX_SECONDS}"),
+        ))
+    }
 }
 
 /// `value` of `flag` when it is a positive number; an [`Error::InvalidSetting`] otherwise.

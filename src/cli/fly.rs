@@ -1,13 +1,15 @@
 //! `stripmask fly`: a headless flight with statistics, frames and plots.
 
 use std::path::PathBuf;
+use std::time::Instant;
 
 use clap::Args;
+use stripmask::db::source::http::HttpOptions;
 use stripmask::error::{Error, Result};
-use stripmask::sim::fly::{FlyOptions, fly};
+use stripmask::sim::fly::{FlyOptions, default_deadline, fly};
 use stripmask::{ErrorBound, Named};
 
-use super::args::{SceneArgs, length};
+use super::args::{SceneArgs, duration, length};
 
 /// `fly`'s arguments: the archive, the scene, how long, and what to write.
 #[derive(Args, Debug)]
@@ -35,17 +37,36 @@ pub(super) struct FlyArgs {
     /// Do not draw the report's plots at the end.
     #[arg(long)]
     no_plots: bool,
+    /// Wall-clock seconds from the start by which every HTTP request must have ended, opening
+    /// the archive included; later ones fail at once [default: with --seconds S on the wall
+    /// clock, S + 2; otherwise none].
+    #[arg(long, allow_negative_numbers = true)]
+    deadline: Option<f64>,
+    /// Seconds one HTTP request may take, its whole body included.
+    #[arg(long, allow_negative_numbers = true,
+          default_value_t = HttpOptions::default().timeout.as_secs_f64())]
+    http_timeout: f64,
     #[command(flatten)]
     scene: SceneArgs,
 }
 
 /// Flies headless and prints the summary.
 pub(super) fn run(a: FlyArgs) -> Result<()> {
-    let scene = a.scene.resolve(&a.source)?;
+    let started = Instant::now();
+    let length = length(a.frames, a.seconds)?;
+    let deadline = match a.deadline {
+        Some(s) => Some(duration("--deadline", s)?),
+        None => default_deadline(length, a.scene.wall_clock()),
+    };
+    let http = HttpOptions {
+        timeout: duration("--http-timeout", a.http_timeout)?,
+        deadline: deadline.map(|d| started + d),
+    };
+    let scene = a.scene.resolve(&a.source, http)?;
     let options = FlyOptions {
         source: a.source.clone(),
         flight: scene.flight,
-        length: length(a.frames, a.seconds)?,
+        length,
         size: scene.size,
         color: scene.color,
         depth: scene.depth,
@@ -57,6 +78,7 @@ pub(super) fn run(a: FlyArgs) -> Result<()> {
         clock: scene.clock,
         link: scene.link,
         plots: !a.no_plots,
+        http,
     };
     let s = fly(&options)?;
     println!(
@@ -83,12 +105,13 @@ pub(super) fn run(a: FlyArgs) -> Result<()> {
         a.out.join("stats.csv").display(),
         s.holes
     );
-    if s.holes.first_frame_s.is_none() && s.errors > 0 {
+    if s.holes.first_frame_s.is_none() && (s.errors > 0 || s.in_flight > 0) {
         return Err(Error::NothingLoaded {
             name: a.source.clone(),
             frames: s.frames,
             errors: s.errors,
             first: s.first_errors,
+            in_flight: s.in_flight,
         });
     }
     Ok(())

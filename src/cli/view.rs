@@ -1,6 +1,7 @@
 //! `stripmask view`: the viewer in a desktop window; the options it shares with `fb`.
 
 use clap::Args;
+use stripmask::db::source::http::HttpOptions;
 use stripmask::error::Result;
 
 use super::args::SceneArgs;
@@ -25,7 +26,7 @@ pub(super) struct ViewArgs {
 /// What the viewer shows: the scene resolved, the engine with its default (threaded) pager.
 #[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
 pub(super) fn viewer_options(a: &ViewArgs) -> Result<ViewerOptions> {
-    let scene = a.scene.resolve(&a.source)?;
+    let scene = a.scene.resolve(&a.source, HttpOptions::default())?;
     let mut engine = scene.engine;
     // A fetch thread on the wall clock; on the simulated clock (`--clock simulated`) fetches that
     // complete at reproducible frames, so that `--frames N` shows what `fly` draws at frame N - 1.

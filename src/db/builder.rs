@@ -11,7 +11,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::db::archive::{ArchiveWriter, Codec, Header, MAX_SPACING, compress};
+use crate::db::archive::{ArchiveWriter, Codec, Header, MAX_SPACING, compress, partial};
 use crate::db::dem::{self, DemInfo, DemReader, EastWest, FillStats, NodataFill, OpenOptions};
 use crate::db::texture_gen::{ImageTexture, shaded};
 use crate::db::tile::{Tile, progressive_levels};
@@ -127,6 +127,12 @@ pub fn build<R: DemReader>(
         Some(path) => Some(ImageTexture::open(path, grid.width, info.height)?),
         None => None,
     };
+    for stale in partial::remove_stale(out) {
+        notes.push(format!(
+            "removed {}, left by a build that was killed",
+            stale.display()
+        ));
+    }
     let mut writer = ArchiveWriter::create(out, header.clone())?;
     let mut bands = BandReader::new(reader, grid, options.vertical_scale as f32, columns);
     let mut totals = Totals::default();

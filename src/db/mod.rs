@@ -2,6 +2,7 @@
 //! sources that read it back.
 
 pub mod archive;
+pub mod backoff;
 pub mod builder;
 pub mod dem;
 pub mod grid;

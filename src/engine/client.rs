@@ -28,10 +28,12 @@ use crate::engine::frustum::{Aabb, Frustum};
 use crate::engine::geomorph::{Geomorph, Morpher, SUBDIVISION};
 use crate::engine::importance::{TileMeasure, Weights, visual_importance};
 use crate::engine::masks::{LevelSet, MaskSet};
-use crate::engine::paging::stream::{PredictedView, Predictor, StreamPager, Streaming, Want};
+use crate::engine::paging::stream::{
+    LevelLoader, PredictedView, Predictor, StreamPager, Streaming, Want,
+};
 use crate::engine::paging::{
     ArchiveLoader, BeltPager, PagerConfig, PagerMode, PagerStats, Paging, Residency,
-    ResidentLoader, StreamStats, TransferClock,
+    ResidentLoader, StreamStats, TileLoader, TransferClock,
 };
 use crate::engine::partial_meshes::PartialMeshes;
 use crate::engine::render::{RenderSettings, TileDraw, TileMeshes, draw_tiles};
@@ -187,7 +189,8 @@ impl Engine {
         mut settings: EngineSettings,
         height: u32,
     ) -> Result<Self> {
-        let reader = ArchiveReader::open(source)?;
+        // The pager retries failed fetches, backing off: the reader tries each once.
+        let reader = ArchiveReader::open(source)?.with_fetch_attempts(1);
         let header = reader.header().clone();
         let terrain = TerrainFrame::new(&header);
         check_morph_range(&settings, &terrain, reader.name())?;
@@ -199,6 +202,7 @@ impl Engine {
         if settings.coarse_base {
             choose_base(&mut loader, &settings);
         }
+        check_memory_holds_something(&loader, &settings)?;
         let grid = Grid::new(header.tiles_x, header.tiles_y)?;
         let mut config = PagerConfig::new(settings.memory_limit_bytes, settings.pager_mode);
         config.nearest_when_off = settings.nearest_when_off;
@@ -951,6 +955,30 @@ fn choose_base(loader: &mut ArchiveLoader, settings: &EngineSettings) {
     while kept > 0 && loader.base_bytes() > settings.memory_limit_bytes / BASE_SHARE {
         kept = loader.use_base(kept - 1);
     }
+}
+
+/// Refuses a memory limit under which nothing could ever be drawn: no coarse base fits it, nor
+/// the smallest copy of one tile the pager loads (a whole tile beside the viewer, or one level).
+fn check_memory_holds_something(loader: &ArchiveLoader, settings: &EngineSettings) -> Result<()> {
+    if loader.base_bytes() > 0 {
+        return Ok(());
+    }
+    let smallest = match settings.streaming {
+        Streaming::Progressive(_) => LevelLoader::predicted_bytes(loader, 1),
+        Streaming::Belts => TileLoader::predicted_bytes(loader, TileId::new(0, 0), 0),
+    };
+    if settings.memory_limit_bytes >= smallest {
+        return Ok(());
+    }
+    Err(Error::setting(
+        "memory limit (bytes)",
+        settings.memory_limit_bytes,
+        format!(
+            "at least {smallest} bytes: the smallest copy of one tile of {} (the coarse base \
+             does not fit either), or nothing is ever drawn",
+            loader.reader().name()
+        ),
+    ))
 }
 
 /// Progressive streaming draws partial tiles, which geomorphing cannot, and its textures follow

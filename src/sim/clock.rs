@@ -215,6 +215,10 @@ impl<S: TileSource> TileSource for MeteredLink<S> {
         self.inner.size()
     }
 
+    fn is_remote(&self) -> bool {
+        self.inner.is_remote()
+    }
+
     fn read_range(&self, offset: u64, len: u64) -> Result<Vec<u8>> {
         let seconds = self.delays.next() + self.profile.transfer_time(len);
         self.meter.add(seconds.as_secs_f64());

@@ -220,6 +220,7 @@ pub fn run_live(o: &DemoOptions, live: Option<LiveView<'_>>) -> Result<DemoSumma
         clock: o.clock.with_slowdown(p.cpu_slowdown),
         link: (!p.link.is_unlimited()).then(|| p.link.to_link_profile(1)),
         plots: true,
+        http: crate::db::source::http::HttpOptions::default(),
     };
     let summary = fly_live(&fly_options, live)?;
     Ok(DemoSummary {

@@ -16,6 +16,7 @@ use stripmask_platform::{Hud, PngFrames, Presenter};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
 use crate::db::source;
+use crate::db::source::http::HttpOptions;
 use crate::db::source::throttle::LinkProfile;
 use crate::engine::allocation::Allocation;
 use crate::engine::error_bound::Bound;
@@ -70,6 +71,9 @@ pub struct FlyOptions {
     pub link: Option<LinkProfile>,
     /// Draw the report's plots into `out` at the end.
     pub plots: bool,
+    /// How long HTTP requests may take, and the run's deadline: a fetch still unanswered at
+    /// the end of the flight is abandoned and counted in [`FlySummary::in_flight`].
+    pub http: HttpOptions,
 }
 
 /// Where a flight is shown while it runs, besides the files it writes.
@@ -115,6 +119,24 @@ pub struct FlySummary {
     /// The messages of the first failures, each naming its tile (at most
     /// [`crate::engine::paging::FIRST_ERRORS`]).
     pub first_errors: Vec<String>,
+    /// Fetches (tiles and the base) still on their way when the flight ended, abandoned.
+    pub in_flight: usize,
+}
+
+/// What a flight's requests get beyond its length on the wall clock before its deadline.
+pub const DEADLINE_GRACE: Duration = Duration::from_secs(2);
+
+/// The deadline of a flight of `length`, from its start, when none is given: on the wall clock
+/// a flight of S seconds ends about S seconds after it started, so its requests have S plus
+/// [`DEADLINE_GRACE`]; a flight of frames, or on the simulated clock (whose flight time is not
+/// the wall's), has none.
+pub fn default_deadline(length: Option<Length>, wall_clock: bool) -> Option<Duration> {
+    match length {
+        Some(Length::Seconds(s)) if wall_clock => Duration::try_from_secs_f64(s)
+            .ok()
+            .and_then(|d| d.checked_add(DEADLINE_GRACE)),
+        _ => None,
+    }
 }
 
 /// Flies `o.flight` and writes `stats.csv` (and frames) into `o.out`.
@@ -196,7 +218,7 @@ fn flight_engine(o: &FlyOptions) -> Result<Engine> {
     {
         settings.pager_mode = PagerMode::Simulated { queue_depth };
     }
-    let (source, meter) = connect(source::open(&o.source)?, o.link, &o.clock);
+    let (source, meter) = connect(source::open_with(&o.source, o.http)?, o.link, &o.clock);
     let mut engine = Engine::new(source, settings, o.size.1)?;
     if let Some(meter) = meter {
         engine.set_transfer_clock(meter);
@@ -298,8 +320,15 @@ impl Tally {
             holes: self.holes,
             errors: stats.errors,
             first_errors: engine.pager().first_errors().to_vec(),
+            in_flight: in_flight(&stats),
         }
     }
+}
+
+/// Fetches `stats` says are on their way: tiles, and the base while its bytes are reserved
+/// and none of its tiles has arrived.
+fn in_flight(stats: &PagerStats) -> usize {
+    stats.fetching + usize::from(stats.base_bytes > 0 && stats.base_tiles == 0)
 }
 
 fn progress_bar(show: bool, length: Length) -> ProgressBar {

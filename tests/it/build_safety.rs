@@ -208,3 +208,39 @@ fn ascii_grids_claiming_more_than_they_hold_or_an_infinite_corner_are_refused() 
         assert!(!out.exists() && leftovers(dir.path()).is_empty());
     }
 }
+
+#[cfg(target_os = "linux")]
+#[test]
+fn a_build_removes_what_killed_builds_of_its_output_left_and_nothing_else() {
+    use stripmask::db::archive::partial::partial_path;
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.smdb");
+    // A process that has ended (spawned and reaped), and one that runs.
+    let mut ended = std::process::Command::new("true").spawn().unwrap();
+    ended.wait().unwrap();
+    let mut running = std::process::Command::new("sleep")
+        .arg("60")
+        .spawn()
+        .unwrap();
+    let stale = partial_path(&out, ended.id(), 0).unwrap();
+    let live = partial_path(&out, running.id(), 3).unwrap();
+    let other = partial_path(&dir.path().join("y.smdb"), ended.id(), 0).unwrap();
+    for p in [&stale, &live, &other] {
+        std::fs::write(p, b"half an archive").unwrap();
+    }
+    let report = build(dem("x", 33, 0.0), &out, &small(), &|_, _| {}).unwrap();
+    let _ = running.kill();
+    let _ = running.wait();
+    assert!(!stale.exists(), "the killed build's file is removed");
+    assert!(live.exists(), "a running build's file stays");
+    assert!(other.exists(), "another output's file stays");
+    assert!(
+        report
+            .notes
+            .iter()
+            .any(|n| n.contains(&stale.display().to_string())),
+        "{:?}",
+        report.notes
+    );
+    ArchiveReader::open(FileSource::open(&out).unwrap()).unwrap();
+}

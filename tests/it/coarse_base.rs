@@ -176,6 +176,7 @@ fn failing_base_pager(failures: u32) -> BeltPager<FailingBase> {
     config.retry = RetryPolicy {
         max_attempts: 3,
         delay_updates: 2,
+        ..RetryPolicy::default()
     };
     let loader = FailingBase {
         base_failures: AtomicU32::new(failures),

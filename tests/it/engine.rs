@@ -58,6 +58,7 @@ fn fly_writes_one_stats_row_per_frame_and_keeps_every_kth_frame() {
         clock: Clock::default(),
         link: None,
         plots: false,
+        http: stripmask::db::source::http::HttpOptions::default(),
     })
     .unwrap();
     assert_eq!(summary.frames, 25);

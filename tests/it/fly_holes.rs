@@ -2,7 +2,8 @@
 //! than one at twice the target rate, however empty; the summary and `stats.csv` say which
 //! frames had holes and why; with the PocketPC profile over a model larger than the belts
 //! reach, no frame has a hole once the coarse base arrived, in both streaming modes; a flight
-//! whose every fetch fails ends with an error naming the failed tiles.
+//! whose every fetch fails ends with an error naming the failed tiles, and a memory limit that
+//! can hold nothing is refused.
 
 use std::path::{Path, PathBuf};
 
@@ -19,7 +20,7 @@ use stripmask::sim::flight::{Builtin, Flight};
 use stripmask::sim::fly::{FlyOptions, FlySummary, Length, fly};
 use stripmask::sim::report::StatsTable;
 
-use crate::support::cli::{plain_archive, run_bounded};
+use crate::support::cli::{fly_quietly, plain_archive};
 
 /// A ridged model of `n x n` samples 40 m apart in tiles of 65 samples, written into `dir`.
 fn ridges(dir: &Path, n: usize) -> PathBuf {
@@ -77,6 +78,7 @@ fn fly_as(
         clock: clock.with_slowdown(p.cpu_slowdown),
         link: Some(p.link.to_link_profile(3)),
         plots: false,
+        http: stripmask::db::source::http::HttpOptions::default(),
     })
     .unwrap()
 }
@@ -188,20 +190,12 @@ fn a_flight_whose_every_fetch_fails_says_which_tiles_failed_and_exits_non_zero()
     std::fs::write(&archive, bytes).unwrap();
     let out = dir.path().join("run");
     let fly_frames = |archive: &Path, frames: &str| {
-        run_bounded(&[
-            "fly",
+        let (code, err, _) = fly_quietly(
             archive.to_str().unwrap(),
-            "--clock",
-            "simulated",
-            "--frames",
-            frames,
-            "--every",
-            "0",
-            "--no-plots",
-            "--quiet",
-            "--out",
-            out.to_str().unwrap(),
-        ])
+            &out,
+            &["--clock", "simulated", "--frames", frames],
+        );
+        (code, err)
     };
     let (code, err) = fly_frames(&archive, "40");
     assert_eq!(code, Some(1), "{err}");
@@ -217,4 +211,31 @@ fn a_flight_whose_every_fetch_fails_says_which_tiles_failed_and_exits_non_zero()
     plain_archive(&healthy);
     let (code, err) = fly_frames(&healthy, "10");
     assert_eq!(code, Some(0), "{err}");
+}
+
+#[test]
+fn a_memory_limit_that_holds_neither_the_base_nor_one_tile_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let archive = dir.path().join("plain.smdb");
+    plain_archive(&archive);
+    let out = dir.path().join("run");
+    for streaming in ["belts", "progressive"] {
+        let (code, err, _) = fly_quietly(
+            archive.to_str().unwrap(),
+            &out,
+            &[
+                "--memory-mb",
+                "0.0001",
+                "--streaming",
+                streaming,
+                "--frames",
+                "20",
+            ],
+        );
+        assert_eq!(code, Some(2), "{streaming}: {err}");
+        assert!(
+            err.contains("memory limit") && err.contains("one tile"),
+            "{streaming}: {err}"
+        );
+    }
 }

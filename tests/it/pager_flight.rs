@@ -416,6 +416,7 @@ fn failed_fetches_are_retried_then_given_up_and_the_pager_carries_on() {
     config.retry = RetryPolicy {
         max_attempts: 3,
         delay_updates: 2,
+        ..RetryPolicy::default()
     };
     let mut p = BeltPager::new(fake, Grid::new(5, 5).unwrap(), config).unwrap();
     p.update(center_of(TileId::new(2, 2)));

@@ -61,6 +61,7 @@ fn fly_as(p: &DeviceProfile, archive: &Path, out: &Path, frames: u64) -> FlySumm
         clock: simulated(p),
         link: Some(p.link.to_link_profile(7)),
         plots: false,
+        http: stripmask::db::source::http::HttpOptions::default(),
     })
     .unwrap()
 }

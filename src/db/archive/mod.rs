@@ -18,6 +18,7 @@
 //! `ty * tiles_x + tx`.
 
 mod check;
+pub mod partial;
 mod reader;
 mod writer;
 
@@ -31,7 +32,7 @@ use crate::error::{Error, Result};
 use crate::named::named_enum;
 
 pub use check::CheckReport;
-pub use reader::{ArchiveReader, DEFAULT_ATTEMPTS, LevelBytes};
+pub use reader::{ArchiveReader, DEFAULT_ATTEMPTS, LevelBytes, RETRY_BACKOFF};
 pub use writer::ArchiveWriter;
 
 /// The first 8 bytes of every archive.

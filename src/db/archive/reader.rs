@@ -1,8 +1,10 @@
 //! Reading an archive through any [`TileSource`], with checksums and retries.
 
 use std::ops::Range;
+use std::time::Duration;
 
 use super::{HEADER_LEN, Header, IndexEntry, base_range, decompress, parse_index};
+use crate::db::backoff::Backoff;
 use crate::db::source::TileSource;
 use crate::db::tile::Tile;
 use crate::error::{Error, Result};
@@ -10,10 +12,15 @@ use crate::error::{Error, Result};
 /// Reads an archive through a [`TileSource`]: header and index once, then ranges of tile levels
 /// on demand, each in one source read, every chunk checked against its crc32 and the range
 /// fetched again (up to `attempts` times) when one fails.
+///
+/// A remote source's retries wait as [`RETRY_BACKOFF`] says; a request that timed out is not
+/// asked again at once (the server already had its whole timeout): the error goes back to the
+/// caller, and the pager tries the tile again later.
 pub struct ArchiveReader<S> {
     source: S,
     header: Header,
     index: Vec<IndexEntry>,
+    /// Attempts at a tile's levels or the base.
     attempts: u32,
     /// The source's size in bytes, for [`ArchiveReader::check`]'s end-of-archive test.
     file_len: u64,
@@ -21,6 +28,14 @@ pub struct ArchiveReader<S> {
 
 /// How many times a reader fetches a piece (header, index, tile levels) before giving up.
 pub const DEFAULT_ATTEMPTS: u32 = 4;
+
+/// The waits between a reader's attempts at a piece of a remote archive, seconds: 0.1 doubling
+/// up to 2, with jitter (three retries wait 0.35 to 0.7 s in all).
+pub const RETRY_BACKOFF: Backoff = Backoff {
+    first: 0.1,
+    max: 2.0,
+    seed: 0x5d_b0ff,
+};
 
 /// The decompressed chunks of a range of one tile's progressive levels.
 #[derive(Clone, Debug, PartialEq)]
@@ -42,7 +57,8 @@ impl<S: TileSource> ArchiveReader<S> {
         let attempts = attempts.max(1);
         let name = source.name().to_string();
         let file_len = source.size()?;
-        let header = retry(attempts, || {
+        let remote = source.is_remote();
+        let header = retry(attempts, remote, 0, |_| {
             let bytes = source.read_range(0, file_len.min(HEADER_LEN as u64))?;
             Header::parse(&bytes, &name)
         })?;
@@ -55,7 +71,7 @@ impl<S: TileSource> ArchiveReader<S> {
                 ),
             ));
         }
-        let index = retry(attempts, || {
+        let index = retry(attempts, remote, HEADER_LEN as u64, |_| {
             let bytes = source.read_range(HEADER_LEN as u64, header.index_len() as u64)?;
             parse_index(&bytes, &header, Some(file_len), &name)
         })?;
@@ -79,6 +95,14 @@ impl<S: TileSource> ArchiveReader<S> {
             attempts,
             file_len,
         })
+    }
+
+    /// From now on, fetches a tile's levels or the base `attempts` times at most (at least 1).
+    /// The engine's pager sets 1: it tries a failed fetch again itself, later and backing off,
+    /// and retries in both places would multiply.
+    pub fn with_fetch_attempts(mut self, attempts: u32) -> Self {
+        self.attempts = attempts.max(1);
+        self
     }
 
     /// The header.
@@ -206,7 +230,7 @@ impl<S: TileSource> ArchiveReader<S> {
         }
         let (offset, length) = base_range(&self.index, levels);
         let name = self.name();
-        let stored = retry(self.attempts, || {
+        let stored = retry(self.attempts, self.source.is_remote(), offset, |_| {
             let bytes = self.source.read_range(offset, length)?;
             if bytes.len() as u64 != length {
                 return Err(Error::invalid(
@@ -284,53 +308,110 @@ impl<S: TileSource> ArchiveReader<S> {
         let name = self.source.name();
         let entry = &self.index[i];
         let (offset, length) = entry.range(levels.clone());
-        let mut last = None;
-        for attempt in 1..=self.attempts {
-            match self.source.read_range(offset, length) {
-                Ok(bytes) if bytes.len() as u64 != length => {
-                    last = Some(Error::invalid(
-                        name,
-                        format!(
-                            "tile {i}: read {} bytes at offset {offset}, {length} expected",
-                            bytes.len()
-                        ),
-                    ));
-                }
-                Ok(bytes) => {
-                    let failed = levels.clone().find_map(|g| {
-                        let (at, len) = entry.range(g..g + 1);
-                        let at = (at - offset) as usize;
-                        let actual = crc32fast::hash(&bytes[at..at + len as usize]);
-                        let expected = entry.levels[g].crc32;
-                        (actual != expected).then_some((g, expected, actual))
-                    });
-                    let Some((level, expected, actual)) = failed else {
-                        return Ok(bytes);
-                    };
-                    last = Some(Error::Checksum {
-                        name: name.to_string(),
-                        tile: i,
-                        level,
-                        expected,
-                        actual,
-                        attempts: attempt,
-                    });
-                }
-                Err(e) => last = Some(e),
+        retry(self.attempts, self.source.is_remote(), offset, |attempt| {
+            let bytes = self.source.read_range(offset, length)?;
+            if bytes.len() as u64 != length {
+                return Err(Error::invalid(
+                    name,
+                    format!(
+                        "tile {i}: read {} bytes at offset {offset}, {length} expected",
+                        bytes.len()
+                    ),
+                ));
             }
-        }
-        Err(last.expect("at least one attempt"))
+            let failed = levels.clone().find_map(|g| {
+                let (at, len) = entry.range(g..g + 1);
+                let at = (at - offset) as usize;
+                let actual = crc32fast::hash(&bytes[at..at + len as usize]);
+                let expected = entry.levels[g].crc32;
+                (actual != expected).then_some((g, expected, actual))
+            });
+            match failed {
+                None => Ok(bytes),
+                Some((level, expected, actual)) => Err(Error::Checksum {
+                    name: name.to_string(),
+                    tile: i,
+                    level,
+                    expected,
+                    actual,
+                    attempts: attempt,
+                }),
+            }
+        })
     }
 }
 
-/// Runs `f` up to `attempts` times until it succeeds; returns the last error.
-fn retry<T>(attempts: u32, mut f: impl FnMut() -> Result<T>) -> Result<T> {
-    let mut result = f();
-    for _ in 1..attempts {
-        if result.is_ok() {
-            break;
+/// Runs `f` (given the attempt's number, from 1) up to `attempts` times until it succeeds and
+/// returns the last error, except that a timeout ends the tries at once. Before each retry of
+/// a `remote` source it waits as [`RETRY_BACKOFF`] says for the piece at `key` (its offset).
+fn retry<T>(
+    attempts: u32,
+    remote: bool,
+    key: u64,
+    mut f: impl FnMut(u32) -> Result<T>,
+) -> Result<T> {
+    let mut attempt = 1;
+    loop {
+        match f(attempt) {
+            Err(e) if attempt < attempts && !matches!(e, Error::TimedOut { .. }) => {
+                if remote {
+                    std::thread::sleep(Duration::from_secs_f64(RETRY_BACKOFF.wait(key, attempt)));
+                }
+                attempt += 1;
+            }
+            result => return result,
         }
-        result = f();
     }
-    result
+}
+
+#[cfg(test)]
+mod tests {
+    use std::time::Instant;
+
+    use super::*;
+
+    fn timed_out() -> Error {
+        Error::TimedOut {
+            url: "http://x/a.smdb".into(),
+            request: "GET bytes 0-95".into(),
+            seconds: 10.0,
+            by_deadline: false,
+        }
+    }
+
+    #[test]
+    fn a_timeout_is_not_asked_again_other_failures_are_up_to_the_attempts() {
+        let mut calls = 0;
+        let r: Result<()> = retry(4, true, 0, |_| {
+            calls += 1;
+            Err(timed_out())
+        });
+        assert!(matches!(r, Err(Error::TimedOut { .. })));
+        assert_eq!(calls, 1);
+        let mut calls = 0;
+        let r: Result<()> = retry(4, false, 0, |n| {
+            calls += 1;
+            Err(Error::invalid("a.smdb", format!("attempt {n}")))
+        });
+        assert_eq!(calls, 4);
+        assert!(r.unwrap_err().to_string().contains("attempt 4"));
+    }
+
+    #[test]
+    fn retries_of_a_remote_source_back_off() {
+        let started = Instant::now();
+        let mut calls = 0;
+        let r = retry(3, true, 7, |n| {
+            calls += 1;
+            if n < 3 {
+                Err(Error::invalid("a.smdb", "dropped"))
+            } else {
+                Ok(n)
+            }
+        });
+        assert_eq!((r.unwrap(), calls), (3, 3));
+        let least = RETRY_BACKOFF.wait(7, 1) + RETRY_BACKOFF.wait(7, 2);
+        assert!(least >= 0.15);
+        assert!(started.elapsed().as_secs_f64() >= least);
+    }
 }

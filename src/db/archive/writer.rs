@@ -5,6 +5,7 @@ use std::io::{BufWriter, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
+use super::partial::partial_path;
 use super::{Header, IndexEntry, LevelEntry, index_to_bytes};
 use crate::error::{Error, Result};
 
@@ -40,17 +41,12 @@ impl ArchiveWriter {
                 "is a directory, not an archive file",
             ));
         }
-        let file_name = path
-            .file_name()
-            .ok_or_else(|| Error::invalid(&shown, "names no file"))?;
-        let mut temporary = std::ffi::OsString::from(".");
-        temporary.push(file_name);
-        temporary.push(format!(
-            ".{}-{}.partial",
+        let partial = partial_path(
+            path,
             std::process::id(),
-            WRITERS.fetch_add(1, Ordering::Relaxed)
-        ));
-        let partial = path.with_file_name(temporary);
+            WRITERS.fetch_add(1, Ordering::Relaxed),
+        )
+        .ok_or_else(|| Error::invalid(&shown, "names no file"))?;
         let name = partial.display().to_string();
         let file = File::options()
             .write(true)

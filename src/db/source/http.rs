@@ -1,32 +1,78 @@
 //! An archive behind any static HTTP server, read with `Range: bytes=a-b` requests (ureq).
+//!
+//! Every request, connection and whole body included, ends within [`HttpOptions::timeout`]
+//! and never after [`HttpOptions::deadline`]: a server that accepts and never answers, or stops
+//! in the middle of a body, costs one timeout, and a run with a deadline ends on time. The
+//! source itself never retries; the reader and the pager do, backing off ([`crate::db::backoff`]).
 
 use std::sync::OnceLock;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use super::TileSource;
 use crate::error::{Error, Result};
 
-/// The time limit of one request, connection included.
-const REQUEST_TIMEOUT: Duration = Duration::from_secs(30);
+/// How long requests may take.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct HttpOptions {
+    /// The time limit of one request: connecting, the answer's head and its whole body.
+    pub timeout: Duration,
+    /// The instant by which every request must have ended, whatever its timeout: a request
+    /// that would outlive it is cut short there, and one asked for after it fails at once.
+    pub deadline: Option<Instant>,
+}
+
+impl Default for HttpOptions {
+    /// Ten seconds a request, no deadline.
+    fn default() -> Self {
+        HttpOptions {
+            timeout: Duration::from_secs(10),
+            deadline: None,
+        }
+    }
+}
+
+impl HttpOptions {
+    /// The time a request starting now may take, and whether the deadline set it.
+    fn budget(&self) -> (Duration, bool) {
+        match self.deadline {
+            Some(at) => {
+                let left = at.saturating_duration_since(Instant::now());
+                if left < self.timeout {
+                    (left, true)
+                } else {
+                    (self.timeout, false)
+                }
+            }
+            None => (self.timeout, false),
+        }
+    }
+}
 
 /// An archive at an HTTP URL. The server must answer range requests with 206.
 pub struct HttpSource {
     url: String,
     agent: ureq::Agent,
+    options: HttpOptions,
     len: OnceLock<u64>,
 }
 
 impl HttpSource {
-    /// A source for `url`; nothing is fetched until the first read.
+    /// A source for `url` with the default [`HttpOptions`]; nothing is fetched until the first
+    /// read.
     pub fn new(url: &str) -> Self {
+        Self::with_options(url, HttpOptions::default())
+    }
+
+    /// A source for `url` whose requests end as `options` say.
+    pub fn with_options(url: &str, options: HttpOptions) -> Self {
         let agent = ureq::Agent::config_builder()
             .http_status_as_error(false)
-            .timeout_global(Some(REQUEST_TIMEOUT))
             .build()
             .into();
         HttpSource {
             url: url.to_string(),
             agent,
+            options,
             len: OnceLock::new(),
         }
     }
@@ -37,6 +83,42 @@ impl HttpSource {
             problem: problem.into(),
         }
     }
+
+    /// The time `request` may take, or the error of a deadline already past.
+    fn budget(&self, request: &str) -> Result<(Duration, bool)> {
+        let (time, by_deadline) = self.options.budget();
+        if time.is_zero() {
+            return Err(self.timed_out(request, time, by_deadline));
+        }
+        Ok((time, by_deadline))
+    }
+
+    fn timed_out(&self, request: &str, time: Duration, by_deadline: bool) -> Error {
+        Error::TimedOut {
+            url: self.url.clone(),
+            request: request.to_string(),
+            seconds: (time.as_secs_f64() * 10.0).round() / 10.0,
+            by_deadline,
+        }
+    }
+
+    /// The error of a failed call or body read: a timeout as [`Error::TimedOut`], anything
+    /// else as [`Error::Http`] with `what` failed.
+    fn failed(&self, request: &str, budget: (Duration, bool), e: ureq::Error) -> Error {
+        let timed_out = match &e {
+            ureq::Error::Timeout(_) => true,
+            ureq::Error::Io(io) => matches!(
+                io.kind(),
+                std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock
+            ),
+            _ => false,
+        };
+        if timed_out {
+            self.timed_out(request, budget.0, budget.1)
+        } else {
+            self.error(format!("{request} failed: {e}"))
+        }
+    }
 }
 
 impl TileSource for HttpSource {
@@ -44,15 +126,23 @@ impl TileSource for HttpSource {
         &self.url
     }
 
+    fn is_remote(&self) -> bool {
+        true
+    }
+
     fn size(&self) -> Result<u64> {
         if let Some(&len) = self.len.get() {
             return Ok(len);
         }
+        let budget = self.budget("HEAD")?;
         let response = self
             .agent
             .head(&self.url)
+            .config()
+            .timeout_global(Some(budget.0))
+            .build()
             .call()
-            .map_err(|e| self.error(format!("HEAD failed: {e}")))?;
+            .map_err(|e| self.failed("HEAD", budget, e))?;
         let status = response.status().as_u16();
         if status != 200 {
             return Err(self.error(format!("HEAD answered status {status}")));
@@ -73,12 +163,17 @@ impl TileSource for HttpSource {
         let last = offset
             .checked_add(len - 1)
             .ok_or_else(|| self.error("range overflows"))?;
+        let request = format!("GET bytes {offset}-{last}");
+        let budget = self.budget(&request)?;
         let mut response = self
             .agent
             .get(&self.url)
+            .config()
+            .timeout_global(Some(budget.0))
+            .build()
             .header("Range", &format!("bytes={offset}-{last}"))
             .call()
-            .map_err(|e| self.error(format!("GET bytes {offset}-{last} failed: {e}")))?;
+            .map_err(|e| self.failed(&request, budget, e))?;
         let status = response.status().as_u16();
         match status {
             206 => {}
@@ -92,14 +187,14 @@ impl TileSource for HttpSource {
                     "truncated: bytes {offset}-{last} are past the end (status 416)"
                 )));
             }
-            other => return Err(self.error(format!("GET bytes {offset}-{last}: status {other}"))),
+            other => return Err(self.error(format!("{request}: status {other}"))),
         }
         let body = response
             .body_mut()
             .with_config()
             .limit(len + 1)
             .read_to_vec()
-            .map_err(|e| self.error(format!("reading bytes {offset}-{last}: {e}")))?;
+            .map_err(|e| self.failed(&request, budget, e))?;
         if body.len() as u64 != len {
             return Err(self.error(format!(
                 "asked for {len} bytes at {offset}, received {}",

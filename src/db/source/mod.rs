@@ -19,6 +19,11 @@ pub trait TileSource: Send + Sync {
     fn size(&self) -> Result<u64>;
     /// Exactly `len` bytes starting at `offset`.
     fn read_range(&self, offset: u64, len: u64) -> Result<Vec<u8>>;
+    /// Whether the bytes come over a network, where waiting before a retry can help; a local
+    /// file answers the same at once.
+    fn is_remote(&self) -> bool {
+        false
+    }
 }
 
 impl<S: TileSource + ?Sized> TileSource for Box<S> {
@@ -31,10 +36,19 @@ impl<S: TileSource + ?Sized> TileSource for Box<S> {
     fn read_range(&self, offset: u64, len: u64) -> Result<Vec<u8>> {
         (**self).read_range(offset, len)
     }
+    fn is_remote(&self) -> bool {
+        (**self).is_remote()
+    }
 }
 
-/// Opens a local path or an `http://` URL (`https://` with the `https` feature) as a source.
+/// Opens a local path or an `http://` URL (`https://` with the `https` feature) as a source,
+/// with the default [`http::HttpOptions`].
 pub fn open(file_or_url: &str) -> Result<Box<dyn TileSource>> {
+    open_with(file_or_url, http::HttpOptions::default())
+}
+
+/// [`open`], with `http` bounding the time of requests when it is a URL.
+pub fn open_with(file_or_url: &str, http: http::HttpOptions) -> Result<Box<dyn TileSource>> {
     if file_or_url.starts_with("https://") && !cfg!(feature = "https") {
         return Err(Error::Http {
             url: file_or_url.to_string(),
@@ -42,7 +56,7 @@ pub fn open(file_or_url: &str) -> Result<Box<dyn TileSource>> {
         });
     }
     if file_or_url.starts_with("http://") || file_or_url.starts_with("https://") {
-        Ok(Box::new(http::HttpSource::new(file_or_url)))
+        Ok(Box::new(http::HttpSource::with_options(file_or_url, http)))
     } else {
         Ok(Box::new(file::FileSource::open(std::path::Path::new(
             file_or_url,

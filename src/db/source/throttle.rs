@@ -229,6 +229,10 @@ impl<S: TileSource> TileSource for SimulatedLink<S> {
         self.inner.size()
     }
 
+    fn is_remote(&self) -> bool {
+        self.inner.is_remote()
+    }
+
     fn read_range(&self, offset: u64, len: u64) -> Result<Vec<u8>> {
         std::thread::sleep(self.delays.next() + self.profile.transfer_time(len));
         if self.dice.roll() {

@@ -26,6 +26,9 @@ impl fmt::Display for BaseRequest {
     }
 }
 
+/// The base's key in the retry policy's jitter (no tile has it).
+const BASE_KEY: u64 = u64::MAX;
+
 /// Every tile's coarse copy, and the bytes downloaded for them.
 pub type BaseTiles<T> = Vec<(TileId, T)>;
 
@@ -166,7 +169,9 @@ impl<T: Send + 'static> BaseFetch<T> {
                 } else {
                     self.state = State::Waiting {
                         attempts: attempt,
-                        from: resident.now.saturating_add(self.retry.delay_updates),
+                        from: resident
+                            .now
+                            .saturating_add(self.retry.delay(BASE_KEY, attempt)),
                     };
                     "will retry"
                 };

@@ -580,7 +580,9 @@ mod tests {
         assert_eq!(l.memory(), 60);
         assert_eq!(
             l.record(id(1, 0)).failure,
-            Some(Failure::Waiting { retry_at: 35 })
+            Some(Failure::Waiting {
+                retry_at: 5 + RetryPolicy::default().tile_delay(id(1, 0), 1)
+            })
         );
         l.arrive(id(0, 0), 50, 5).unwrap();
         assert_eq!(l.memory(), 50);
@@ -598,6 +600,7 @@ mod tests {
         let retry = RetryPolicy {
             max_attempts: 1,
             delay_updates: 1,
+            ..RetryPolicy::default()
         };
         let mut l = Ledger::new(Grid::new(3, 1).unwrap(), 100, retry);
         let t = id(0, 0);
@@ -634,6 +637,7 @@ mod tests {
         let retry = RetryPolicy {
             max_attempts: 2,
             delay_updates: 3,
+            ..RetryPolicy::default()
         };
         let mut l = Ledger::new(Grid::new(3, 3).unwrap(), usize::MAX, retry);
         let c = id(1, 1);
@@ -650,9 +654,11 @@ mod tests {
         }
         assert_eq!(l.memory(), 8);
         assert!(plan(&l, Some(c), 9, uniform(1)).fetch.is_empty());
-        l.tick(12);
+        let wait = retry.tile_delay(bad, 1);
+        assert!((2..=3).contains(&wait), "{wait}");
+        l.tick(10 + wait - 1);
         assert!(plan(&l, Some(c), 9, uniform(1)).fetch.is_empty());
-        l.tick(13);
+        l.tick(10 + wait);
         let again = plan(&l, Some(c), 9, uniform(1));
         assert_eq!(again.fetch.len(), 1);
         l.reserve(again.fetch[0]).unwrap();

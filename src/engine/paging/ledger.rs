@@ -5,6 +5,7 @@
 
 use std::collections::BTreeMap;
 
+use crate::db::backoff::Backoff;
 use crate::db::grid::{Grid, TileId};
 use crate::error::{Error, Result};
 
@@ -60,21 +61,48 @@ impl Record {
     }
 }
 
-/// How often a failed tile is tried again.
+/// How often a failed tile (or the base) is tried again: the one place that retries a fetch,
+/// in updates of the pager, backing off exponentially with jitter ([`Backoff`]). The jitter is
+/// drawn from the seed and the tile, so the deterministic modes stay deterministic.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RetryPolicy {
     /// Fetches of one tile (first try included) before it is given up.
     pub max_attempts: u32,
-    /// Updates to wait after a failure before the next attempt.
+    /// Updates to wait after the first failure, at most (each later wait may double).
     pub delay_updates: u64,
+    /// Updates to wait after any failure, at most.
+    pub max_delay_updates: u64,
+    /// Seeds the jitter.
+    pub seed: u64,
 }
 
 impl Default for RetryPolicy {
+    /// Four attempts, waiting up to 8, 16 and 32 updates between them (about 1, 2 and 4 s at
+    /// 7 frames a second).
     fn default() -> Self {
         RetryPolicy {
-            max_attempts: 3,
-            delay_updates: 30,
+            max_attempts: 4,
+            delay_updates: 8,
+            max_delay_updates: 240,
+            seed: 17,
         }
+    }
+}
+
+impl RetryPolicy {
+    /// Updates to wait after the `failures`-th failure (from 1) of what `key` names.
+    pub fn delay(&self, key: u64, failures: u32) -> u64 {
+        let backoff = Backoff {
+            first: self.delay_updates as f64,
+            max: self.max_delay_updates as f64,
+            seed: self.seed,
+        };
+        backoff.wait(key, failures).round() as u64
+    }
+
+    /// [`RetryPolicy::delay`] for tile `id`.
+    pub fn tile_delay(&self, id: TileId, failures: u32) -> u64 {
+        self.delay((u64::from(id.x) << 32) | u64::from(id.y), failures)
     }
 }
 
@@ -279,7 +307,7 @@ impl Ledger {
             Failure::GaveUp
         } else {
             Failure::Waiting {
-                retry_at: now.saturating_add(self.retry.delay_updates),
+                retry_at: now.saturating_add(self.retry.tile_delay(id, entry.failures)),
             }
         });
     }

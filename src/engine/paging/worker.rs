@@ -6,7 +6,6 @@ use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, Sender, TryRecvError, channel};
-use std::thread::JoinHandle;
 
 use crate::error::{Error, Result};
 
@@ -26,13 +25,15 @@ pub struct Arrival<R, T> {
 /// A job the fetch thread runs for each request.
 pub type Job<R, T> = Arc<dyn Fn(R) -> Result<(T, u64)> + Send + Sync>;
 
-/// A fetch thread and its two channels. Dropping it stops the thread after the request it is
-/// running, if any, without starting the requests still queued.
+/// A fetch thread and its two channels. Dropping it tells the thread to stop after the request
+/// it is running, if any, without starting the requests still queued, and does not wait for it:
+/// a request blocked on a server that does not answer is abandoned (it ends at its timeout or
+/// deadline, see [`crate::db::source::http::HttpOptions`]), so it never holds up the frame loop
+/// or the end of the process.
 pub struct Worker<R, T> {
     requests: Option<Sender<R>>,
     arrivals: Receiver<Arrival<R, T>>,
     stop: Arc<AtomicBool>,
-    thread: Option<JoinHandle<()>>,
 }
 
 impl<R: Request, T: Send + 'static> Worker<R, T> {
@@ -43,7 +44,7 @@ impl<R: Request, T: Send + 'static> Worker<R, T> {
         let (done, arrivals) = channel();
         let stop = Arc::new(AtomicBool::new(false));
         let stopped = Arc::clone(&stop);
-        let thread = std::thread::Builder::new()
+        std::thread::Builder::new()
             .name("stripmask-fetch".into())
             .spawn(move || {
                 for request in queue {
@@ -61,7 +62,6 @@ impl<R: Request, T: Send + 'static> Worker<R, T> {
             requests: Some(requests),
             arrivals,
             stop,
-            thread: Some(thread),
         })
     }
 
@@ -93,11 +93,8 @@ impl<R: Request, T: Send + 'static> Worker<R, T> {
 impl<R, T> Drop for Worker<R, T> {
     fn drop(&mut self) {
         self.stop.store(true, Ordering::Relaxed);
+        // Closing the queue ends the thread once its request, if any, returns.
         self.requests = None;
-        if let Some(thread) = self.thread.take() {
-            // A panic inside the job is already caught in `run`; nothing else can panic.
-            let _ = thread.join();
-        }
     }
 }
 
@@ -109,4 +106,31 @@ pub fn run<R: Request, T>(job: &dyn Fn(R) -> Result<(T, u64)>, request: R) -> Re
             "the loader panicked while fetching it",
         ))
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::mpsc::sync_channel;
+    use std::time::{Duration, Instant};
+
+    use super::*;
+
+    #[test]
+    fn dropping_a_worker_does_not_wait_for_a_request_that_hangs() {
+        let (release, hang) = sync_channel::<()>(0);
+        let hang = std::sync::Mutex::new(hang);
+        let job: Job<u32, ()> = Arc::new(move |_| {
+            // Blocks until the test releases it, as a read from a server that never answers.
+            let _ = hang.lock().unwrap().recv_timeout(Duration::from_secs(60));
+            Ok(((), 0))
+        });
+        let worker = Worker::spawn(job).unwrap();
+        worker.send(1).unwrap();
+        std::thread::sleep(Duration::from_millis(50));
+        let started = Instant::now();
+        drop(worker);
+        let took = started.elapsed();
+        let _ = release.try_send(());
+        assert!(took < Duration::from_secs(30), "drop waited {took:?}");
+    }
 }

@@ -25,24 +25,32 @@ pub fn plain_archive(out: &Path) {
 
 /// The exit code and stderr of `stripmask args`; a run past 30 s is killed and fails the test.
 pub fn run_bounded(args: &[&str]) -> (Option<i32>, String) {
+    let (code, err, _) = run_timed(args, Duration::from_secs(30));
+    (code, err)
+}
+
+/// The exit code, stderr and wall time of `stripmask args`; a run past `limit` is killed and
+/// fails the test.
+pub fn run_timed(args: &[&str], limit: Duration) -> (Option<i32>, String, Duration) {
+    let started = Instant::now();
     let mut child = stripmask()
         .args(args)
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let deadline = Instant::now() + Duration::from_secs(30);
     let status = loop {
         if let Some(status) = child.try_wait().unwrap() {
             break status;
         }
-        if Instant::now() > deadline {
+        if started.elapsed() > limit {
             let _ = child.kill();
             let _ = child.wait();
-            panic!("stripmask {args:?} did not end");
+            panic!("stripmask {args:?} did not end within {limit:?}");
         }
         std::thread::sleep(Duration::from_millis(20));
     };
+    let took = started.elapsed();
     let mut err = String::new();
     child
         .stderr
@@ -50,5 +58,22 @@ pub fn run_bounded(args: &[&str]) -> (Option<i32>, String) {
         .unwrap()
         .read_to_string(&mut err)
         .unwrap();
-    (status.code(), err)
+    (status.code(), err, took)
+}
+
+/// `stripmask fly SOURCE` quietly into `out`, with no frames or plots kept, and `extra`
+/// arguments: its exit code, stderr and wall time (a run past a minute fails the test).
+pub fn fly_quietly(source: &str, out: &Path, extra: &[&str]) -> (Option<i32>, String, Duration) {
+    let mut args = vec![
+        "fly",
+        source,
+        "--every",
+        "0",
+        "--no-plots",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend(extra);
+    run_timed(&args, Duration::from_secs(60))
 }

@@ -1,6 +1,8 @@
 //! `stripmask build`: stream a DEM band by band, encode each tile, write the archive.
 //!
-//! Memory held at once: one band of `s` rows of the padded width (f32), one input row, the
+//! Memory held at once: three bands of `s` rows of the padded width (f32) — the band being
+//! encoded and its neighbours north and south, which the tiles' aprons
+//! ([`crate::db::tile::Apron`]) are read from — one input row, the
 //! reader's own strip or tile row, the nodata fill's window of rows
 //! ([`crate::db::dem::NodataFill`]), the encoded tiles of one band (they are encoded in
 //! parallel, then written in order), and the texture image when one is given.
@@ -15,7 +17,7 @@ use crate::db::archive::{ArchiveWriter, Codec, Header, MAX_SPACING, compress, pa
 use crate::db::dem::{self, DemInfo, DemReader, EastWest, FillStats, NodataFill, OpenOptions};
 use crate::db::texture_gen::{ImageTexture, shaded};
 use crate::db::tile::{Tile, progressive_levels};
-use crate::db::tiling::{Band, BandReader, Tiling};
+use crate::db::tiling::{BandReader, BandWindow, Tiling};
 use crate::error::{Error, Result};
 
 /// What `build` makes of a DEM.
@@ -137,14 +139,22 @@ pub fn build<R: DemReader>(
     let mut bands = BandReader::new(reader, grid, options.vertical_scale as f32, columns);
     let mut totals = Totals::default();
     let mut done = 0;
-    while let Some(band) = bands.next_band()? {
-        let encoded = encode_band(band, &header, image.as_ref(), options, &info.name)?;
+    let (mut north, mut next) = (None, bands.next_band()?.cloned());
+    while let Some(current) = next.take() {
+        next = bands.next_band()?.cloned();
+        let window = BandWindow {
+            north: north.as_ref(),
+            current: &current,
+            south: next.as_ref(),
+        };
+        let encoded = encode_band(&window, &header, image.as_ref(), options, &info.name)?;
         for (tx, tile) in encoded.into_iter().enumerate() {
-            writer.write_tile(band.tile_row * grid.tiles_x + tx, &tile.chunks)?;
+            writer.write_tile(current.tile_row * grid.tiles_x + tx, &tile.chunks)?;
             totals.add(&tile);
         }
         done += grid.tiles_x;
         progress(done, grid.tile_count());
+        north = Some(current);
     }
     let archive_bytes = writer.finish(totals.min, totals.max)?;
     Ok(BuildReport {
@@ -298,29 +308,38 @@ struct EncodedTile {
     max: f32,
 }
 
-/// Encodes the tiles of `band`, in parallel, in column order: heights quantised, the texture cut
-/// from `image` or shaded from the heights, each level compressed on its own. `name` (the DEM's)
-/// labels errors.
+/// Encodes the tiles of the window's current band, in parallel, in column order: heights
+/// quantised, the apron read from the neighbouring samples, the texture cut from `image` or
+/// shaded from the heights, each level compressed on its own. `name` (the DEM's) labels errors.
 fn encode_band(
-    band: &Band,
+    window: &BandWindow<'_>,
     header: &Header,
     image: Option<&ImageTexture>,
     options: &BuildOptions,
     name: &str,
 ) -> Result<Vec<EncodedTile>> {
     let (s, texture_size) = (header.tile_size as usize, header.texture_size as usize);
-    let (f, ty) = (options.texture_factor, band.tile_row);
+    let (f, ty, band) = (
+        options.texture_factor,
+        window.current.tile_row,
+        window.current,
+    );
     (0..header.tiles_x as usize)
         .into_par_iter()
         .map(|tx| {
             let heights = band.tile_heights(tx);
             let texture = match image {
                 Some(img) => img.cut(tx, ty, s, f),
-                None => shaded(&heights, s, header.spacing as f32, f),
+                None => shaded(s, header.spacing as f32, f, |x, y| {
+                    match (usize::try_from(x), usize::try_from(y)) {
+                        (Ok(i), Ok(j)) if i < s && j < s => Some(heights[j * s + i]),
+                        _ => window.around(tx, x, y),
+                    }
+                }),
             };
             let quantum = header.height_quantum;
-            let tile =
-                Tile::new(&heights, s, quantum, &texture, texture_size).map_err(|problem| {
+            let tile = Tile::new(&heights, s, quantum, &texture, texture_size)
+                .map_err(|problem| {
                     let (lo, hi) = heights
                         .iter()
                         .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &h| {
@@ -337,7 +356,8 @@ fn encode_band(
                     } else {
                         Error::invalid(name, format!("tile ({tx}, {ty}): {problem}"))
                     }
-                })?;
+                })?
+                .with_apron(|x, y| window.around(tx, x, y));
             let (mut chunks, mut raw_len) = (Vec::with_capacity(tile.levels), 0);
             for g in 0..tile.levels {
                 let raw = tile.encode_level(g);

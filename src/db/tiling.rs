@@ -65,6 +65,7 @@ impl Tiling {
 }
 
 /// One row of tiles: `s` rows of the padded grid, in metres.
+#[derive(Clone)]
 pub struct Band {
     /// Which tile row this is.
     pub tile_row: usize,
@@ -83,6 +84,42 @@ impl Band {
             out.extend_from_slice(&self.samples[j * w + x0..j * w + x0 + s]);
         }
         out
+    }
+
+    /// The height of padded-grid column `x`, row `y` of this band, or `None` beyond the grid.
+    fn sample(&self, x: isize, y: usize) -> Option<f32> {
+        let w = self.grid.padded_width();
+        usize::try_from(x)
+            .ok()
+            .filter(|&x| x < w)
+            .map(|x| self.samples[y * w + x])
+    }
+}
+
+/// A band with the bands north and south of it (`None` at the grid's edges): what the samples
+/// just outside its tiles' borders are read from.
+pub struct BandWindow<'a> {
+    /// The band north of `current`.
+    pub north: Option<&'a Band>,
+    /// The band whose tiles are encoded.
+    pub current: &'a Band,
+    /// The band south of `current`.
+    pub south: Option<&'a Band>,
+}
+
+impl BandWindow<'_> {
+    /// The height of the sample `(x, y)` whole-tile steps from the north-west sample of tile
+    /// column `tx` of the current band, up to one tile beyond it in every direction; `None`
+    /// beyond the grid.
+    pub fn around(&self, tx: usize, x: isize, y: isize) -> Option<f32> {
+        let step = self.current.grid.tile_size as isize - 1;
+        let column = (tx as isize) * step + x;
+        let (band, row) = match y {
+            y if y < 0 => (self.north?, y + step),
+            y if y > step => (self.south?, y - step),
+            y => (self.current, y),
+        };
+        band.sample(column, usize::try_from(row).ok()?)
     }
 }
 

@@ -5,13 +5,18 @@
 //! quanta, grid row. The renderer places a tile with an integer model origin on one shared
 //! eye-relative matrix, so the border vertices two tiles share land on the same screen positions
 //! (see `stripmask_raster::Transform::with_origin`). Normals are computed once, when the tile is
-//! loaded, at the finest level, as the paper does; every mask level reuses them.
+//! loaded, at the finest level it holds, as the paper does; every mask level reuses them. They
+//! are central differences everywhere, the border included: the tile's apron (the samples just
+//! outside its borders, stored by the builder) gives the other side, so two tiles holding the
+//! same level light the vertices they share alike and no line shows along their border.
 
 use glam::DVec3;
 use stripmask_raster::{Texels, Texture, Vertex};
 
 use crate::db::rgb565::mip_count;
-use crate::db::tile::{PartialGrid, Tile, level_mips, level_side, progressive_levels};
+use crate::db::tile::{
+    Apron, PartialGrid, Tile, level_mips, level_side, progressive_levels, texture_coordinate,
+};
 use crate::engine::cracks::{CrackMode, skirts};
 
 /// Light shared by every tile: a direction towards the light and an ambient floor.
@@ -69,6 +74,9 @@ pub struct ResidentTile {
     pub spacing: f64,
     /// The light the vertex colours were lit with.
     pub light: Light,
+    /// The samples just outside the borders of each held level: kept so that the tile can be
+    /// given back ([`ResidentTile::to_tile`]) and refined or truncated.
+    pub apron: Apron,
     /// The last sample index east and south that belongs to the model
     /// ([`TerrainFrame::tile_extent`](crate::engine::terrain::TerrainFrame::tile_extent)):
     /// vertices beyond it, on the padding that makes the tile whole, lie on it instead.
@@ -100,14 +108,14 @@ impl ResidentTile {
         let (side, stride) = (tile.side(), tile.stride());
         let normals = normals(tile, spacing * stride as f64);
         let towards = light.direction.normalize_or(DVec3::Y);
-        let last = (side - 1) as f32;
+        let at = |i: usize| texture_coordinate(i * stride, tile.tile_size, tile.texture_size);
         let mut vertices: Vec<Vertex> = (0..side * side)
             .map(|k| {
                 let (i, j) = (k % side, k / side);
                 let n = normals[k].map(|c| f64::from(c) / 127.0);
                 let lit = DVec3::from_array(n).dot(towards).max(0.0);
                 let intensity = (light.ambient + (1.0 - light.ambient) * lit).clamp(0.0, 1.0);
-                let uv = [i as f32 / last, j as f32 / last];
+                let uv = [at(i), at(j)];
                 Vertex::new(
                     [(i * stride) as i32, tile.quanta(i, j), (j * stride) as i32],
                     uv,
@@ -135,6 +143,7 @@ impl ResidentTile {
             quantum: tile.quantum,
             spacing,
             light: *light,
+            apron: tile.apron.clone(),
             extent: [tile.tile_size as i32 - 1; 2],
         }
     }
@@ -147,12 +156,13 @@ impl ResidentTile {
     /// same rule moves the vertices two tiles share to the same place.
     pub fn clipped(mut self, extent: [i32; 2]) -> ResidentTile {
         self.extent = extent;
-        let last = (self.tile_size - 1) as f32;
+        let (s, t) = (self.tile_size, self.texture_size());
+        let at = |x: i32| texture_coordinate(x as usize, s, t);
         for v in &mut self.vertices {
             let [x, y, z] = v.position;
             let (cx, cz) = (x.min(extent[0]), z.min(extent[1]));
             if (cx, cz) != (x, z) {
-                *v = Vertex::new([cx, y, cz], [cx as f32 / last, cz as f32 / last], v.color);
+                *v = Vertex::new([cx, y, cz], [at(cx), at(cz)], v.color);
             }
         }
         self
@@ -184,9 +194,10 @@ impl ResidentTile {
                 .iter()
                 .map(|v| (v.position[1] - self.base) as u16)
                 .collect(),
-            texture_size: (self.texture.levels()[0].width() as usize) << self.texture_base,
+            texture_size: self.texture_size(),
             first_mip: self.texture_base,
             texture_mips,
+            apron: self.apron.clone(),
         }
     }
 
@@ -213,13 +224,18 @@ impl ResidentTile {
         self.bytes()
     }
 
+    /// Texels per side of the archive's finest texture mip (held or not).
+    fn texture_size(&self) -> usize {
+        (self.texture.levels()[0].width() as usize) << self.texture_base
+    }
+
     /// Bytes this tile holds: what the memory limit accounts.
     pub fn bytes(&self) -> usize {
         resident_bytes(
             self.vertices.len(),
             self.normals.len(),
             self.level_errors.len(),
-            self.texture.byte_size(),
+            self.texture.byte_size() + self.apron.bytes(),
         )
     }
 
@@ -286,34 +302,38 @@ pub fn predicted_bytes(
         .sum();
     let side = level_side(levels - 1);
     let grid = side * side;
+    let apron: usize = (0..levels).map(|g| Apron::level_len(level_side(g))).sum();
     resident_bytes(
         grid + cracks.extra_vertices(side),
         grid,
         tile_size - 1,
-        2 * texels,
+        2 * texels + apron * std::mem::size_of::<i16>(),
     )
 }
 
-fn resident_bytes(vertices: usize, normals: usize, levels: usize, texture_bytes: usize) -> usize {
+/// What a resident tile holds: its struct, vertices, normals, level errors, and the bytes of
+/// its texture and apron.
+fn resident_bytes(vertices: usize, normals: usize, levels: usize, other_bytes: usize) -> usize {
     std::mem::size_of::<ResidentTile>()
         + vertices * std::mem::size_of::<Vertex>()
         + normals * std::mem::size_of::<[i8; 3]>()
         + levels * std::mem::size_of::<f32>()
-        + texture_bytes
+        + other_bytes
 }
 
 /// Unit normals of the held grid from central differences, `spacing` metres between held
-/// samples (one-sided at the tile border, where the neighbour's samples are not at hand).
+/// samples; across the tile border the other side is the apron's sample.
 fn normals(tile: &Tile, spacing: f64) -> Vec<[i8; 3]> {
     let s = tile.side();
-    let h = |i: usize, j: usize| f64::from(tile.height(i, j));
+    let quantum = f64::from(tile.quantum);
+    let h = |i: usize, j: usize, di: isize, dj: isize| {
+        tile.quanta_around(i as isize + di, j as isize + dj) as f64 * quantum
+    };
     (0..s * s)
         .map(|k| {
             let (i, j) = (k % s, k / s);
-            let (i0, i1) = (i.saturating_sub(1), (i + 1).min(s - 1));
-            let (j0, j1) = (j.saturating_sub(1), (j + 1).min(s - 1));
-            let dhdx = (h(i1, j) - h(i0, j)) / ((i1 - i0) as f64 * spacing);
-            let dhdz = (h(i, j1) - h(i, j0)) / ((j1 - j0) as f64 * spacing);
+            let dhdx = (h(i, j, 1, 0) - h(i, j, -1, 0)) / (2.0 * spacing);
+            let dhdz = (h(i, j, 0, 1) - h(i, j, 0, -1)) / (2.0 * spacing);
             let n = DVec3::new(-dhdx, 1.0, -dhdz).normalize();
             n.to_array().map(|c| (c * 127.0).round() as i8)
         })
@@ -353,7 +373,9 @@ mod tests {
         let v = r.vertices[2 * 9 + 3];
         assert_eq!(v.position, [3, tile.quanta(3, 2), 2]);
         assert_eq!(tile.quanta(3, 2), 96);
-        assert_eq!(v.uv.map(|c| c.to_num::<f32>()), [3.0 / 8.0, 2.0 / 8.0]);
+        // Texel u of 8 shows the point u * 8 / 7: the point 3 is at texel 21 / 8.
+        let texel = |x: f32| (0.5 + x * 7.0 / 8.0) / 8.0;
+        assert_eq!(v.uv.map(|c| c.to_num::<f32>()), [texel(3.0), texel(2.0)]);
     }
 
     #[test]
@@ -461,7 +483,8 @@ mod tests {
         assert_eq!(r.vertices.len(), 25 + 4 * 5);
         let v = r.vertices[2 * 5 + 3];
         assert_eq!(v.position, [12, tile.quanta(12, 8), 8]);
-        assert_eq!(v.uv.map(|c| c.to_num::<f32>()), [3.0 / 4.0, 2.0 / 4.0]);
+        let texel = |x: f32| (0.5 + x * 15.0 / 16.0) / 16.0;
+        assert_eq!(v.uv.map(|c| c.to_num::<f32>()), [texel(12.0), texel(8.0)]);
         assert_eq!(
             r.texture_base, coarse.first_mip,
             "never finer than it holds"

@@ -37,8 +37,17 @@ pub use writer::ArchiveWriter;
 
 /// The first 8 bytes of every archive.
 pub const MAGIC: [u8; 8] = *b"SMDB\r\n\x1a\n";
-/// The format version this crate writes; it reads version 3 too (version 4 without a base).
-pub const VERSION: u32 = 4;
+/// The format version this crate writes and reads (older archives are refused with what to do).
+pub const VERSION: u32 = 5;
+
+/// What an archive of an older `version` lacks, when it is one this crate knows.
+fn older_version(version: u32) -> Option<&'static str> {
+    match version {
+        2 => Some("stores whole-tile payloads"),
+        3 | 4 => Some("has no apron, so tile borders would be lit from one side"),
+        _ => None,
+    }
+}
 /// Bytes in the header.
 pub const HEADER_LEN: usize = 96;
 /// The most tiles an archive may hold.
@@ -322,15 +331,15 @@ impl Header {
         let f = |k: usize| f64::from_le_bytes(bytes[k..k + 8].try_into().expect("8 bytes"));
         let g = |k: usize| f32::from_le_bytes(bytes[k..k + 4].try_into().expect("4 bytes"));
         let version = u(8);
-        if version == 2 {
+        if let Some(why) = older_version(version) {
             return Err(bad(format!(
-                "archive version 2 stores whole-tile payloads; this build reads version \
-                 {VERSION} (progressive levels): rebuild it with `stripmask build`"
+                "archive version {version} {why}; this build reads version {VERSION}: rebuild \
+                 it with `stripmask build`"
             )));
         }
-        if version != VERSION && version != 3 {
+        if version != VERSION {
             return Err(bad(format!(
-                "archive version {version}, this build reads versions 3 and {VERSION}"
+                "archive version {version}, this build reads version {VERSION}"
             )));
         }
         if u(12) as usize != HEADER_LEN {
@@ -357,15 +366,8 @@ impl Header {
             min_height: g(80),
             max_height: g(84),
             height_quantum: g(88),
-            // Version 3 kept the field reserved, always 0: no base.
             base_levels: u(44),
         };
-        if version == 3 && h.base_levels != 0 {
-            return Err(bad(format!(
-                "a version 3 archive has no base, but the header says {} levels",
-                h.base_levels
-            )));
-        }
         h.validate(name)?;
         Ok(h)
     }

@@ -8,8 +8,10 @@
 //! without a crack. A decoded height is within `quantum / 2` of the true one; a tile's relief must
 //! fit 65535 quanta.
 
+mod apron;
 mod payload;
 
+pub use apron::{Apron, Border};
 pub use payload::level_payload_size;
 
 use std::ops::Range;
@@ -46,6 +48,16 @@ pub fn level_mips(level: usize, tile_size: usize, texture_size: usize) -> Range<
     } else {
         shown(level)..shown(level - 1)
     }
+}
+
+/// The texture coordinate (0 ..= 1, across or down) of the point `x` whole-tile samples from a
+/// tile's western (or northern) border, for a tile of `tile_size` samples whose finest texture
+/// is `texture_size` texels wide. Texel `u` shows the point `u (s - 1) / (t - 1)` samples from the
+/// border, so the border falls on the centre of the edge texel, which both tiles sharing the
+/// border hold alike: bilinear sampling is as continuous across the border as inside the tile.
+pub fn texture_coordinate(x: usize, tile_size: usize, texture_size: usize) -> f32 {
+    let span = (texture_size.max(2) - 1) as f64 / (tile_size - 1) as f64;
+    ((0.5 + x as f64 * span) / texture_size as f64) as f32
 }
 
 /// What a tile holding a prefix of its progressive levels knows of the grid it holds: shared by
@@ -114,6 +126,9 @@ pub struct Tile {
     pub first_mip: usize,
     /// RGB565 mip chain from mip `first_mip`, finest first, down to 1 x 1.
     pub texture_mips: Vec<Vec<u16>>,
+    /// The samples just outside the borders of each held level, so that normals at the border
+    /// are central differences like everywhere else.
+    pub apron: Apron,
 }
 
 impl Tile {
@@ -154,7 +169,7 @@ impl Tile {
             .iter()
             .map(|&h| (to_quanta(h) - lo) as u16)
             .collect();
-        Ok(Tile {
+        let tile = Tile {
             tile_size,
             levels: progressive_levels(tile_size),
             min,
@@ -166,7 +181,38 @@ impl Tile {
             texture_size,
             first_mip: 0,
             texture_mips: mip_chain(texture, texture_size),
-        })
+            apron: Apron::default(),
+        };
+        Ok(tile.with_apron(|_, _| None))
+    }
+
+    /// The whole tile with its apron taken from `outside(x, y)`: the height in metres of the
+    /// sample `(x, y)` whole-tile steps from the tile's north-west sample (one of them outside
+    /// `0 ..= s - 1`), or `None` beyond the archive's grid, where the border is extrapolated
+    /// linearly (so the normal there is the one-sided difference of a tile on its own).
+    pub fn with_apron(mut self, outside: impl Fn(isize, isize) -> Option<f32>) -> Tile {
+        debug_assert!(self.is_complete(), "the apron is built from a whole tile");
+        let n = self.levels - 1;
+        let step = f64::from(self.quantum);
+        let sides: Vec<usize> = (0..self.levels).map(level_side).collect();
+        let apron = Apron::from_fn(&sides, |g, border, k| {
+            let stride = 1isize << (n - g);
+            let ((ox, oy), (ix, iy)) = border.positions(k, sides[g]);
+            let at = |x: usize, y: usize| i64::from(self.quanta(x, y));
+            let inside = at(ix * stride as usize, iy * stride as usize);
+            let q = match outside(ox * stride, oy * stride) {
+                Some(h) => (f64::from(h) / step).round() as i64,
+                None => {
+                    // The next sample inwards mirrors the outside one about the border.
+                    let x = (2 * ix as isize - ox) * stride;
+                    let y = (2 * iy as isize - oy) * stride;
+                    2 * inside - at(x as usize, y as usize)
+                }
+            };
+            apron::saturating_delta(q, inside)
+        });
+        self.apron = apron;
+        self
     }
 
     /// The coarser tile that the first `levels` progressive levels make (clamped to
@@ -187,6 +233,7 @@ impl Tile {
             first_mip,
             texture_mips: self.texture_mips[first_mip - self.first_mip..].to_vec(),
             level_errors: self.level_errors.clone(),
+            apron: self.apron.truncated(levels),
             ..*self
         }
     }
@@ -195,6 +242,24 @@ impl Tile {
     /// sample `(i * stride, j * stride)`).
     pub fn quanta(&self, i: usize, j: usize) -> i32 {
         self.base + i32::from(self.heights[j * self.side() + i])
+    }
+
+    /// The archive-wide height in quanta of held-grid position `(i, j)`, inside the held grid or
+    /// one step outside one of its borders (from the apron; not diagonally outside a corner).
+    pub fn quanta_around(&self, i: isize, j: isize) -> i64 {
+        let last = self.side() as isize - 1;
+        let inside = |x: isize, y: isize| i64::from(self.quanta(x as usize, y as usize));
+        let level = self.levels - 1;
+        let apron = |border: Border, k: isize, x: isize, y: isize| {
+            inside(x, y) + i64::from(self.apron.delta(level, border, k as usize))
+        };
+        match (i, j) {
+            (-1, _) => apron(Border::West, j, 0, j),
+            (_, -1) => apron(Border::North, i, i, 0),
+            (x, _) if x > last => apron(Border::East, j, last, j),
+            (_, y) if y > last => apron(Border::South, i, i, last),
+            _ => inside(i, j),
+        }
     }
 
     /// The height in metres of held-grid sample `(i, j)`.

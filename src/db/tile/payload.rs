@@ -5,18 +5,20 @@
 //! side and a texture of side `t`:
 //!
 //! * chunk 0: `min` f32, `max` f32, `base` i32, `quantum` f32, `level_errors` (`s - 1` x f32),
-//!   the four corner heights `q` u16 (NW, NE, SW, SE), then the texture mips
-//!   [`level_mips`]`(0, s, t)`, smallest first, each row-major RGB565 u16.
+//!   the four corner heights `q` u16 (NW, NE, SW, SE), level 0's apron ([`Apron`]: 4 x 2 i16),
+//!   then the texture mips [`level_mips`]`(0, s, t)`, smallest first, each row-major RGB565 u16.
 //! * chunk `g >= 1`: the samples of level `g`'s grid that level `g - 1` lacks (an odd column or
 //!   row), row-major over level `g`'s grid, each a u16 prediction residual `q - p` (wrapping),
 //!   where `p` is the floor of the mean of the two level-`(g - 1)` neighbours (a sample between
-//!   two along a row or a column) or of the four diagonal ones (a cell centre). Then the mips
-//!   [`level_mips`]`(g, s, t)`, smallest first.
+//!   two along a row or a column) or of the four diagonal ones (a cell centre). Then level `g`'s
+//!   apron (`4 (2^g + 1)` i16), then the mips [`level_mips`]`(g, s, t)`, smallest first.
 //!
 //! Smooth terrain predicts well, so residuals are small numbers that compress far better than
 //! the heights themselves.
 
-use super::{MAX_TEXTURE_SIZE, PartialGrid, Tile, level_mips, level_side, progressive_levels};
+use super::{
+    Apron, MAX_TEXTURE_SIZE, PartialGrid, Tile, level_mips, level_side, progressive_levels,
+};
 use crate::db::tiling::{MAX_TILE_SIZE, is_valid_tile_size};
 use crate::error::{Error, Result};
 
@@ -45,7 +47,9 @@ fn level_samples(level: usize) -> usize {
 /// `texture_size` texture: fixed by the archive header, so a reader knows what to expect.
 pub fn level_payload_size(level: usize, tile_size: usize, texture_size: usize) -> usize {
     let head = if level == 0 { head_size(tile_size) } else { 0 };
-    head + 2 * level_samples(level) + 2 * level_texels(level, tile_size, texture_size)
+    head + 2 * level_samples(level)
+        + 2 * Apron::level_len(level_side(level))
+        + 2 * level_texels(level, tile_size, texture_size)
 }
 
 /// The prediction of level-`level` grid sample `(i, j)` (an odd column or row) from the
@@ -117,6 +121,9 @@ impl Tile {
                 push(at(i, j).wrapping_sub(predict(i, j, at)));
             }
         }
+        for &d in self.apron.level(level) {
+            push(d as u16);
+        }
         for m in level_mips(level, s, t).rev() {
             self.texture_mips[m - self.first_mip]
                 .iter()
@@ -171,15 +178,19 @@ impl Tile {
         }
         let (s, t) = (self.tile_size, self.texture_size);
         let held_mips = level_mips(level - 1, s, t).start;
-        if self.heights.len() != self.side().pow(2) || self.first_mip != held_mips {
+        if self.heights.len() != self.side().pow(2)
+            || self.first_mip != held_mips
+            || self.apron.len() != level
+        {
             return Err(Error::invalid(
                 name,
                 format!(
-                    "the tile was changed after decoding ({} heights, texture from mip {}): \
-                     refining needs the {} heights and mips from {held_mips} that its {level} \
-                     levels decode to",
+                    "the tile was changed after decoding ({} heights, texture from mip {}, \
+                     {} apron levels): refining needs the {} heights, mips from {held_mips} \
+                     and apron that its {level} levels decode to",
                     self.heights.len(),
                     self.first_mip,
+                    self.apron.len(),
                     self.side().pow(2)
                 ),
             ));
@@ -206,6 +217,7 @@ impl Tile {
             let p = predict(i, j, |x, y| heights[y * side + x]);
             heights[j * side + i] = p.wrapping_add(input.next().expect("length checked"));
         }
+        let apron = read_apron(&mut input, side);
         let mut finer: Vec<Vec<u16>> = level_mips(level, s, t)
             .rev()
             .map(|m| input.by_ref().take((t >> m).pow(2)).collect())
@@ -215,6 +227,7 @@ impl Tile {
         finer.append(&mut self.texture_mips);
         self.texture_mips = finer;
         self.heights = heights;
+        self.apron.push(apron);
         self.levels += 1;
         Ok(())
     }
@@ -251,6 +264,8 @@ fn decode_first(chunk: &[u8], tile_size: usize, texture_size: usize, name: &str)
     }
     let mut input = words(&chunk[head_size(tile_size)..]);
     let heights: Vec<u16> = input.by_ref().take(4).collect();
+    let mut apron = Apron::default();
+    apron.push(read_apron(&mut input, level_side(0)));
     let mips = level_mips(0, tile_size, texture_size);
     let mut texture_mips: Vec<Vec<u16>> = mips
         .clone()
@@ -270,7 +285,16 @@ fn decode_first(chunk: &[u8], tile_size: usize, texture_size: usize, name: &str)
         texture_size,
         first_mip: mips.start,
         texture_mips,
+        apron,
     })
+}
+
+/// The next level's apron, a grid `side` samples wide, from `input`.
+fn read_apron(input: &mut impl Iterator<Item = u16>, side: usize) -> Vec<i16> {
+    input
+        .take(Apron::level_len(side))
+        .map(|w| w as i16)
+        .collect()
 }
 
 #[cfg(test)]
@@ -328,9 +352,12 @@ mod tests {
                 assert_eq!(chunk.len(), level_payload_size(g, s, t));
             }
             let total: usize = chunks.iter().map(Vec::len).sum();
+            let apron: usize = (0..progressive_levels(s))
+                .map(|g| 2 * Apron::level_len(level_side(g)))
+                .sum();
             assert_eq!(
                 total,
-                16 + 4 * (s - 1) + 2 * s * s + 2 * mip_chain_texels(t)
+                16 + 4 * (s - 1) + 2 * s * s + apron + 2 * mip_chain_texels(t)
             );
         }
     }

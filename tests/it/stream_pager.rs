@@ -1,15 +1,19 @@
-//! The stream pager with a synthetic loader: what the view needs comes coarse first, finer levels
-//! follow importance, the belts fill at the coarsest level, the bounded queue cancels what no longer matters, the memory limit holds
-//! through any flight, and cancelling never loses a tile.
+//! The stream pager with a synthetic loader: what the view needs and nobody holds comes first, in
+//! one request up to the levels it is wished, finer levels follow importance, the belts fill at
+//! the coarsest level, wishes have hysteresis, the bounded queue cancels what no longer matters
+//! (and the simulated link what is on its way), the memory limit holds through any flight, and
+//! cancelling never loses a tile.
 
-use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
 
 use proptest::prelude::*;
 use stripmask::db::grid::Grid;
 use stripmask::db::grid::TileId;
-use stripmask::engine::paging::stream::{LevelLoader, StreamPager, StreamSettings, Want};
-use stripmask::engine::paging::{PagerConfig, PagerMode, ResidentLoader};
+use stripmask::engine::paging::stream::{
+    HOLD_SECONDS, LevelLoader, StreamPager, StreamSettings, Want,
+};
+use stripmask::engine::paging::{PagerConfig, PagerMode, ResidentLoader, TransferClock};
 use stripmask::error::{Error, Result};
 
 /// Levels per tile and the bytes a tile holding `k` of them takes: 100 * 4^(k-1).
@@ -29,7 +33,7 @@ struct Held {
 /// Loads nothing but keeps the contract: levels arrive in order, bytes as predicted.
 #[derive(Default)]
 struct Synthetic {
-    fetched: AtomicU64,
+    fetched: Arc<AtomicU64>,
     /// Tiles whose fetches fail.
     broken: Mutex<Vec<TileId>>,
 }
@@ -132,19 +136,10 @@ fn what_the_view_needs_comes_first_and_belts_fill_at_the_coarsest_level() {
         }
         check_accounting(&p);
     }
-    // The wanted tile's coarse level first, its refinement before the belts beyond the first.
-    assert_eq!(order[0], (TileId::new(3, 3), 1), "{order:?}");
-    let refined = order.iter().position(|&(_, l)| l > 1).unwrap();
-    let ring = |id: TileId| id.x.abs_diff(3).max(id.y.abs_diff(3));
-    assert!(
-        order[..refined].iter().all(|&(id, _)| ring(id) <= 1),
-        "{order:?}"
-    );
-    assert_eq!(
-        order.len(),
-        50,
-        "49 coarse levels and one refinement: {order:?}"
-    );
+    // The wanted tile first, in one request up to the levels it is wished, then the belts.
+    assert_eq!(order[0], (TileId::new(3, 3), LEVELS), "{order:?}");
+    assert!(order[1..].iter().all(|&(_, l)| l == 1), "{order:?}");
+    assert_eq!(order.len(), 49, "one request per tile: {order:?}");
     assert_eq!(p.resident().stats().complete_belts, Some(3));
     assert_eq!(p.held_levels(TileId::new(3, 3)), LEVELS);
     assert!(
@@ -157,6 +152,12 @@ fn what_the_view_needs_comes_first_and_belts_fill_at_the_coarsest_level() {
 #[test]
 fn refinements_follow_importance_and_stop_at_what_is_asked() {
     let mut p = pager(1 << 20, 3, 1);
+    // The belts fill at the coarsest level first: every tile is held when the wishes come.
+    for _ in 0..9 {
+        p.update((1.5, 1.5));
+        p.request(&[]);
+    }
+    assert_eq!(p.resident().tiles().count(), 9);
     let wants = [want(0, 0, 3, 0.2), want(2, 2, 4, 0.7), want(1, 1, 2, 0.1)];
     let mut refined = Vec::new();
     for _ in 0..40 {
@@ -199,6 +200,14 @@ fn a_request_that_stops_mattering_is_cancelled_before_it_is_sent() {
     q.request(&[want(0, 0, 3, 0.5)]);
     assert_eq!(q.queue().waiting().len(), 1);
     assert!(q.resident().stats().memory_bound);
+    q.set_time(1.0);
+    q.request(&[]);
+    assert_eq!(
+        q.stream_stats().cancelled,
+        0,
+        "the wish is held for a while"
+    );
+    q.set_time(1.0 + HOLD_SECONDS);
     q.request(&[]);
     assert_eq!(q.stream_stats().cancelled, 1);
     assert!(q.queue().waiting().is_empty());
@@ -263,6 +272,97 @@ fn a_broken_tile_is_retried_then_given_up_without_stopping_the_square() {
     );
 }
 
+#[test]
+fn the_first_request_for_an_absent_tile_covers_the_wished_levels() {
+    let mut p = pager(1 << 20, 3, 1);
+    p.update((1.5, 1.5));
+    p.request(&[want(2, 0, 4, 0.3)]);
+    assert_eq!(p.stream_stats().requests, 1);
+    assert_eq!(
+        p.held_levels(TileId::new(2, 0)),
+        4,
+        "one range request brings every level it is wished"
+    );
+    assert_eq!(p.loader().fetched.load(Ordering::Relaxed), 1);
+}
+
+#[test]
+fn a_tile_oscillating_across_a_level_boundary_asks_once() {
+    // Room for the coarse level only: a finer request waits in the queue.
+    let mut p = pager(250, 1, 1);
+    p.update((0.5, 0.5));
+    p.request(&[]);
+    assert_eq!(p.held_levels(TileId::new(0, 0)), 1);
+    let mut asked = Vec::new();
+    for k in 0..30 {
+        p.set_time(0.1 * k as f64);
+        let levels = if k < 2 || k % 2 == 1 { 3 } else { 2 };
+        p.request(&[want(0, 0, levels, 0.5)]);
+        asked.extend(p.queue().waiting().iter().map(|r| (r.id, r.levels)));
+    }
+    asked.dedup();
+    assert_eq!(
+        asked,
+        [(TileId::new(0, 0), 3)],
+        "one request, never churned"
+    );
+    assert_eq!(p.stream_stats().cancelled, 0);
+}
+
+/// A simulated link on which every fetch takes [`SECONDS_PER_FETCH`].
+struct PerFetch(Arc<AtomicU64>);
+
+const SECONDS_PER_FETCH: f64 = 3.0;
+
+impl TransferClock for PerFetch {
+    fn busy_seconds(&self) -> f64 {
+        SECONDS_PER_FETCH * self.0.load(Ordering::Relaxed) as f64
+    }
+}
+
+#[test]
+fn a_request_on_its_way_is_cancelled_once_its_tile_stops_mattering() {
+    let loader = Synthetic::default();
+    let clock = PerFetch(Arc::clone(&loader.fetched));
+    let config = PagerConfig::new(1 << 20, PagerMode::Simulated { queue_depth: 1 });
+    let mut p = StreamPager::new(
+        loader,
+        Grid::new(1, 1).unwrap(),
+        config,
+        StreamSettings::default(),
+    )
+    .unwrap();
+    p.set_transfer_clock(Arc::new(clock));
+    let frame = |p: &mut StreamPager<Synthetic>, t: f64, wants: &[Want]| {
+        p.set_time(t);
+        p.update((0.5, 0.5));
+        p.request(wants);
+    };
+    frame(&mut p, 0.0, &[]);
+    frame(&mut p, SECONDS_PER_FETCH, &[want(0, 0, 4, 0.5)]);
+    assert_eq!(p.held_levels(TileId::new(0, 0)), 1);
+    let sent = SECONDS_PER_FETCH + 0.1;
+    frame(&mut p, sent, &[want(0, 0, 4, 0.5)]);
+    assert_eq!(p.resident().stats().fetching, 1, "levels 1..4 on their way");
+    // The tile leaves the view: held for a second, then cancelled on its way.
+    frame(&mut p, sent + 0.4, &[]);
+    assert_eq!(p.resident().stats().fetching, 1);
+    frame(&mut p, sent + 0.4 + HOLD_SECONDS, &[]);
+    let stats = p.stream_stats();
+    assert_eq!(stats.cancelled_in_flight, 1);
+    let whole = (bytes_at(4) - bytes_at(1)) as u64;
+    assert!(stats.cut_bytes > 0 && stats.cut_bytes < whole, "{stats:?}");
+    assert_eq!(p.resident().stats().fetching, 0);
+    assert_eq!(
+        p.resident().stats().memory_bytes,
+        bytes_at(1),
+        "reservation released"
+    );
+    frame(&mut p, sent + 2.0 * SECONDS_PER_FETCH, &[]);
+    assert_eq!(p.held_levels(TileId::new(0, 0)), 1, "nothing arrives");
+    assert_eq!(p.resident().stats().errors, 0);
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
 
@@ -284,6 +384,7 @@ proptest! {
             StreamPager::new(Synthetic::default(), Grid::new(6, 6).unwrap(), config, settings)
                 .unwrap();
         for (k, &viewer) in path.iter().enumerate() {
+            p.set_time(0.25 * k as f64);
             p.update(viewer);
             let wants: Vec<Want> = wishes[k % wishes.len()]
                 .iter()
@@ -294,7 +395,8 @@ proptest! {
         }
         let last = *path.last().unwrap();
         let wants: Vec<Want> = rest.iter().map(|&(x, y, l)| want(x, y, l, 0.5)).collect();
-        for _ in 0..400 {
+        for k in 0..400 {
+            p.set_time(0.25 * (path.len() + k) as f64);
             p.update(last);
             p.request(&wants);
             check_accounting(&p);

@@ -312,6 +312,19 @@ impl Ledger {
         });
     }
 
+    /// The fetch of `id` in flight was cancelled: its reservation is released, and nothing is
+    /// counted against the tile (it may be asked for again at once).
+    pub fn cancel(&mut self, id: TileId) {
+        if let Some(entry) = self.records.get_mut(&id) {
+            if let Some(reservation) = entry.fetch.take() {
+                self.memory -= reservation.bytes;
+            }
+            if entry.is_empty() {
+                self.records.remove(&id);
+            }
+        }
+    }
+
     /// Every fetch in flight failed (the fetch thread stopped with them).
     pub fn fail_in_flight(&mut self, now: u64) {
         let in_flight: Vec<TileId> = self

@@ -10,9 +10,12 @@ use super::worker::{self, Arrival, Job, Request, Worker};
 use super::{PagerMode, TransferClock};
 use crate::error::{Error, Result};
 
-/// A result that arrives at `due` simulated seconds.
+/// A result that arrives at `due` simulated seconds, after a transfer of `took` seconds asked
+/// for at `sent`.
 struct Pending<R, T> {
     due: f64,
+    sent: f64,
+    took: f64,
     request: R,
     result: Result<(T, u64)>,
 }
@@ -104,9 +107,39 @@ impl<R: Request, T: Send + 'static> Link<R, T> {
         self.free_at = due;
         self.pending.push_back(Pending {
             due,
+            sent: time,
+            took,
             request,
             result,
         });
+    }
+
+    /// Drops the transfer of `request` on the simulated link at `time`: one not yet started
+    /// never crosses the link, one under way stops now, and the transfers behind it move up.
+    /// Returns the bytes that had crossed the link, or `None` when the link cannot cancel it
+    /// (a fetch thread runs what it was sent; a stepped fetch has already arrived) or holds no
+    /// such transfer.
+    pub fn cancel(&mut self, request: &R, time: f64) -> Option<u64>
+    where
+        R: PartialEq,
+    {
+        let i = self.pending.iter().position(|p| p.request == *request)?;
+        let p = self.pending.remove(i).expect("found");
+        let start = p.due - p.took;
+        let crossed = match p.result {
+            Ok((_, bytes)) if start < time && p.took > 0.0 => {
+                (bytes as f64 * ((time - start) / p.took).min(1.0)) as u64
+            }
+            _ => 0,
+        };
+        // The link is free from the cancelled transfer's start (or now, if it was under way).
+        let mut free = start.max(time.min(p.due));
+        for q in self.pending.iter_mut().skip(i) {
+            q.due = free.max(q.sent) + q.took;
+            free = q.due;
+        }
+        self.free_at = self.pending.back().map_or(free, |q| q.due);
+        Some(crossed)
     }
 
     /// Every scheduled result due by `time`, then every result the fetch thread sent. If the

@@ -4,8 +4,8 @@
 //! The unit of work is a (tile, level) pair, not a whole tile: a request brings a tile from the
 //! `k` progressive levels it holds to `m > k` with one range request ([`crate::db::tile`] stores
 //! each level as a separate chunk, coarse first, so levels `k..m` are contiguous bytes). The
-//! engine asks for levels: the coarsest first, then as many as the mask its importance buys
-//! needs. Each frame:
+//! engine asks for as many levels as the mask its importance buys (no finer than the error bound
+//! τ needs) uses. Each frame:
 //!
 //! 1. [`StreamPager::update`] takes in what arrived (merging a finer level into the resident
 //!    tile) and finds `d_c`, the complete square of belts held at the coarsest level at least;
@@ -13,13 +13,18 @@
 //!    it held every level, and tells [`StreamPager::request`] how many levels each wants and how
 //!    much it matters (its visual importance; the predicted view's wishes count half), and which
 //!    absent tiles of the belts the view (or the predicted view) meets;
-//! 3. the pager turns wishes into requests — a tile the view needs and nobody holds comes at its
-//!    coarsest level first, above everything; a held tile comes up to the levels it is asked
-//!    for in one range request, by importance; and the coarse level of each tile of belt
-//!    `d_c + 1` (Algorithm 1 at the coarsest level, while the coarse square takes at most
-//!    [`StreamSettings::square_share`] of the memory) comes when nothing a view asks for waits —
-//!    re-prioritises its bounded [`RequestQueue`] with them, cancelling what fell out before it
-//!    was sent, and sends the best while the link has room;
+//! 3. the pager passes the wishes through [`Wishes`] (hysteresis: a wish rises at once and
+//!    falls only after the frames asked for less during [`HOLD_SECONDS`]; meanwhile its request
+//!    waits unsent in frames that ask for less) and turns them into requests — a tile the view
+//!    needs and nobody holds comes above everything, in one range request up to the levels it
+//!    is wished; a held tile
+//!    comes up to its wish in one range request, by importance; and the coarse level of each
+//!    tile of belt `d_c + 1` (Algorithm 1 at the coarsest level, while the coarse square takes
+//!    at most [`StreamSettings::square_share`] of the memory) comes when nothing a view asks
+//!    for waits — cancels the requests on their way that bring more than their tile is still
+//!    wished (where the link can: the simulated link drops the transfer), re-prioritises its
+//!    bounded [`RequestQueue`] with them, cancelling what fell out before it was sent, and sends
+//!    the best while the link has room;
 //! 4. [`StreamPager::drawn`] hears which levels the frame used, for the share of received
 //!    bytes rendered within a second.
 //!
@@ -32,6 +37,7 @@
 mod predict;
 mod queue;
 mod stats;
+mod wishes;
 
 use std::collections::{BTreeMap, HashMap};
 use std::fmt;
@@ -41,6 +47,7 @@ use std::sync::Arc;
 pub use predict::{PredictedView, PredictionSettings, Predictor};
 pub use queue::{LevelRequest, Reason, RequestQueue};
 pub use stats::{Delivery, HIT_WINDOW, RENDER_WINDOW, StreamStats};
+pub use wishes::{HOLD_SECONDS, Wishes};
 
 use super::belts;
 use super::ledger::{Fetch, Ledger};
@@ -190,12 +197,13 @@ impl fmt::Display for LevelFetch {
     }
 }
 
-/// The progressive strategy's own state: the bounded request queue, why each request in flight
-/// was made, and the streaming counters.
+/// The progressive strategy's own state: the bounded request queue, the wishes it acts on, each
+/// request in flight and why it was made, and the streaming counters.
 pub struct Progressive<L> {
     square_share: f64,
     queue: RequestQueue,
-    reasons: HashMap<TileId, Reason>,
+    wishes: Wishes,
+    flights: HashMap<TileId, (LevelFetch, Reason)>,
     stats: StreamStats,
     loader: PhantomData<fn() -> L>,
 }
@@ -304,30 +312,44 @@ impl<L: LevelLoader> StreamPager<L> {
         let strategy = Progressive {
             square_share: settings.square_share,
             queue: RequestQueue::new(settings.queue_capacity),
-            reasons: HashMap::new(),
+            wishes: Wishes::default(),
+            flights: HashMap::new(),
             stats: StreamStats::default(),
             loader: PhantomData,
         };
         Pager::with_strategy(loader, grid, config, strategy)
     }
 
-    /// Once per frame, after the engine weighed the held tiles: turns `wants` and the belt
-    /// fill into requests, re-prioritises the queue and sends what fits.
+    /// Once per frame, after the engine weighed the held tiles: turns `wants` (through the
+    /// hysteresis of [`Wishes`]) and the belt fill into requests, cancels what is on its way
+    /// and no longer wished for where the link allows, re-prioritises the queue and sends what
+    /// fits.
     pub fn request(&mut self, wants: &[Want]) {
-        let candidates = self.candidates(wants);
+        let now = self.resident.time();
+        let mut wanted = self.strategy.wishes.update(wants, now);
+        // What this frame asks for; a held wish beyond it keeps its request waiting unsent.
+        let mut asks: HashMap<TileId, usize> = HashMap::new();
+        // Levels the current view alone asks for: a request beyond them is the prediction's.
+        let mut view: HashMap<TileId, usize> = HashMap::new();
+        for (id, w) in wishes::merge(wants) {
+            asks.insert(id, w.levels);
+            if self.held_levels(id) == 0 {
+                // A tile nobody holds comes up to its wish in its first request.
+                let levels = wanted.get(&id).map_or(0, |h| h.levels).max(w.levels);
+                wanted.insert(id, Want { levels, ..w });
+            }
+        }
+        for w in wants.iter().filter(|w| !w.predicted) {
+            let levels = view.entry(w.id).or_default();
+            *levels = (*levels).max(w.levels);
+        }
+        self.cancel_unwanted(&wanted, now);
+        let candidates = self.candidates(&wanted, &view);
         let cancelled = self.strategy.queue.reprioritise(candidates);
         self.strategy.stats.cancelled += cancelled.len() as u64;
-        // Each tile's strongest wish: the most levels and the highest priority asked.
-        let mut wanted: HashMap<TileId, Want> = HashMap::new();
-        for w in wants {
-            wanted
-                .entry(w.id)
-                .and_modify(|m| {
-                    m.levels = m.levels.max(w.levels);
-                    m.priority = m.priority.max(w.priority);
-                })
-                .or_insert(*w);
-        }
+        let resting = self.strategy.queue.set_aside(|r| {
+            r.reason != Reason::Belt && r.levels > asks.get(&r.id).copied().unwrap_or(0)
+        });
         let stepped = matches!(self.mode, PagerMode::Stepped { .. });
         let mut room = self.mode.room(self.resident.ledger.fetching());
         while room > 0 && self.send_next(&wanted) {
@@ -336,6 +358,32 @@ impl<L: LevelLoader> StreamPager<L> {
             } else {
                 self.mode.room(self.resident.ledger.fetching())
             };
+        }
+        for r in resting {
+            self.strategy.queue.push_back(r);
+        }
+    }
+
+    /// Cancels, where the link allows, every request on its way that brings more levels than
+    /// its tile is wished now: its reservation is released, and the bytes that had crossed
+    /// the link count as received and never drawn.
+    fn cancel_unwanted(&mut self, wanted: &HashMap<TileId, Want>, now: f64) {
+        let mut unwanted: Vec<(LevelFetch, Reason)> = self
+            .strategy
+            .flights
+            .values()
+            .filter(|(f, _)| wanted.get(&f.id).map_or(0, |w| w.levels) < f.want)
+            .copied()
+            .collect();
+        unwanted.sort_by_key(|(f, _)| f.id);
+        for (fetch, reason) in unwanted {
+            let Some(crossed) = self.link.cancel(&fetch, now) else {
+                continue;
+            };
+            self.strategy.flights.remove(&fetch.id);
+            self.resident.ledger.cancel(fetch.id);
+            self.resident.downloaded_bytes += crossed;
+            self.strategy.stats.cut(crossed, reason);
         }
     }
 
@@ -381,8 +429,13 @@ impl<L: LevelLoader> StreamPager<L> {
     }
 
     /// This frame's requests: the coarse level of belt `d_c + 1` while the coarse square fits
-    /// its share, and each wished-for tile's next level.
-    fn candidates(&mut self, wants: &[Want]) -> Vec<LevelRequest> {
+    /// its share, and each wished-for tile (`wanted`, held wishes) up to its wish, by priority;
+    /// `view` holds the levels the current view alone asks for.
+    fn candidates(
+        &mut self,
+        wanted: &HashMap<TileId, Want>,
+        view: &HashMap<TileId, usize>,
+    ) -> Vec<LevelRequest> {
         let mut out = Vec::new();
         self.resident.memory_bound = false;
         if let Some(center) = self.resident.center {
@@ -408,28 +461,29 @@ impl<L: LevelLoader> StreamPager<L> {
                 }
             }
         }
-        // Levels the current view alone asks for: a request beyond them is the prediction's.
-        let mut now_levels: HashMap<TileId, usize> = HashMap::new();
-        for w in wants.iter().filter(|w| !w.predicted) {
-            let l = now_levels.entry(w.id).or_default();
-            *l = (*l).max(w.levels);
-        }
-        // A tile the view needs comes at its coarsest level first, then in one request up to
-        // the levels asked for (one range request: the levels are contiguous).
-        for w in wants {
+        // A tile the view needs and nobody holds comes above everything, in one request up to
+        // the levels it is wished (one range request: the levels are contiguous); a held tile
+        // comes up to its wish by importance.
+        let mut ids: Vec<&TileId> = wanted.keys().collect();
+        ids.sort();
+        for id in ids {
+            let w = wanted[id];
             let have = self.held_levels(w.id);
-            let asked = w.levels.min(self.loader.levels());
-            if have < asked && self.can_request(w.id) {
-                let (levels, priority) = if have == 0 {
-                    (1, COARSE_PRIORITY)
-                } else {
-                    (asked, w.priority)
-                };
+            if !self.can_request(w.id) {
+                continue;
+            }
+            let priority = if have == 0 {
+                COARSE_PRIORITY
+            } else {
+                w.priority
+            };
+            let levels = w.levels.min(self.loader.levels());
+            if have < levels {
                 out.push(LevelRequest {
                     id: w.id,
                     levels,
                     priority,
-                    reason: if levels > now_levels.get(&w.id).copied().unwrap_or(0) {
+                    reason: if levels > view.get(id).copied().unwrap_or(0) {
                         Reason::Predicted
                     } else {
                         Reason::View
@@ -481,12 +535,14 @@ impl<L: LevelLoader> StreamPager<L> {
                 return false;
             }
             self.strategy.stats.requests += 1;
-            self.strategy.reasons.insert(request.id, request.reason);
             let level_fetch = LevelFetch {
                 id: request.id,
                 have,
                 want: request.levels,
             };
+            self.strategy
+                .flights
+                .insert(request.id, (level_fetch, request.reason));
             if let Some((fetch, result)) = self.start(level_fetch) {
                 self.integrate(fetch, result);
             }
@@ -613,7 +669,11 @@ impl<L: LevelLoader> StreamPager<L> {
 
     fn integrate(&mut self, fetch: LevelFetch, result: Result<(L::Piece, u64)>) {
         let id = fetch.id;
-        let reason = self.strategy.reasons.remove(&id).unwrap_or_default();
+        let reason = self
+            .strategy
+            .flights
+            .remove(&id)
+            .map_or_else(Reason::default, |(_, reason)| reason);
         let merged = result.and_then(|(piece, downloaded)| {
             let mut tile = self.loader.merge(id, self.resident.get(id), piece)?;
             let levels = self.loader.held_levels(&tile);

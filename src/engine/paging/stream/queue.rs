@@ -100,6 +100,14 @@ impl RequestQueue {
         (!self.waiting.is_empty()).then(|| self.waiting.remove(0))
     }
 
+    /// Takes out the waiting requests `rest` says should wait unsent this frame, best first;
+    /// they go back with [`RequestQueue::push_back`].
+    pub fn set_aside(&mut self, rest: impl Fn(&LevelRequest) -> bool) -> Vec<LevelRequest> {
+        let (aside, kept) = self.waiting.iter().partition(|r| rest(r));
+        self.waiting = kept;
+        aside
+    }
+
     /// Puts a request back at its place (it could not be sent yet: no memory or link).
     pub fn push_back(&mut self, request: LevelRequest) {
         let at = self

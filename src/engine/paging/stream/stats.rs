@@ -35,8 +35,13 @@ pub struct Delivery {
 pub struct StreamStats {
     /// Requests sent.
     pub requests: u64,
-    /// Requests cancelled before they were sent.
+    /// Requests cancelled: before they were sent, or on their way (see `cut`).
     pub cancelled: u64,
+    /// Of those, requests cancelled on their way.
+    pub cancelled_in_flight: u64,
+    /// Bytes that crossed the link for requests cancelled on their way (never drawn; counted
+    /// in `received_bytes` and `settled_bytes`).
+    pub cut_bytes: u64,
     /// Tiles whose finest levels were dropped to make room.
     pub dropped_levels: u64,
     /// Bytes received.
@@ -76,6 +81,21 @@ impl StreamStats {
     pub fn hit_rate(&self) -> Option<f64> {
         (self.predicted_settled > 0)
             .then(|| self.predicted_hits as f64 / self.predicted_settled as f64)
+    }
+
+    /// A request made for `reason` was cancelled on its way after `bytes` of it crossed the
+    /// link: they count as received and never drawn.
+    pub fn cut(&mut self, bytes: u64, reason: Reason) {
+        self.cancelled += 1;
+        self.cancelled_in_flight += 1;
+        self.cut_bytes += bytes;
+        self.received_bytes += bytes;
+        self.settled_bytes += bytes;
+        match reason {
+            Reason::View => self.view_settled_bytes += bytes,
+            Reason::Predicted => self.predicted_settled += 1,
+            Reason::Belt => self.belt_bytes += bytes,
+        }
     }
 
     /// Counts a delivery.

@@ -28,15 +28,20 @@
 //! frame, so geomorphing costs no memory per tile, and nothing at all when it is off.
 //!
 //! A tile pays only for what changes its picture ([`MorphView::morph_tile`]): the samples its
-//! mask and its neighbours' stitches use (a tile drawn at mask level 7 reads one sample in 64),
-//! and of those, per step, the per-vertex factor only where the tile's nearest and farthest
-//! points give factors on both sides of 0 and 1. Steps whose factor is 0 over the whole tile
-//! are skipped, and steps fully morphed over the whole tile take the parents' mean without a
-//! distance. The result is exactly the full morph's on every sample drawn.
+//! mask and its neighbours' stitches use and the ancestors their morph needs (a tile drawn at
+//! mask level 4 reads 196 of its 4,225 samples, whose morph needs 646), and of those, per step, the
+//! per-vertex factor only where the tile's nearest and farthest points give factors on both
+//! sides of 0 and 1. Steps whose factor is 0 over the whole tile are skipped, and steps fully
+//! morphed over the whole tile take the parents' mean without a distance; a vertex's factor
+//! takes a square root only where its distance puts it strictly between 0 and 1. The result is
+//! exactly the full morph's on every sample drawn.
+
+use std::sync::OnceLock;
 
 use glam::DVec3;
 use stripmask_raster::Vertex;
 
+use crate::db::mask_level::keeps_index;
 use crate::engine::camera::Camera;
 use crate::engine::terrain::TerrainFrame;
 use crate::named::Named;
@@ -107,6 +112,9 @@ pub struct MorphTree {
     splits: Vec<Split>,
     /// Per step, coarsest first: the step and the end of its splits in `splits`.
     groups: Vec<(usize, usize)>,
+    /// Per mask level, built on first use: a bit per sample (`j * s + i`), set for the samples
+    /// the level's mask reads and every ancestor their morph needs ([`MorphTree::needs`]).
+    needed: Vec<OnceLock<Vec<u64>>>,
 }
 
 impl MorphTree {
@@ -145,6 +153,31 @@ impl MorphTree {
             tile_size: s,
             splits,
             groups,
+            needed: (0..s - 1).map(|_| OnceLock::new()).collect(),
+        })
+    }
+
+    /// The samples a morph of the samples mask `level` keeps needs, a bit per sample: those
+    /// samples and, recursively, the parents of each (their morphed heights are its target).
+    pub fn needs(&self, level: usize) -> &[u64] {
+        self.needed[level].get_or_init(|| {
+            let s = self.tile_size;
+            let mut bits = vec![0u64; (s * s).div_ceil(64)];
+            let set = |bits: &mut Vec<u64>, k: usize| bits[k / 64] |= 1 << (k % 64);
+            for j in (0..s).filter(|&j| keeps_index(s, level, j)) {
+                for i in (0..s).filter(|&i| keeps_index(s, level, i)) {
+                    set(&mut bits, j * s + i);
+                }
+            }
+            // Finest first: a split's children come before it, so one pass closes the set.
+            for split in self.splits.iter().rev() {
+                if is_set(&bits, split.vertex) {
+                    for p in split.parents {
+                        set(&mut bits, p);
+                    }
+                }
+            }
+            bits
         })
     }
 
@@ -167,28 +200,43 @@ impl MorphTree {
         factor: impl FnMut(&Split) -> i32,
         out: &mut Vec<Vertex>,
     ) {
-        self.scale(vertices, 1, out);
-        morph_splits(&self.splits, factor, out);
+        self.scale(vertices, None, out);
+        morph_splits(&self.splits, None, factor, out);
     }
 
     /// Makes `out` as long as `vertices` and writes into it, in [`SUBDIVISION`] units, the
-    /// samples whose indices are multiples of `step` (a power of two) and the vertices beyond
-    /// the grid; returns the lowest and highest height among those samples, quanta. Other
-    /// entries keep what they held: no mask or stitch of samples on the `step` grid reads them.
-    fn scale(&self, vertices: &[Vertex], step: usize, out: &mut Vec<Vertex>) -> (i32, i32) {
+    /// samples whose bits are set in `samples` (every sample when `None`) and the vertices
+    /// beyond the grid; returns the lowest and highest height among those samples, quanta.
+    /// Other entries keep what they held: the draw does not read them.
+    fn scale(
+        &self,
+        vertices: &[Vertex],
+        samples: Option<&[u64]>,
+        out: &mut Vec<Vertex>,
+    ) -> (i32, i32) {
         let s = self.tile_size;
-        debug_assert!(vertices.len() >= s * s && step.is_power_of_two() && step < s);
+        debug_assert!(vertices.len() >= s * s);
         out.resize(vertices.len(), Vertex::default());
         let scaled = |v: &Vertex| Vertex {
             position: v.position.map(|c| c.saturating_mul(SUBDIVISION)),
             ..*v
         };
         let mut range = (i32::MAX, i32::MIN);
-        for j in (0..s).step_by(step) {
-            for k in (j * s..(j + 1) * s).step_by(step) {
-                let y = vertices[k].position[1];
-                range = (range.0.min(y), range.1.max(y));
-                out[k] = scaled(&vertices[k]);
+        let mut copy = |k: usize| {
+            let y = vertices[k].position[1];
+            range = (range.0.min(y), range.1.max(y));
+            out[k] = scaled(&vertices[k]);
+        };
+        match samples {
+            None => (0..s * s).for_each(&mut copy),
+            Some(bits) => {
+                for (w, &word) in bits.iter().enumerate() {
+                    let mut word = word;
+                    while word != 0 {
+                        copy(w * 64 + word.trailing_zeros() as usize);
+                        word &= word - 1;
+                    }
+                }
             }
         }
         for (o, v) in out[s * s..].iter_mut().zip(&vertices[s * s..]) {
@@ -207,9 +255,23 @@ impl MorphTree {
     }
 }
 
-/// Morphs every sample of `splits` (parents before children) in `out` by `factor(split)`.
-fn morph_splits(splits: &[Split], mut factor: impl FnMut(&Split) -> i32, out: &mut [Vertex]) {
+/// Whether bit `k` is set.
+fn is_set(bits: &[u64], k: usize) -> bool {
+    bits[k / 64] & (1 << (k % 64)) != 0
+}
+
+/// Morphs the samples of `splits` (parents before children) whose bits are set in `samples`
+/// (all when `None`) in `out` by `factor(split)`.
+fn morph_splits(
+    splits: &[Split],
+    samples: Option<&[u64]>,
+    mut factor: impl FnMut(&Split) -> i32,
+    out: &mut [Vertex],
+) {
     for split in splits {
+        if samples.is_some_and(|bits| !is_set(bits, split.vertex)) {
+            continue;
+        }
         let f = i64::from(factor(split).clamp(0, FACTOR_ONE));
         if f == 0 {
             continue;
@@ -258,20 +320,34 @@ impl MorphView {
     /// The morph factor (`0 ..= FACTOR_ONE`) of the sample at global grid position `(gx, gz)`
     /// with height `quanta` and step `step`. Computed from integers and the eye only, so every
     /// tile holding the sample gets the same factor.
+    ///
+    /// The factor is `distance × scale / step − 1`, clamped to `0 ..= 1` and rounded to
+    /// 1/[`FACTOR_ONE`]; a sample nearer than `step / scale` or farther than twice that (by a
+    /// relative margin far wider than rounding, and far narrower than half a factor step) is
+    /// 0 or [`FACTOR_ONE`] from its squared distance, without a square root.
     pub fn factor(&self, gx: i64, gz: i64, quanta: i32, step: usize) -> i32 {
         let at = DVec3::new(
             gx as f64 * self.spacing,
             f64::from(quanta) * self.quantum,
             gz as f64 * self.spacing,
         );
-        let f = (at - self.eye).length() * self.scale / step as f64 - 1.0;
-        (f.clamp(0.0, 1.0) * f64::from(FACTOR_ONE)).round() as i32
+        let squared = (at - self.eye).length_squared();
+        let untouched = step as f64 / self.scale;
+        if squared < untouched * untouched * (1.0 - 1e-9) {
+            return 0;
+        }
+        if squared > 4.0 * untouched * untouched * (1.0 + 1e-9) {
+            return FACTOR_ONE;
+        }
+        let f = squared.sqrt() * self.scale / step as f64 - 1.0;
+        // Rounds half up: the factor is never negative here.
+        (f.clamp(0.0, 1.0) * f64::from(FACTOR_ONE) + 0.5) as i32
     }
 
     /// Writes into `out` the vertices of tile `(x, y)` morphed for this view, as far as a tile
     /// whose draw reads the samples of mask `levels` (its own and its neighbours', for the
-    /// stitches) reads them: the samples on the grid of the largest power of two dividing
-    /// every `level + 1`, exactly as [`MorphTree::morph`] with [`MorphView::factor`] gives
+    /// stitches) reads them: the samples those masks keep and their ancestors
+    /// ([`MorphTree::needs`]), exactly as [`MorphTree::morph`] with [`MorphView::factor`] gives
     /// them; other samples are left as `out` held them.
     pub fn morph_tile(
         &self,
@@ -282,28 +358,30 @@ impl MorphView {
         out: &mut Vec<Vertex>,
     ) {
         let s = tree.tile_size();
-        let shift = levels
-            .iter()
-            .map(|&l| (l + 1).trailing_zeros())
-            .fold((s - 1).trailing_zeros(), u32::min);
-        let read = 1usize << shift;
-        let heights = tree.scale(vertices, read, out);
+        let mut needed = tree.needs(levels[0]).to_vec();
+        for &level in &levels[1..] {
+            for (n, w) in needed.iter_mut().zip(tree.needs(level)) {
+                *n |= w;
+            }
+        }
+        let heights = tree.scale(vertices, Some(&needed), out);
         let (gx0, gz0) = (
             i64::from(x) * self.tile_cells,
             i64::from(y) * self.tile_cells,
         );
         let (near, far) = self.reach((gx0, gz0), s, heights);
-        for (step, splits) in tree.groups().take_while(|&(step, _)| step >= read) {
+        for (step, splits) in tree.groups() {
             let factor = |d: f64| d * self.scale / step as f64 - 1.0;
             if factor(far) <= 0.0 {
                 continue;
             }
             if factor(near) >= 1.0 {
-                morph_splits(splits, |_| FACTOR_ONE, out);
+                morph_splits(splits, Some(&needed), |_| FACTOR_ONE, out);
                 continue;
             }
             morph_splits(
                 splits,
+                Some(&needed),
                 |split| {
                     let (i, j) = (split.vertex % s, split.vertex / s);
                     let quanta = vertices[split.vertex].position[1];
@@ -428,6 +506,35 @@ mod tests {
         }
         assert!(MorphTree::new(10).is_none());
         assert!(MorphTree::new(2).is_none());
+    }
+
+    #[test]
+    fn a_level_needs_the_samples_it_keeps_and_every_ancestor_of_them_only() {
+        let s = 65;
+        let tree = MorphTree::new(s).unwrap();
+        for level in 0..s - 1 {
+            let bits = tree.needs(level);
+            let kept = |k: usize| keeps_index(s, level, k % s) && keeps_index(s, level, k / s);
+            let mut parents = vec![false; s * s];
+            for split in tree.splits() {
+                if is_set(bits, split.vertex) {
+                    for p in split.parents {
+                        assert!(is_set(bits, p), "level {level}: parent {p} missing");
+                        parents[p] = true;
+                    }
+                }
+            }
+            for (k, &parent) in parents.iter().enumerate() {
+                // Set exactly when kept or the parent of a needed sample.
+                assert_eq!(is_set(bits, k), kept(k) || parent, "level {level}: {k}");
+            }
+        }
+        let count =
+            |level: usize| -> u32 { tree.needs(level).iter().map(|w| w.count_ones()).sum() };
+        assert_eq!(
+            [count(0), count(2), count(4), count(7)],
+            [4225, 1304, 646, 81]
+        );
     }
 
     #[test]

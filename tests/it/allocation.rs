@@ -5,39 +5,14 @@
 use glam::DVec3;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};
-use stripmask::db::source;
+use stripmask::engine::Engine;
 use stripmask::engine::allocation::Allocation;
-use stripmask::engine::paging::PagerMode;
-use stripmask::engine::{Engine, EngineSettings};
 use stripmask::{Bound, ErrorBound};
-use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
-
-use crate::support::hills;
-
-const HEIGHT: u32 = 120;
+use stripmask_raster::Framebuffer;
 
 /// An engine over the hills archive with every tile loaded, τ off.
 fn loaded(dir: &std::path::Path) -> (Engine, Framebuffer) {
-    let path = hills::archive(dir, 33);
-    let settings = EngineSettings {
-        memory_limit_bytes: 1 << 30,
-        pager_mode: PagerMode::Stepped {
-            fetches_per_update: usize::MAX,
-        },
-        threads: 1,
-        max_error: ErrorBound::Off,
-        ..EngineSettings::default()
-    };
-    let mut engine = Engine::new(
-        source::open(path.to_str().unwrap()).unwrap(),
-        settings,
-        HEIGHT,
-    )
-    .unwrap();
-    let mut fb = Framebuffer::new(160, HEIGHT, ColorFormat::Rgb565, DepthFormat::D16).unwrap();
-    let camera = engine.camera(DVec3::new(3840.0, 2000.0, 3840.0), DVec3::ZERO, false);
-    engine.render(&camera, &mut fb).unwrap();
-    (engine, fb)
+    crate::error_bound::loaded(dir, ErrorBound::Off)
 }
 
 fn views() -> impl Strategy<Value = ((f64, f64, f64), (f64, f64))> {

@@ -17,7 +17,7 @@ use crate::support::hills;
 const HEIGHT: u32 = 120;
 
 /// An engine over the hills archive with every tile loaded.
-fn loaded(dir: &std::path::Path, max_error: ErrorBound) -> (Engine, Framebuffer) {
+pub(crate) fn loaded(dir: &std::path::Path, max_error: ErrorBound) -> (Engine, Framebuffer) {
     let path = hills::archive(dir, 33);
     let settings = EngineSettings {
         memory_limit_bytes: 1 << 30,

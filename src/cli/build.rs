@@ -135,12 +135,12 @@ pub(super) fn run(a: BuildArgs) -> Result<()> {
     )?;
     bar.finish_and_clear();
     if a.json {
-        println!(
+        say!(
             "{}",
             serde_json::to_string_pretty(&report).expect("serialisable")
         );
     } else if !a.quiet {
-        print!("{}", summary(&a.output, &report));
+        say_raw!("{}", summary(&a.output, &report));
     }
     Ok(())
 }

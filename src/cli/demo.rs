@@ -78,7 +78,7 @@ pub(super) fn run(a: DemoArgs) -> Result<()> {
         streaming: a.streaming.resolve()?,
     };
     if !a.window {
-        println!("{}", stripmask::sim::demo::run(&options)?);
+        say!("{}", stripmask::sim::demo::run(&options)?);
         return Ok(());
     }
     let p = &options.profile;
@@ -90,12 +90,12 @@ pub(super) fn run(a: DemoArgs) -> Result<()> {
                 presenter: window.as_mut(),
                 real_time: true,
             };
-            println!("{}", stripmask::sim::demo::run_live(&options, Some(live))?);
+            say!("{}", stripmask::sim::demo::run_live(&options, Some(live))?);
             Ok(())
         }
         Err(problem) => {
             eprintln!("stripmask demo: --window: {problem}; running headless");
-            println!("{}", stripmask::sim::demo::run(&options)?);
+            say!("{}", stripmask::sim::demo::run(&options)?);
             Err(problem)
         }
     }

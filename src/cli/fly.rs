@@ -81,7 +81,7 @@ pub(super) fn run(a: FlyArgs) -> Result<()> {
         http,
     };
     let s = fly(&options)?;
-    println!(
+    say!(
         "{} frames over {:.1} s of flight: median {:.1} fps (target {}), {:.0} triangles and \
          {:.2} ms per frame, screen error max {:.1} / mean {:.2} px (τ {}; the budget, shared \
          by {}, bound {:.0} % of frames), peak memory {:.1} of {:.1} MB, {:.2} MB downloaded -> {}\nholes: {}",

@@ -42,12 +42,12 @@ struct InfoReport {
 pub(super) fn run(a: InfoArgs) -> Result<()> {
     let report = InfoReport::read(&a.file_or_url, a.check)?;
     if a.json {
-        println!(
+        say!(
             "{}",
             serde_json::to_string_pretty(&report).expect("serialisable")
         );
     } else {
-        print!("{}", report.text());
+        say_raw!("{}", report.text());
     }
     Ok(())
 }

@@ -2,6 +2,23 @@
 //! subcommand's arguments resolve into the library's settings before it runs; the argument groups
 //! several share are in [`args`].
 
+/// `println!` for the commands' results, which does not panic when the reader has gone away
+/// (`stripmask fly ... | head`): the command still finishes and writes its files.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout().lock(), $($arg)*);
+    }};
+}
+
+/// [`say!`] without the newline.
+macro_rules! say_raw {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stdout().lock(), $($arg)*);
+    }};
+}
+
 mod args;
 mod build;
 mod demo;

@@ -15,7 +15,7 @@ pub(super) struct ReportArgs {
 /// Draws the plots and prints their paths.
 pub(super) fn run(a: ReportArgs) -> Result<()> {
     for path in stripmask::sim::report::draw(&a.dir)? {
-        println!("{}", path.display());
+        say!("{}", path.display());
     }
     Ok(())
 }

@@ -52,7 +52,7 @@ pub(super) fn run(a: ServeArgs) -> Result<()> {
         ..Limits::default()
     };
     let server = Server::start_with(&a.file, a.listen, profile, limits)?;
-    println!("{}", server.url());
+    say!("{}", server.url());
     let _ = std::io::stdout().flush();
     server.wait();
     Ok(())

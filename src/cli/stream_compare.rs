@@ -48,6 +48,6 @@ pub(super) fn run(a: StreamCompareArgs) -> Result<()> {
         progress: !a.quiet,
     };
     let results = compare::compare(&options)?;
-    println!("{}", compare::write(&a.out, &results, &options)?);
+    say!("{}", compare::write(&a.out, &results, &options)?);
     Ok(())
 }

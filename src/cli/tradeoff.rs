@@ -80,7 +80,7 @@ pub(super) fn run(a: TradeoffArgs) -> Result<()> {
     };
     let report = run_with(&options, references(a.size))?;
     let front = report.rows.iter().filter(|r| r.pareto).count();
-    println!(
+    say!(
         "{} settings over {} views, {} on the Pareto front -> {}",
         report.rows.len(),
         report.views.len(),

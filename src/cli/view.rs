@@ -49,7 +49,7 @@ pub(super) fn viewer_options(a: &ViewArgs) -> Result<ViewerOptions> {
 /// Prints how many frames the viewer showed, and how fast.
 #[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
 pub(super) fn report_view(s: ViewerSummary) {
-    println!(
+    say!(
         "{} frames in {:.1} s ({:.1} fps)",
         s.frames,
         s.seconds,

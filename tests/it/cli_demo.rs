@@ -97,3 +97,24 @@ fn demo_window_with_a_display_runs_live_to_the_end() {
         1 + 4
     );
 }
+
+/// `stripmask demo | head -0`: the reader is gone before the summary is printed. The command
+/// neither panics nor fails, and its files are written.
+#[test]
+fn demo_whose_reader_went_away_finishes_and_writes_the_outputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("demo");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_stripmask"))
+        .args(["demo", "-q", "--frames", "3", "--every", "0", "--out"])
+        .arg(&out)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let run = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(out.join("stats.csv").is_file());
+}

@@ -215,38 +215,50 @@ impl Header {
     /// extent, origin and heights. The reader calls it on every header it parses, and `build`
     /// before it writes anything, so a build never writes what a reader would refuse.
     pub fn validate(&self, name: &str) -> Result<()> {
-        let bad = |p: String| Error::invalid(name, p);
+        self.check_layout()
+            .and_then(|()| self.check_numbers())
+            .map_err(|problem| Error::invalid(name, problem))
+    }
+
+    /// Tile counts, sizes, the index and the base: what the reader allocates by.
+    fn check_layout(&self) -> std::result::Result<(), String> {
         let count = self.tiles_x as usize * self.tiles_y as usize;
         if count == 0 || count > MAX_TILES {
-            return Err(bad(format!(
+            return Err(format!(
                 "{} x {} tiles is outside 1 ..= {MAX_TILES}",
                 self.tiles_x, self.tiles_y
-            )));
+            ));
         }
         if !is_valid_tile_size(self.tile_size as usize) {
-            return Err(bad(format!("tile size {} is not 2^n + 1", self.tile_size)));
+            return Err(format!("tile size {} is not 2^n + 1", self.tile_size));
         }
         if self.index_len() > MAX_INDEX_LEN {
-            return Err(bad(format!(
+            return Err(format!(
                 "the index of {} x {} tiles would take {} bytes, more than {MAX_INDEX_LEN}",
                 self.tiles_x,
                 self.tiles_y,
                 self.index_len()
-            )));
+            ));
         }
         if self.base_levels as usize > self.levels() {
-            return Err(bad(format!(
+            return Err(format!(
                 "a base of {} levels, but tiles have {}",
                 self.base_levels,
                 self.levels()
-            )));
+            ));
         }
         let t = self.texture_size as usize;
         if !t.is_power_of_two() || t > MAX_TEXTURE_SIZE {
-            return Err(bad(format!(
+            return Err(format!(
                 "texture size {t} is not a power of two up to {MAX_TEXTURE_SIZE}"
-            )));
+            ));
         }
+        Ok(())
+    }
+
+    /// Spacing, origin and heights: finite, positive where they divide, and within the bounds
+    /// the engine's arithmetic is proven for.
+    fn check_numbers(&self) -> std::result::Result<(), String> {
         let finite = [
             self.spacing,
             self.vertical_scale,
@@ -259,23 +271,23 @@ impl Header {
             || self.spacing <= 0.0
             || !(self.height_quantum.is_finite() && self.height_quantum > 0.0)
         {
-            return Err(bad(
+            return Err(
                 "spacing, vertical scale, origin or height quantum is not a finite number \
                  (or spacing or quantum is not positive)"
                     .into(),
-            ));
+            );
         }
         if !(MIN_SPACING..=MAX_SPACING).contains(&self.spacing) {
-            return Err(bad(format!(
+            return Err(format!(
                 "spacing {} m is outside {MIN_SPACING} ..= {MAX_SPACING} m",
                 self.spacing
-            )));
+            ));
         }
         if f64::from(self.height_quantum) < MIN_QUANTUM {
-            return Err(bad(format!(
+            return Err(format!(
                 "height quantum {} m is finer than {MIN_QUANTUM} m",
                 self.height_quantum
-            )));
+            ));
         }
         let side = f64::from(
             self.source_width
@@ -287,11 +299,11 @@ impl Header {
             || self.origin_x.abs() > MAX_EXTENT
             || self.origin_y.abs() > MAX_EXTENT
         {
-            return Err(bad(format!(
+            return Err(format!(
                 "the terrain spans {extent} m from origin ({}, {}); each must be within \
                  {MAX_EXTENT} m",
                 self.origin_x, self.origin_y
-            )));
+            ));
         }
         let heights = [
             f64::from(self.min_height),
@@ -305,11 +317,11 @@ impl Header {
             || self.vertical_scale == 0.0
             || self.min_height > self.max_height
         {
-            return Err(bad(format!(
+            return Err(format!(
                 "heights {} ..= {} m, vertical scale {} or quantum {}: each must be finite, \
                  within {MAX_HEIGHT} in size, the scale non-zero and the range in order",
                 self.min_height, self.max_height, self.vertical_scale, self.height_quantum
-            )));
+            ));
         }
         Ok(())
     }

@@ -86,6 +86,14 @@ pub struct Knob {
 }
 
 impl Knob {
+    fn new(name: &'static str, feature: bool, values: Vec<Value>) -> Knob {
+        Knob {
+            name,
+            feature,
+            values,
+        }
+    }
+
     /// The value labelled `label`.
     pub fn value(&self, label: &str) -> Option<&Value> {
         self.values.iter().find(|v| v.label == label)
@@ -103,13 +111,16 @@ macro_rules! value {
 
 /// Every knob, in the order of the report's tables.
 pub fn knobs() -> Vec<Knob> {
-    let knob = |name, feature, values| Knob {
-        name,
-        feature,
-        values,
-    };
+    [detail(), pipeline(), scene(), features()]
+        .into_iter()
+        .flatten()
+        .collect()
+}
+
+/// How much detail a frame asks for: the budget, the error bound and how the budget is shared.
+fn detail() -> Vec<Knob> {
     vec![
-        knob(
+        Knob::new(
             "budget",
             false,
             vec![
@@ -121,7 +132,7 @@ pub fn knobs() -> Vec<Knob> {
                 value!("full", |s| s.budget = Budget::Full),
             ],
         ),
-        knob(
+        Knob::new(
             "max-error",
             false,
             vec![
@@ -132,7 +143,7 @@ pub fn knobs() -> Vec<Knob> {
                 value!("4", |s| s.max_error = ErrorBound::Pixels(4.0)),
             ],
         ),
-        knob(
+        Knob::new(
             "allocation",
             false,
             vec![
@@ -140,7 +151,13 @@ pub fn knobs() -> Vec<Knob> {
                 value!("error", |s| s.allocation = Allocation::Error),
             ],
         ),
-        knob(
+    ]
+}
+
+/// How the rasterizer draws: arithmetic, perspective, texture filter and buffer formats.
+fn pipeline() -> Vec<Knob> {
+    vec![
+        Knob::new(
             "precision",
             false,
             vec![
@@ -148,7 +165,7 @@ pub fn knobs() -> Vec<Knob> {
                 value!("float", |s| s.render.precision = Precision::Float),
             ],
         ),
-        knob(
+        Knob::new(
             "perspective",
             false,
             vec![
@@ -159,7 +176,7 @@ pub fn knobs() -> Vec<Knob> {
                 value!("affine", |s| s.render.perspective = Perspective::Affine),
             ],
         ),
-        knob(
+        Knob::new(
             "filter",
             false,
             vec![
@@ -169,7 +186,7 @@ pub fn knobs() -> Vec<Knob> {
                     Some(Sampler::BILINEAR_MIPMAP)),
             ],
         ),
-        knob(
+        Knob::new(
             "colour",
             false,
             vec![
@@ -177,7 +194,7 @@ pub fn knobs() -> Vec<Knob> {
                 value!("rgba8888", |s| s.color = ColorFormat::Rgba8888),
             ],
         ),
-        knob(
+        Knob::new(
             "depth",
             false,
             vec![
@@ -185,7 +202,13 @@ pub fn knobs() -> Vec<Knob> {
                 value!("32", |s| s.depth = DepthFormat::D32),
             ],
         ),
-        knob(
+    ]
+}
+
+/// How tiles meet and change, and how many threads draw.
+fn scene() -> Vec<Knob> {
+    vec![
+        Knob::new(
             "cracks",
             false,
             vec![
@@ -195,7 +218,7 @@ pub fn knobs() -> Vec<Knob> {
                 value!("stitch", |s| s.cracks = CrackMode::Stitch),
             ],
         ),
-        knob(
+        Knob::new(
             "geomorph",
             false,
             vec![
@@ -206,7 +229,7 @@ pub fn knobs() -> Vec<Knob> {
                     Geomorph::Distance { pixels: 16.0 }),
             ],
         ),
-        knob(
+        Knob::new(
             "threads",
             false,
             vec![
@@ -214,7 +237,13 @@ pub fn knobs() -> Vec<Knob> {
                 value!("2", |s| s.threads = 2),
             ],
         ),
-        knob(
+    ]
+}
+
+/// Rendering features a scene may not need (each measured on and off).
+fn features() -> Vec<Knob> {
+    vec![
+        Knob::new(
             "texture",
             true,
             vec![
@@ -224,7 +253,7 @@ pub fn knobs() -> Vec<Knob> {
                 value!("off", |s| s.render.sampler = None),
             ],
         ),
-        knob(
+        Knob::new(
             "depth-test",
             true,
             vec![
@@ -232,7 +261,7 @@ pub fn knobs() -> Vec<Knob> {
                 value!("off", |s| s.render.depth_test = false),
             ],
         ),
-        knob(
+        Knob::new(
             "lighting",
             true,
             vec![
@@ -240,7 +269,7 @@ pub fn knobs() -> Vec<Knob> {
                 value!("off", |s| s.render.lighting = false),
             ],
         ),
-        knob(
+        Knob::new(
             "fog",
             true,
             vec![

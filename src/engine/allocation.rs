@@ -218,6 +218,7 @@ mod tests {
     use proptest::prelude::*;
 
     use super::*;
+    use crate::engine::budget::tests::check_allocation;
     use crate::engine::importance::{TileMeasure, Weights, visual_importance};
     use crate::engine::masks::LevelSet;
     use crate::named::Named;
@@ -357,14 +358,7 @@ mod tests {
             let budget = (all as f64 * fraction) as usize;
             let a = allocate_by_error(budget, &imp, &masks, &errors, &finest);
             prop_assert_eq!(a.len(), tiles.len());
-            let total: usize = a.iter().map(|t| t.triangles).sum();
-            let floor = masks.triangle_count(masks.coarsest_level());
-            prop_assert!(total <= budget || a.iter().all(|t| t.triangles == floor));
-            for (t, alloc) in a.iter().enumerate() {
-                prop_assert!(levels.contains(&alloc.level));
-                prop_assert!(alloc.level >= finest[t]);
-                prop_assert_eq!(alloc.triangles, masks.triangle_count(alloc.level));
-            }
+            check_allocation(&a, budget, &masks, &finest)?;
             let by_importance = allocate_capped(budget, &imp, &masks, &finest);
             prop_assert!(
                 worst(&a, &errors) <= worst(&by_importance, &errors),

@@ -325,12 +325,32 @@ pub fn drawable_level(level: usize, finest: usize, powers_of_two: bool) -> usize
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use proptest::prelude::*;
 
     use super::*;
     use crate::engine::importance::{TileMeasure, Weights, visual_importance};
     use crate::engine::masks::LevelSet;
+
+    /// What every allocation keeps: within `budget` (unless every tile is already at its
+    /// coarsest), each tile at a level of `masks` no finer than its cap, counted right.
+    pub(crate) fn check_allocation(
+        a: &[TileAllocation],
+        budget: usize,
+        masks: &MaskSet,
+        finest: &[usize],
+    ) -> Result<(), TestCaseError> {
+        let levels = masks.levels();
+        let total: usize = a.iter().map(|t| t.triangles).sum();
+        let floor = masks.triangle_count(masks.coarsest_level());
+        prop_assert!(total <= budget || a.iter().all(|t| t.triangles == floor));
+        for (t, alloc) in a.iter().enumerate() {
+            prop_assert!(levels.contains(&alloc.level));
+            prop_assert!(alloc.level >= finest[t]);
+            prop_assert_eq!(alloc.triangles, masks.triangle_count(alloc.level));
+        }
+        Ok(())
+    }
 
     /// A frame clock: `overhead + cost × triangles`, times `1 ± noise` from a seeded generator.
     struct SimulatedClock {
@@ -737,14 +757,7 @@ mod tests {
             let all = tiles.len() * masks.triangle_count(0);
             let budget = (all as f64 * fraction) as usize;
             let a = allocate_capped(budget, &imp, &masks, &finest);
-            let total: usize = a.iter().map(|t| t.triangles).sum();
-            let floor = masks.triangle_count(masks.coarsest_level());
-            prop_assert!(total <= budget || a.iter().all(|t| t.triangles == floor));
-            for (t, alloc) in a.iter().enumerate() {
-                prop_assert!(levels.contains(&alloc.level));
-                prop_assert!(alloc.level >= finest[t]);
-                prop_assert_eq!(alloc.triangles, masks.triangle_count(alloc.level));
-            }
+            check_allocation(&a, budget, &masks, &finest)?;
             if budget >= all {
                 prop_assert!(a.iter().zip(&finest).all(|(t, &f)| t.level == f));
             }

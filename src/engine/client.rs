@@ -18,9 +18,7 @@ use crate::db::grid::{Grid, TileId};
 use crate::db::source::TileSource;
 use crate::db::tile::{PartialGrid, progressive_levels};
 use crate::engine::allocation::{Allocation, TileErrors};
-use crate::engine::budget::{
-    BudgetController, BudgetSettings, TileAllocation, allocate_capped, drawable_level,
-};
+use crate::engine::budget::{BudgetController, BudgetSettings, TileAllocation, drawable_level};
 use crate::engine::camera::Camera;
 use crate::engine::cracks::{CrackMode, TileIndices, neighbours::neighbour_levels};
 use crate::engine::error_bound::{Bound, ErrorBound};
@@ -925,7 +923,20 @@ fn predicted_wants(inputs: &FrameInputs<'_>, view: &PredictedView, aspect: f64) 
         &view.camera,
         seen.iter().zip(&measures).map(|(s, m)| (s.1, m.distance)),
     );
-    let offered = allocate_capped(inputs.budget, &importance, inputs.masks, &needed);
+    // The predicted view shares the budget as the frame does, so that what it asks for ahead
+    // is what the frame will draw when the eye gets there.
+    let errors: Vec<TileErrors<'_>> = seen
+        .iter()
+        .zip(&measures)
+        .map(|(&(_, tile, _), m)| TileErrors {
+            metres: &tile.level_errors,
+            pixels_per_metre: inputs.pixels_per_metre(&view.camera, m.distance),
+        })
+        .collect();
+    let offered =
+        inputs
+            .allocation
+            .share(inputs.budget, &importance, inputs.masks, &errors, &needed);
     let levels = progressive_levels(terrain.tile_size);
     seen.iter()
         .zip(&offered)

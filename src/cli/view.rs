@@ -6,7 +6,7 @@ use stripmask::error::Result;
 
 use super::args::SceneArgs;
 #[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
-use stripmask::sim::viewer::{self, ViewerOptions, ViewerSummary};
+use stripmask::sim::viewer::{ViewerOptions, ViewerSummary};
 
 /// What `view` and `fb` show: a window, or the Linux framebuffer.
 #[derive(Args, Debug)]
@@ -64,7 +64,7 @@ pub(super) fn run(a: ViewArgs) -> Result<()> {
     let (w, h) = options.size;
     let mut window =
         stripmask_platform::WindowPresenter::open(&format!("stripmask: {}", a.source), w, h)?;
-    report_view(viewer::run(&mut window, &options)?);
+    report_view(stripmask::sim::viewer::run(&mut window, &options)?);
     Ok(())
 }
 

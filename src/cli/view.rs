@@ -1,12 +1,13 @@
 //! `stripmask view`: the viewer in a desktop window; the options it shares with `fb`.
 
 use clap::Args;
+#[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
 use stripmask::db::source::http::HttpOptions;
 use stripmask::error::Result;
-
-use super::args::SceneArgs;
 #[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
 use stripmask::sim::viewer::{ViewerOptions, ViewerSummary};
+
+use super::args::SceneArgs;
 
 /// What `view` and `fb` show: a window, or the Linux framebuffer.
 #[derive(Args, Debug)]

@@ -605,6 +605,21 @@ impl FrameInputs<'_> {
             })
             .collect()
     }
+
+    /// Each tile's level errors and its pixels per metre at `distance`: what sharing the
+    /// budget by error weighs, for the frame and for the predicted view alike.
+    fn tile_errors<'t>(
+        &self,
+        camera: &Camera,
+        tiles: impl Iterator<Item = (&'t ResidentTile, f64)>,
+    ) -> Vec<TileErrors<'t>> {
+        tiles
+            .map(|(tile, distance)| TileErrors {
+                metres: &tile.level_errors,
+                pixels_per_metre: self.pixels_per_metre(camera, distance),
+            })
+            .collect()
+    }
 }
 
 /// One frame's plan: the resident tiles in view, their importance, and the mask level each
@@ -658,18 +673,8 @@ fn plan_frame<'p>(
         .zip(&needed)
         .map(|((_, tile, _), &level)| tile.finest_mask_level().max(level))
         .collect();
-    let pixels_per_metre: Vec<f64> = visible
-        .iter()
-        .map(|&(_, _, distance)| inputs.pixels_per_metre(camera, distance))
-        .collect();
-    let errors: Vec<TileErrors<'_>> = visible
-        .iter()
-        .zip(&pixels_per_metre)
-        .map(|(&(_, tile, _), &ppm)| TileErrors {
-            metres: &tile.level_errors,
-            pixels_per_metre: ppm,
-        })
-        .collect();
+    let errors = inputs.tile_errors(camera, visible.iter().map(|&(_, t, d)| (t, d)));
+    let pixels_per_metre: Vec<f64> = errors.iter().map(|e| e.pixels_per_metre).collect();
     let share = |caps: &[usize]| {
         inputs
             .allocation
@@ -925,14 +930,10 @@ fn predicted_wants(inputs: &FrameInputs<'_>, view: &PredictedView, aspect: f64) 
     );
     // The predicted view shares the budget as the frame does, so that what it asks for ahead
     // is what the frame will draw when the eye gets there.
-    let errors: Vec<TileErrors<'_>> = seen
-        .iter()
-        .zip(&measures)
-        .map(|(&(_, tile, _), m)| TileErrors {
-            metres: &tile.level_errors,
-            pixels_per_metre: inputs.pixels_per_metre(&view.camera, m.distance),
-        })
-        .collect();
+    let errors = inputs.tile_errors(
+        &view.camera,
+        seen.iter().zip(&measures).map(|(s, m)| (s.1, m.distance)),
+    );
     let offered =
         inputs
             .allocation

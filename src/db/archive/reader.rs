@@ -231,16 +231,7 @@ impl<S: TileSource> ArchiveReader<S> {
         let (offset, length) = base_range(&self.index, levels);
         let name = self.name();
         let stored = retry(self.attempts, self.source.is_remote(), offset, |_| {
-            let bytes = self.source.read_range(offset, length)?;
-            if bytes.len() as u64 != length {
-                return Err(Error::invalid(
-                    name,
-                    format!(
-                        "base: read {} bytes at offset {offset}, {length} expected",
-                        bytes.len()
-                    ),
-                ));
-            }
+            let bytes = self.read_whole("base", offset, length)?;
             let mut at = 0usize;
             for (i, entry) in self.index.iter().enumerate() {
                 for g in 0..levels {
@@ -302,6 +293,22 @@ impl<S: TileSource> ArchiveReader<S> {
         Ok(y * tiles_x + x)
     }
 
+    /// Bytes `offset .. offset + length`, all of them: a short answer is an error naming
+    /// `what` was read.
+    fn read_whole(&self, what: &str, offset: u64, length: u64) -> Result<Vec<u8>> {
+        let bytes = self.source.read_range(offset, length)?;
+        if bytes.len() as u64 != length {
+            return Err(Error::invalid(
+                self.source.name(),
+                format!(
+                    "{what}: read {} bytes at offset {offset}, {length} expected",
+                    bytes.len()
+                ),
+            ));
+        }
+        Ok(bytes)
+    }
+
     /// The stored bytes of `levels` of tile `i` in one source read per attempt, returned once
     /// every chunk matches its crc32.
     fn fetch(&self, i: usize, levels: Range<usize>) -> Result<Vec<u8>> {
@@ -309,16 +316,7 @@ impl<S: TileSource> ArchiveReader<S> {
         let entry = &self.index[i];
         let (offset, length) = entry.range(levels.clone());
         retry(self.attempts, self.source.is_remote(), offset, |attempt| {
-            let bytes = self.source.read_range(offset, length)?;
-            if bytes.len() as u64 != length {
-                return Err(Error::invalid(
-                    name,
-                    format!(
-                        "tile {i}: read {} bytes at offset {offset}, {length} expected",
-                        bytes.len()
-                    ),
-                ));
-            }
+            let bytes = self.read_whole(&format!("tile {i}"), offset, length)?;
             let failed = levels.clone().find_map(|g| {
                 let (at, len) = entry.range(g..g + 1);
                 let at = (at - offset) as usize;

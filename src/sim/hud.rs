@@ -16,8 +16,13 @@ const MINIMAP_CELLS: u32 = 32;
 /// viewer) and Figure 3 (visual importance of the drawn tiles).
 pub fn hud_info(engine: &Engine, report: &FrameReport, fps: f64) -> HudInfo {
     let terrain = engine.terrain();
+    // The map's frame is the model's own extent: its north-west corner is the grid's, and
+    // tiles padded to whole size are cut at its east and south edges.
     let (px, py) = terrain.tile_position(report.camera.position);
-    let (gw, gh) = (terrain.tiles_x, terrain.tiles_y);
+    let (ex, ey) = terrain.source_extent();
+    let (ex, ey) = (ex / terrain.tile_metres(), ey / terrain.tile_metres());
+    let cells = |extent: f64, tiles: u32| (extent.ceil() as u32).clamp(1, tiles);
+    let (gw, gh) = (cells(ex, terrain.tiles_x), cells(ey, terrain.tiles_y));
     let (mw, mh) = (gw.min(MINIMAP_CELLS), gh.min(MINIMAP_CELLS));
     let corner = |p: f64, size: u32, cells: u32| {
         ((p.floor() as i64 - i64::from(cells / 2)).clamp(0, i64::from(size - cells))) as u32
@@ -62,6 +67,7 @@ pub fn hud_info(engine: &Engine, report: &FrameReport, fps: f64) -> HudInfo {
             viewer: ((px - f64::from(x0)) as f32, (py - f64::from(y0)) as f32),
             heading: report.camera.heading() as f32,
             importance: Some(importance),
+            extent: Some(((ex - f64::from(x0)) as f32, (ey - f64::from(y0)) as f32)),
         }),
     }
 }

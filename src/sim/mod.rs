@@ -8,7 +8,7 @@ pub mod device;
 pub mod flight;
 pub mod fly;
 pub mod holes;
-mod hud;
+pub mod hud;
 pub mod popping;
 pub mod report;
 pub mod stats;

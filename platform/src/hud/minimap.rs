@@ -47,6 +47,10 @@ pub struct Minimap {
     pub heading: f32,
     /// Visual importance per cell (the paper's Algorithm 2; 0 outside the view), if computed.
     pub importance: Option<Vec<f32>>,
+    /// How far the model's own samples reach, in cell units from the map's top-left corner (x
+    /// right, y down): tiles padded to whole size are drawn cut there, so that no pixel shows
+    /// padding, and cells wholly beyond it not at all. `None`: every cell is whole.
+    pub extent: Option<(f32, f32)>,
 }
 
 impl Minimap {
@@ -96,7 +100,7 @@ fn importance_ramp(t: f32) -> [u8; 3] {
     [0, 1, 2].map(|k| (a[k] + (b[k] - a[k]) * f).round() as u8)
 }
 
-/// Where the cells are drawn, in frame pixels.
+/// Where the cells are drawn, in pixels from a corner of the frame or of the panel.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct MinimapLayout {
     /// Top-left corner of cell (0, 0).
@@ -111,26 +115,63 @@ pub(crate) struct MinimapLayout {
     pub columns: u32,
     /// Rows.
     pub rows: u32,
+    /// Pixels right of and below (`x`, `y`) that show the model: nothing is drawn beyond.
+    pub extent: (u32, u32),
 }
 
 impl MinimapLayout {
+    /// The layout of `map` with cell (0, 0) at (`x`, `y`), cells `cell` pixels apart.
+    pub fn new(map: &Minimap, x: u32, y: u32, cell: u32, gap: u32) -> MinimapLayout {
+        let whole = (map.width * cell, map.height * cell);
+        // A pixel is drawn only if it lies wholly inside the model: round the extent down.
+        let cut = |e: f32, whole: u32| {
+            if e.is_nan() {
+                0
+            } else {
+                (e.max(0.0) * cell as f32).floor().min(whole as f32) as u32
+            }
+        };
+        let extent = map
+            .extent
+            .map_or(whole, |(ex, ey)| (cut(ex, whole.0), cut(ey, whole.1)));
+        MinimapLayout {
+            x,
+            y,
+            cell,
+            gap,
+            columns: map.width,
+            rows: map.height,
+            extent,
+        }
+    }
+
     /// Cell pitch for a map of `columns` x `rows` on a frame of `width` x `height` at HUD
     /// `scale`: the map takes at most a third of the width and half the height.
     pub fn cell_size(columns: u32, rows: u32, width: u32, height: u32, scale: u32) -> u32 {
         let fit = (width / 3 / columns.max(1)).min(height / 2 / rows.max(1));
         fit.clamp(1, 8 * scale)
     }
+
+    /// The pixels cell (`column`, `row`) is drawn on, without its grid line and cut at the
+    /// model's extent: (x, y, width, height), or `None` when there is no such cell or it lies
+    /// wholly beyond the extent.
+    pub fn cell_rect(&self, column: u32, row: u32) -> Option<(u32, u32, u32, u32)> {
+        if column >= self.columns || row >= self.rows {
+            return None;
+        }
+        let (left, top) = (column * self.cell, row * self.cell);
+        let side = self.cell - self.gap;
+        let width = side.min(self.extent.0.saturating_sub(left));
+        let height = side.min(self.extent.1.saturating_sub(top));
+        (width > 0 && height > 0).then_some((self.x + left, self.y + top, width, height))
+    }
 }
 
-/// Draws the cells and the viewer's arrow with the map's top-left corner at (`x`, `y`) of the
-/// pixmap.
+/// Draws the cells and the viewer's arrow where `layout` puts them.
 pub(crate) fn draw(
     pixmap: &mut Pixmap,
     map: &Minimap,
-    x: u32,
-    y: u32,
-    cell: u32,
-    gap: u32,
+    layout: &MinimapLayout,
     show_importance: bool,
 ) {
     let mut paint = Paint {
@@ -139,20 +180,17 @@ pub(crate) fn draw(
     };
     for row in 0..map.height {
         for column in 0..map.width {
+            let Some((x, y, w, h)) = layout.cell_rect(column, row) else {
+                continue;
+            };
             let [r, g, b] = map.cell_color(column, row, show_importance);
             paint.set_color_rgba8(r, g, b, 255);
-            let rect = Rect::from_xywh(
-                (x + column * cell) as f32,
-                (y + row * cell) as f32,
-                (cell - gap) as f32,
-                (cell - gap) as f32,
-            );
-            if let Some(rect) = rect {
+            if let Some(rect) = Rect::from_xywh(x as f32, y as f32, w as f32, h as f32) {
                 pixmap.fill_rect(rect, &paint, Transform::identity(), None);
             }
         }
     }
-    draw_viewer(pixmap, map, x, y, cell, &mut paint);
+    draw_viewer(pixmap, map, layout.x, layout.y, layout.cell, &mut paint);
 }
 
 /// An arrow at the viewer's position pointing along the heading.

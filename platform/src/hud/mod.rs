@@ -165,17 +165,16 @@ impl Hud {
         {
             let cell = MinimapLayout::cell_size(map.width, map.height, width, height, scale);
             let gap = u32::from(cell >= 4);
-            let (map_w, map_h) = (map.width * cell, map.height * cell);
+            // The panel ends where the model does: padding gets no background either.
+            let layout = MinimapLayout::new(map, pad, pad, cell, gap);
+            let (map_w, map_h) = layout.extent;
             let mut pixmap = panel(map_w + 2 * pad, map_h + 2 * pad);
-            minimap::draw(&mut pixmap, map, pad, pad, cell, gap, self.show_importance);
+            minimap::draw(&mut pixmap, map, &layout, self.show_importance);
             let x = width.saturating_sub(margin + pixmap.width());
             self.overlay.minimap = Some(MinimapLayout {
                 x: x + pad,
                 y: margin + pad,
-                cell,
-                gap,
-                columns: map.width,
-                rows: map.height,
+                ..layout
             });
             self.push(x, margin, pixmap);
         }

@@ -46,15 +46,16 @@ impl Overlay {
         self.panels.iter().map(|p| p.rect)
     }
 
-    /// Where minimap cell (`column`, `row`) is drawn, without its grid line; `None` when there is
-    /// no minimap or no such cell.
+    /// Where minimap cell (`column`, `row`) is drawn, without its grid line and cut at the
+    /// model's extent; `None` when there is no minimap, no such cell, or the cell is wholly
+    /// padding.
     pub fn minimap_cell(&self, column: u32, row: u32) -> Option<PanelRect> {
-        let m = self.minimap?;
-        (column < m.columns && row < m.rows).then(|| PanelRect {
-            x: m.x + column * m.cell,
-            y: m.y + row * m.cell,
-            width: m.cell - m.gap,
-            height: m.cell - m.gap,
+        let (x, y, width, height) = self.minimap?.cell_rect(column, row)?;
+        Some(PanelRect {
+            x,
+            y,
+            width,
+            height,
         })
     }
 

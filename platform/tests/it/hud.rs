@@ -30,15 +30,19 @@ fn minimap() -> impl Strategy<Value = Minimap> {
             (-2.0f32..14.0, -2.0f32..14.0),
             -7.0f32..7.0,
             prop::option::of(prop::collection::vec(0.0f32..1.0, n)),
+            prop::option::of((-1.0f32..14.0, -1.0f32..14.0)),
         )
-            .prop_map(move |(cells, viewer, heading, importance)| Minimap {
-                width: w,
-                height: h,
-                cells: cells.into_iter().map(|i| STATES[i]).collect(),
-                viewer,
-                heading,
-                importance,
-            })
+            .prop_map(
+                move |(cells, viewer, heading, importance, extent)| Minimap {
+                    width: w,
+                    height: h,
+                    cells: cells.into_iter().map(|i| STATES[i]).collect(),
+                    viewer,
+                    heading,
+                    importance,
+                    extent,
+                },
+            )
     })
 }
 
@@ -169,7 +173,15 @@ proptest! {
         let shown = compose_rgba(&frame(w, h, ColorFormat::Rgba8888, [1, 2, 3]), Some(overlay));
         for row in 0..map.height {
             for column in 0..map.width {
-                let cell = overlay.minimap_cell(column, row).unwrap();
+                // A cell lies within the model's extent, cut there, or is not drawn at all.
+                let Some(cell) = overlay.minimap_cell(column, row) else {
+                    let (ex, ey) = map.extent.expect("without an extent every cell is drawn");
+                    prop_assert!(ex <= column as f32 + 1.0 || ey <= row as f32 + 1.0);
+                    continue;
+                };
+                if let Some((ex, ey)) = map.extent {
+                    prop_assert!((column as f32) < ex && (row as f32) < ey);
+                }
                 let (cx, cy) = (cell.x + cell.width / 2, cell.y + cell.height / 2);
                 if cx >= w || cy >= h {
                     continue;

@@ -170,13 +170,8 @@ fn summary(output: &std::path::Path, report: &BuildReport) -> String {
         ),
     ];
     lines.extend(report.notes.iter().map(|n| format!("note        {n}")));
-    let n = report.nodata;
-    if n.filled + n.flattened > 0 {
-        lines.push(format!(
-            "nodata      {} samples filled from their nearest valid neighbours, {} in large nodata \
-             areas drawn flat at the lowest height around them",
-            n.filled, n.flattened
-        ));
+    if h.nodata_filled + h.nodata_flattened > 0 {
+        lines.push(super::info::nodata_line(h));
     }
     lines.iter().map(|l| format!("{l}\n")).collect()
 }

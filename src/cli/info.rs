@@ -119,9 +119,10 @@ impl InfoReport {
                 h.spacing, h.vertical_scale, h.origin_x, h.origin_y
             ),
             format!(
-                "heights     {} .. {} m in quanta of {} m",
+                "heights     {} .. {} m (valid samples) in quanta of {} m",
                 h.min_height, h.max_height, h.height_quantum
             ),
+            nodata_line(h),
             format!(
                 "texture     {0} x {0} RGB565 per tile with mipmaps; payload codec {1:?}",
                 h.texture_size, h.codec
@@ -150,4 +151,16 @@ impl InfoReport {
         }
         lines.iter().map(|l| format!("{l}\n")).collect()
     }
+}
+
+/// What the build made up where the source had no data: `build` and `info` print it.
+pub(super) fn nodata_line(h: &Header) -> String {
+    if h.nodata_filled + h.nodata_flattened == 0 {
+        return "nodata      none: every sample is the source's".into();
+    }
+    format!(
+        "nodata      {} samples filled from their nearest valid neighbours, {} in large nodata \
+         areas drawn flat at the lowest valid height around them",
+        h.nodata_filled, h.nodata_flattened
+    )
 }

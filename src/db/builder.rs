@@ -14,7 +14,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::db::archive::{ArchiveWriter, Codec, Header, MAX_SPACING, compress, partial};
-use crate::db::dem::{self, DemInfo, DemReader, EastWest, FillStats, NodataFill, OpenOptions};
+use crate::db::dem::{self, DemInfo, DemReader, EastWest, NodataFill, OpenOptions};
 use crate::db::texture_gen::{ImageTexture, shaded};
 use crate::db::tile::{Tile, progressive_levels};
 use crate::db::tiling::{BandReader, BandWindow, Tiling};
@@ -78,8 +78,6 @@ pub struct BuildReport {
     pub raw_payload_bytes: u64,
     /// Sum of the stored tile payloads.
     pub stored_payload_bytes: u64,
-    /// Nodata samples filled from their neighbours, and those flattened in large nodata areas.
-    pub nodata: FillStats,
     /// What the build assumed or chose that the user should know: the reader's reading of the
     /// file (geographic grid, degree cells, 8-bit samples), a coarser height quantum.
     pub notes: Vec<String>,
@@ -156,17 +154,19 @@ pub fn build<R: DemReader>(
         progress(done, grid.tile_count());
         north = Some(current);
     }
-    let archive_bytes = writer.finish(totals.min, totals.max)?;
+    let nodata = bands.fill_stats();
+    let archive_bytes = writer.finish(totals.min, totals.max, nodata)?;
     Ok(BuildReport {
         header: Header {
             min_height: totals.min,
             max_height: totals.max,
+            nodata_filled: nodata.filled,
+            nodata_flattened: nodata.flattened,
             ..header
         },
         archive_bytes,
         raw_payload_bytes: totals.raw_bytes,
         stored_payload_bytes: totals.stored_bytes,
-        nodata: bands.fill_stats(),
         notes,
         seconds: started.elapsed().as_secs_f64(),
     })
@@ -292,6 +292,8 @@ fn header(info: &DemInfo, grid: &Tiling, options: &BuildOptions) -> Result<Heade
         max_height: 0.0,
         height_quantum: options.height_quantum.unwrap_or(DEFAULT_HEIGHT_QUANTUM),
         base_levels: options.base_levels.min(progressive_levels(grid.tile_size)) as u32,
+        nodata_filled: 0,
+        nodata_flattened: 0,
     };
     // Everything else a reader checks (tile counts, index size, extent), before anything is
     // read or written.

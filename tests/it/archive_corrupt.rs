@@ -50,14 +50,19 @@ fn bad_magic_wrong_version_and_corrupt_header_are_named() {
     let e = open_err(&path);
     assert!(e.contains(&name) && e.contains("version 9"), "{e}");
 
-    // A version 2 archive (whole-tile payloads) is refused with what to do about it.
-    std::fs::write(&path, &good).unwrap();
-    rewrite(&path, |b| b[8] = 2);
-    let e = open_err(&path);
-    assert!(
-        e.contains(&name) && e.contains("archive version 2") && e.contains("stripmask build"),
-        "{e}"
-    );
+    // Older archives (whole-tile payloads, no apron, no nodata record) are refused with what
+    // to do about them.
+    for version in [2, 4, 5] {
+        std::fs::write(&path, &good).unwrap();
+        rewrite(&path, |b| b[8] = version);
+        let e = open_err(&path);
+        assert!(
+            e.contains(&name)
+                && e.contains(&format!("archive version {version}"))
+                && e.contains("stripmask build"),
+            "{e}"
+        );
+    }
 
     std::fs::write(&path, &good).unwrap();
     rewrite(&path, |b| b[20] ^= 1);

@@ -185,6 +185,33 @@ proptest! {
         }
     }
 
+    /// Any nodata counts with a valid checksum: the header is refused naming them, or they add
+    /// up to at most the model's samples and read back as written.
+    #[test]
+    fn nodata_counts_are_refused_or_within_the_model(
+        filled in prop_oneof![Just(u64::MAX), Just(0u64), 0u64..1200, any::<u64>()],
+        flattened in prop_oneof![Just(u64::MAX), Just(0u64), 0u64..1200, any::<u64>()],
+    ) {
+        let (_, _, good) = valid();
+        let mut bytes = good[..HEADER_LEN].to_vec();
+        bytes[92..100].copy_from_slice(&filled.to_le_bytes());
+        bytes[100..108].copy_from_slice(&flattened.to_le_bytes());
+        let crc = crc32fast::hash(&bytes[..HEADER_LEN - 4]);
+        bytes[HEADER_LEN - 4..].copy_from_slice(&crc.to_le_bytes());
+        match Header::parse(&bytes, "nodata") {
+            Ok(h) => {
+                prop_assert_eq!((h.nodata_filled, h.nodata_flattened), (filled, flattened));
+                let samples = u64::from(h.source_width) * u64::from(h.source_height);
+                prop_assert!(u128::from(filled) + u128::from(flattened) <= u128::from(samples));
+            }
+            Err(e) => {
+                let text = e.to_string();
+                prop_assert!(text.contains("nodata") && text.contains(&filled.to_string()), "{}", text);
+                prop_assert!(u128::from(filled) + u128::from(flattened) > 33 * 17);
+            }
+        }
+    }
+
     #[test]
     fn mutated_archives_never_panic((edits, cut) in mutations(), fix in any::<bool>()) {
         let (_, _, good) = valid();

@@ -1,5 +1,6 @@
 //! Nodata in real grids: a border row of nodata, holes filled from the nearest valid samples in
-//! 2-D, large nodata areas flat, and heights reported from valid data only.
+//! 2-D, large nodata areas flat, and heights reported from valid data only; the archive records
+//! how many samples were made up, and `info` says so.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -86,4 +87,49 @@ fn a_large_nodata_area_is_flat_at_the_lowest_height_around_it() {
         (centre - lowest_around).abs() < 0.1,
         "{centre} vs {lowest_around}"
     );
+}
+
+#[test]
+fn the_archive_records_the_nodata_filled_and_flattened_and_info_prints_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("rows_and_lake.asc");
+    // Three rows of nodata in the north, and a 100 x 100 nodata lake far from any valid sample
+    // at its centre.
+    let (n, rows, lake) = (129, 3, 14..114);
+    write_asc(&input, n, n, |i, j| {
+        (j >= rows && !(lake.contains(&i) && lake.contains(&j)))
+            .then_some(500.0 + 3.0 * j as f32 + i as f32)
+    });
+    let out = dir.path().join("rows_and_lake.smdb");
+    let (text, info) = build_and_info(&input, &out);
+    let header = &info["header"];
+    let filled = header["nodata_filled"].as_u64().unwrap();
+    let flattened = header["nodata_flattened"].as_u64().unwrap();
+    assert_eq!(
+        filled + flattened,
+        (rows * n + 100 * 100) as u64,
+        "{header}"
+    );
+    // The lake's centre is more than the fill radius from any valid sample; the rows are not.
+    assert!(
+        flattened > 0 && filled > (rows * n) as u64,
+        "{filled} {flattened}"
+    );
+    assert_eq!(header["min_height"], 500.0 + 3.0 * rows as f64);
+    let line = format!(
+        "{filled} samples filled from their nearest valid neighbours, {flattened} in large \
+         nodata areas drawn flat"
+    );
+    assert!(text.contains(&line), "build: {text}");
+    let o = stripmask().arg("info").arg(&out).output().unwrap();
+    assert!(o.status.success());
+    let printed = String::from_utf8(o.stdout).unwrap();
+    assert!(printed.contains(&line), "info: {printed}");
+
+    // A model without nodata says so.
+    let full = dir.path().join("full.asc");
+    write_asc(&full, 33, 33, |i, j| Some((i + j) as f32));
+    let (_, info) = build_and_info(&full, &dir.path().join("full.smdb"));
+    assert_eq!(info["header"]["nodata_filled"], 0);
+    assert_eq!(info["header"]["nodata_flattened"], 0);
 }

@@ -4,7 +4,8 @@
 //! implementation, is in `docs/archive-format.md`; in short:
 //!
 //! * header, [`HEADER_LEN`] bytes: magic, version, grid (tiles across/down, tile size, texture
-//!   size), payload codec, source dimensions, spacing, vertical scale, origin, height range, crc32;
+//!   size), payload codec, source dimensions, spacing, vertical scale, origin, height range of the
+//!   valid samples, the nodata samples the build filled and flattened, crc32;
 //! * index, one entry per tile in row-major tile order: offset u64, then per progressive level
 //!   the end u32 of its chunk (stored bytes from the tile's offset) and the crc32 u32 of the
 //!   chunk's stored bytes; then the crc32 of the index;
@@ -38,18 +39,19 @@ pub use writer::ArchiveWriter;
 /// The first 8 bytes of every archive.
 pub const MAGIC: [u8; 8] = *b"SMDB\r\n\x1a\n";
 /// The format version this crate writes and reads (older archives are refused with what to do).
-pub const VERSION: u32 = 5;
+pub const VERSION: u32 = 6;
 
 /// What an archive of an older `version` lacks, when it is one this crate knows.
 fn older_version(version: u32) -> Option<&'static str> {
     match version {
         2 => Some("stores whole-tile payloads"),
         3 | 4 => Some("has no apron, so tile borders would be lit from one side"),
+        5 => Some("does not record the nodata its build filled"),
         _ => None,
     }
 }
 /// Bytes in the header.
-pub const HEADER_LEN: usize = 96;
+pub const HEADER_LEN: usize = 112;
 /// The most tiles an archive may hold.
 pub const MAX_TILES: usize = 1 << 24;
 /// The largest index a reader accepts (bounds what it allocates: 256 MiB).
@@ -138,6 +140,12 @@ pub struct Header {
     /// Progressive levels of every tile stored again after the payloads, as the base (0: no
     /// base).
     pub base_levels: u32,
+    /// Nodata samples of the source that the build filled from their nearest valid neighbours,
+    /// so that `info` can say how much of the terrain was made up.
+    pub nodata_filled: u64,
+    /// Nodata samples in large nodata areas, far from any valid one, that the build drew flat
+    /// at the lowest valid height around them.
+    pub nodata_flattened: u64,
 }
 
 impl Header {
@@ -205,6 +213,8 @@ impl Header {
         b.extend_from_slice(&self.min_height.to_le_bytes());
         b.extend_from_slice(&self.max_height.to_le_bytes());
         b.extend_from_slice(&self.height_quantum.to_le_bytes());
+        b.extend_from_slice(&self.nodata_filled.to_le_bytes());
+        b.extend_from_slice(&self.nodata_flattened.to_le_bytes());
         let crc = crc32fast::hash(&b);
         b.extend_from_slice(&crc.to_le_bytes());
         b.try_into().expect("header is HEADER_LEN bytes")
@@ -251,6 +261,15 @@ impl Header {
         if !t.is_power_of_two() || t > MAX_TEXTURE_SIZE {
             return Err(format!(
                 "texture size {t} is not a power of two up to {MAX_TEXTURE_SIZE}"
+            ));
+        }
+        let samples = u64::from(self.source_width) * u64::from(self.source_height);
+        let nodata = self.nodata_filled.checked_add(self.nodata_flattened);
+        if nodata.is_none_or(|n| n > samples) {
+            return Err(format!(
+                "{} nodata samples filled and {} flattened, more than the {samples} samples \
+                 of the {} x {} model",
+                self.nodata_filled, self.nodata_flattened, self.source_width, self.source_height
             ));
         }
         Ok(())
@@ -342,6 +361,7 @@ impl Header {
         let u = |k: usize| u32::from_le_bytes(bytes[k..k + 4].try_into().expect("4 bytes"));
         let f = |k: usize| f64::from_le_bytes(bytes[k..k + 8].try_into().expect("8 bytes"));
         let g = |k: usize| f32::from_le_bytes(bytes[k..k + 4].try_into().expect("4 bytes"));
+        let l = |k: usize| u64::from_le_bytes(bytes[k..k + 8].try_into().expect("8 bytes"));
         let version = u(8);
         if let Some(why) = older_version(version) {
             return Err(bad(format!(
@@ -379,6 +399,8 @@ impl Header {
             max_height: g(84),
             height_quantum: g(88),
             base_levels: u(44),
+            nodata_filled: l(92),
+            nodata_flattened: l(100),
         };
         h.validate(name)?;
         Ok(h)

@@ -7,6 +7,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use super::partial::partial_path;
 use super::{Header, IndexEntry, LevelEntry, index_to_bytes};
+use crate::db::dem::FillStats;
 use crate::error::{Error, Result};
 
 /// Writes an archive: header and index placeholders first, then tiles in any order (each its
@@ -104,9 +105,9 @@ impl ArchiveWriter {
         Ok(())
     }
 
-    /// Writes the base, the index and the header with the height range, and renames the file
-    /// into place. Returns the archive's length in bytes.
-    pub fn finish(mut self, min_height: f32, max_height: f32) -> Result<u64> {
+    /// Writes the base, the index and the header with the height range and the nodata the build
+    /// filled, and renames the file into place. Returns the archive's length in bytes.
+    pub fn finish(mut self, min_height: f32, max_height: f32, nodata: FillStats) -> Result<u64> {
         let name = self.partial.display().to_string();
         let entries: Vec<IndexEntry> = self
             .entries
@@ -119,6 +120,8 @@ impl ArchiveWriter {
             .collect::<Result<_>>()?;
         self.header.min_height = min_height;
         self.header.max_height = max_height;
+        self.header.nodata_filled = nodata.filled;
+        self.header.nodata_flattened = nodata.flattened;
         self.header.validate(&name)?;
         let io = |e| Error::io(&name, e);
         let mut file = self.file.take().expect("writer not finished");

@@ -28,13 +28,14 @@
 //! frame, so geomorphing costs no memory per tile, and nothing at all when it is off.
 //!
 //! A tile pays only for what changes its picture ([`MorphView::morph_tile`]): the samples its
-//! mask and its neighbours' stitches use and the ancestors their morph needs (a tile drawn at
-//! mask level 4 reads 196 of its 4,225 samples, whose morph needs 646), and of those, per step, the
-//! per-vertex factor only where the tile's nearest and farthest points give factors on both
-//! sides of 0 and 1. Steps whose factor is 0 over the whole tile are skipped, and steps fully
-//! morphed over the whole tile take the parents' mean without a distance; a vertex's factor
-//! takes a square root only where its distance puts it strictly between 0 and 1. The result is
-//! exactly the full morph's on every sample drawn.
+//! own mask uses (its stitches, against any neighbour, use a subset of them) and the ancestors
+//! their morph needs (a tile drawn at mask level 4 reads 196 of its 4,225 samples, whose morph
+//! needs 646), visited from a list kept per level, and of those, per step, the per-vertex factor
+//! only where the tile's nearest and farthest points give factors on both sides of 0 and 1.
+//! Steps whose factor is 0 over the whole tile are skipped, and steps fully morphed over the
+//! whole tile take the parents' mean without a distance; a vertex's factor takes a square root
+//! only where its distance puts it strictly between 0 and 1. The result is exactly the full
+//! morph's on every sample drawn.
 
 use std::sync::OnceLock;
 
@@ -112,9 +113,20 @@ pub struct MorphTree {
     splits: Vec<Split>,
     /// Per step, coarsest first: the step and the end of its splits in `splits`.
     groups: Vec<(usize, usize)>,
-    /// Per mask level, built on first use: a bit per sample (`j * s + i`), set for the samples
-    /// the level's mask reads and every ancestor their morph needs ([`MorphTree::needs`]).
-    needed: Vec<OnceLock<Vec<u64>>>,
+    /// Per mask level, built on first use: the samples the level's mask reads and every
+    /// ancestor their morph needs ([`MorphTree::needs`]), and their splits.
+    needed: Vec<OnceLock<Needed>>,
+}
+
+/// What a morph of one mask level's samples touches.
+#[derive(Clone, Debug)]
+struct Needed {
+    /// A bit per sample (`j * s + i`).
+    bits: Vec<u64>,
+    /// The splits of the set samples, coarsest first, as indices into [`MorphTree::splits`].
+    splits: Vec<u32>,
+    /// Per step of [`MorphTree::groups`], the end of its splits in `splits`.
+    ends: Vec<usize>,
 }
 
 impl MorphTree {
@@ -160,6 +172,11 @@ impl MorphTree {
     /// The samples a morph of the samples mask `level` keeps needs, a bit per sample: those
     /// samples and, recursively, the parents of each (their morphed heights are its target).
     pub fn needs(&self, level: usize) -> &[u64] {
+        &self.needed(level).bits
+    }
+
+    /// [`MorphTree::needs`] of `level` with its splits, built on first use.
+    fn needed(&self, level: usize) -> &Needed {
         self.needed[level].get_or_init(|| {
             let s = self.tile_size;
             let mut bits = vec![0u64; (s * s).div_ceil(64)];
@@ -177,7 +194,19 @@ impl MorphTree {
                     }
                 }
             }
-            bits
+            let mut splits = Vec::new();
+            let mut ends = Vec::with_capacity(self.groups.len());
+            let mut start = 0;
+            for &(_, end) in &self.groups {
+                splits.extend(
+                    (start..end)
+                        .filter(|&k| is_set(&bits, self.splits[k].vertex))
+                        .map(|k| k as u32),
+                );
+                ends.push(splits.len());
+                start = end;
+            }
+            Needed { bits, splits, ends }
         })
     }
 
@@ -201,7 +230,7 @@ impl MorphTree {
         out: &mut Vec<Vertex>,
     ) {
         self.scale(vertices, None, out);
-        morph_splits(&self.splits, None, factor, out);
+        morph_splits(&self.splits, factor, out);
     }
 
     /// Makes `out` as long as `vertices` and writes into it, in [`SUBDIVISION`] units, the
@@ -245,13 +274,21 @@ impl MorphTree {
         range
     }
 
-    /// Each step's splits, coarsest first: `(step, splits)`.
-    fn groups(&self) -> impl Iterator<Item = (usize, &[Split])> {
-        let starts = std::iter::once(0).chain(self.groups.iter().map(|g| g.1));
+    /// Each step's splits that `needed` holds, coarsest first: `(step, splits)`.
+    fn groups<'a>(
+        &'a self,
+        needed: &'a Needed,
+    ) -> impl Iterator<Item = (usize, impl Iterator<Item = &'a Split> + Clone)> {
+        let starts = std::iter::once(0).chain(needed.ends.iter().copied());
         self.groups
             .iter()
-            .zip(starts)
-            .map(|(&(step, end), start)| (step, &self.splits[start..end]))
+            .zip(starts.zip(&needed.ends))
+            .map(move |(&(step, _), (start, &end))| {
+                let splits = needed.splits[start..end]
+                    .iter()
+                    .map(|&k| &self.splits[k as usize]);
+                (step, splits)
+            })
     }
 }
 
@@ -260,18 +297,13 @@ fn is_set(bits: &[u64], k: usize) -> bool {
     bits[k / 64] & (1 << (k % 64)) != 0
 }
 
-/// Morphs the samples of `splits` (parents before children) whose bits are set in `samples`
-/// (all when `None`) in `out` by `factor(split)`.
-fn morph_splits(
-    splits: &[Split],
-    samples: Option<&[u64]>,
+/// Morphs the samples of `splits` (parents before children) in `out` by `factor(split)`.
+fn morph_splits<'a>(
+    splits: impl IntoIterator<Item = &'a Split>,
     mut factor: impl FnMut(&Split) -> i32,
     out: &mut [Vertex],
 ) {
     for split in splits {
-        if samples.is_some_and(|bits| !is_set(bits, split.vertex)) {
-            continue;
-        }
         let f = i64::from(factor(split).clamp(0, FACTOR_ONE));
         if f == 0 {
             continue;
@@ -344,44 +376,39 @@ impl MorphView {
         (f.clamp(0.0, 1.0) * f64::from(FACTOR_ONE) + 0.5) as i32
     }
 
-    /// Writes into `out` the vertices of tile `(x, y)` morphed for this view, as far as a tile
-    /// whose draw reads the samples of mask `levels` (its own and its neighbours', for the
-    /// stitches) reads them: the samples those masks keep and their ancestors
+    /// Writes into `out` the vertices of tile `(x, y)` morphed for this view, as far as a draw
+    /// at mask `level` reads them: the samples the mask keeps and their ancestors
     /// ([`MorphTree::needs`]), exactly as [`MorphTree::morph`] with [`MorphView::factor`] gives
-    /// them; other samples are left as `out` held them.
+    /// them; other samples are left as `out` held them. Every crack mode's indices read only
+    /// samples the tile's own mask keeps (a stitched edge keeps those both levels keep), so the
+    /// neighbours' levels do not widen the set.
     pub fn morph_tile(
         &self,
         tree: &MorphTree,
         vertices: &[Vertex],
         (x, y): (u32, u32),
-        levels: &[usize],
+        level: usize,
         out: &mut Vec<Vertex>,
     ) {
         let s = tree.tile_size();
-        let mut needed = tree.needs(levels[0]).to_vec();
-        for &level in &levels[1..] {
-            for (n, w) in needed.iter_mut().zip(tree.needs(level)) {
-                *n |= w;
-            }
-        }
-        let heights = tree.scale(vertices, Some(&needed), out);
+        let needed = tree.needed(level);
+        let heights = tree.scale(vertices, Some(&needed.bits), out);
         let (gx0, gz0) = (
             i64::from(x) * self.tile_cells,
             i64::from(y) * self.tile_cells,
         );
         let (near, far) = self.reach((gx0, gz0), s, heights);
-        for (step, splits) in tree.groups() {
+        for (step, splits) in tree.groups(needed) {
             let factor = |d: f64| d * self.scale / step as f64 - 1.0;
             if factor(far) <= 0.0 {
                 continue;
             }
             if factor(near) >= 1.0 {
-                morph_splits(splits, Some(&needed), |_| FACTOR_ONE, out);
+                morph_splits(splits, |_| FACTOR_ONE, out);
                 continue;
             }
             morph_splits(
                 splits,
-                Some(&needed),
                 |split| {
                     let (i, j) = (split.vertex % s, split.vertex / s);
                     let quanta = vertices[split.vertex].position[1];
@@ -444,15 +471,15 @@ impl Morpher {
     }
 
     /// Tile `(x, y)`'s `vertices` morphed for `view`, in [`SUBDIVISION`] units, as far as a
-    /// draw reading mask `levels` (its own and its neighbours') reads them.
+    /// draw at mask `level` reads them.
     pub fn tile(
         &mut self,
         view: &MorphView,
         vertices: &[Vertex],
         at: (u32, u32),
-        levels: &[usize],
+        level: usize,
     ) -> &[Vertex] {
-        view.morph_tile(&self.tree, vertices, at, levels, &mut self.scratch);
+        view.morph_tile(&self.tree, vertices, at, level, &mut self.scratch);
         &self.scratch
     }
 }
@@ -535,6 +562,54 @@ mod tests {
             [count(0), count(2), count(4), count(7)],
             [4225, 1304, 646, 81]
         );
+    }
+
+    /// Why a tile morphs only what its own level needs: whatever its neighbours' levels, no
+    /// crack mode's indices read a sample of the grid beyond it.
+    #[test]
+    fn every_crack_mode_reads_only_the_samples_its_own_level_needs() {
+        use crate::engine::cracks::{CrackMode, TileIndices};
+        use crate::engine::masks::{LevelSet, MaskSet};
+        use stripmask_raster::Indices;
+        let s = 17;
+        let tree = MorphTree::new(s).unwrap();
+        let masks = MaskSet::new(s, LevelSet::All);
+        let others = [0, 1, 2, 3, 5, 7, 15];
+        for mode in [
+            CrackMode::None,
+            CrackMode::Shadow,
+            CrackMode::Skirts,
+            CrackMode::Stitch,
+        ] {
+            let mut cracks = TileIndices::new(mode, s);
+            for level in 0..s - 1 {
+                let bits = tree.needs(level);
+                for (k, &n) in others.iter().enumerate() {
+                    let m = others[(k * 3 + 1) % others.len()];
+                    for neighbours in [[n; 4], [n, m, level, n], [m, level, n, m]] {
+                        let (indices, _) = cracks.tile(&masks, level, neighbours);
+                        let read: Vec<usize> = match indices {
+                            Indices::U16(i) => i
+                                .iter()
+                                .filter(|&&v| v != u16::MAX)
+                                .map(|&v| v as usize)
+                                .collect(),
+                            Indices::U32(i) => i
+                                .iter()
+                                .filter(|&&v| v != u32::MAX)
+                                .map(|&v| v as usize)
+                                .collect(),
+                        };
+                        for v in read.into_iter().filter(|&v| v < s * s) {
+                            assert!(
+                                is_set(bits, v),
+                                "{mode:?} level {level} neighbours {neighbours:?}: sample {v}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
     }
 
     #[test]
@@ -627,7 +702,7 @@ mod tests {
         #[test]
         fn a_tile_morphs_what_its_level_reads_exactly_as_the_full_morph(
             eye in (-200.0..600.0f64, 0.0..300.0f64, -200.0..600.0f64),
-            levels in proptest::collection::vec(0usize..16, 1..5),
+            level in 0usize..16,
             (x, y) in (0u32..4, 0u32..4),
             pixels in 1.0..16.0f64,
         ) {
@@ -660,14 +735,12 @@ mod tests {
             );
             // A scratch buffer that held another tile.
             let mut out = vec![Vertex::default(); s * s];
-            view.morph_tile(&tree, &vertices, (x, y), &levels, &mut out);
-            for &level in &levels {
-                for j in (0..s).filter(|&j| keeps_index(s, level, j)) {
-                    for i in (0..s).filter(|&i| keeps_index(s, level, i)) {
-                        proptest::prop_assert_eq!(
-                            out[j * s + i], full[j * s + i], "level {} ({}, {})", level, i, j
-                        );
-                    }
+            view.morph_tile(&tree, &vertices, (x, y), level, &mut out);
+            for j in (0..s).filter(|&j| keeps_index(s, level, j)) {
+                for i in (0..s).filter(|&i| keeps_index(s, level, i)) {
+                    proptest::prop_assert_eq!(
+                        out[j * s + i], full[j * s + i], "level {} ({}, {})", level, i, j
+                    );
                 }
             }
         }

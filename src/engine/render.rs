@@ -303,16 +303,10 @@ fn surface_settings(settings: &RenderSettings, fog: Option<Fog>) -> (RenderSetti
     }
 }
 
-/// Whole tile `t`'s vertices morphed for this frame, only the samples its level's mask and its
-/// neighbours' stitches read.
+/// Whole tile `t`'s vertices morphed for this frame, only the samples its level's mask reads
+/// (its stitches read a subset of them).
 fn morphed<'m>(morpher: &'m mut Morpher, view: &MorphView, t: &TileDraw<'_>) -> &'m [Vertex] {
-    let [n0, n1, n2, n3] = t.neighbours;
-    morpher.tile(
-        view,
-        &t.tile.vertices,
-        (t.x, t.y),
-        &[t.level, n0, n1, n2, n3],
-    )
+    morpher.tile(view, &t.tile.vertices, (t.x, t.y), t.level)
 }
 
 /// The strip indices of partial tile `t` (levels held at a stride above one): its levels and

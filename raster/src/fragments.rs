@@ -156,7 +156,9 @@ impl Fragments {
         } else {
             self.colour::<P, F, SHADE, false, FOG>(view, a)
         };
-        let mut at = 0;
+        // Counted in a local: a count in `self` would be stored at every fragment, since a
+        // bounds check may panic between them.
+        let (mut at, mut written) = (0, 0);
         let pixels = color.pixels();
         for h in &self.runs[..self.nruns] {
             let row = &mut pixels[h.at..h.at + h.len];
@@ -165,10 +167,11 @@ impl Fragments {
                 if pass {
                     *p = c;
                 }
-                self.written += pass as u64;
+                written += pass as u64;
             }
             at += h.len;
         }
+        self.written += written;
         self.len = 0;
         self.nruns = 0;
     }

@@ -60,13 +60,29 @@ pub(crate) fn small_triangle<
     if rows.y >= rows.end {
         return;
     }
+    // The texture's interpolation, fixed for the row loop: texture coordinates per pixel
+    // (affine), the perspective accumulators (exact), or none.
+    let texes = match p.tex_mode {
+        TexMode::Affine if F::ENABLED => TEX_AFFINE,
+        TexMode::Perspective(_) if F::ENABLED => TEX_PERSPECTIVE,
+        _ => TEX_OFF,
+    };
     let (x0, y0) = (rows.x0, rows.y);
-    let at = |q: &AttrPlane| q.at_pixel(x0, y0);
+    let at = |q: &AttrPlane, used: bool| if used { q.at_pixel(x0, y0) } else { 0 };
+    let channels = channels::<SHADE, GREY>();
     let start = RowValues {
-        z: at(&p.z),
-        c: [at(&p.c[0]), at(&p.c[1]), at(&p.c[2])],
-        f: at(&p.f),
-        tex: [at(&p.tex[0]), at(&p.tex[1]), at(&p.tex[2])],
+        z: at(&p.z, D::ENABLED),
+        c: [
+            at(&p.c[0], channels > 0),
+            at(&p.c[1], channels > 1),
+            at(&p.c[2], channels > 2),
+        ],
+        f: at(&p.f, FOG),
+        tex: [
+            at(&p.tex[0], texes > 0),
+            at(&p.tex[1], texes > 1),
+            at(&p.tex[2], texes > 2),
+        ],
     };
     // The extremes of a plane over the columns and rows the triangle may own here.
     let (w, h) = (rows.width() - 1, rows.end - y0 - 1);
@@ -77,21 +93,39 @@ pub(crate) fn small_triangle<
     let one = 1i64 << ATTR_FRAC_BITS;
     let coord = (TEXCOORD_LIMIT << 16, (TEXCOORD_LIMIT + 1) << 16);
     let in_range = (!D::ENABLED || within(&p.z, start.z, 0, 1 << 48))
-        && (!SHADE
-            || (0..if GREY { 1 } else { 3 }).all(|k| within(&p.c[k], start.c[k], 0, 256 * one)))
+        && (0..channels).all(|k| within(&p.c[k], start.c[k], 0, 256 * one))
         && (!FOG || within(&p.f, start.f, 0, 257 * one))
-        && match p.tex_mode {
-            TexMode::Affine if F::ENABLED => {
-                within(&p.tex[0], start.tex[0], -coord.0, coord.1)
-                    && within(&p.tex[1], start.tex[1], -coord.0, coord.1)
-            }
-            _ => true,
-        };
+        && (texes != TEX_AFFINE
+            || (within(&p.tex[0], start.tex[0], -coord.0, coord.1)
+                && within(&p.tex[1], start.tex[1], -coord.0, coord.1)));
     let args = (p, rows, start, color, depth, frags, views, attrs, test);
-    if in_range {
-        rows_of::<P, D, F, SHADE, GREY, FOG, false>(args)
-    } else {
-        rows_of::<P, D, F, SHADE, GREY, FOG, true>(args)
+    match (texes, in_range) {
+        (TEX_AFFINE, false) => rows_of::<P, D, F, SHADE, GREY, FOG, TEX_AFFINE, true>(args),
+        (TEX_AFFINE, true) => rows_of::<P, D, F, SHADE, GREY, FOG, TEX_AFFINE, false>(args),
+        (TEX_PERSPECTIVE, false) => {
+            rows_of::<P, D, F, SHADE, GREY, FOG, TEX_PERSPECTIVE, true>(args)
+        }
+        (TEX_PERSPECTIVE, true) => {
+            rows_of::<P, D, F, SHADE, GREY, FOG, TEX_PERSPECTIVE, false>(args)
+        }
+        (_, false) => rows_of::<P, D, F, SHADE, GREY, FOG, TEX_OFF, true>(args),
+        (_, true) => rows_of::<P, D, F, SHADE, GREY, FOG, TEX_OFF, false>(args),
+    }
+}
+
+/// The row loop's texture interpolation, as the number of texture planes it steps: none,
+/// `u, v` (affine) or `s, t, q` (perspective, a division per pixel).
+const TEX_OFF: usize = 0;
+const TEX_AFFINE: usize = 2;
+const TEX_PERSPECTIVE: usize = 3;
+
+/// Colour planes stepped: none without shading, one for grey vertices, else three.
+#[inline(always)]
+const fn channels<const SHADE: bool, const GREY: bool>() -> usize {
+    match (SHADE, GREY) {
+        (false, _) => 0,
+        (true, true) => 1,
+        (true, false) => 3,
     }
 }
 
@@ -108,7 +142,9 @@ type RowsArgs<'a, 'v, 't, P, D, F> = (
     DepthTest,
 );
 
-/// The row loop of `small_triangle`; `CLAMP` false when every value is known to be in range.
+/// The row loop of `small_triangle`: `TEX` texture planes (`TEX_OFF`, `TEX_AFFINE` or
+/// `TEX_PERSPECTIVE`); `CLAMP` false when every value is known to be in range (the perspective
+/// division clamps its own).
 #[inline(always)]
 fn rows_of<
     P: PixelFormat,
@@ -117,6 +153,7 @@ fn rows_of<
     const SHADE: bool,
     const GREY: bool,
     const FOG: bool,
+    const TEX: usize,
     const CLAMP: bool,
 >(
     (p, mut rows, mut row, color, mut depth, frags, views, attrs, test): RowsArgs<
@@ -129,19 +166,7 @@ fn rows_of<
     >,
 ) {
     let tile = color.rect();
-    let channels = if !SHADE {
-        0
-    } else if GREY {
-        1
-    } else {
-        3
-    };
-    let tex_mode = if F::ENABLED { p.tex_mode } else { TexMode::Off };
-    let texes = match tex_mode {
-        TexMode::Off => 0,
-        TexMode::Affine => 2,
-        TexMode::Perspective(_) => 3,
-    };
+    let channels = channels::<SHADE, GREY>();
     // The tile's columns as bits of the rows' masks (a small triangle spans at most 16).
     let lo = (tile.x0 as i64 - rows.x0).clamp(0, 32);
     let hi = (tile.x1 as i64 - rows.x0).clamp(0, 32);
@@ -175,7 +200,7 @@ fn rows_of<
             };
             // Texture coordinates (or the perspective accumulators) at the run's start.
             let mut uv = [0i64; 3];
-            for ((a, &r), q) in uv.iter_mut().zip(&row.tex).zip(&p.tex).take(texes) {
+            for ((a, &r), q) in uv.iter_mut().zip(&row.tex).zip(&p.tex).take(TEX) {
                 *a = start(r, q);
             }
             // One iteration per owned bit: a loop whose trip count the compiler cannot see is
@@ -205,8 +230,8 @@ fn rows_of<
                     frags.f[i] = if CLAMP { v.clamp(0, 256) } else { v } as u16;
                     f = f.wrapping_add(p.f.dx);
                 }
-                match tex_mode {
-                    TexMode::Affine => {
+                match TEX {
+                    TEX_AFFINE => {
                         let coord = |c: i64| {
                             if CLAMP {
                                 clamp_coord(c >> 16) as i32
@@ -218,7 +243,7 @@ fn rows_of<
                         uv[0] = uv[0].wrapping_add(p.tex[0].dx);
                         uv[1] = uv[1].wrapping_add(p.tex[1].dx);
                     }
-                    TexMode::Perspective(_) => {
+                    TEX_PERSPECTIVE => {
                         // `divide` clamps to the coordinate range: `clamp_coord` would change
                         // nothing.
                         let (u, v) = divide(uv[0], uv[1], uv[2]);
@@ -228,7 +253,7 @@ fn rows_of<
                             *a = a.wrapping_add(q.dx);
                         }
                     }
-                    TexMode::Off => {}
+                    _ => {}
                 }
                 j += 1;
             }
@@ -242,7 +267,7 @@ fn rows_of<
         if FOG {
             row.f = row.f.wrapping_add(p.f.dy);
         }
-        for q in 0..texes {
+        for q in 0..TEX {
             row.tex[q] = row.tex[q].wrapping_add(p.tex[q].dy);
         }
         row_at += width;

@@ -361,9 +361,10 @@ impl Geometry {
         let nx = a1 * self.d2[1] - a2 * self.d1[1];
         let ny = a2 * self.d1[0] - a1 * self.d2[0];
         debug_assert!((8..=32).contains(&self.shift));
-        // Masked: the compiler then knows the shift is below 64.
+        // Masked: the compiler then knows the shift is below 64, and the rounding half below
+        // 2^63, a 64-bit constant added to the 128-bit product.
         let s = self.shift as u32 & 63;
-        let half = 1i128 << (s - 1);
+        let half = (1i64 << (s - 1)) as i128;
         let inv = self.inv_area as i128;
         let scaled = |n: i64| i64::try_from((n as i128 * inv + half) >> s);
         match (scaled(nx), scaled(ny)) {

@@ -7,6 +7,7 @@
 //!        pager (belts) <── tile source
 //! ```
 
+use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -364,6 +365,7 @@ impl Engine {
         let (width, height) = target.size();
         let aspect = f64::from(width) / f64::from(height);
         let predicted = self.predict(&camera);
+        let kept = self.kept_levels();
         let inputs = FrameInputs {
             pager: &*self.pager,
             terrain: &self.terrain,
@@ -375,6 +377,7 @@ impl Engine {
             allocation: self.settings.allocation,
             height,
             clearance: self.settings.clearance,
+            kept: &kept,
         };
         let plan = plan_frame(&inputs, &camera, aspect, self.morpher.is_some())?;
         let wants = match self.settings.streaming {
@@ -457,6 +460,25 @@ impl Engine {
             .collect();
         self.pager.request(wants);
         self.pager.drawn(&drawn);
+    }
+
+    /// The level each tile should keep if the budget allows, when streaming progressively:
+    /// the finest mask its levels that arrived within the last second allow. A fetched level
+    /// is worth drawing for a second: the budget shifts a little every frame and would
+    /// otherwise draw a tile one level coarser than it just fetched.
+    fn kept_levels(&self) -> HashMap<TileId, usize> {
+        let Some(stats) = self.pager.stream_stats() else {
+            return HashMap::new();
+        };
+        let levels = progressive_levels(self.terrain.tile_size);
+        let mut kept: HashMap<TileId, usize> = HashMap::new();
+        for (id, held) in stats.fresh() {
+            let level = finest_mask_for_levels(held, levels);
+            kept.entry(id)
+                .and_modify(|l| *l = (*l).min(level))
+                .or_insert(level);
+        }
+        kept
     }
 
     /// Switches the crack mode between frames. Loaded tiles are refit in place (skirt vertices
@@ -581,6 +603,8 @@ struct FrameInputs<'e> {
     height: u32,
     /// No tile is seen from nearer than this (the eye's clearance), metres.
     clearance: f64,
+    /// The level each tile should keep if the budget allows (see [`Engine::kept_levels`]).
+    kept: &'e HashMap<TileId, usize>,
 }
 
 impl FrameInputs<'_> {
@@ -606,17 +630,18 @@ impl FrameInputs<'_> {
             .collect()
     }
 
-    /// Each tile's level errors and its pixels per metre at `distance`: what sharing the
-    /// budget by error weighs, for the frame and for the predicted view alike.
+    /// Each tile's level errors, its pixels per metre at `distance` and its kept level: what
+    /// sharing the budget by error weighs, for the frame and for the predicted view alike.
     fn tile_errors<'t>(
         &self,
         camera: &Camera,
-        tiles: impl Iterator<Item = (&'t ResidentTile, f64)>,
+        tiles: impl Iterator<Item = (TileId, &'t ResidentTile, f64)>,
     ) -> Vec<TileErrors<'t>> {
         tiles
-            .map(|(tile, distance)| TileErrors {
+            .map(|(id, tile, distance)| TileErrors {
                 metres: &tile.level_errors,
                 pixels_per_metre: self.pixels_per_metre(camera, distance),
+                kept: self.kept.get(&id).copied(),
             })
             .collect()
     }
@@ -673,7 +698,7 @@ fn plan_frame<'p>(
         .zip(&needed)
         .map(|((_, tile, _), &level)| tile.finest_mask_level().max(level))
         .collect();
-    let errors = inputs.tile_errors(camera, visible.iter().map(|&(_, t, d)| (t, d)));
+    let errors = inputs.tile_errors(camera, visible.iter().copied());
     let pixels_per_metre: Vec<f64> = errors.iter().map(|e| e.pixels_per_metre).collect();
     let share = |caps: &[usize]| {
         inputs
@@ -845,6 +870,12 @@ pub fn levels_for_mask(level: usize, levels: usize) -> usize {
     levels - spacing_log2.min(levels - 1)
 }
 
+/// The finest mask level a tile holding `held` of its `levels` progressive levels draws: every
+/// `2^(levels - held)`-th sample.
+fn finest_mask_for_levels(held: usize, levels: usize) -> usize {
+    (1 << levels.saturating_sub(held.max(1))) - 1
+}
+
 /// Wishes for the coarsest level of the tiles a view needs but nobody holds: those of the belts
 /// up to the one being filled whose boxes, at the archive's height range, meet the frustum.
 fn absent_wants(
@@ -932,7 +963,9 @@ fn predicted_wants(inputs: &FrameInputs<'_>, view: &PredictedView, aspect: f64) 
     // is what the frame will draw when the eye gets there.
     let errors = inputs.tile_errors(
         &view.camera,
-        seen.iter().zip(&measures).map(|(s, m)| (s.1, m.distance)),
+        seen.iter()
+            .zip(&measures)
+            .map(|(s, m)| (s.0, s.1, m.distance)),
     );
     let offered =
         inputs

@@ -407,3 +407,46 @@ proptest! {
         prop_assert_eq!(p.resident().stats().errors, 0, "{:?}", p.resident().last_error());
     }
 }
+
+#[test]
+fn a_transfer_not_started_is_cancelled_as_soon_as_its_tile_leaves_the_views() {
+    let loader = Synthetic::default();
+    let clock = PerFetch(Arc::clone(&loader.fetched));
+    let config = PagerConfig::new(1 << 20, PagerMode::Simulated { queue_depth: 2 });
+    let mut p = StreamPager::new(
+        loader,
+        Grid::new(2, 1).unwrap(),
+        config,
+        StreamSettings::default(),
+    )
+    .unwrap();
+    p.set_transfer_clock(Arc::new(clock));
+    let frame = |p: &mut StreamPager<Synthetic>, t: f64, wants: &[Want]| {
+        p.set_time(t);
+        p.update((0.5, 0.5));
+        p.request(wants);
+    };
+    // The belts bring both tiles' coarsest levels, one after the other.
+    for k in 0..3 {
+        frame(&mut p, SECONDS_PER_FETCH * f64::from(k), &[]);
+    }
+    assert_eq!(p.held_levels(TileId::new(1, 0)), 1);
+    // Both tiles are asked up to 4 levels: the link carries the first, the second waits.
+    let sent = 3.0 * SECONDS_PER_FETCH;
+    frame(&mut p, sent, &[want(0, 0, 4, 0.9), want(1, 0, 4, 0.5)]);
+    assert_eq!(p.resident().stats().fetching, 2);
+    // Tile (1, 0) leaves the view at once: its transfer had not started, so it goes now,
+    // without waiting for the hold, and no byte of it crossed the link.
+    frame(&mut p, sent + 0.1, &[want(0, 0, 4, 0.9)]);
+    let stats = p.stream_stats();
+    assert_eq!(stats.cancelled_in_flight, 1, "{stats:?}");
+    assert_eq!(stats.cut_bytes, 0);
+    assert_eq!(p.resident().stats().fetching, 1);
+    // Tile (0, 0)'s transfer is under way: it stays through the hold.
+    frame(&mut p, sent + 0.2, &[]);
+    assert_eq!(p.resident().stats().fetching, 1);
+    frame(&mut p, sent + SECONDS_PER_FETCH, &[]);
+    assert_eq!(p.held_levels(TileId::new(0, 0)), 4);
+    assert_eq!(p.held_levels(TileId::new(1, 0)), 1);
+    check_accounting(&p);
+}

@@ -372,6 +372,10 @@ impl Engine {
             masks: &self.masks,
             weights: self.settings.weights,
             budget: self.budget.budget(),
+            wish_budget: match self.settings.streaming {
+                Streaming::Belts => self.budget.budget(),
+                Streaming::Progressive(_) => self.budget.heading(),
+            },
             forced_levels: self.forced_levels.as_deref(),
             max_error: self.settings.max_error,
             allocation: self.settings.allocation,
@@ -593,6 +597,9 @@ struct FrameInputs<'e> {
     weights: Weights,
     /// This frame's triangle budget.
     budget: usize,
+    /// The budget streaming wishes by: where the controller is heading, so that a level
+    /// fetched now is one the frames it arrives for can draw.
+    wish_budget: usize,
     /// Levels pinned per tile instead of the budget's choice.
     forced_levels: Option<&'e (dyn Fn(TileId) -> usize + Send)>,
     /// The pixel-error bound τ.
@@ -655,9 +662,10 @@ struct FramePlan<'p> {
     importance: Vec<f64>,
     /// The levels drawn.
     allocation: Vec<TileAllocation>,
-    /// The levels the budget offered: a tile drawn coarser is capped by what it holds, and
-    /// streaming asks for the levels it lacks.
+    /// The levels the budget offered: a tile drawn coarser is capped by what it holds.
     offered: Vec<TileAllocation>,
+    /// The levels the budget streaming wishes by offers: streaming asks for what they lack.
+    wished: Vec<TileAllocation>,
     /// Per tile, pixels per metre of height error at its distance.
     pixels_per_metre: Vec<f64>,
     budget: usize,
@@ -700,16 +708,21 @@ fn plan_frame<'p>(
         .collect();
     let errors = inputs.tile_errors(camera, visible.iter().copied());
     let pixels_per_metre: Vec<f64> = errors.iter().map(|e| e.pixels_per_metre).collect();
-    let share = |caps: &[usize]| {
+    let share = |budget: usize, caps: &[usize]| {
         inputs
             .allocation
-            .share(inputs.budget, &importance, inputs.masks, &errors, caps)
+            .share(budget, &importance, inputs.masks, &errors, caps)
     };
-    let mut allocation = share(&finest);
+    let mut allocation = share(inputs.budget, &finest);
     let mut offered = if partial.is_some() {
-        share(&needed)
+        share(inputs.budget, &needed)
     } else {
         allocation.clone()
+    };
+    let mut wished = if inputs.wish_budget == inputs.budget {
+        offered.clone()
+    } else {
+        share(inputs.wish_budget, &needed)
     };
     let bound = match inputs.max_error {
         _ if need > inputs.budget || inputs.forced_levels.is_some() => Bound::Budget,
@@ -717,9 +730,15 @@ fn plan_frame<'p>(
         ErrorBound::Pixels(_) => Bound::Error,
     };
     if let Some(level_of) = inputs.forced_levels {
-        for ((a, o), &(id, tile, _)) in allocation.iter_mut().zip(&mut offered).zip(&visible) {
+        for (((a, o), w), &(id, tile, _)) in allocation
+            .iter_mut()
+            .zip(&mut offered)
+            .zip(&mut wished)
+            .zip(&visible)
+        {
             let pinned = level_of(id);
             o.level = drawable_level(pinned, 0, partial.is_some());
+            w.level = o.level;
             a.level = drawable_level(pinned, tile.finest_mask_level(), partial.is_some());
             a.triangles = inputs.masks.triangle_count(a.level);
         }
@@ -729,6 +748,7 @@ fn plan_frame<'p>(
         importance: importance.values,
         allocation,
         offered,
+        wished,
         pixels_per_metre,
         budget: inputs.budget,
         need,
@@ -790,9 +810,9 @@ impl<'p> FramePlan<'p> {
     }
 }
 
-/// What a progressive pager should fetch for this frame: the levels the budget offered each
-/// tile in view, the coarsest level of absent tiles the view meets, and the same for the
-/// predicted view at half weight.
+/// What a progressive pager should fetch for this frame: the levels the budget the controller
+/// is heading for offers each tile in view, the coarsest level of absent tiles the view meets,
+/// and the same for the predicted view at half weight.
 fn streaming_wants(
     inputs: &FrameInputs<'_>,
     grid: Grid,
@@ -806,7 +826,7 @@ fn streaming_wants(
     let mut wants: Vec<Want> = plan
         .visible
         .iter()
-        .zip(&plan.offered)
+        .zip(&plan.wished)
         .zip(&plan.importance)
         .map(|((&(id, _, _), o), &priority)| Want {
             id,
@@ -959,18 +979,22 @@ fn predicted_wants(inputs: &FrameInputs<'_>, view: &PredictedView, aspect: f64) 
         &view.camera,
         seen.iter().zip(&measures).map(|(s, m)| (s.1, m.distance)),
     );
-    // The predicted view shares the budget as the frame does, so that what it asks for ahead
-    // is what the frame will draw when the eye gets there.
+    // The predicted view shares the budget the way the frame does (by the budget the
+    // controller is heading for, as the view's wishes), so that what it asks for ahead is what
+    // the frame will draw when the eye gets there.
     let errors = inputs.tile_errors(
         &view.camera,
         seen.iter()
             .zip(&measures)
             .map(|(s, m)| (s.0, s.1, m.distance)),
     );
-    let offered =
-        inputs
-            .allocation
-            .share(inputs.budget, &importance, inputs.masks, &errors, &needed);
+    let offered = inputs.allocation.share(
+        inputs.wish_budget,
+        &importance,
+        inputs.masks,
+        &errors,
+        &needed,
+    );
     let levels = progressive_levels(terrain.tile_size);
     seen.iter()
         .zip(&offered)

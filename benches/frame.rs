@@ -113,6 +113,7 @@ fn bookkeeping(
         .map(|(&tile, m)| TileErrors {
             metres: &scene.level_errors[tile],
             pixels_per_metre: FOCAL_PX / m.distance.max(20.0),
+            kept: None,
         })
         .collect();
     frame.finest.clear();

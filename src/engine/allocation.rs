@@ -42,8 +42,8 @@ named_enum!(Allocation, "allocation", {
     Error => "error",
 });
 
-/// What the error allocation knows of one tile: its levels' geometric errors and how many
-/// pixels a metre of error spans at its distance.
+/// What the error allocation knows of one tile: its levels' geometric errors, how many pixels
+/// a metre of error spans at its distance, and the level it should keep if it can.
 #[derive(Clone, Copy, Debug)]
 pub struct TileErrors<'a> {
     /// Per mask level, the largest height difference to the full tile, metres (the archive's
@@ -51,7 +51,18 @@ pub struct TileErrors<'a> {
     pub metres: &'a [f32],
     /// Pixels per metre of height error at the tile's distance from the eye.
     pub pixels_per_metre: f64,
+    /// The level the tile was drawn at last, or holds fresh and has not drawn yet: moves up to
+    /// it count its error [`KEEP_BONUS`] larger, so a budget that shifts a little from frame to
+    /// frame takes its triangles from other tiles first (`None`: no preference).
+    pub kept: Option<usize>,
 }
+
+/// How much larger a move towards a tile's kept level counts its error: the hysteresis of the
+/// drawn level. The budget moves by a few percent from frame to frame, and the last move it
+/// affords flips with it; with the bonus, a tile keeps its level unless another tile's error is
+/// this much larger, and the largest error drawn is at most this much above the smallest the
+/// budget allows.
+pub const KEEP_BONUS: f64 = 0.5;
 
 impl TileErrors<'_> {
     /// Level `level`'s error on screen, pixels; a level without a known error counts as
@@ -86,8 +97,9 @@ impl Allocation {
     }
 }
 
-/// One tile's next move on the heap: the error it has now (the largest moves first), then its
-/// rank in importance order (the more important first).
+/// One tile's next move on the heap: the error it has now, larger by [`KEEP_BONUS`] for a move
+/// towards its kept level (the largest moves first), then its rank in importance order (the
+/// more important first).
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Move {
     error_px: f64,
@@ -125,7 +137,9 @@ impl PartialOrd for Move {
 /// forced for any allocation whose largest error is below the current one, and the move that
 /// ends the descent is unaffordable. What the pool holds then goes, in importance order, to the
 /// finest affordable level within each cap whose error is no larger (finer texture and shading
-/// at no cost in error).
+/// at no cost in error). A tile with a kept level ([`TileErrors::kept`]) moves towards it as if
+/// its error were [`KEEP_BONUS`] larger, so the largest error is then at most that much above
+/// the smallest.
 pub fn allocate_by_error(
     budget: usize,
     importance: &Importance,
@@ -164,7 +178,12 @@ pub fn allocate_by_error(
             }
         }
         best.map(|(to, _, _)| Move {
-            error_px: now,
+            // A move no finer than the kept level is one the tile made before.
+            error_px: if errors[t].kept.is_some_and(|k| to >= k) {
+                now * (1.0 + KEEP_BONUS)
+            } else {
+                now
+            },
             rank: 0,
             tile: t,
             to,
@@ -245,10 +264,12 @@ mod tests {
             TileErrors {
                 metres: &rugged,
                 pixels_per_metre: 10.0,
+                kept: None,
             },
             TileErrors {
                 metres: &rugged,
                 pixels_per_metre: 1.0,
+                kept: None,
             },
         ];
         let by_importance = allocate_capped(40, &imp, &masks, &[0, 0]);
@@ -270,6 +291,7 @@ mod tests {
         let errors = [TileErrors {
             metres: &plateau,
             pixels_per_metre: 1.0,
+            kept: None,
         }];
         // 10 triangles: levels 6 to 3 (8) are affordable but no better than 7, level 2 (18)
         // is not.
@@ -287,6 +309,53 @@ mod tests {
         assert_eq!(a[0].level, 3);
         let a = allocate_by_error(1_000, &imp, &masks, &errors, &[0]);
         assert_eq!(a[0].level, 0);
+    }
+
+    #[test]
+    fn a_tile_keeps_a_fresh_level_when_the_budget_dips_below_both_moves() {
+        // 9 x 9 tiles: both tiles reach level 3 (8 triangles) with 16; the next move of
+        // either, to level 2 (18), costs 10 more, and 26 pays for one of them only.
+        let masks = MaskSet::new(9, LevelSet::All);
+        let rugged = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0];
+        let imp = Importance {
+            values: vec![0.5, 0.5],
+            order: vec![0, 1],
+        };
+        let errors = |kept: Option<usize>| {
+            [
+                // Tile 0's errors span a little more: without a preference it refines first.
+                TileErrors {
+                    metres: &rugged,
+                    pixels_per_metre: 1.05,
+                    kept: None,
+                },
+                TileErrors {
+                    metres: &rugged,
+                    pixels_per_metre: 1.0,
+                    kept,
+                },
+            ]
+        };
+        let levels = |a: Vec<TileAllocation>| (a[0].level, a[1].level);
+        let none = errors(None);
+        assert_eq!(
+            levels(allocate_by_error(26, &imp, &masks, &none, &[0, 0])),
+            (2, 3)
+        );
+        // Tile 1 holds level 2 fresh: it keeps it, and tile 0 waits.
+        let kept = errors(Some(2));
+        let a = allocate_by_error(26, &imp, &masks, &kept, &[0, 0]);
+        assert!(
+            worst(&a, &kept)
+                <= (1.0 + KEEP_BONUS)
+                    * worst(&allocate_by_error(26, &imp, &masks, &none, &[0, 0]), &none)
+        );
+        assert_eq!(levels(a), (3, 2));
+        // A budget that pays for both moves refines both, kept or not.
+        assert_eq!(
+            levels(allocate_by_error(36, &imp, &masks, &kept, &[0, 0])),
+            (2, 2)
+        );
     }
 
     #[test]
@@ -336,6 +405,7 @@ mod tests {
             (s, set, tiles) in frame(),
             fraction in 0.0..1.3f64,
             caps in prop::collection::vec(0usize..64, 40),
+            kept in prop::collection::vec(prop::option::of(0usize..64), 40),
         ) {
             let masks = MaskSet::new(s, set);
             let measures: Vec<TileMeasure> = tiles
@@ -348,7 +418,7 @@ mod tests {
             let errors: Vec<TileErrors> = tiles
                 .iter()
                 .zip(&metres)
-                .map(|(t, m)| TileErrors { metres: m, pixels_per_metre: t.2 })
+                .map(|(t, m)| TileErrors { metres: m, pixels_per_metre: t.2, kept: None })
                 .collect();
             let levels = masks.levels();
             let finest: Vec<usize> = (0..tiles.len())
@@ -363,6 +433,19 @@ mod tests {
             prop_assert!(
                 worst(&a, &errors) <= worst(&by_importance, &errors),
                 "error {} against importance {}", worst(&a, &errors), worst(&by_importance, &errors)
+            );
+            // Kept levels: still within the budget and the caps, and the largest error at
+            // most the bonus above the smallest.
+            let keeping: Vec<TileErrors> = errors
+                .iter()
+                .zip(&kept)
+                .map(|(e, k)| TileErrors { kept: k.map(|k| levels[k % levels.len()]), ..*e })
+                .collect();
+            let k = allocate_by_error(budget, &imp, &masks, &keeping, &finest);
+            check_allocation(&k, budget, &masks, &finest)?;
+            prop_assert!(
+                worst(&k, &errors) <= (1.0 + KEEP_BONUS) * worst(&a, &errors) * (1.0 + 1e-9),
+                "kept {} against {}", worst(&k, &errors), worst(&a, &errors)
             );
             if budget >= all {
                 // Every tile as exact as its cap allows.

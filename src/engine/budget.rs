@@ -120,6 +120,20 @@ impl BudgetController {
         self.budget
     }
 
+    /// The budget the controller is heading for: the one its fit says holds the target frame
+    /// rate, within the limits (the current budget before any frame was timed). It moves
+    /// there over several frames; what streams in for the next second is asked for by it.
+    pub fn heading(&self) -> usize {
+        match self.cost {
+            Some(cost) if cost > 0.0 => {
+                let target = 1.0 / self.settings.target_fps;
+                (((target - self.overhead) / cost).max(0.0) as usize)
+                    .clamp(self.settings.min_budget, self.settings.max_budget)
+            }
+            _ => self.budget,
+        }
+    }
+
     /// The estimated per-frame time that does not depend on triangles, in seconds.
     pub fn overhead(&self) -> f64 {
         self.overhead
@@ -521,6 +535,30 @@ pub(crate) mod tests {
         );
         let cost = controller.cost_per_triangle().unwrap();
         assert!((cost / 2e-6 - 1.0).abs() < 0.01, "{cost}");
+    }
+
+    #[test]
+    fn the_heading_is_where_the_budget_settles_before_it_gets_there() {
+        let mut c = BudgetController::new(BudgetSettings {
+            target_fps: 25.0,
+            initial_budget: 1_000,
+            ..BudgetSettings::default()
+        });
+        assert_eq!(c.heading(), 1_000, "nothing timed yet");
+        // 1,000 triangles in 10 ms: 4,000 hold 25 fps, and the budget moves at most twofold.
+        c.record(0.01, 1_000);
+        assert_eq!(c.budget(), 2_000);
+        assert!((3_990..=4_000).contains(&c.heading()), "{}", c.heading());
+        for _ in 0..20 {
+            let b = c.budget();
+            c.record(1e-5 * b as f64, b);
+        }
+        assert!(
+            c.budget().abs_diff(c.heading()) <= c.heading() / 25,
+            "settled at {} heading {}",
+            c.budget(),
+            c.heading()
+        );
     }
 
     #[test]

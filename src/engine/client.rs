@@ -7,6 +7,7 @@
 //!        pager (belts) <── tile source
 //! ```
 
+use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -364,17 +365,23 @@ impl Engine {
         let (width, height) = target.size();
         let aspect = f64::from(width) / f64::from(height);
         let predicted = self.predict(&camera);
+        let kept = self.kept_levels();
         let inputs = FrameInputs {
             pager: &*self.pager,
             terrain: &self.terrain,
             masks: &self.masks,
             weights: self.settings.weights,
             budget: self.budget.budget(),
+            wish_budget: match self.settings.streaming {
+                Streaming::Belts => self.budget.budget(),
+                Streaming::Progressive(_) => self.budget.heading(),
+            },
             forced_levels: self.forced_levels.as_deref(),
             max_error: self.settings.max_error,
             allocation: self.settings.allocation,
             height,
             clearance: self.settings.clearance,
+            kept: &kept,
         };
         let plan = plan_frame(&inputs, &camera, aspect, self.morpher.is_some())?;
         let wants = match self.settings.streaming {
@@ -457,6 +464,25 @@ impl Engine {
             .collect();
         self.pager.request(wants);
         self.pager.drawn(&drawn);
+    }
+
+    /// The level each tile should keep if the budget allows, when streaming progressively:
+    /// the finest mask its levels that arrived within the last second allow. A fetched level
+    /// is worth drawing for a second: the budget shifts a little every frame and would
+    /// otherwise draw a tile one level coarser than it just fetched.
+    fn kept_levels(&self) -> HashMap<TileId, usize> {
+        let Some(stats) = self.pager.stream_stats() else {
+            return HashMap::new();
+        };
+        let levels = progressive_levels(self.terrain.tile_size);
+        let mut kept: HashMap<TileId, usize> = HashMap::new();
+        for (id, held) in stats.fresh() {
+            let level = finest_mask_for_levels(held, levels);
+            kept.entry(id)
+                .and_modify(|l| *l = (*l).min(level))
+                .or_insert(level);
+        }
+        kept
     }
 
     /// Switches the crack mode between frames. Loaded tiles are refit in place (skirt vertices
@@ -571,6 +597,9 @@ struct FrameInputs<'e> {
     weights: Weights,
     /// This frame's triangle budget.
     budget: usize,
+    /// The budget streaming wishes by: where the controller is heading, so that a level
+    /// fetched now is one the frames it arrives for can draw.
+    wish_budget: usize,
     /// Levels pinned per tile instead of the budget's choice.
     forced_levels: Option<&'e (dyn Fn(TileId) -> usize + Send)>,
     /// The pixel-error bound τ.
@@ -581,6 +610,8 @@ struct FrameInputs<'e> {
     height: u32,
     /// No tile is seen from nearer than this (the eye's clearance), metres.
     clearance: f64,
+    /// The level each tile should keep if the budget allows (see [`Engine::kept_levels`]).
+    kept: &'e HashMap<TileId, usize>,
 }
 
 impl FrameInputs<'_> {
@@ -606,17 +637,18 @@ impl FrameInputs<'_> {
             .collect()
     }
 
-    /// Each tile's level errors and its pixels per metre at `distance`: what sharing the
-    /// budget by error weighs, for the frame and for the predicted view alike.
+    /// Each tile's level errors, its pixels per metre at `distance` and its kept level: what
+    /// sharing the budget by error weighs, for the frame and for the predicted view alike.
     fn tile_errors<'t>(
         &self,
         camera: &Camera,
-        tiles: impl Iterator<Item = (&'t ResidentTile, f64)>,
+        tiles: impl Iterator<Item = (TileId, &'t ResidentTile, f64)>,
     ) -> Vec<TileErrors<'t>> {
         tiles
-            .map(|(tile, distance)| TileErrors {
+            .map(|(id, tile, distance)| TileErrors {
                 metres: &tile.level_errors,
                 pixels_per_metre: self.pixels_per_metre(camera, distance),
+                kept: self.kept.get(&id).copied(),
             })
             .collect()
     }
@@ -630,9 +662,10 @@ struct FramePlan<'p> {
     importance: Vec<f64>,
     /// The levels drawn.
     allocation: Vec<TileAllocation>,
-    /// The levels the budget offered: a tile drawn coarser is capped by what it holds, and
-    /// streaming asks for the levels it lacks.
+    /// The levels the budget offered: a tile drawn coarser is capped by what it holds.
     offered: Vec<TileAllocation>,
+    /// The levels the budget streaming wishes by offers: streaming asks for what they lack.
+    wished: Vec<TileAllocation>,
     /// Per tile, pixels per metre of height error at its distance.
     pixels_per_metre: Vec<f64>,
     budget: usize,
@@ -673,18 +706,23 @@ fn plan_frame<'p>(
         .zip(&needed)
         .map(|((_, tile, _), &level)| tile.finest_mask_level().max(level))
         .collect();
-    let errors = inputs.tile_errors(camera, visible.iter().map(|&(_, t, d)| (t, d)));
+    let errors = inputs.tile_errors(camera, visible.iter().copied());
     let pixels_per_metre: Vec<f64> = errors.iter().map(|e| e.pixels_per_metre).collect();
-    let share = |caps: &[usize]| {
+    let share = |budget: usize, caps: &[usize]| {
         inputs
             .allocation
-            .share(inputs.budget, &importance, inputs.masks, &errors, caps)
+            .share(budget, &importance, inputs.masks, &errors, caps)
     };
-    let mut allocation = share(&finest);
+    let mut allocation = share(inputs.budget, &finest);
     let mut offered = if partial.is_some() {
-        share(&needed)
+        share(inputs.budget, &needed)
     } else {
         allocation.clone()
+    };
+    let mut wished = if inputs.wish_budget == inputs.budget {
+        offered.clone()
+    } else {
+        share(inputs.wish_budget, &needed)
     };
     let bound = match inputs.max_error {
         _ if need > inputs.budget || inputs.forced_levels.is_some() => Bound::Budget,
@@ -692,9 +730,15 @@ fn plan_frame<'p>(
         ErrorBound::Pixels(_) => Bound::Error,
     };
     if let Some(level_of) = inputs.forced_levels {
-        for ((a, o), &(id, tile, _)) in allocation.iter_mut().zip(&mut offered).zip(&visible) {
+        for (((a, o), w), &(id, tile, _)) in allocation
+            .iter_mut()
+            .zip(&mut offered)
+            .zip(&mut wished)
+            .zip(&visible)
+        {
             let pinned = level_of(id);
             o.level = drawable_level(pinned, 0, partial.is_some());
+            w.level = o.level;
             a.level = drawable_level(pinned, tile.finest_mask_level(), partial.is_some());
             a.triangles = inputs.masks.triangle_count(a.level);
         }
@@ -704,6 +748,7 @@ fn plan_frame<'p>(
         importance: importance.values,
         allocation,
         offered,
+        wished,
         pixels_per_metre,
         budget: inputs.budget,
         need,
@@ -765,9 +810,9 @@ impl<'p> FramePlan<'p> {
     }
 }
 
-/// What a progressive pager should fetch for this frame: the levels the budget offered each
-/// tile in view, the coarsest level of absent tiles the view meets, and the same for the
-/// predicted view at half weight.
+/// What a progressive pager should fetch for this frame: the levels the budget the controller
+/// is heading for offers each tile in view, the coarsest level of absent tiles the view meets,
+/// and the same for the predicted view at half weight.
 fn streaming_wants(
     inputs: &FrameInputs<'_>,
     grid: Grid,
@@ -781,7 +826,7 @@ fn streaming_wants(
     let mut wants: Vec<Want> = plan
         .visible
         .iter()
-        .zip(&plan.offered)
+        .zip(&plan.wished)
         .zip(&plan.importance)
         .map(|((&(id, _, _), o), &priority)| Want {
             id,
@@ -843,6 +888,12 @@ fn cull<'p>(
 pub fn levels_for_mask(level: usize, levels: usize) -> usize {
     let spacing_log2 = (level + 1).trailing_zeros() as usize;
     levels - spacing_log2.min(levels - 1)
+}
+
+/// The finest mask level a tile holding `held` of its `levels` progressive levels draws: every
+/// `2^(levels - held)`-th sample.
+fn finest_mask_for_levels(held: usize, levels: usize) -> usize {
+    (1 << levels.saturating_sub(held.max(1))) - 1
 }
 
 /// Wishes for the coarsest level of the tiles a view needs but nobody holds: those of the belts
@@ -928,16 +979,22 @@ fn predicted_wants(inputs: &FrameInputs<'_>, view: &PredictedView, aspect: f64) 
         &view.camera,
         seen.iter().zip(&measures).map(|(s, m)| (s.1, m.distance)),
     );
-    // The predicted view shares the budget as the frame does, so that what it asks for ahead
-    // is what the frame will draw when the eye gets there.
+    // The predicted view shares the budget the way the frame does (by the budget the
+    // controller is heading for, as the view's wishes), so that what it asks for ahead is what
+    // the frame will draw when the eye gets there.
     let errors = inputs.tile_errors(
         &view.camera,
-        seen.iter().zip(&measures).map(|(s, m)| (s.1, m.distance)),
+        seen.iter()
+            .zip(&measures)
+            .map(|(s, m)| (s.0, s.1, m.distance)),
     );
-    let offered =
-        inputs
-            .allocation
-            .share(inputs.budget, &importance, inputs.masks, &errors, &needed);
+    let offered = inputs.allocation.share(
+        inputs.wish_budget,
+        &importance,
+        inputs.masks,
+        &errors,
+        &needed,
+    );
     let levels = progressive_levels(terrain.tile_size);
     seen.iter()
         .zip(&offered)

@@ -320,24 +320,33 @@ impl TransferClock for PerFetch {
     }
 }
 
-#[test]
-fn a_request_on_its_way_is_cancelled_once_its_tile_stops_mattering() {
+/// A pager over `tiles` x 1 tiles on a simulated link carrying `queue_depth` requests, each
+/// taking [`SECONDS_PER_FETCH`].
+fn simulated(tiles: u32, queue_depth: usize) -> StreamPager<Synthetic> {
     let loader = Synthetic::default();
     let clock = PerFetch(Arc::clone(&loader.fetched));
-    let config = PagerConfig::new(1 << 20, PagerMode::Simulated { queue_depth: 1 });
+    let config = PagerConfig::new(1 << 20, PagerMode::Simulated { queue_depth });
     let mut p = StreamPager::new(
         loader,
-        Grid::new(1, 1).unwrap(),
+        Grid::new(tiles, 1).unwrap(),
         config,
         StreamSettings::default(),
     )
     .unwrap();
     p.set_transfer_clock(Arc::new(clock));
-    let frame = |p: &mut StreamPager<Synthetic>, t: f64, wants: &[Want]| {
-        p.set_time(t);
-        p.update((0.5, 0.5));
-        p.request(wants);
-    };
+    p
+}
+
+/// One frame at `t` seconds with the viewer on tile (0, 0), wishing `wants`.
+fn frame(p: &mut StreamPager<Synthetic>, t: f64, wants: &[Want]) {
+    p.set_time(t);
+    p.update((0.5, 0.5));
+    p.request(wants);
+}
+
+#[test]
+fn a_request_on_its_way_is_cancelled_once_its_tile_stops_mattering() {
+    let mut p = simulated(1, 1);
     frame(&mut p, 0.0, &[]);
     frame(&mut p, SECONDS_PER_FETCH, &[want(0, 0, 4, 0.5)]);
     assert_eq!(p.held_levels(TileId::new(0, 0)), 1);
@@ -406,4 +415,32 @@ proptest! {
         }
         prop_assert_eq!(p.resident().stats().errors, 0, "{:?}", p.resident().last_error());
     }
+}
+
+#[test]
+fn a_transfer_not_started_is_cancelled_as_soon_as_its_tile_leaves_the_views() {
+    let mut p = simulated(2, 2);
+    // The belts bring both tiles' coarsest levels, one after the other.
+    for k in 0..3 {
+        frame(&mut p, SECONDS_PER_FETCH * f64::from(k), &[]);
+    }
+    assert_eq!(p.held_levels(TileId::new(1, 0)), 1);
+    // Both tiles are asked up to 4 levels: the link carries the first, the second waits.
+    let sent = 3.0 * SECONDS_PER_FETCH;
+    frame(&mut p, sent, &[want(0, 0, 4, 0.9), want(1, 0, 4, 0.5)]);
+    assert_eq!(p.resident().stats().fetching, 2);
+    // Tile (1, 0) leaves the view at once: its transfer had not started, so it goes now,
+    // without waiting for the hold, and no byte of it crossed the link.
+    frame(&mut p, sent + 0.1, &[want(0, 0, 4, 0.9)]);
+    let stats = p.stream_stats();
+    assert_eq!(stats.cancelled_in_flight, 1, "{stats:?}");
+    assert_eq!(stats.cut_bytes, 0);
+    assert_eq!(p.resident().stats().fetching, 1);
+    // Tile (0, 0)'s transfer is under way: it stays through the hold.
+    frame(&mut p, sent + 0.2, &[]);
+    assert_eq!(p.resident().stats().fetching, 1);
+    frame(&mut p, sent + SECONDS_PER_FETCH, &[]);
+    assert_eq!(p.held_levels(TileId::new(0, 0)), 4);
+    assert_eq!(p.held_levels(TileId::new(1, 0)), 1);
+    check_accounting(&p);
 }

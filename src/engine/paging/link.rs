@@ -114,6 +114,16 @@ impl<R: Request, T: Send + 'static> Link<R, T> {
         });
     }
 
+    /// Whether the transfer of `request` on the simulated link has started by `time` (`None`
+    /// when the link holds no such transfer: a fetch thread's, or none).
+    pub fn started(&self, request: &R, time: f64) -> Option<bool>
+    where
+        R: PartialEq,
+    {
+        let p = self.pending.iter().find(|p| p.request == *request)?;
+        Some(p.due - p.took < time)
+    }
+
     /// Drops the transfer of `request` on the simulated link at `time`: one not yet started
     /// never crosses the link, one under way stops now, and the transfers behind it move up.
     /// Returns the bytes that had crossed the link, or `None` when the link cannot cancel it

@@ -22,7 +22,8 @@
 //!    tile of belt `d_c + 1` (Algorithm 1 at the coarsest level, while the coarse square takes
 //!    at most [`StreamSettings::square_share`] of the memory) comes when nothing a view asks
 //!    for waits — cancels the requests on their way that bring more than their tile is still
-//!    wished (where the link can: the simulated link drops the transfer), re-prioritises its
+//!    wished, or whose tile no view asks for and whose transfer has not started (where the
+//!    link can: the simulated link drops the transfer), re-prioritises its
 //!    bounded [`RequestQueue`] with them, cancelling what fell out before it was sent, and sends
 //!    the best while the link has room;
 //! 4. [`StreamPager::drawn`] hears which levels the frame used, for the share of received
@@ -343,7 +344,7 @@ impl<L: LevelLoader> StreamPager<L> {
             let levels = view.entry(w.id).or_default();
             *levels = (*levels).max(w.levels);
         }
-        self.cancel_unwanted(&wanted, now);
+        self.cancel_unwanted(&wanted, &asks, now);
         let candidates = self.candidates(&wanted, &view);
         let cancelled = self.strategy.queue.reprioritise(candidates);
         self.strategy.stats.cancelled += cancelled.len() as u64;
@@ -365,14 +366,25 @@ impl<L: LevelLoader> StreamPager<L> {
     }
 
     /// Cancels, where the link allows, every request on its way that brings more levels than
-    /// its tile is wished now: its reservation is released, and the bytes that had crossed
-    /// the link count as received and never drawn.
-    fn cancel_unwanted(&mut self, wanted: &HashMap<TileId, Want>, now: f64) {
+    /// its tile is wished now, and every one not started yet whose tile this frame does not
+    /// ask for at all (`asks`: it left the views, and bytes that arrive while it is out of
+    /// them are not drawn; cancelling a transfer not started costs nothing): its reservation
+    /// is released, and the bytes that had crossed the link count as received and never drawn.
+    fn cancel_unwanted(
+        &mut self,
+        wanted: &HashMap<TileId, Want>,
+        asks: &HashMap<TileId, usize>,
+        now: f64,
+    ) {
+        let link = &self.link;
         let mut unwanted: Vec<(LevelFetch, Reason)> = self
             .strategy
             .flights
             .values()
-            .filter(|(f, _)| wanted.get(&f.id).map_or(0, |w| w.levels) < f.want)
+            .filter(|(f, _)| {
+                wanted.get(&f.id).map_or(0, |w| w.levels) < f.want
+                    || (!asks.contains_key(&f.id) && link.started(f, now) == Some(false))
+            })
             .copied()
             .collect();
         unwanted.sort_by_key(|(f, _)| f.id);

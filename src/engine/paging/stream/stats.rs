@@ -122,6 +122,12 @@ impl StreamStats {
         }
     }
 
+    /// The deliveries still inside their window (drawn or not): each tile and the levels it
+    /// held after the delivery. A level fetched this recently is worth keeping on screen.
+    pub fn fresh(&self) -> impl Iterator<Item = (TileId, usize)> + '_ {
+        self.open.iter().map(|(d, _)| (d.id, d.levels))
+    }
+
     /// Settles the deliveries whose windows have passed at `now`.
     pub fn settle(&mut self, now: f64) {
         let mut still = VecDeque::with_capacity(self.open.len());

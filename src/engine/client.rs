@@ -17,7 +17,7 @@ use stripmask_raster::{DrawStats, DrawTarget, Framebuffer, LineStats, RasterTarg
 use crate::db::archive::ArchiveReader;
 use crate::db::grid::{Grid, TileId};
 use crate::db::source::TileSource;
-use crate::db::tile::{PartialGrid, progressive_levels};
+use crate::db::tile::{PartialGrid, levels_for_mask, progressive_levels};
 use crate::engine::allocation::{Allocation, TileErrors};
 use crate::engine::budget::{BudgetController, BudgetSettings, TileAllocation, drawable_level};
 use crate::engine::camera::Camera;
@@ -881,13 +881,6 @@ fn cull<'p>(
         }
     }
     (visible, measures)
-}
-
-/// The progressive levels (of `levels` in all) a tile needs to draw mask `level`: a mask keeping
-/// every `l + 1`-th sample needs the grid whose spacing divides `l + 1`.
-pub fn levels_for_mask(level: usize, levels: usize) -> usize {
-    let spacing_log2 = (level + 1).trailing_zeros() as usize;
-    levels - spacing_log2.min(levels - 1)
 }
 
 /// The finest mask level a tile holding `held` of its `levels` progressive levels draws: every

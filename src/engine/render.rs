@@ -253,6 +253,8 @@ pub fn draw_tiles<T: DrawTarget>(
         let mode = meshes.cracks.mode();
         let mut frame_held = PartialMeshes::new();
         let held = meshes.partial.unwrap_or(&mut frame_held);
+        // The vertices of a tile lit for a coarser level than it holds, reused tile after tile.
+        let mut relit = Vec::new();
         for t in tiles.iter() {
             let stride = t.tile.stride();
             let (indices, topology) = if stride == 1 {
@@ -262,9 +264,13 @@ pub fn draw_tiles<T: DrawTarget>(
             };
             let (vertices, tile_transform) = match &mut morph {
                 Some((view, fine, morpher)) if stride == 1 => {
-                    (morphed(morpher, view, t), fine.tile(t.x, t.y)?)
+                    let lit = t.tile.lit_vertices(t.level, true, &mut relit);
+                    (morphed(morpher, view, t, lit), fine.tile(t.x, t.y)?)
                 }
-                _ => (&t.tile.vertices[..], transform.tile(t.x, t.y)?),
+                _ => (
+                    t.tile.lit_vertices(t.level, false, &mut relit),
+                    transform.tile(t.x, t.y)?,
+                ),
             };
             let mesh = Mesh {
                 vertices,
@@ -303,10 +309,15 @@ fn surface_settings(settings: &RenderSettings, fog: Option<Fog>) -> (RenderSetti
     }
 }
 
-/// Whole tile `t`'s vertices morphed for this frame, only the samples its level's mask reads
-/// (its stitches read a subset of them).
-fn morphed<'m>(morpher: &'m mut Morpher, view: &MorphView, t: &TileDraw<'_>) -> &'m [Vertex] {
-    morpher.tile(view, &t.tile.vertices, (t.x, t.y), t.level)
+/// Whole tile `t`'s `vertices` (lit for its level) morphed for this frame, only the samples its
+/// level's mask reads (its stitches read a subset of them).
+fn morphed<'m>(
+    morpher: &'m mut Morpher,
+    view: &MorphView,
+    t: &TileDraw<'_>,
+    vertices: &[Vertex],
+) -> &'m [Vertex] {
+    morpher.tile(view, vertices, (t.x, t.y), t.level)
 }
 
 /// The strip indices of partial tile `t` (levels held at a stride above one): its levels and
@@ -336,16 +347,22 @@ fn draw_shadows<'t, E: From<RasterError>>(
 ) -> Result<DrawStats, E> {
     let fine = FrameTransform::subdivided(camera, terrain, aspect, shadow::SUBDIVISION)?;
     let mut stats = DrawStats::default();
+    let mut relit = Vec::new();
     for t in tiles {
         let origin = terrain.tile_origin(t.x, t.y);
         let eye = (camera.position - origin)
             / DVec3::new(terrain.spacing, terrain.quantum, terrain.spacing);
-        let (Some(vertices), Ok(transform)) = (
+        let (Some(mut vertices), Ok(transform)) = (
             shadow::quad(&t.tile.vertices, t.tile.side(), eye),
             fine.tile(t.x, t.y),
         ) else {
             continue;
         };
+        // Lit like the tile's corners at the level it is drawn at.
+        let lit = t.tile.lit_vertices(t.level, false, &mut relit);
+        for (v, k) in vertices.iter_mut().zip(shadow::corners(t.tile.side())) {
+            v.color = lit[k].color;
+        }
         let mesh = Mesh {
             vertices: &vertices,
             indices: Indices::U16(&shadow::QUAD_STRIP),

@@ -4,18 +4,22 @@
 //! Vertices are tile-local integers: `(i, base + q, j)`, grid column, archive-wide height in
 //! quanta, grid row. The renderer places a tile with an integer model origin on one shared
 //! eye-relative matrix, so the border vertices two tiles share land on the same screen positions
-//! (see `stripmask_raster::Transform::with_origin`). Normals are computed once, when the tile is
-//! loaded, at the finest level it holds, as the paper does; every mask level reuses them. They
-//! are central differences everywhere, the border included: the tile's apron (the samples just
-//! outside its borders, stored by the builder) gives the other side, so two tiles holding the
-//! same level light the vertices they share alike and no line shows along their border.
+//! (see `stripmask_raster::Transform::with_origin`). Lighting is computed once, when the tile is
+//! loaded, for every progressive level it holds: each level's normals are central differences
+//! over that level's grid, the border included (the level's apron, the samples just outside
+//! the tile's borders stored by the builder, gives the other side). A tile drawn at a mask
+//! level is lit from the grid that mask needs ([`levels_for_mask`]), whole or partial: the
+//! prefiltered normals of the geometry drawn, so two tiles drawing the same level light the
+//! vertices they share alike (no line along their border), and a partial tile draws exactly
+//! the whole tile's pixels at the same level.
 
 use glam::DVec3;
 use stripmask_raster::{Texels, Texture, Vertex};
 
 use crate::db::rgb565::mip_count;
 use crate::db::tile::{
-    Apron, PartialGrid, Tile, level_mips, level_side, progressive_levels, texture_coordinate,
+    Apron, PartialGrid, Tile, level_mips, level_side, levels_for_mask, progressive_levels,
+    texture_coordinate,
 };
 use crate::engine::cracks::{CrackMode, skirts};
 
@@ -52,6 +56,10 @@ pub struct ResidentTile {
     pub vertices: Vec<Vertex>,
     /// Unit normals packed as `round(127 n)`, one per grid vertex.
     pub normals: Vec<[i8; 3]>,
+    /// Per coarser held level `g < levels - 1`, the light intensity of each of its
+    /// `(2^g + 1)^2` samples lit from that level's own grid: what a draw at a mask that needs
+    /// only level `g` colours its vertices with ([`ResidentTile::lit_vertices`]).
+    pub coarse_shades: Vec<Vec<u8>>,
     /// The texture from mip `texture_base` of the archive's chain down to 1 x 1.
     pub texture: Texture,
     /// Which mip of the archive's chain this tile's finest texture level is.
@@ -106,20 +114,23 @@ impl ResidentTile {
         cracks: CrackMode,
     ) -> ResidentTile {
         let (side, stride) = (tile.side(), tile.stride());
-        let normals = normals(tile, spacing * stride as f64);
-        let towards = light.direction.normalize_or(DVec3::Y);
+        let level_spacing = |g: usize| spacing * ((tile.tile_size - 1) >> g) as f64;
+        let normals = normals(tile, tile.levels - 1, level_spacing(tile.levels - 1));
+        let coarse_shades = (0..tile.levels - 1)
+            .map(|g| {
+                let normals = self::normals(tile, g, level_spacing(g));
+                normals.iter().map(|&n| shade(n, light)).collect()
+            })
+            .collect();
         let at = |i: usize| texture_coordinate(i * stride, tile.tile_size, tile.texture_size);
         let mut vertices: Vec<Vertex> = (0..side * side)
             .map(|k| {
                 let (i, j) = (k % side, k / side);
-                let n = normals[k].map(|c| f64::from(c) / 127.0);
-                let lit = DVec3::from_array(n).dot(towards).max(0.0);
-                let intensity = (light.ambient + (1.0 - light.ambient) * lit).clamp(0.0, 1.0);
                 let uv = [at(i), at(j)];
                 Vertex::new(
                     [(i * stride) as i32, tile.quanta(i, j), (j * stride) as i32],
                     uv,
-                    [(intensity * 255.0).round() as u8; 3],
+                    [shade(normals[k], light); 3],
                 )
             })
             .collect();
@@ -132,6 +143,7 @@ impl ResidentTile {
         ResidentTile {
             vertices,
             normals,
+            coarse_shades,
             texture: chain_from(tile, base),
             texture_base: base,
             min: tile.min,
@@ -231,12 +243,51 @@ impl ResidentTile {
 
     /// Bytes this tile holds: what the memory limit accounts.
     pub fn bytes(&self) -> usize {
+        let shades: usize = self.coarse_shades.iter().map(Vec::len).sum();
         resident_bytes(
             self.vertices.len(),
             self.normals.len(),
             self.level_errors.len(),
-            self.texture.byte_size() + self.apron.bytes(),
+            self.texture.byte_size() + self.apron.bytes() + shades,
         )
+    }
+
+    /// The vertices to draw mask `mask_level` (a whole-tile level the tile can draw) with,
+    /// lit from the grid that mask needs: [`Self::vertices`] when that is the held grid, else
+    /// `scratch`, as long as the vertices, holding every sample of that grid and the skirt
+    /// vertices under its border samples, coloured by [`Self::coarse_shades`]. Its other
+    /// entries are left as they were (the draw does not read them), or copied from the
+    /// vertices with `complete` (for a reader of every sample, such as the geomorph).
+    pub fn lit_vertices<'v>(
+        &'v self,
+        mask_level: usize,
+        complete: bool,
+        scratch: &'v mut Vec<Vertex>,
+    ) -> &'v [Vertex] {
+        let level = levels_for_mask(mask_level, progressive_levels(self.tile_size)) - 1;
+        if level + 1 >= self.levels {
+            return &self.vertices;
+        }
+        let (side, grid) = (self.side(), self.normals.len());
+        if complete {
+            scratch.clear();
+            scratch.extend_from_slice(&self.vertices);
+        } else {
+            scratch.resize(self.vertices.len(), Vertex::default());
+            scratch[grid..].copy_from_slice(&self.vertices[grid..]);
+        }
+        let (n, step) = (level_side(level), 1 << (self.levels - 1 - level));
+        for (k, &c) in self.coarse_shades[level].iter().enumerate() {
+            let at = (k / n) * step * side + (k % n) * step;
+            scratch[at] = Vertex {
+                color: [c; 3],
+                ..self.vertices[at]
+            };
+        }
+        if self.vertices.len() > grid {
+            skirts::copy_border_colors(scratch, side, step);
+        }
+        scratch
     }
 
     /// The finest level of [`Self::texture`] worth reading when the tile is drawn at (whole-tile)
@@ -303,16 +354,17 @@ pub fn predicted_bytes(
     let side = level_side(levels - 1);
     let grid = side * side;
     let apron: usize = (0..levels).map(|g| Apron::level_len(level_side(g))).sum();
+    let shades: usize = (0..levels - 1).map(|g| level_side(g).pow(2)).sum();
     resident_bytes(
         grid + cracks.extra_vertices(side),
         grid,
         tile_size - 1,
-        2 * texels + apron * std::mem::size_of::<i16>(),
+        2 * texels + apron * std::mem::size_of::<i16>() + shades,
     )
 }
 
 /// What a resident tile holds: its struct, vertices, normals, level errors, and the bytes of
-/// its texture and apron.
+/// its texture, apron and coarser levels' shades.
 fn resident_bytes(vertices: usize, normals: usize, levels: usize, other_bytes: usize) -> usize {
     std::mem::size_of::<ResidentTile>()
         + vertices * std::mem::size_of::<Vertex>()
@@ -321,13 +373,13 @@ fn resident_bytes(vertices: usize, normals: usize, levels: usize, other_bytes: u
         + other_bytes
 }
 
-/// Unit normals of the held grid from central differences, `spacing` metres between held
-/// samples; across the tile border the other side is the apron's sample.
-fn normals(tile: &Tile, spacing: f64) -> Vec<[i8; 3]> {
-    let s = tile.side();
+/// Unit normals of held progressive level `level`'s grid from central differences, `spacing`
+/// metres between its samples; across the tile border the other side is that level's apron.
+fn normals(tile: &Tile, level: usize, spacing: f64) -> Vec<[i8; 3]> {
+    let s = level_side(level);
     let quantum = f64::from(tile.quantum);
     let h = |i: usize, j: usize, di: isize, dj: isize| {
-        tile.quanta_around(i as isize + di, j as isize + dj) as f64 * quantum
+        tile.quanta_around(level, i as isize + di, j as isize + dj) as f64 * quantum
     };
     (0..s * s)
         .map(|k| {
@@ -338,6 +390,15 @@ fn normals(tile: &Tile, spacing: f64) -> Vec<[i8; 3]> {
             n.to_array().map(|c| (c * 127.0).round() as i8)
         })
         .collect()
+}
+
+/// The intensity, 0 ..= 255, of a surface with packed normal `normal` under `light`.
+fn shade(normal: [i8; 3], light: &Light) -> u8 {
+    let towards = light.direction.normalize_or(DVec3::Y);
+    let n = DVec3::from_array(normal.map(|c| f64::from(c) / 127.0));
+    let lit = n.dot(towards).max(0.0);
+    let intensity = (light.ambient + (1.0 - light.ambient) * lit).clamp(0.0, 1.0);
+    (intensity * 255.0).round() as u8
 }
 
 /// The texture chain of `tile` from archive mip `base` (one the tile holds) down.
@@ -545,6 +606,46 @@ mod tests {
                         (fresh.texture_base, fresh.levels)
                     );
                     assert_eq!(r.drop_levels(tile.levels), fresh.bytes(), "never refines");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_tile_drawn_at_a_level_is_lit_like_the_tile_holding_only_that_level() {
+        let tile = rough_tile();
+        let light = Light::default();
+        for cracks in [CrackMode::Stitch, CrackMode::Skirts] {
+            for held in 1..=tile.levels {
+                let r = ResidentTile::new(&tile.truncated(held), 0, 2.0, &light, cracks);
+                for levels in 1..=held {
+                    let only = ResidentTile::new(&tile.truncated(levels), 0, 2.0, &light, cracks);
+                    let mask = only.finest_mask_level();
+                    let mut scratch = Vec::new();
+                    let lit = r.lit_vertices(mask, false, &mut scratch).to_vec();
+                    let mut copied = Vec::new();
+                    let all = r.lit_vertices(mask, true, &mut copied);
+                    let (side, step) = (only.side(), only.stride() / r.stride());
+                    for (k, v) in only.vertices[..side * side].iter().enumerate() {
+                        let at = (k / side) * step * r.side() + (k % side) * step;
+                        assert_eq!(lit[at], *v, "{held} held, drawn with {levels}, {cracks:?}");
+                        assert_eq!(all[at], *v);
+                    }
+                    let (skirt, only_skirt) = (r.side().pow(2), side * side);
+                    for (k, v) in only.vertices[only_skirt..].iter().enumerate() {
+                        let (border, t) = (k / side, k % side);
+                        assert_eq!(lit[skirt + border * r.side() + t * step], *v);
+                    }
+                    if levels == held {
+                        assert_eq!(lit, r.vertices, "its own vertices at its finest level");
+                    } else {
+                        let own =
+                            |k: usize| r.vertices[(k / side) * step * r.side() + (k % side) * step];
+                        assert!(
+                            (0..side * side).any(|k| own(k).color != only.vertices[k].color),
+                            "a coarser grid lights differently: {held} held, {levels} drawn"
+                        );
+                    }
                 }
             }
         }

@@ -129,12 +129,10 @@ fn crack_pixels(fb: &Framebuffer) -> usize {
         .count()
 }
 
-/// Unlit: a partial tile's normals come from its coarser grid (as the paper's "normals once,
-/// at the finest level" would for a tile that holds only that grid), so its vertex colours
-/// differ from the whole tile's; everything else must match.
-fn unlit() -> RenderSettings {
+/// Lit and textured, without fog: a tile drawn at a mask level is lit from the grid that level
+/// needs whether it is whole or partial, so everything must match, vertex colours included.
+fn lit() -> RenderSettings {
     RenderSettings {
-        lighting: false,
         fog: false,
         sky: BACKGROUND,
         ..RenderSettings::default()
@@ -158,8 +156,8 @@ fn a_tile_holding_k_levels_draws_exactly_the_whole_tile_at_the_matching_mask_lev
                     .iter()
                     .map(|t| resident(t, texture_base, mode))
                     .collect();
-                let a = draw(&partial, &[level; 9], mode, &unlit());
-                let b = draw(&full, &[level; 9], mode, &unlit());
+                let a = draw(&partial, &[level; 9], mode, &lit());
+                let b = draw(&full, &[level; 9], mode, &lit());
                 assert!(
                     a.to_rgba_image() == b.to_rgba_image(),
                     "{held} levels at mask level {level}, {mode:?}, whole texture from mip \
@@ -185,11 +183,7 @@ fn stitched_tiles_holding_different_level_counts_leave_no_crack() {
             drawable_level(asked[k], stride - 1, true)
         })
         .collect();
-    let lit = RenderSettings {
-        fog: false,
-        sky: BACKGROUND,
-        ..RenderSettings::default()
-    };
+    let lit = lit();
     let tiles = |mode| -> Vec<ResidentTile> {
         (0..9)
             .map(|k| resident(&tile(k % 3, k / 3).truncated(held[k]), 0, mode))

@@ -30,6 +30,14 @@ pub fn progressive_levels(tile_size: usize) -> usize {
     (tile_size.max(2) - 1).ilog2() as usize + 1
 }
 
+/// The progressive levels (of `levels` in all) a tile needs to draw mask `level`: a mask keeping
+/// every `l + 1`-th sample needs the grid whose spacing divides `l + 1`. That grid is also the
+/// one a tile drawn at mask `level` is lit from, whole or partial.
+pub fn levels_for_mask(level: usize, levels: usize) -> usize {
+    let spacing_log2 = (level + 1).trailing_zeros() as usize;
+    levels - spacing_log2.min(levels - 1)
+}
+
 /// Samples per side of progressive level `level`'s grid: `2^level + 1`.
 pub fn level_side(level: usize) -> usize {
     (1 << level) + 1
@@ -244,12 +252,16 @@ impl Tile {
         self.base + i32::from(self.heights[j * self.side() + i])
     }
 
-    /// The archive-wide height in quanta of held-grid position `(i, j)`, inside the held grid or
-    /// one step outside one of its borders (from the apron; not diagonally outside a corner).
-    pub fn quanta_around(&self, i: isize, j: isize) -> i64 {
-        let last = self.side() as isize - 1;
-        let inside = |x: isize, y: isize| i64::from(self.quanta(x as usize, y as usize));
-        let level = self.levels - 1;
+    /// The archive-wide height in quanta of position `(i, j)` of held progressive level
+    /// `level`'s grid (every `2^(levels - 1 - level)`-th held sample), inside that grid or one
+    /// step outside one of its borders (from that level's apron; not diagonally outside a
+    /// corner).
+    pub fn quanta_around(&self, level: usize, i: isize, j: isize) -> i64 {
+        debug_assert!(level < self.levels);
+        let step = 1usize << (self.levels - 1 - level);
+        let last = level_side(level) as isize - 1;
+        let inside =
+            |x: isize, y: isize| i64::from(self.quanta(x as usize * step, y as usize * step));
         let apron = |border: Border, k: isize, x: isize, y: isize| {
             inside(x, y) + i64::from(self.apron.delta(level, border, k as usize))
         };

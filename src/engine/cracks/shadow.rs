@@ -44,8 +44,7 @@ pub fn quad(grid: &[Vertex], side: usize, eye: DVec3) -> Option<[Vertex; 4]> {
             .min()
             .expect("a tile has vertices"),
     ) - DEPTH_QUANTA;
-    let last = s - 1;
-    let corners = [0, last, last * s, last * s + last].map(|k| grid[k]);
+    let corners = corners(s).map(|k| grid[k]);
     let mut out = corners;
     for (v, corner) in out.iter_mut().zip(corners) {
         let p = DVec3::from_array(corner.position.map(f64::from));
@@ -58,6 +57,12 @@ pub fn quad(grid: &[Vertex], side: usize, eye: DVec3) -> Option<[Vertex; 4]> {
         v.position = projected.round().as_ivec3().to_array();
     }
     Some(out)
+}
+
+/// The grid indices of a tile's corners, `side` samples per side, in [`quad`]'s order.
+pub fn corners(side: usize) -> [usize; 4] {
+    let last = side - 1;
+    [0, last, last * side, last * side + last]
 }
 
 /// Indices of the quad as one clockwise strip over [`quad`]'s vertex order, as the masks wind.

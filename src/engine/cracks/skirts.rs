@@ -46,6 +46,17 @@ pub fn append_vertices(vertices: &mut Vec<Vertex>, s: usize, depth: i32) {
     }
 }
 
+/// Gives the skirt vertex under every `step`-th border sample of a tile of `s x s` grid
+/// vertices (row-major, then its skirts) the colour of that border vertex: the skirts of a
+/// tile relit for a coarser level.
+pub fn copy_border_colors(vertices: &mut [Vertex], s: usize, step: usize) {
+    for side in Side::ALL {
+        for t in (0..s).step_by(step) {
+            vertices[skirt_vertex(s, side, t)].color = vertices[border_vertex(s, side, t)].color;
+        }
+    }
+}
+
 /// The grid vertex of border sample `t` of `side`.
 fn border_vertex(s: usize, side: Side, t: usize) -> usize {
     match side {

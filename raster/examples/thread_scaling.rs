@@ -1,5 +1,5 @@
 //! What a second thread buys one big draw: the peers' benchmark's scene B in size (1280x720,
-//! a 470x470 grid of strips, 441,042 triangles) drawn by a one-thread and a two-thread
+//! a 470x470 grid of strips, 439,922 triangles) drawn by a one-thread and a two-thread
 //! rasterizer taking turns, frame by frame, so that a shared machine's load falls on both alike.
 //! For the peers' state (RGBA8888, 32-bit depth, bilinear, exact perspective) and the terrain
 //! default (RGB565, 16-bit depth, mipmapped bilinear, spans of 16) it prints the median frame

@@ -9,6 +9,8 @@
 //! pixel's bytes depend only on the triangles that cover it, in that order: neither the thread
 //! count nor the batching changes a byte.
 
+use std::ops::Range;
+
 use rayon::prelude::*;
 
 use crate::RasterError;
@@ -31,8 +33,9 @@ use crate::vertex::{Mesh, Vertex};
 /// Pending triangles that trigger a flush after a draw.
 const FLUSH_TRIANGLES: usize = 1 << 16;
 /// Triangles set up and drawn per pass of a flush: enough to keep every thread busy on many
-/// tiles, few enough that their set-up data stays in cache.
-const RASTER_BATCH: usize = 16 * 1024;
+/// tiles, few enough that the set-up data of two passes (the one drawn and the next, set up
+/// beside it) stays in cache.
+pub(crate) const PASS_TRIANGLES: usize = 16 * 1024;
 /// Triangles per unit of parallel set-up work.
 const SETUP_CHUNK: usize = 1024;
 /// Vertices per unit of parallel vertex work.
@@ -160,7 +163,7 @@ impl<'t> Batch<'_, 't> {
             return;
         }
         let r = &mut *self.rasterizer;
-        let (threads, tile) = (r.thread_count(), r.tile_size);
+        let (threads, tile, pass) = (r.thread_count(), r.tile_size, r.pass_triangles);
         let (rasterized, fragments) = match self.precision {
             Precision::Fixed => flush_with::<FixedPipeline>(
                 &mut r.fixed,
@@ -168,7 +171,7 @@ impl<'t> Batch<'_, 't> {
                 &self.draws,
                 self.fb,
                 threads,
-                tile,
+                (tile, pass),
             ),
             Precision::Float => flush_with::<FloatPipeline>(
                 &mut r.float,
@@ -176,7 +179,7 @@ impl<'t> Batch<'_, 't> {
                 &self.draws,
                 self.fb,
                 threads,
-                tile,
+                (tile, pass),
             ),
         };
         self.done.rasterized += rasterized;
@@ -194,15 +197,16 @@ impl Drop for Batch<'_, '_> {
     }
 }
 
-/// Vertex stage, then set-up and tiles pass by pass. Returns the triangles rasterized and the
-/// fragments written.
+/// Vertex stage, then set-up and tiles pass by pass: while the tiles draw one pass, the next
+/// pass is set up beside them, so a thread that runs out of tiles sets up instead of waiting.
+/// Returns the triangles rasterized and the fragments written.
 fn flush_with<P: Shade>(
     stages: &mut Stages<P>,
     pending: &Pending,
     draws: &[PendingDraw],
     fb: &mut Framebuffer,
     threads: usize,
-    tile: u32,
+    (tile, pass): (u32, usize),
 ) -> (u64, u64) {
     let vp = Viewport {
         width: fb.width(),
@@ -236,21 +240,19 @@ fn flush_with<P: Shade>(
             views: &d.views,
         })
         .collect();
-    let (mut rasterized, mut fragments) = (0, 0);
-    let n = pending.triangles.len();
-    for start in (0..n).step_by(RASTER_BATCH) {
-        let range = start..(start + RASTER_BATCH).min(n);
+    let transformed = &stages.transformed;
+    // Sets up the triangles `range` into `chunks` (as many as it needs, each a range of its
+    // own on its own thread), returning the chunks used.
+    let set_up_pass = |range: Range<usize>, chunks: &mut Vec<ChunkOut<P>>| -> usize {
         let pieces = if threads > 1 {
             range.len().div_ceil(SETUP_CHUNK)
         } else {
             1
         };
-        if stages.chunks.len() < pieces {
-            stages.chunks.resize_with(pieces, ChunkOut::default);
+        if chunks.len() < pieces {
+            chunks.resize_with(pieces, ChunkOut::default);
         }
-        let chunks = &mut stages.chunks[..pieces];
         let piece = range.len().div_ceil(pieces);
-        let transformed = &stages.transformed;
         let set_up_piece = |k: usize, out: &mut ChunkOut<P>| {
             out.tris.clear();
             out.planes.clear();
@@ -264,7 +266,7 @@ fn flush_with<P: Shade>(
                 |d, part| {
                     set_up::<P>(
                         &pending.triangles[part],
-                        transformed,
+                        (&pending.vertices, transformed),
                         d as u32,
                         &setups[d],
                         &consts[d],
@@ -275,15 +277,38 @@ fn flush_with<P: Shade>(
             );
         };
         if pieces > 1 {
-            chunks
+            chunks[..pieces]
                 .par_iter_mut()
                 .enumerate()
                 .for_each(|(k, out)| set_up_piece(k, out));
         } else {
             set_up_piece(0, &mut chunks[0]);
         }
+        pieces
+    };
+    let n = pending.triangles.len();
+    let passes: Vec<Range<usize>> = (0..n)
+        .step_by(pass)
+        .map(|start| start..start + pass.min(n - start))
+        .collect();
+    let [front, back] = &mut stages.passes;
+    let (mut ready, mut next) = (front, back);
+    let mut used = set_up_pass(passes[0].clone(), ready);
+    let (mut rasterized, mut fragments) = (0, 0);
+    for k in 0..passes.len() {
+        let chunks = &ready[..used];
         rasterized += chunks.iter().map(|c| c.tris.len() as u64).sum::<u64>();
-        fragments += raster_tiles::<P>(fb, chunks, &shades, &grid, threads);
+        let draw = |fb: &mut Framebuffer| raster_tiles::<P>(fb, chunks, &shades, &grid, threads);
+        let (drawn, set) = match passes.get(k + 1) {
+            Some(range) if threads > 1 => {
+                rayon::join(|| draw(fb), || set_up_pass(range.clone(), next))
+            }
+            Some(range) => (draw(fb), set_up_pass(range.clone(), next)),
+            None => (draw(fb), 0),
+        };
+        fragments += drawn;
+        used = set;
+        std::mem::swap(&mut ready, &mut next);
     }
     (rasterized, fragments)
 }
@@ -296,7 +321,9 @@ fn vertex_stage<P: Pipeline>(
     consts: &[P::Consts],
     threads: usize,
 ) {
-    out.clear();
+    // Every element is written below: only the elements a longer flush adds are filled first,
+    // not the whole buffer on the calling thread.
+    out.truncate(vertices.len());
     out.resize(vertices.len(), Transformed::default());
     let work = |start: usize, chunk: &mut [Transformed<P>]| {
         by_draw(
@@ -314,11 +341,7 @@ fn vertex_stage<P: Pipeline>(
                     } else {
                         P::Screen::default()
                     };
-                    *o = Transformed {
-                        clip,
-                        outcode,
-                        screen,
-                    };
+                    *o = Transformed { outcode, screen };
                 }
             },
         )
@@ -332,7 +355,8 @@ fn vertex_stage<P: Pipeline>(
     }
 }
 
-/// Draws every tile that has triangles, in parallel. Returns the fragments written.
+/// Draws every tile that has triangles, in parallel, each thread reusing its tile buffers.
+/// Returns the fragments written.
 fn raster_tiles<P: Shade>(
     fb: &mut Framebuffer,
     chunks: &[ChunkOut<P>],
@@ -358,23 +382,36 @@ fn raster_tiles<P: Shade>(
         .zip(depths)
         .enumerate()
         .filter(|(t, _)| chunks.iter().any(|c| !c.bins.list(*t).is_empty()));
-    let draw = |(t, (mut color, mut depth)): (usize, (ColorView, DepthView))| {
+    let draw = |spare: &mut TileBuffers,
+                (t, (mut color, mut depth)): (usize, (ColorView, DepthView))| {
         let mut target = TileTarget {
             rect: grid.rect(t),
-            color: color.load(),
-            depth: depth.load(),
+            color: color.load(spare),
+            depth: depth.load(spare),
         };
         let fragments = raster_tile::<P>(t, chunks, draws, &mut target);
-        color.store(target.color);
-        depth.store(target.depth);
+        color.store(target.color, spare);
+        depth.store(target.depth, spare);
         fragments
     };
     if threads > 1 {
         let tiles: Vec<_> = tiles.collect();
-        tiles.into_par_iter().map(draw).sum()
+        tiles
+            .into_par_iter()
+            .map_init(TileBuffers::default, draw)
+            .sum()
     } else {
-        tiles.map(draw).sum()
+        let mut spare = TileBuffers::default();
+        tiles.map(|tile| draw(&mut spare, tile)).sum()
     }
+}
+
+/// The allocations of the tiles a thread has drawn, for the next tile it loads.
+#[derive(Default)]
+struct TileBuffers {
+    u16s: Vec<u16>,
+    rgba: Vec<[u8; 4]>,
+    u32s: Vec<u32>,
 }
 
 /// A tile of the colour buffer in the framebuffer's format.
@@ -384,17 +421,17 @@ enum ColorView<'a> {
 }
 
 impl ColorView<'_> {
-    fn load(&mut self) -> ColorTile {
+    fn load(&mut self, spare: &mut TileBuffers) -> ColorTile {
         match self {
-            ColorView::Rgb565(v) => ColorTile::Rgb565(v.load(Vec::new())),
-            ColorView::Rgba8888(v) => ColorTile::Rgba8888(v.load(Vec::new())),
+            ColorView::Rgb565(v) => ColorTile::Rgb565(v.load(std::mem::take(&mut spare.u16s))),
+            ColorView::Rgba8888(v) => ColorTile::Rgba8888(v.load(std::mem::take(&mut spare.rgba))),
         }
     }
 
-    fn store(&mut self, tile: ColorTile) {
+    fn store(&mut self, tile: ColorTile, spare: &mut TileBuffers) {
         match (self, tile) {
-            (ColorView::Rgb565(v), ColorTile::Rgb565(t)) => drop(v.store(t)),
-            (ColorView::Rgba8888(v), ColorTile::Rgba8888(t)) => drop(v.store(t)),
+            (ColorView::Rgb565(v), ColorTile::Rgb565(t)) => spare.u16s = v.store(t),
+            (ColorView::Rgba8888(v), ColorTile::Rgba8888(t)) => spare.rgba = v.store(t),
             _ => unreachable!("a tile goes back to its own buffer"),
         }
     }
@@ -408,19 +445,19 @@ enum DepthView<'a> {
 }
 
 impl DepthView<'_> {
-    fn load(&mut self) -> DepthTile {
+    fn load(&mut self, spare: &mut TileBuffers) -> DepthTile {
         match self {
             DepthView::None => DepthTile::None,
-            DepthView::D16(v) => DepthTile::D16(v.load(Vec::new())),
-            DepthView::D32(v) => DepthTile::D32(v.load(Vec::new())),
+            DepthView::D16(v) => DepthTile::D16(v.load(std::mem::take(&mut spare.u16s))),
+            DepthView::D32(v) => DepthTile::D32(v.load(std::mem::take(&mut spare.u32s))),
         }
     }
 
-    fn store(&mut self, tile: DepthTile) {
+    fn store(&mut self, tile: DepthTile, spare: &mut TileBuffers) {
         match (self, tile) {
             (DepthView::None, DepthTile::None) => {}
-            (DepthView::D16(v), DepthTile::D16(t)) => drop(v.store(t)),
-            (DepthView::D32(v), DepthTile::D32(t)) => drop(v.store(t)),
+            (DepthView::D16(v), DepthTile::D16(t)) => spare.u16s = v.store(t),
+            (DepthView::D32(v), DepthTile::D32(t)) => spare.u32s = v.store(t),
             _ => unreachable!("a tile goes back to its own buffer"),
         }
     }
@@ -430,6 +467,7 @@ impl DepthView<'_> {
 mod tests {
     use glam::{DMat4, DVec3};
 
+    use super::PASS_TRIANGLES;
     use crate::{
         ColorFormat, DepthFormat, Fog, Framebuffer, Indices, Mesh, Perspective, Precision,
         Rasterizer, RenderState, Sampler, Shading, Texture, TextureBinding, Topology, Transform,
@@ -486,11 +524,12 @@ mod tests {
         (v, strips, texture, Transform::new(m).unwrap())
     }
 
-    /// The scene drawn with `tile`-pixel screen tiles on `threads` threads, its strips grouped
-    /// `per_draw` to a draw, all draws in one batch or (`batched` false) one by one.
+    /// The scene drawn with `tile`-pixel screen tiles and passes of `pass` triangles on
+    /// `threads` threads, its strips grouped `per_draw` to a draw, all draws in one batch or
+    /// (`batched` false) one by one.
     fn render(
         state: &RenderState,
-        tile: u32,
+        (tile, pass): (u32, usize),
         threads: usize,
         per_draw: usize,
         batched: bool,
@@ -506,6 +545,7 @@ mod tests {
             fb.clear([10, 20, 30]);
             let mut r = Rasterizer::new();
             r.tile_size = tile;
+            r.pass_triangles = pass;
             let draws: Vec<Vec<u32>> = strips
                 .chunks(per_draw)
                 .map(|group| group.join(&u32::MAX))
@@ -559,8 +599,9 @@ mod tests {
                     }),
                     ..RenderState::default()
                 };
-                // One tile for the whole screen, one thread, one draw: no run is ever cut.
-                let whole = render(&state, 1 << 13, 1, usize::MAX, true);
+                // One tile for the whole screen, one pass, one thread, one draw: no run is
+                // ever cut, and every triangle is set up before any is drawn.
+                let whole = render(&state, (1 << 13, usize::MAX), 1, usize::MAX, true);
                 assert!(
                     whole
                         .to_rgba_image()
@@ -570,17 +611,23 @@ mod tests {
                         > 200 * 150 / 2,
                     "the scene covers most of the screen"
                 );
-                for (tile, threads, per_draw, batched) in [
-                    (64, 1, usize::MAX, true),
-                    (8, 1, 1, true),
-                    (16, 2, 5, true),
-                    (64, 4, 3, true),
-                    (32, 2, 2, false),
+                // The scene has 4,418 triangles: passes of 97 to 1,000 are set up while the
+                // pass before them is drawn, and cut draws anywhere.
+                for (tile, pass, threads, per_draw, batched) in [
+                    (64, PASS_TRIANGLES, 1, usize::MAX, true),
+                    (8, PASS_TRIANGLES, 1, 1, true),
+                    (16, PASS_TRIANGLES, 2, 5, true),
+                    (64, PASS_TRIANGLES, 4, 3, true),
+                    (32, PASS_TRIANGLES, 2, 2, false),
+                    (64, 1000, 1, usize::MAX, true),
+                    (64, 300, 2, usize::MAX, true),
+                    (16, 97, 4, 3, true),
+                    (32, 1000, 2, 2, false),
                 ] {
                     assert!(
-                        render(&state, tile, threads, per_draw, batched) == whole,
-                        "{precision:?} {perspective:?}: tiles of {tile}, {threads} threads, \
-                         {per_draw} strips a draw, batched {batched}"
+                        render(&state, (tile, pass), threads, per_draw, batched) == whole,
+                        "{precision:?} {perspective:?}: tiles of {tile}, passes of {pass}, \
+                         {threads} threads, {per_draw} strips a draw, batched {batched}"
                     );
                 }
             }

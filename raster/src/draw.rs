@@ -7,7 +7,7 @@
 //! submission order, so any thread count and any batching give the same bytes.
 
 use crate::RasterError;
-use crate::batch::Pending;
+use crate::batch::{PASS_TRIANGLES, Pending};
 use crate::bin::TILE_SIZE;
 use crate::framebuffer::Framebuffer;
 use crate::matrix::Transform;
@@ -47,19 +47,22 @@ pub struct Rasterizer {
     threads: Option<usize>,
     /// Side of the screen tiles, `TILE_SIZE` (tests try others: the picture must not change).
     pub(crate) tile_size: u32,
+    /// Triangles per pass of a flush, `PASS_TRIANGLES` (tests try others, as for tiles).
+    pub(crate) pass_triangles: usize,
 }
 
-/// One pipeline's scratch: transformed vertices and set-up chunks.
+/// One pipeline's scratch: transformed vertices, and the set-up chunks of two passes (the one
+/// being drawn and the next, set up beside it).
 pub(crate) struct Stages<P: Pipeline> {
     pub transformed: Vec<Transformed<P>>,
-    pub chunks: Vec<ChunkOut<P>>,
+    pub passes: [Vec<ChunkOut<P>>; 2],
 }
 
 impl<P: Pipeline> Default for Stages<P> {
     fn default() -> Self {
         Self {
             transformed: Vec::new(),
-            chunks: Vec::new(),
+            passes: [Vec::new(), Vec::new()],
         }
     }
 }
@@ -73,6 +76,7 @@ impl Default for Rasterizer {
             float: Stages::default(),
             threads: None,
             tile_size: TILE_SIZE,
+            pass_triangles: PASS_TRIANGLES,
         }
     }
 }

@@ -11,11 +11,12 @@ use crate::clip::{MAX_POLYGON, clip_triangle};
 use crate::edge::{Coverage, PixelRect};
 use crate::pipeline::{Attributes, Pipeline};
 use crate::state::{CullMode, FrontFace, Rect, RenderState};
+use crate::vertex::Vertex;
 
-/// A vertex after the vertex stage: clip-space copy, outcode, and (inside the guard band and the
-/// depth range) its projection.
+/// A vertex after the vertex stage: its outcode and (inside the guard band and the depth range)
+/// its projection. Its clip-space position is not kept: the few triangles that need clipping
+/// transform their vertices again, which costs less than storing every vertex's.
 pub(crate) struct Transformed<P: Pipeline> {
-    pub clip: P::Clip,
     pub outcode: u8,
     pub screen: P::Screen,
 }
@@ -31,7 +32,6 @@ impl<P: Pipeline> Copy for Transformed<P> {}
 impl<P: Pipeline> Default for Transformed<P> {
     fn default() -> Self {
         Self {
-            clip: P::Clip::default(),
             outcode: 0,
             screen: P::Screen::default(),
         }
@@ -63,10 +63,11 @@ impl<P: Pipeline> Default for ChunkOut<P> {
     }
 }
 
-/// Sets up `triangles` (indices into `vertices`) of draw `draw` into `out`, in order.
+/// Sets up `triangles` (indices into `vertices` and their stage's results `transformed`) of
+/// draw `draw` into `out`, in order.
 pub(crate) fn set_up<P: Pipeline>(
     triangles: &[[u32; 3]],
-    vertices: &[Transformed<P>],
+    (vertices, transformed): (&[Vertex], &[Transformed<P>]),
     draw: u32,
     setup: &DrawSetup,
     consts: &P::Consts,
@@ -106,7 +107,7 @@ pub(crate) fn set_up<P: Pipeline>(
         }
     };
     for t in triangles {
-        let v = t.map(|i| &vertices[i as usize]);
+        let v = t.map(|i| &transformed[i as usize]);
         let and = v[0].outcode & v[1].outcode & v[2].outcode;
         let or = v[0].outcode | v[1].outcode | v[2].outcode;
         if and != 0 {
@@ -116,7 +117,8 @@ pub(crate) fn set_up<P: Pipeline>(
             setup_one(v.map(|v| &v.screen), out);
             continue;
         }
-        let poly = clip_triangle(v.map(|v| v.clip), or, P::space(consts));
+        let clip = t.map(|i| P::clip(consts, &vertices[i as usize]));
+        let poly = clip_triangle(clip, or, P::space(consts));
         let mut screen = [P::Screen::default(); MAX_POLYGON];
         for (s, c) in screen.iter_mut().zip(&poly.vertices[..poly.len]) {
             *s = P::project(consts, c);

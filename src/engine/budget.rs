@@ -125,11 +125,8 @@ impl BudgetController {
     /// there over several frames; what streams in for the next second is asked for by it.
     pub fn heading(&self) -> usize {
         match self.cost {
-            Some(cost) if cost > 0.0 => {
-                let target = 1.0 / self.settings.target_fps;
-                (((target - self.overhead) / cost).max(0.0) as usize)
-                    .clamp(self.settings.min_budget, self.settings.max_budget)
-            }
+            Some(cost) if cost > 0.0 => (self.holding_target(cost) as usize)
+                .clamp(self.settings.min_budget, self.settings.max_budget),
             _ => self.budget,
         }
     }
@@ -206,7 +203,7 @@ impl BudgetController {
         self.cost = Some(cost);
 
         let current = self.budget as f64;
-        let predicted = ((target - self.overhead) / cost).max(0.0);
+        let predicted = self.holding_target(cost);
         if (predicted - current).abs() > self.settings.deadband * current {
             let step = self.settings.max_step;
             let next = (current + self.settings.damping * (predicted - current))
@@ -218,6 +215,12 @@ impl BudgetController {
             self.budget = next.round() as usize;
         }
         self.budget
+    }
+
+    /// The triangles that hold the target frame rate at `cost` seconds each, by the overhead
+    /// estimate: where [`BudgetController::predict`] moves the budget, and the heading.
+    fn holding_target(&self, cost: f64) -> f64 {
+        ((1.0 / self.settings.target_fps - self.overhead) / cost).max(0.0)
     }
 
     fn forget(&mut self) {

@@ -17,7 +17,7 @@ use stripmask_raster::{DrawStats, DrawTarget, Framebuffer, LineStats, RasterTarg
 use crate::db::archive::ArchiveReader;
 use crate::db::grid::{Grid, TileId};
 use crate::db::source::TileSource;
-use crate::db::tile::{PartialGrid, levels_for_mask, progressive_levels};
+use crate::db::tile::{PartialGrid, finest_mask_for_levels, levels_for_mask, progressive_levels};
 use crate::engine::allocation::{Allocation, TileErrors};
 use crate::engine::budget::{BudgetController, BudgetSettings, TileAllocation, drawable_level};
 use crate::engine::camera::Camera;
@@ -881,12 +881,6 @@ fn cull<'p>(
         }
     }
     (visible, measures)
-}
-
-/// The finest mask level a tile holding `held` of its `levels` progressive levels draws: every
-/// `2^(levels - held)`-th sample.
-fn finest_mask_for_levels(held: usize, levels: usize) -> usize {
-    (1 << levels.saturating_sub(held.max(1))) - 1
 }
 
 /// Wishes for the coarsest level of the tiles a view needs but nobody holds: those of the belts

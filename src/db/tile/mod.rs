@@ -38,6 +38,12 @@ pub fn levels_for_mask(level: usize, levels: usize) -> usize {
     levels - spacing_log2.min(levels - 1)
 }
 
+/// The finest mask level a tile holding `held` of its `levels` progressive levels draws: every
+/// `2^(levels - held)`-th sample (the inverse of [`levels_for_mask`]).
+pub fn finest_mask_for_levels(held: usize, levels: usize) -> usize {
+    (1 << levels.saturating_sub(held.max(1))) - 1
+}
+
 /// Samples per side of progressive level `level`'s grid: `2^level + 1`.
 pub fn level_side(level: usize) -> usize {
     (1 << level) + 1
@@ -94,7 +100,7 @@ pub trait PartialGrid {
     /// The finest strip-mask level the held samples can draw: a mask keeping every
     /// `stride`-th sample.
     fn finest_mask_level(&self) -> usize {
-        self.stride() - 1
+        finest_mask_for_levels(self.held_levels(), progressive_levels(self.whole_size()))
     }
 }
 

@@ -5,10 +5,10 @@
 //! `(x0 + u (s - 1) / (t - 1), y0 + v (s - 1) / (t - 1))` in sample units, where `(x0, y0)` is
 //! the tile's first sample: the edge texels lie on the tile's borders, and the texel on a border
 //! is the same in both tiles that share it (see [`crate::db::tile::texture_coordinate`], which
-//! maps a vertex to the centre of that texel). A computed texel is the bilinear height of the
-//! cell the point lies in, shaded by the bilinear blend of the gradients at the cell's corners,
-//! central differences that read the neighbouring tiles' samples at a border, so both tiles
-//! compute a border texel alike and the shading has no step at cell or tile edges.
+//! maps a vertex to the centre of that texel). A computed texel is the mean, over its
+//! footprint, of a smooth shaded surface through the samples (see [`shaded`]), which reads the
+//! neighbouring tiles' samples at a border, so both tiles compute a border texel alike and the
+//! shading has no step at cell or tile edges.
 
 use std::path::Path;
 
@@ -55,12 +55,56 @@ fn texel_point(u: usize, s: usize, texture_size: usize) -> (usize, f32) {
     (along / span, (along % span) as f32 / span as f32)
 }
 
+/// Points per texel along each axis at which [`shaded`] evaluates the shading: a texel is the
+/// mean of `SUPERSAMPLE^2` points spread evenly over its footprint.
+const SUPERSAMPLE: usize = 2;
+
+/// Samples beyond a tile's borders that a texel's shading reads: the cubic around a point on the
+/// border reads two samples out, and their gradients one more.
+const REACH: isize = 3;
+
+/// The Catmull-Rom weights of the four samples around a point at fraction `t` of the way from
+/// the second to the third: a cubic through the samples, smooth across them.
+fn catmull_rom(t: f32) -> [f32; 4] {
+    let (t2, t3) = (t * t, t * t * t);
+    [
+        0.5 * (-t3 + 2.0 * t2 - t),
+        0.5 * (3.0 * t3 - 5.0 * t2 + 2.0),
+        0.5 * (-3.0 * t3 + 4.0 * t2 + t),
+        0.5 * (t3 - t2),
+    ]
+}
+
+/// Where point `k` of the `SUPERSAMPLE` spread across texel `u` of a `texture_size` texture lies
+/// across a tile of `s` samples: the sample before it (counted from the tile's first sample,
+/// `-1` for a point just outside the western border) and the fraction `0 <= f < 1` beyond it.
+/// Exact: the same point seen from the two tiles sharing a border gets the same fraction.
+fn footprint_point(u: usize, k: usize, s: usize, texture_size: usize) -> (isize, f32) {
+    let n = SUPERSAMPLE as isize;
+    // In units of 1 / (2 n span) samples, the texel's centre is at 2 n u (s - 1) and its
+    // footprint spans one texel, (s - 1) / span samples, around it.
+    let span = (texture_size.max(2) - 1) as isize;
+    let unit = 2 * n * span;
+    let along = (s as isize - 1) * (2 * n * u as isize + 2 * k as isize + 1 - n);
+    (
+        along.div_euclid(unit),
+        along.rem_euclid(unit) as f32 / unit as f32,
+    )
+}
+
 /// The hill-shaded ramp texture of one tile of `s x s` samples, `spacing` metres apart,
 /// `factor` texels per cell: `((s - 1) * factor)^2` RGB texels. `height(x, y)` is the height in
-/// metres of the sample `(x, y)` from the tile's first sample, for `x, y` in `-1 ..= s`, `None`
-/// beyond the grid. A texel's colour is the ramp at its bilinear height, shaded by the bilinear
-/// blend of its cell's corner gradients, each a central difference (one-sided only at the
-/// grid's edges): on a border both tiles blend the same corners with the same weights.
+/// metres of the sample `(x, y)` from the tile's first sample, for `x, y` in
+/// `-3 ..= s + 2`, `None` beyond the grid.
+///
+/// The shading is a smooth surface through the samples: height and gradient (central
+/// differences, one-sided only at the grid's edges) interpolated by Catmull-Rom cubics, a
+/// point's colour the ramp at its height shaded by its gradient. A texel is the mean colour
+/// over its footprint (`SUPERSAMPLE^2` points), so that its detail does not depend on where
+/// it falls on the sample grid: texels lie on the samples only at the tile's borders (there are
+/// `2^n` of them across `2^n` cells), and point samples of a surface interpolated between the
+/// samples would be sharpest there, drawing a faint line along every border. The two tiles
+/// sharing a border compute its texels from the same samples at the same points, alike.
 pub fn shaded(
     s: usize,
     spacing: f32,
@@ -68,53 +112,80 @@ pub fn shaded(
     height: impl Fn(isize, isize) -> Option<f32>,
 ) -> Vec<[u8; 3]> {
     let size = (s - 1) * factor;
-    let h = |i: usize, j: usize| {
-        height(i as isize, j as isize).expect("every sample of the tile is given")
+    let last = s as isize - 1;
+    // The grid's first and last column and row around this tile, in its sample coordinates:
+    // the samples beyond are the grid's edge samples repeated.
+    let extent = |present: &dyn Fn(isize) -> bool| {
+        let first = (-REACH..=0).find(|&k| present(k)).unwrap_or(0);
+        let end = (last..=last + REACH)
+            .rev()
+            .find(|&k| present(k))
+            .unwrap_or(last);
+        (first, end)
     };
-    // The slope at sample (i, j) along (di, dj), metres per metre.
-    let slope = |i: usize, j: usize, di: isize, dj: isize| {
-        let (x, y) = (i as isize, j as isize);
-        let here = h(i, j);
-        match (height(x + di, y + dj), height(x - di, y - dj)) {
-            (Some(a), Some(b)) => (a - b) / (2.0 * spacing),
-            (Some(a), None) => (a - here) / spacing,
-            (None, Some(b)) => (here - b) / spacing,
-            (None, None) => 0.0,
-        }
+    let (x0, x1) = extent(&|x| height(x, 0).is_some());
+    let (y0, y1) = extent(&|y| height(0, y).is_some());
+    let h = |x: isize, y: isize| {
+        height(x.clamp(x0, x1), y.clamp(y0, y1)).expect("every sample of the grid is given")
     };
-    let corners: Vec<[f32; 3]> = (0..s * s)
+    // The slope at `at` along one axis whose samples `sample` gives, metres per metre: central,
+    // one-sided at the grid's edges `first` and `end`.
+    let slope = |at: isize, first: isize, end: isize, sample: &dyn Fn(isize) -> f32| match (
+        at > first,
+        at < end,
+    ) {
+        (true, true) => (sample(at + 1) - sample(at - 1)) / (2.0 * spacing),
+        (false, true) => (sample(at + 1) - sample(at)) / spacing,
+        (true, false) => (sample(at) - sample(at - 1)) / spacing,
+        (false, false) => 0.0,
+    };
+    // Height and gradient at every sample from `1 - REACH` to `last + REACH - 1`, the grid's
+    // edge samples standing in beyond it.
+    let reach = REACH - 1;
+    let side = s + 2 * reach as usize;
+    let corners: Vec<[f32; 3]> = (0..side * side)
         .map(|k| {
-            let (i, j) = (k % s, k / s);
-            [h(i, j), slope(i, j, 1, 0), slope(i, j, 0, 1)]
+            let (x, y) = (
+                ((k % side) as isize - reach).clamp(x0, x1),
+                ((k / side) as isize - reach).clamp(y0, y1),
+            );
+            [
+                h(x, y),
+                slope(x, x0, x1, &|i| h(i, y)),
+                slope(y, y0, y1, &|j| h(x, j)),
+            ]
         })
         .collect();
-    // Exact at both ends: a point on a border gets its border sample's values alone.
-    let lerp = |a: f32, b: f32, f: f32| a * (1.0 - f) + b * f;
-    // The cell a point lies in, the last one for a point on the east or south border.
-    let cell = |c: usize, f: f32| if c == s - 1 { (s - 2, 1.0) } else { (c, f) };
+    let at = |x: isize, y: isize| corners[((y + reach) * side as isize + x + reach) as usize];
+    let points = (SUPERSAMPLE * SUPERSAMPLE) as f32;
     let mut out = Vec::with_capacity(size * size);
     for v in 0..size {
-        let (cj, fy) = texel_point(v, s, size);
-        let (cj, fy) = cell(cj, fy);
         for u in 0..size {
-            let (ci, fx) = texel_point(u, s, size);
-            let (ci, fx) = cell(ci, fx);
-            let at = |i: usize, j: usize| corners[j * s + i];
-            let (c00, c10, c01, c11) = (
-                at(ci, cj),
-                at(ci + 1, cj),
-                at(ci, cj + 1),
-                at(ci + 1, cj + 1),
-            );
-            let [height, dx, dy]: [f32; 3] = std::array::from_fn(|k| {
-                lerp(lerp(c00[k], c10[k], fx), lerp(c01[k], c11[k], fx), fy)
-            });
-            let n = [-dx, -dy, 1.0];
-            let len = (n[0] * n[0] + n[1] * n[1] + 1.0).sqrt();
-            let lambert = ((n[0] * LIGHT[0] + n[1] * LIGHT[1] + n[2] * LIGHT[2]) / len).max(0.0);
-            let shade = AMBIENT + (1.0 - AMBIENT) * lambert;
-            let base = ramp(height);
-            out.push(base.map(|c| (f32::from(c) * shade).round().min(255.0) as u8));
+            let mut sum = [0f32; 3];
+            for ky in 0..SUPERSAMPLE {
+                let (cy, fy) = footprint_point(v, ky, s, size);
+                let wy = catmull_rom(fy);
+                for kx in 0..SUPERSAMPLE {
+                    let (cx, fx) = footprint_point(u, kx, s, size);
+                    let wx = catmull_rom(fx);
+                    let mut value = [0f32; 3];
+                    for (j, wj) in wy.iter().enumerate() {
+                        for (i, wi) in wx.iter().enumerate() {
+                            let c = at(cx + i as isize - 1, cy + j as isize - 1);
+                            (0..3).for_each(|m| value[m] += wi * wj * c[m]);
+                        }
+                    }
+                    let [height, dx, dy] = value;
+                    let n = [-dx, -dy, 1.0];
+                    let len = (n[0] * n[0] + n[1] * n[1] + 1.0).sqrt();
+                    let lambert =
+                        ((n[0] * LIGHT[0] + n[1] * LIGHT[1] + n[2] * LIGHT[2]) / len).max(0.0);
+                    let shade = AMBIENT + (1.0 - AMBIENT) * lambert;
+                    let base = ramp(height);
+                    (0..3).for_each(|m| sum[m] += f32::from(base[m]) * shade);
+                }
+            }
+            out.push(sum.map(|c| (c / points).round().min(255.0) as u8));
         }
     }
     out

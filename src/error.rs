@@ -69,6 +69,17 @@ pub enum Error {
         /// Whether the run's deadline, not the request timeout, cut it short.
         by_deadline: bool,
     },
+    /// A read was cancelled by whoever asked for it (the pager, once its tile stopped
+    /// mattering) before all its bytes arrived: nothing is wrong with the source.
+    #[error("{name}: {request} cancelled after {received} of its bytes arrived")]
+    Cancelled {
+        /// The file or URL.
+        name: String,
+        /// The read, as `bytes a-b`.
+        request: String,
+        /// Bytes that had arrived when it stopped.
+        received: u64,
+    },
     /// A setting outside the values it may take: a build option, an engine or device setting,
     /// a command-line option.
     #[error("{name} {value}: expected {expected}")]

@@ -383,7 +383,7 @@ impl Engine {
             clearance: self.settings.clearance,
             kept: &kept,
         };
-        let plan = plan_frame(&inputs, &camera, aspect, self.morpher.is_some())?;
+        let plan = plan_frame(&inputs, &camera, aspect);
         let wants = match self.settings.streaming {
             Streaming::Belts => Vec::new(),
             Streaming::Progressive(_) => streaming_wants(
@@ -569,26 +569,6 @@ impl Engine {
     }
 }
 
-/// Geomorphing morphs whole tiles only (its hierarchy is the whole tile's): refuses a frame
-/// with a partial tile while it is on, naming the tile.
-fn refuse_partial_tiles(partial: Option<(TileId, &ResidentTile)>) -> Result<()> {
-    match partial {
-        Some((id, tile)) => Err(Error::Conflict {
-            first: "geomorphing",
-            second: "progressive tiles",
-            reason: format!(
-                "tile ({}, {}) holds {} of its {} progressive levels, and geomorphing draws \
-                 whole tiles only: turn geomorphing off to stream progressive tiles",
-                id.x,
-                id.y,
-                tile.levels,
-                progressive_levels(tile.tile_size)
-            ),
-        }),
-        None => Ok(()),
-    }
-}
-
 /// What a frame's plan is made from.
 struct FrameInputs<'e> {
     pager: &'e dyn Paging,
@@ -676,19 +656,11 @@ struct FramePlan<'p> {
 }
 
 /// Culls, weighs (Algorithm 2) and shares the budget, no tile finer than τ needs: the frame's
-/// plan. Geomorphing (`morph`) refuses partial tiles.
-fn plan_frame<'p>(
-    inputs: &FrameInputs<'p>,
-    camera: &Camera,
-    aspect: f64,
-    morph: bool,
-) -> Result<FramePlan<'p>> {
+/// plan.
+fn plan_frame<'p>(inputs: &FrameInputs<'p>, camera: &Camera, aspect: f64) -> FramePlan<'p> {
     let (visible, measures) = cull(inputs.pager.resident(), inputs.terrain, camera, aspect);
     let importance = visual_importance(&measures, inputs.weights);
     let partial = visible.iter().find(|(_, tile, _)| !tile.is_complete());
-    if morph {
-        refuse_partial_tiles(partial.map(|&(id, tile, _)| (id, tile)))?;
-    }
     // Partial tiles holding more than their corners draw powers-of-two levels only, which the
     // engine's masks are whenever such tiles are resident (see `choose_base`): a level whose
     // `l + 1` is not a multiple of a drawn neighbour's stride needs border samples that
@@ -743,7 +715,7 @@ fn plan_frame<'p>(
             a.triangles = inputs.masks.triangle_count(a.level);
         }
     }
-    Ok(FramePlan {
+    FramePlan {
         visible,
         importance: importance.values,
         allocation,
@@ -753,7 +725,7 @@ fn plan_frame<'p>(
         budget: inputs.budget,
         need,
         bound,
-    })
+    }
 }
 
 impl<'p> FramePlan<'p> {
@@ -1037,18 +1009,9 @@ fn check_memory_holds_something(loader: &ArchiveLoader, settings: &EngineSetting
     ))
 }
 
-/// Progressive streaming draws partial tiles, which geomorphing cannot, and its textures follow
-/// the levels importance asks for, which a separate texture budget would contradict.
+/// Progressive streaming's textures follow the levels importance asks for, which a separate
+/// texture budget would contradict.
 fn check_progressive(settings: &EngineSettings) -> Result<()> {
-    if settings.geomorph != Geomorph::Off {
-        return Err(Error::Conflict {
-            first: "progressive streaming",
-            second: "geomorphing",
-            reason: "progressive streaming draws partial tiles, which geomorphing cannot: turn \
-                     one off"
-                .into(),
-        });
-    }
     if settings.texture_budget_bytes.is_some() {
         return Err(Error::Conflict {
             first: "progressive streaming",
@@ -1076,23 +1039,4 @@ fn check_morph_range(settings: &EngineSettings, terrain: &TerrainFrame, name: &s
         ));
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::db::tile::Tile;
-
-    #[test]
-    fn geomorphing_refuses_a_partial_tile_by_name() {
-        let heights: Vec<f32> = (0..81).map(|k| k as f32).collect();
-        let tile = Tile::new(&heights, 9, 0.5, &[[1, 2, 3]; 64], 8).unwrap();
-        let light = Light::default();
-        let partial = ResidentTile::new(&tile.truncated(2), 0, 1.0, &light, CrackMode::Stitch);
-        let err = refuse_partial_tiles(Some((TileId::new(3, 4), &partial))).unwrap_err();
-        let text = err.to_string();
-        assert!(text.contains("tile (3, 4) holds 2 of its 4"), "{text}");
-        assert!(text.contains("turn geomorphing off"), "{text}");
-        assert!(refuse_partial_tiles(None).is_ok());
-    }
 }

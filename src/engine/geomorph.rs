@@ -27,6 +27,12 @@
 //! The tile data are not touched: the engine morphs each drawn tile into one scratch buffer per
 //! frame, so geomorphing costs no memory per tile, and nothing at all when it is off.
 //!
+//! A partial tile (the coarse base, or a progressive tile holding its first levels: the grid of
+//! every `stride`-th sample) morphs in its own grid, whose hierarchy is the whole tile's
+//! restricted to the samples it holds, with each factor taken at the whole-tile position and
+//! step: it gives every held sample exactly the whole tile's morphed value
+//! ([`MorphView::morph_tile`]).
+//!
 //! A tile pays only for what changes its picture ([`MorphView::morph_tile`]): the samples its
 //! own mask uses (its stitches, against any neighbour, use a subset of them) and the ancestors
 //! their morph needs (a tile drawn at mask level 4 reads 196 of its 4,225 samples, whose morph
@@ -44,6 +50,7 @@ use stripmask_raster::Vertex;
 
 use crate::db::mask_level::keeps_index;
 use crate::engine::camera::Camera;
+use crate::engine::partial_meshes::compact_level;
 use crate::engine::terrain::TerrainFrame;
 use crate::named::Named;
 
@@ -130,11 +137,11 @@ struct Needed {
 }
 
 impl MorphTree {
-    /// The hierarchy of tiles of `tile_size = 2^n + 1` samples per side; `None` for any other
-    /// size.
+    /// The hierarchy of tiles of `tile_size = 2^n + 1` samples per side (2, corners only, has no
+    /// splits); `None` for any other size.
     pub fn new(tile_size: usize) -> Option<MorphTree> {
         let s = tile_size;
-        if s < 3 || !(s - 1).is_power_of_two() {
+        if s < 2 || !(s - 1).is_power_of_two() {
             return None;
         }
         let v = |i: usize, j: usize| j * s + i;
@@ -377,17 +384,24 @@ impl MorphView {
     }
 
     /// Writes into `out` the vertices of tile `(x, y)` morphed for this view, as far as a draw
-    /// at mask `level` reads them: the samples the mask keeps and their ancestors
+    /// at mask `level` of `tree` reads them: the samples the mask keeps and their ancestors
     /// ([`MorphTree::needs`]), exactly as [`MorphTree::morph`] with [`MorphView::factor`] gives
     /// them; other samples are left as `out` held them. Every crack mode's indices read only
     /// samples the tile's own mask keeps (a stitched edge keeps those both levels keep), so the
     /// neighbours' levels do not widen the set.
+    ///
+    /// `vertices` is the grid of every `stride`-th sample of the whole tile (1: the whole
+    /// tile; a partial tile holding its first levels has a coarser one), and `tree` and `level`
+    /// are that grid's. The grid's hierarchy is the whole tile's restricted to its samples —
+    /// the sample `(i, j)` is the whole tile's `(stride i, stride j)`, its step `stride` times
+    /// its own, and its parents, one step away, are samples of the grid too — so each sample
+    /// morphs to exactly the value the whole tile's morph gives it.
     pub fn morph_tile(
         &self,
         tree: &MorphTree,
         vertices: &[Vertex],
         (x, y): (u32, u32),
-        level: usize,
+        (level, stride): (usize, usize),
         out: &mut Vec<Vertex>,
     ) {
         let s = tree.tile_size();
@@ -397,8 +411,9 @@ impl MorphView {
             i64::from(x) * self.tile_cells,
             i64::from(y) * self.tile_cells,
         );
-        let (near, far) = self.reach((gx0, gz0), s, heights);
+        let (near, far) = self.reach((gx0, gz0), (s - 1) * stride, heights);
         for (step, splits) in tree.groups(needed) {
+            let step = step * stride;
             let factor = |d: f64| d * self.scale / step as f64 - 1.0;
             if factor(far) <= 0.0 {
                 continue;
@@ -410,9 +425,9 @@ impl MorphView {
             morph_splits(
                 splits,
                 |split| {
-                    let (i, j) = (split.vertex % s, split.vertex / s);
+                    let (i, j) = ((split.vertex % s) * stride, (split.vertex / s) * stride);
                     let quanta = vertices[split.vertex].position[1];
-                    self.factor(gx0 + i as i64, gz0 + j as i64, quanta, split.step)
+                    self.factor(gx0 + i as i64, gz0 + j as i64, quanta, split.step * stride)
                 },
                 out,
             );
@@ -420,11 +435,11 @@ impl MorphView {
     }
 
     /// The nearest and farthest distance from the eye of the box of a tile whose first sample is
-    /// at global grid position `(gx0, gz0)`, `s` samples a side, with heights within `heights`
-    /// quanta, shrunk and grown by a relative margin so that every sample's own distance
-    /// ([`MorphView::factor`]) lies between them despite rounding.
-    fn reach(&self, (gx0, gz0): (i64, i64), s: usize, heights: (i32, i32)) -> (f64, f64) {
-        let cells = (s - 1) as f64;
+    /// at global grid position `(gx0, gz0)`, `cells` grid steps a side, with heights within
+    /// `heights` quanta, shrunk and grown by a relative margin so that every sample's own
+    /// distance ([`MorphView::factor`]) lies between them despite rounding.
+    fn reach(&self, (gx0, gz0): (i64, i64), cells: usize, heights: (i32, i32)) -> (f64, f64) {
+        let cells = cells as f64;
         let lo = DVec3::new(
             gx0 as f64 * self.spacing,
             f64::from(heights.0) * self.quantum,
@@ -442,12 +457,16 @@ impl MorphView {
     }
 }
 
-/// The engine's morph state: the hierarchy of its tile size and one scratch buffer that each
-/// drawn tile is morphed into in turn.
+/// The engine's morph state: the hierarchy of each grid size drawn (whole tiles, and partial
+/// tiles holding their first levels) and one scratch buffer that each drawn tile is morphed
+/// into in turn.
 #[derive(Clone, Debug)]
 pub struct Morpher {
     pixels: f64,
-    tree: MorphTree,
+    tile_size: usize,
+    /// One hierarchy per grid size drawn so far, built on first use (at most one per
+    /// progressive level).
+    trees: Vec<MorphTree>,
     scratch: Vec<Vertex>,
 }
 
@@ -460,7 +479,8 @@ impl Morpher {
         };
         Some(Morpher {
             pixels,
-            tree: MorphTree::new(tile_size)?,
+            tile_size,
+            trees: vec![MorphTree::new(tile_size)?],
             scratch: Vec::new(),
         })
     }
@@ -471,15 +491,35 @@ impl Morpher {
     }
 
     /// Tile `(x, y)`'s `vertices` morphed for `view`, in [`SUBDIVISION`] units, as far as a
-    /// draw at mask `level` reads them.
+    /// draw at (whole-tile) mask `level` reads them. `vertices` is the grid of every
+    /// `stride`-th sample (1: a whole tile; `level + 1` a multiple of `stride`): a partial tile
+    /// morphs to exactly what the whole tile gives the samples it holds.
     pub fn tile(
         &mut self,
         view: &MorphView,
         vertices: &[Vertex],
         at: (u32, u32),
         level: usize,
+        stride: usize,
     ) -> &[Vertex] {
-        view.morph_tile(&self.tree, vertices, at, level, &mut self.scratch);
+        debug_assert_eq!((level + 1) % stride, 0, "level {level}, stride {stride}");
+        let side = (self.tile_size - 1) / stride + 1;
+        let k = match self.trees.iter().position(|t| t.tile_size() == side) {
+            Some(k) => k,
+            None => {
+                let tree = MorphTree::new(side).expect("a held grid is 2^g + 1 samples a side");
+                self.trees.push(tree);
+                self.trees.len() - 1
+            }
+        };
+        let level = compact_level(level, stride);
+        view.morph_tile(
+            &self.trees[k],
+            vertices,
+            at,
+            (level, stride),
+            &mut self.scratch,
+        );
         &self.scratch
     }
 }
@@ -509,7 +549,7 @@ mod tests {
 
     #[test]
     fn every_sample_but_the_corners_splits_one_segment_coarsest_first() {
-        for s in [3, 5, 9, 17, 65] {
+        for s in [2, 3, 5, 9, 17, 65] {
             let tree = MorphTree::new(s).unwrap();
             let mut seen = vec![false; s * s];
             let last = s - 1;
@@ -532,7 +572,8 @@ mod tests {
             assert!(seen.iter().all(|&v| v), "s {s}");
         }
         assert!(MorphTree::new(10).is_none());
-        assert!(MorphTree::new(2).is_none());
+        assert!(MorphTree::new(1).is_none());
+        assert!(MorphTree::new(2).unwrap().splits().is_empty());
     }
 
     #[test]
@@ -699,10 +740,13 @@ mod tests {
     }
 
     proptest::proptest! {
+        /// What a tile's mask reads is morphed exactly as the full morph of the whole tile
+        /// morphs it, whether the tile is whole or holds only every `stride`-th sample.
         #[test]
         fn a_tile_morphs_what_its_level_reads_exactly_as_the_full_morph(
             eye in (-200.0..600.0f64, 0.0..300.0f64, -200.0..600.0f64),
             level in 0usize..16,
+            stride in proptest::sample::select(vec![1usize, 2, 4, 8, 16]),
             (x, y) in (0u32..4, 0u32..4),
             pixels in 1.0..16.0f64,
         ) {
@@ -719,7 +763,8 @@ mod tests {
             };
             let eye = terrain.origin + DVec3::new(eye.0, eye.1, eye.2);
             let camera = Camera::looking_at(eye, eye + DVec3::X);
-            let view = MorphView::new(pixels, &camera, &terrain, 240);
+            let mut morpher = Morpher::new(Geomorph::Distance { pixels }, s).unwrap();
+            let view = morpher.view(&camera, &terrain, 240);
             let vertices = grid(s, bumpy);
             let tree = MorphTree::new(s).unwrap();
             let (gx0, gz0) = (i64::from(x) * 16, i64::from(y) * 16);
@@ -733,13 +778,20 @@ mod tests {
                 },
                 &mut full,
             );
-            // A scratch buffer that held another tile.
-            let mut out = vec![Vertex::default(); s * s];
-            view.morph_tile(&tree, &vertices, (x, y), level, &mut out);
+            // The partial grid: every `stride`-th sample, in whole-tile units.
+            let side = (s - 1) / stride + 1;
+            let held: Vec<Vertex> = (0..side * side)
+                .map(|k| vertices[(k / side) * stride * s + (k % side) * stride])
+                .collect();
+            // A level the held grid draws, and a scratch buffer that held another tile.
+            let level = (level / stride + 1) * stride - 1;
+            morpher.scratch = vec![Vertex::default(); s * s];
+            let out = morpher.tile(&view, &held, (x, y), level, stride).to_vec();
             for j in (0..s).filter(|&j| keeps_index(s, level, j)) {
                 for i in (0..s).filter(|&i| keeps_index(s, level, i)) {
+                    let k = (j / stride) * side + i / stride;
                     proptest::prop_assert_eq!(
-                        out[j * s + i], full[j * s + i], "level {} ({}, {})", level, i, j
+                        out[k], full[j * s + i], "level {} stride {} ({}, {})", level, stride, i, j
                     );
                 }
             }

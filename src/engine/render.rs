@@ -190,9 +190,8 @@ pub struct TileMeshes<'m> {
     /// The masks and crack pieces of partial tiles, kept between frames; `None` builds them for
     /// this frame only when a partial tile is drawn.
     pub partial: Option<&'m mut PartialMeshes>,
-    /// The geomorph state when geomorphing is on: whole tiles are then drawn morphed, in
-    /// [`geomorph::SUBDIVISION`] units. Partial tiles are drawn unmorphed (the engine refuses
-    /// partial tiles with geomorphing on, see `crate::engine`).
+    /// The geomorph state when geomorphing is on: tiles, whole or partial, are then drawn
+    /// morphed, in [`geomorph::SUBDIVISION`] units.
     pub morph: Option<&'m mut Morpher>,
 }
 
@@ -263,11 +262,11 @@ pub fn draw_tiles<T: DrawTarget>(
                 partial_indices(held, mode, t)
             };
             let (vertices, tile_transform) = match &mut morph {
-                Some((view, fine, morpher)) if stride == 1 => {
+                Some((view, fine, morpher)) => {
                     let lit = t.tile.lit_vertices(t.level, true, &mut relit);
                     (morphed(morpher, view, t, lit), fine.tile(t.x, t.y)?)
                 }
-                _ => (
+                None => (
                     t.tile.lit_vertices(t.level, false, &mut relit),
                     transform.tile(t.x, t.y)?,
                 ),
@@ -309,15 +308,15 @@ fn surface_settings(settings: &RenderSettings, fog: Option<Fog>) -> (RenderSetti
     }
 }
 
-/// Whole tile `t`'s `vertices` (lit for its level) morphed for this frame, only the samples its
-/// level's mask reads (its stitches read a subset of them).
+/// Tile `t`'s `vertices` (lit for its level; the grid it holds, whole or partial) morphed for
+/// this frame, only the samples its level's mask reads (its stitches read a subset of them).
 fn morphed<'m>(
     morpher: &'m mut Morpher,
     view: &MorphView,
     t: &TileDraw<'_>,
     vertices: &[Vertex],
 ) -> &'m [Vertex] {
-    morpher.tile(view, vertices, (t.x, t.y), t.level)
+    morpher.tile(view, vertices, (t.x, t.y), t.level, t.tile.stride())
 }
 
 /// The strip indices of partial tile `t` (levels held at a stride above one): its levels and

@@ -3,7 +3,7 @@
 //! failed, opening an archive fails within the request timeout, and a failed tile is fetched
 //! again only by the pager's retries (with back-off), not by the pager's times the reader's.
 
-use std::io::{BufRead, BufReader, Write};
+use std::io::{BufReader, Write};
 use std::net::{TcpListener, TcpStream};
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -20,6 +20,7 @@ use stripmask::sim::flight::{Builtin, Flight};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
 use crate::support::cli::{fly_quietly, plain_archive, run_timed};
+use crate::support::fake_http::next_range;
 
 /// How a fake server misbehaves.
 #[derive(Clone, Copy)]
@@ -56,41 +57,9 @@ fn hung_server(archive: &Path, hang: Hang) -> String {
 fn answer(stream: TcpStream, bytes: &[u8], whole_below: u64, held: &Mutex<Vec<TcpStream>>) {
     let mut writer = stream.try_clone().unwrap();
     let mut reader = BufReader::new(stream);
-    loop {
-        let mut head = Vec::new();
-        loop {
-            let mut line = String::new();
-            if reader.read_line(&mut line).unwrap_or(0) == 0 {
-                return;
-            }
-            if line == "\r\n" {
-                break;
-            }
-            head.push(line);
-        }
-        if head[0].starts_with("HEAD") {
-            let answer = format!("HTTP/1.1 200 OK\r\nContent-Length: {}\r\n\r\n", bytes.len());
-            writer.write_all(answer.as_bytes()).unwrap();
-            continue;
-        }
-        let range = head
-            .iter()
-            .find_map(|l| {
-                l.to_ascii_lowercase()
-                    .strip_prefix("range: bytes=")
-                    .map(String::from)
-            })
-            .unwrap();
-        let (a, b) = range.trim().split_once('-').unwrap();
-        let (a, b): (u64, u64) = (a.parse().unwrap(), b.parse().unwrap());
-        let body = &bytes[a as usize..=b as usize];
-        let answer = format!(
-            "HTTP/1.1 206 Partial Content\r\nContent-Length: {}\r\nContent-Range: bytes {a}-{b}/{}\r\n\r\n",
-            body.len(),
-            bytes.len()
-        );
-        writer.write_all(answer.as_bytes()).unwrap();
-        if b < whole_below {
+    while let Some((a, b)) = next_range(&mut reader, &mut writer, bytes.len()) {
+        let body = &bytes[a..=b];
+        if (b as u64) < whole_below {
             writer.write_all(body).unwrap();
         } else {
             writer.write_all(&body[..body.len() / 2]).unwrap();

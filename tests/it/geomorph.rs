@@ -1,8 +1,10 @@
 //! Geomorphing on the crack scene (`stripmask::sim::crack_metric`): stitched tiles stay
 //! crack-free when morphed, a mask switch pops less, and a morph factor of 0 draws the plain
-//! tiles up to sub-pixel rounding. (Factor 1 giving exactly the coarse surface is checked on the mesh, in
+//! tiles up to sub-pixel rounding, and `fly` morphs the partial tiles of the coarse base and of
+//! progressive streaming. (Factor 1 giving exactly the coarse surface is checked on the mesh, in
 //! `src/engine/geomorph.rs`.)
 
+use crate::support::cli::{fly_quietly, plain_archive};
 use crate::support::crack_scene;
 
 use crack_scene::scene;
@@ -11,6 +13,7 @@ use stripmask::engine::cracks::CrackMode;
 use stripmask::engine::geomorph::Geomorph;
 use stripmask::sim::crack_metric::{CrackScene, TILE_SIZE};
 use stripmask::sim::popping::{FrameChange, flight_popping, glide, switch_change};
+use stripmask::sim::report::StatsTable;
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
 const SIZE: (u32, u32) = (320, 240);
@@ -109,4 +112,34 @@ fn in_a_flight_the_budget_s_switches_pop_less_with_geomorph() {
         "the morph does not change the budget's levels"
     );
     assert!(on.switch_alone < off.switch_alone, "on {on:?}, off {off:?}");
+}
+
+/// `fly` with geomorphing on a file archive, which keeps its coarse base resident (every
+/// tile's first level: partial tiles) in both streaming modes: runs to the end and morphs
+/// partial tiles as it morphs whole ones.
+#[test]
+fn fly_morphs_the_coarse_base_and_progressive_tiles_of_a_file_archive() {
+    let dir = tempfile::tempdir().unwrap();
+    let archive = dir.path().join("plain.smdb");
+    plain_archive(&archive);
+    for streaming in ["belts", "progressive"] {
+        let out = dir.path().join(streaming);
+        let (code, err, _) = fly_quietly(
+            archive.to_str().unwrap(),
+            &out,
+            &[
+                "--geomorph",
+                "distance",
+                "--streaming",
+                streaming,
+                "--clock",
+                "simulated",
+                "--frames",
+                "20",
+            ],
+        );
+        assert_eq!(code, Some(0), "{streaming}: {err}");
+        let table = StatsTable::read(&out.join("stats.csv")).unwrap();
+        assert_eq!(table.column("holes").unwrap().len(), 20, "{streaming}");
+    }
 }

@@ -27,6 +27,7 @@ mod dem_nodata;
 mod engine;
 mod error_bound;
 mod extremes_engine;
+mod fetch_cancel;
 mod fetch_deadline;
 mod fly_holes;
 mod geomorph;

@@ -7,6 +7,7 @@ use glam::DVec3;
 use stripmask::db::archive::ArchiveReader;
 use stripmask::db::source;
 use stripmask::db::tile::PartialGrid;
+use stripmask::engine::geomorph::Geomorph;
 use stripmask::engine::masks::LevelSet;
 use stripmask::engine::paging::PagerMode;
 use stripmask::engine::paging::stream::{StreamSettings, Streaming};
@@ -104,18 +105,19 @@ fn a_progressive_flight_keeps_the_limit_and_ends_with_every_tile_at_its_level() 
     );
 }
 
-#[test]
-fn settled_partial_tiles_draw_exactly_what_whole_tiles_draw_lit() {
+/// The same view settled from whole tiles and from progressive tiles (lit, textured, fogged:
+/// the default rendering) with `geomorph`: checks that both drew the same levels, some tiles
+/// partial and at three levels or more, and returns the two pictures.
+fn settled_whole_and_partial(geomorph: Geomorph) -> (Framebuffer, Framebuffer) {
     let dir = tempfile::tempdir().unwrap();
     let path = archive(dir.path(), 33);
     let mode = PagerMode::Stepped {
         fetches_per_update: 64,
     };
-    // Lit, textured, fogged: the default rendering. A tile drawn at a mask level is lit from
-    // the grid that level needs, whole or partial, so the pictures agree byte for byte.
     let lit = |streaming| {
         let mut s = settings(64 << 20, streaming, mode);
         s.level_set = LevelSet::PowerOfTwo;
+        s.geomorph = geomorph;
         s
     };
     let mut whole = open(&path, lit(Streaming::Belts));
@@ -147,6 +149,10 @@ fn settled_partial_tiles_draw_exactly_what_whole_tiles_draw_lit() {
         "settled: nothing in flight"
     );
     assert!(
+        whole.pager().tiles().all(|(_, t)| t.is_complete()),
+        "whole tiles"
+    );
+    assert!(
         partial.pager().tiles().any(|(_, t)| !t.is_complete()),
         "some tiles hold fewer levels than whole"
     );
@@ -160,9 +166,34 @@ fn settled_partial_tiles_draw_exactly_what_whole_tiles_draw_lit() {
         l
     };
     assert_eq!(levels(&ra), levels(&rb));
+    (a, b)
+}
+
+#[test]
+fn settled_partial_tiles_draw_exactly_what_whole_tiles_draw_lit() {
+    // A tile drawn at a mask level is lit from the grid that level needs, whole or partial,
+    // so the pictures agree byte for byte.
+    let (a, b) = settled_whole_and_partial(Geomorph::Off);
     assert!(
         a.to_rgba_image() == b.to_rgba_image(),
         "the pictures differ"
+    );
+}
+
+#[test]
+fn settled_partial_tiles_morph_exactly_as_whole_tiles_morph() {
+    // A partial tile morphs the samples it holds exactly as the whole tile morphs them, so
+    // with geomorphing on the pictures still agree byte for byte.
+    let morphed = Geomorph::Distance { pixels: 16.0 };
+    let (a, b) = settled_whole_and_partial(morphed);
+    assert!(
+        a.to_rgba_image() == b.to_rgba_image(),
+        "the pictures differ"
+    );
+    let (plain, _) = settled_whole_and_partial(Geomorph::Off);
+    assert!(
+        a.to_rgba_image() != plain.to_rgba_image(),
+        "the morph is at work in this view"
     );
 }
 

@@ -10,6 +10,7 @@ use std::sync::{Arc, Mutex};
 use proptest::prelude::*;
 use stripmask::db::grid::Grid;
 use stripmask::db::grid::TileId;
+use stripmask::db::source::CancelToken;
 use stripmask::engine::paging::stream::{
     HOLD_SECONDS, LevelLoader, StreamPager, StreamSettings, Want,
 };
@@ -57,7 +58,13 @@ impl LevelLoader for Synthetic {
         bytes_at(levels)
     }
 
-    fn fetch(&self, id: TileId, have: usize, want: usize) -> Result<(Self::Piece, u64)> {
+    fn fetch(
+        &self,
+        id: TileId,
+        have: usize,
+        want: usize,
+        _: &CancelToken,
+    ) -> Result<(Self::Piece, u64)> {
         if self.broken.lock().unwrap().contains(&id) {
             return Err(Error::invalid(id.to_string(), "broken on purpose"));
         }

@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use super::{HEADER_LEN, Header, IndexEntry, base_range, decompress, parse_index};
 use crate::db::backoff::Backoff;
-use crate::db::source::TileSource;
+use crate::db::source::{CancelToken, TileSource};
 use crate::db::tile::Tile;
 use crate::error::{Error, Result};
 
@@ -146,12 +146,25 @@ impl<S: TileSource> ArchiveReader<S> {
                 format!("tile {i} does not exist ({} tiles)", self.index.len()),
             ));
         }
-        self.fetch(i, 0..self.header.levels())
+        self.fetch(i, 0..self.header.levels(), &CancelToken::new())
     }
 
     /// The raw chunks of `levels` of tile `(x, y)`, fetched with one source read (one HTTP
     /// Range request), each chunk checked against its crc32 and decompressed on its own.
     pub fn read_levels(&self, x: usize, y: usize, levels: Range<usize>) -> Result<LevelBytes> {
+        self.read_levels_cancellable(x, y, levels, &CancelToken::new())
+    }
+
+    /// [`ArchiveReader::read_levels`] that stops with [`Error::Cancelled`] once `cancel` is
+    /// raised, where the source can stop a read under way
+    /// ([`TileSource::read_range_cancellable`]); a cancelled read is not tried again.
+    pub fn read_levels_cancellable(
+        &self,
+        x: usize,
+        y: usize,
+        levels: Range<usize>,
+        cancel: &CancelToken,
+    ) -> Result<LevelBytes> {
         let i = self.tile_number(x, y)?;
         let all = self.header.levels();
         if levels.start > levels.end || levels.end > all {
@@ -160,7 +173,7 @@ impl<S: TileSource> ArchiveReader<S> {
                 format!("levels {levels:?} of tile ({x}, {y}) are outside 0..{all}"),
             ));
         }
-        let stored = self.fetch(i, levels.clone())?;
+        let stored = self.fetch(i, levels.clone(), cancel)?;
         let entry = &self.index[i];
         let base = entry.range(levels.start..levels.start).0;
         let chunks = levels
@@ -231,7 +244,7 @@ impl<S: TileSource> ArchiveReader<S> {
         let (offset, length) = base_range(&self.index, levels);
         let name = self.name();
         let stored = retry(self.attempts, self.source.is_remote(), offset, |_| {
-            let bytes = self.read_whole("base", offset, length)?;
+            let bytes = self.read_whole("base", offset, length, &CancelToken::new())?;
             let mut at = 0usize;
             for (i, entry) in self.index.iter().enumerate() {
                 for g in 0..levels {
@@ -293,10 +306,16 @@ impl<S: TileSource> ArchiveReader<S> {
         Ok(y * tiles_x + x)
     }
 
-    /// Bytes `offset .. offset + length`, all of them: a short answer is an error naming
-    /// `what` was read.
-    fn read_whole(&self, what: &str, offset: u64, length: u64) -> Result<Vec<u8>> {
-        let bytes = self.source.read_range(offset, length)?;
+    /// Bytes `offset .. offset + length`, all of them, unless `cancel` stops the read: a short
+    /// answer is an error naming `what` was read.
+    fn read_whole(
+        &self,
+        what: &str,
+        offset: u64,
+        length: u64,
+        cancel: &CancelToken,
+    ) -> Result<Vec<u8>> {
+        let bytes = self.source.read_range_cancellable(offset, length, cancel)?;
         if bytes.len() as u64 != length {
             return Err(Error::invalid(
                 self.source.name(),
@@ -311,12 +330,12 @@ impl<S: TileSource> ArchiveReader<S> {
 
     /// The stored bytes of `levels` of tile `i` in one source read per attempt, returned once
     /// every chunk matches its crc32.
-    fn fetch(&self, i: usize, levels: Range<usize>) -> Result<Vec<u8>> {
+    fn fetch(&self, i: usize, levels: Range<usize>, cancel: &CancelToken) -> Result<Vec<u8>> {
         let name = self.source.name();
         let entry = &self.index[i];
         let (offset, length) = entry.range(levels.clone());
         retry(self.attempts, self.source.is_remote(), offset, |attempt| {
-            let bytes = self.read_whole(&format!("tile {i}"), offset, length)?;
+            let bytes = self.read_whole(&format!("tile {i}"), offset, length, cancel)?;
             let failed = levels.clone().find_map(|g| {
                 let (at, len) = entry.range(g..g + 1);
                 let at = (at - offset) as usize;
@@ -340,7 +359,7 @@ impl<S: TileSource> ArchiveReader<S> {
 }
 
 /// Runs `f` (given the attempt's number, from 1) up to `attempts` times until it succeeds and
-/// returns the last error, except that a timeout ends the tries at once. Before each retry of
+/// returns the last error, except that a timeout or a cancellation ends the tries at once. Before each retry of
 /// a `remote` source it waits as [`RETRY_BACKOFF`] says for the piece at `key` (its offset).
 fn retry<T>(
     attempts: u32,
@@ -351,7 +370,10 @@ fn retry<T>(
     let mut attempt = 1;
     loop {
         match f(attempt) {
-            Err(e) if attempt < attempts && !matches!(e, Error::TimedOut { .. }) => {
+            Err(e)
+                if attempt < attempts
+                    && !matches!(e, Error::TimedOut { .. } | Error::Cancelled { .. }) =>
+            {
                 if remote {
                     std::thread::sleep(Duration::from_secs_f64(RETRY_BACKOFF.wait(key, attempt)));
                 }
@@ -378,7 +400,7 @@ mod tests {
     }
 
     #[test]
-    fn a_timeout_is_not_asked_again_other_failures_are_up_to_the_attempts() {
+    fn a_timeout_or_a_cancellation_is_not_asked_again_other_failures_are_up_to_the_attempts() {
         let mut calls = 0;
         let r: Result<()> = retry(4, true, 0, |_| {
             calls += 1;
@@ -386,6 +408,13 @@ mod tests {
         });
         assert!(matches!(r, Err(Error::TimedOut { .. })));
         assert_eq!(calls, 1);
+        let mut calls = 0;
+        let r: Result<()> = retry(4, true, 0, |_| {
+            calls += 1;
+            Err(crate::db::source::cancelled("a.smdb", 0, 96, 10))
+        });
+        assert!(matches!(r, Err(Error::Cancelled { .. })));
+        assert_eq!(calls, 1, "a cancelled read is not asked again");
         let mut calls = 0;
         let r: Result<()> = retry(4, false, 0, |n| {
             calls += 1;

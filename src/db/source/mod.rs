@@ -4,10 +4,14 @@
 //! into a header, an index and verified tiles. [`file::FileSource`] reads a local file with
 //! positioned reads, [`http::HttpSource`] fetches the same file with HTTP range requests from any
 //! static server, and [`throttle::SimulatedLink`] wraps either with latency, bandwidth and drops.
+//! A read can be cancelled while it runs ([`CancelToken`]): an HTTP range stops downloading.
 
+mod cancel;
 pub mod file;
 pub mod http;
 pub mod throttle;
+
+pub use cancel::CancelToken;
 
 use crate::error::{Error, Result};
 
@@ -19,6 +23,21 @@ pub trait TileSource: Send + Sync {
     fn size(&self) -> Result<u64>;
     /// Exactly `len` bytes starting at `offset`.
     fn read_range(&self, offset: u64, len: u64) -> Result<Vec<u8>>;
+    /// [`TileSource::read_range`] that stops with [`Error::Cancelled`] once `cancel` is raised,
+    /// where the source can stop a read under way (HTTP: between pieces of the body, closing
+    /// the connection). By default a read is refused if cancelled before it starts and runs to
+    /// its end otherwise: a local read is over too soon to be worth stopping.
+    fn read_range_cancellable(
+        &self,
+        offset: u64,
+        len: u64,
+        cancel: &CancelToken,
+    ) -> Result<Vec<u8>> {
+        if cancel.is_cancelled() {
+            return Err(cancelled(self.name(), offset, len, 0));
+        }
+        self.read_range(offset, len)
+    }
     /// Whether the bytes come over a network, where waiting before a retry can help; a local
     /// file answers the same at once.
     fn is_remote(&self) -> bool {
@@ -36,8 +55,26 @@ impl<S: TileSource + ?Sized> TileSource for Box<S> {
     fn read_range(&self, offset: u64, len: u64) -> Result<Vec<u8>> {
         (**self).read_range(offset, len)
     }
+    fn read_range_cancellable(
+        &self,
+        offset: u64,
+        len: u64,
+        cancel: &CancelToken,
+    ) -> Result<Vec<u8>> {
+        (**self).read_range_cancellable(offset, len, cancel)
+    }
     fn is_remote(&self) -> bool {
         (**self).is_remote()
+    }
+}
+
+/// The [`Error::Cancelled`] of the read of `len` bytes at `offset` from `name`, stopped after
+/// `received` of them.
+pub fn cancelled(name: &str, offset: u64, len: u64, received: u64) -> Error {
+    Error::Cancelled {
+        name: name.to_string(),
+        request: format!("bytes {offset}+{len}"),
+        received,
     }
 }
 

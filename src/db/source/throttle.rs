@@ -10,7 +10,7 @@ use std::io::Read;
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use super::TileSource;
+use super::{CancelToken, TileSource};
 use crate::error::{Error, Result};
 
 /// Latency, jitter, bandwidth and drop rate of a link.
@@ -234,6 +234,16 @@ impl<S: TileSource> TileSource for SimulatedLink<S> {
     }
 
     fn read_range(&self, offset: u64, len: u64) -> Result<Vec<u8>> {
+        self.read_range_cancellable(offset, len, &CancelToken::new())
+    }
+
+    /// Waits out the delay and the transfer, then reads from the inner source with `cancel`.
+    fn read_range_cancellable(
+        &self,
+        offset: u64,
+        len: u64,
+        cancel: &CancelToken,
+    ) -> Result<Vec<u8>> {
         std::thread::sleep(self.delays.next() + self.profile.transfer_time(len));
         if self.dice.roll() {
             return Err(Error::invalid(
@@ -241,7 +251,7 @@ impl<S: TileSource> TileSource for SimulatedLink<S> {
                 format!("simulated link dropped the request for bytes {offset}+{len}"),
             ));
         }
-        self.inner.read_range(offset, len)
+        self.inner.read_range_cancellable(offset, len, cancel)
     }
 }
 

@@ -20,6 +20,7 @@ use super::ledger::Fetch;
 use super::worker::Job;
 use super::{Pager, PagerConfig, PagerMode, ResidentLoader, Strategy};
 use crate::db::grid::{Grid, TileId};
+use crate::db::source::CancelToken;
 use crate::error::Result;
 
 /// What the engine gives the pager: costs known before fetching, fetching itself, and shrinking.
@@ -56,7 +57,7 @@ impl<L: TileLoader> Strategy for Belts<L> {
     type Piece = L::Loaded;
 
     fn job(loader: Arc<L>) -> Job<Fetch, L::Loaded> {
-        Arc::new(move |fetch: Fetch| loader.load(fetch.id, fetch.ring))
+        Arc::new(move |fetch: Fetch, _: &CancelToken| loader.load(fetch.id, fetch.ring))
     }
 
     fn refit_base(loader: &L, tile: &mut L::Loaded) -> usize {
@@ -65,7 +66,9 @@ impl<L: TileLoader> Strategy for Belts<L> {
 
     /// Takes in arrived tiles, shrinks tiles that are now farther, evicts and schedules.
     fn update(pager: &mut BeltPager<L>, viewer: (f64, f64)) {
-        for (fetch, result) in pager.begin(viewer) {
+        // The belt pager never cancels: nothing comes back cut.
+        let (arrivals, _) = pager.begin(viewer);
+        for (fetch, result) in arrivals {
             pager.integrate(fetch, result);
         }
         pager.shrink();

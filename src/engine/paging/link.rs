@@ -2,12 +2,19 @@
 //! the deterministic modes, this thread — with [`PagerMode::Simulated`] each result held back
 //! until the simulated time passes the end of its transfer on a link that carries one request at
 //! a time, as timed by a [`TransferClock`].
+//!
+//! Both links can cancel a request on its way. The simulated link drops the transfer at once;
+//! the fetch thread's is told through the request's [`CancelToken`] (an HTTP range stops and
+//! its connection closes, a request still queued is not read), and whatever comes back of it is
+//! set apart from the arrivals as [`Received::cut`], so that the pager never takes in a level it
+//! gave up, even while a new request for the same tile is on its way.
 
 use std::collections::VecDeque;
 use std::sync::Arc;
 
 use super::worker::{self, Arrival, Job, Request, Worker};
 use super::{PagerMode, TransferClock};
+use crate::db::source::CancelToken;
 use crate::error::{Error, Result};
 
 /// A result that arrives at `due` simulated seconds, after a transfer of `took` seconds asked
@@ -29,6 +36,9 @@ pub struct Received<R, T> {
     pub errors: Vec<Error>,
     /// Whether the requests in flight were lost with a stopped fetch thread: they never arrive.
     pub lost: bool,
+    /// Requests the fetch thread was told to cancel that came back (stopped, or finished before
+    /// they noticed), with the bytes they downloaded: none of them is an arrival.
+    pub cut: Vec<(R, u64)>,
 }
 
 /// A fetch thread or this thread, and the simulated link's clock.
@@ -39,6 +49,8 @@ pub struct Link<R: Request, T> {
     transfer_clock: Option<Arc<dyn TransferClock>>,
     pending: VecDeque<Pending<R, T>>,
     free_at: f64,
+    /// Requests sent to the fetch thread and not back yet, with their cancel tokens.
+    sent: Vec<(R, CancelToken)>,
 }
 
 impl<R: Request, T: Send + 'static> Link<R, T> {
@@ -56,6 +68,7 @@ impl<R: Request, T: Send + 'static> Link<R, T> {
             transfer_clock: None,
             pending: VecDeque::new(),
             free_at: 0.0,
+            sent: Vec::new(),
         })
     }
 
@@ -78,10 +91,15 @@ impl<R: Request, T: Send + 'static> Link<R, T> {
         }
     }
 
-    /// Queues `request` on the fetch thread.
-    fn send(&self, request: R) -> Result<()> {
+    /// Queues `request` on the fetch thread, with a cancel token of its own.
+    fn send(&mut self, request: R) -> Result<()> {
+        let cancel = CancelToken::new();
         match &self.worker {
-            Some(worker) => worker.send(request),
+            Some(worker) => {
+                worker.send(request, cancel.clone())?;
+                self.sent.push((request, cancel));
+                Ok(())
+            }
             None => Err(Error::invalid(
                 request.to_string(),
                 "no fetch thread is running",
@@ -91,7 +109,7 @@ impl<R: Request, T: Send + 'static> Link<R, T> {
 
     /// Runs `request` on this thread now.
     fn run_now(&self, request: R) -> Result<(T, u64)> {
-        worker::run(&*self.job, request)
+        worker::run(&*self.job, request, &CancelToken::new())
     }
 
     /// Runs `request` now and holds its result back until the end of its transfer, which
@@ -114,25 +132,45 @@ impl<R: Request, T: Send + 'static> Link<R, T> {
         });
     }
 
-    /// Whether the transfer of `request` on the simulated link has started by `time` (`None`
-    /// when the link holds no such transfer: a fetch thread's, or none).
+    /// Whether the transfer of `request` has started by `time` (`None` when the link holds no
+    /// such request). The fetch thread runs its requests one at a time in the order they were
+    /// sent, so the first of those not back yet counts as started and the others as waiting
+    /// (one the thread began since the last [`Link::receive`] is then stopped as one under
+    /// way would be).
     pub fn started(&self, request: &R, time: f64) -> Option<bool>
     where
         R: PartialEq,
     {
+        if let Some(k) = self
+            .sent
+            .iter()
+            .position(|(r, c)| r == request && !c.is_cancelled())
+        {
+            return Some(k == 0);
+        }
         let p = self.pending.iter().find(|p| p.request == *request)?;
         Some(p.due - p.took < time)
     }
 
-    /// Drops the transfer of `request` on the simulated link at `time`: one not yet started
-    /// never crosses the link, one under way stops now, and the transfers behind it move up.
-    /// Returns the bytes that had crossed the link, or `None` when the link cannot cancel it
-    /// (a fetch thread runs what it was sent; a stepped fetch has already arrived) or holds no
-    /// such transfer.
+    /// Cancels `request` on its way at `time`. On the simulated link the transfer is dropped: one
+    /// not yet started never crosses the link, one under way stops now, and the transfers
+    /// behind it move up. On the fetch thread its cancel token is raised: the request never
+    /// arrives, and what it downloaded comes back in [`Received::cut`]. Returns the bytes that
+    /// had crossed the simulated link (0 on the fetch thread, whose bytes are counted when the
+    /// request comes back), or `None` when the link holds no such request (a stepped fetch has
+    /// already arrived).
     pub fn cancel(&mut self, request: &R, time: f64) -> Option<u64>
     where
         R: PartialEq,
     {
+        if let Some((_, cancel)) = self
+            .sent
+            .iter()
+            .find(|(r, c)| r == request && !c.is_cancelled())
+        {
+            cancel.cancel();
+            return Some(0);
+        }
         let i = self.pending.iter().position(|p| p.request == *request)?;
         let p = self.pending.remove(i).expect("found");
         let start = p.due - p.took;
@@ -159,6 +197,7 @@ impl<R: Request, T: Send + 'static> Link<R, T> {
             arrivals: Vec::new(),
             errors: Vec::new(),
             lost: false,
+            cut: Vec::new(),
         };
         while self.pending.front().is_some_and(|p| p.due <= time) {
             let p = self.pending.pop_front().expect("checked");
@@ -167,8 +206,17 @@ impl<R: Request, T: Send + 'static> Link<R, T> {
         if let Some(worker) = &self.worker {
             loop {
                 match worker.try_recv() {
-                    Ok(Some(Arrival { request, result })) => {
-                        received.arrivals.push((request, result))
+                    Ok(Some(Arrival {
+                        request,
+                        cancel,
+                        result,
+                    })) => {
+                        self.sent.retain(|(_, c)| !c.is(&cancel));
+                        if cancel.is_cancelled() {
+                            received.cut.push((request, downloaded(&result)));
+                        } else {
+                            received.arrivals.push((request, result));
+                        }
                     }
                     Ok(None) => break,
                     Err(e) => {
@@ -180,6 +228,7 @@ impl<R: Request, T: Send + 'static> Link<R, T> {
         }
         if !received.errors.is_empty() {
             received.lost = true;
+            self.sent.clear();
             match Worker::spawn(Arc::clone(&self.job)) {
                 Ok(worker) => self.worker = Some(worker),
                 Err(e) => {
@@ -189,5 +238,15 @@ impl<R: Request, T: Send + 'static> Link<R, T> {
             }
         }
         received
+    }
+}
+
+/// The bytes a request that comes back downloaded: all of them, or those that had arrived when
+/// it was cancelled (none for any other failure).
+fn downloaded<T>(result: &Result<(T, u64)>) -> u64 {
+    match result {
+        Ok((_, bytes)) => *bytes,
+        Err(Error::Cancelled { received, .. }) => *received,
+        Err(_) => 0,
     }
 }

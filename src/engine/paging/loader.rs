@@ -18,7 +18,7 @@ use std::sync::atomic::{AtomicU8, AtomicUsize, Ordering};
 use crate::db::archive::ArchiveReader;
 use crate::db::grid::TileId;
 use crate::db::rgb565::mip_count;
-use crate::db::source::TileSource;
+use crate::db::source::{CancelToken, TileSource};
 use crate::db::tile::Tile;
 use crate::db::tile::progressive_levels;
 use crate::engine::cracks::CrackMode;
@@ -273,10 +273,19 @@ impl LevelLoader for ArchiveLoader {
         )
     }
 
-    fn fetch(&self, id: TileId, have: usize, want: usize) -> Result<(LevelPiece, u64)> {
-        let read = self
-            .reader
-            .read_levels(id.x as usize, id.y as usize, have..want)?;
+    fn fetch(
+        &self,
+        id: TileId,
+        have: usize,
+        want: usize,
+        cancel: &CancelToken,
+    ) -> Result<(LevelPiece, u64)> {
+        let read = self.reader.read_levels_cancellable(
+            id.x as usize,
+            id.y as usize,
+            have..want,
+            cancel,
+        )?;
         Ok((
             LevelPiece {
                 have,

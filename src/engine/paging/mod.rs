@@ -32,6 +32,7 @@ pub use stream::{Progressive, StreamPager, StreamStats};
 pub use worker::{Job, Request};
 
 use crate::db::grid::{Grid, TileId};
+use crate::db::source::CancelToken;
 use crate::engine::resident::ResidentTile;
 use crate::error::{Error, Result};
 use base::{BaseFetch, BaseRequest, BaseTiles};
@@ -157,6 +158,9 @@ pub struct PagerStats {
     pub downloaded_bytes: u64,
     /// Fetches that arrived and were accounted.
     pub fetches: u64,
+    /// Fetches cancelled on their way once their tile stopped mattering (never drawn; what they
+    /// downloaded before they stopped is in `downloaded_bytes`).
+    pub cancelled: u64,
     /// Resident tiles dropped to make room.
     pub evictions: u64,
     /// Failed fetches (and loader contract violations).
@@ -188,6 +192,7 @@ pub struct Residency<T> {
     started: Instant,
     downloaded_bytes: u64,
     fetches: u64,
+    cancelled: u64,
     evictions: u64,
     errors: u64,
     last_error: Option<String>,
@@ -214,6 +219,7 @@ impl<T> Residency<T> {
             started: Instant::now(),
             downloaded_bytes: 0,
             fetches: 0,
+            cancelled: 0,
             evictions: 0,
             errors: 0,
             last_error: None,
@@ -322,6 +328,7 @@ impl<T> Residency<T> {
             memory_bound: self.memory_bound,
             downloaded_bytes: self.downloaded_bytes,
             fetches: self.fetches,
+            cancelled: self.cancelled,
             evictions: self.evictions,
             errors: self.errors,
             failed_tiles: self.ledger.failed_tiles(),
@@ -341,12 +348,11 @@ impl<T> Residency<T> {
         self.center = self.ledger.grid().locate(viewer, self.nearest_when_off);
     }
 
-    /// Takes in every result `link` delivered, failing what a stopped fetch thread lost, then
-    /// lets failed tiles whose wait is over be tried again. Returns the arrivals.
-    fn receive<R: Request, P: Send + 'static>(
-        &mut self,
-        link: &mut Link<R, P>,
-    ) -> Vec<(R, Result<(P, u64)>)> {
+    /// Takes in every result `link` delivered, failing what a stopped fetch thread lost and
+    /// counting the bytes of cancelled requests that came back, then lets failed tiles whose
+    /// wait is over be tried again. Returns the arrivals, and the cancelled requests with their
+    /// bytes.
+    fn receive<R: Request, P: Send + 'static>(&mut self, link: &mut Link<R, P>) -> Arrivals<R, P> {
         let received = link.receive(self.time);
         if received.lost {
             self.ledger.fail_in_flight(self.now);
@@ -354,8 +360,17 @@ impl<T> Residency<T> {
         for e in received.errors {
             self.record_error(e.to_string());
         }
+        self.downloaded_bytes += received.cut.iter().map(|&(_, b)| b).sum::<u64>();
         self.ledger.tick(self.now);
-        received.arrivals
+        (received.arrivals, received.cut)
+    }
+
+    /// The fetch of `id` on its way was cancelled after `crossed` bytes of it arrived: its
+    /// reservation is released and nothing counts against the tile.
+    fn cancel(&mut self, id: TileId, crossed: u64) {
+        self.ledger.cancel(id);
+        self.downloaded_bytes += crossed;
+        self.cancelled += 1;
     }
 
     /// Accounts the reservation of `fetch`, or records why not.
@@ -499,6 +514,10 @@ type Outcome<S> = (
     Result<(<S as Strategy>::Piece, u64)>,
 );
 
+/// What a link delivered: requests and their results, and cancelled requests that came back
+/// with the bytes they downloaded.
+type Arrivals<R, P> = (Vec<(R, Result<(P, u64)>)>, Vec<(R, u64)>);
+
 /// A pager: the loader, what is resident, the link, and the strategy's own state.
 pub struct Pager<S: Strategy> {
     loader: Arc<S::Loader>,
@@ -522,7 +541,7 @@ impl<S: Strategy> Pager<S> {
         let link = config.mode.link(S::job(Arc::clone(&loader)))?;
         let base_loader = Arc::clone(&loader);
         let base = BaseFetch::new(
-            Arc::new(move |_: BaseRequest| base_loader.load_base()),
+            Arc::new(move |_: BaseRequest, _: &CancelToken| base_loader.load_base()),
             loader.base_bytes(),
             config.mode,
             config.retry,
@@ -606,8 +625,9 @@ impl<S: Strategy> Pager<S> {
     }
 
     /// The start of an update: finds the tile under `viewer` and takes in every result the
-    /// link delivered; returns the arrivals for the strategy to integrate.
-    fn begin(&mut self, viewer: (f64, f64)) -> Vec<Outcome<S>> {
+    /// link delivered; returns the arrivals for the strategy to integrate, and the cancelled
+    /// requests that came back with their bytes (already counted as downloaded).
+    fn begin(&mut self, viewer: (f64, f64)) -> Arrivals<S::Request, S::Piece> {
         self.resident.begin(viewer);
         let loader = &*self.loader;
         self.base

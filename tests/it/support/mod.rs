@@ -2,5 +2,6 @@
 
 pub mod cli;
 pub mod crack_scene;
+pub mod fake_http;
 pub mod golden;
 pub mod hills;

@@ -55,6 +55,7 @@ use super::ledger::{Fetch, Ledger};
 use super::worker::Job;
 use super::{Pager, PagerConfig, PagerMode, ResidentLoader, Strategy};
 use crate::db::grid::{Grid, TileId};
+use crate::db::source::CancelToken;
 use crate::error::{Error, Result};
 use crate::named::Named;
 
@@ -126,9 +127,16 @@ pub trait LevelLoader: ResidentLoader {
     fn levels(&self) -> usize;
     /// Bytes a tile holding `levels` progressive levels holds.
     fn predicted_bytes(&self, levels: usize) -> usize;
-    /// Fetches levels `have..want` of `id` with one range request; returns them and the bytes
-    /// downloaded.
-    fn fetch(&self, id: TileId, have: usize, want: usize) -> Result<(Self::Piece, u64)>;
+    /// Fetches levels `have..want` of `id` with one range request, stopping with
+    /// [`Error::Cancelled`] once `cancel` is raised where the source can; returns them and the
+    /// bytes downloaded.
+    fn fetch(
+        &self,
+        id: TileId,
+        have: usize,
+        want: usize,
+        cancel: &CancelToken,
+    ) -> Result<(Self::Piece, u64)>;
     /// The resident tile that `held` (`None` when the piece starts at the coarsest level) and
     /// `piece` make; `held` stays as it was if this fails.
     fn merge(
@@ -184,12 +192,13 @@ struct RoomStep {
     saved: usize,
 }
 
-/// A request on its way: bring `id` from `have` to `want` levels.
+/// A request on its way: bring `id` from `have` to `want` levels, asked for `reason`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct LevelFetch {
     id: TileId,
     have: usize,
     want: usize,
+    reason: Reason,
 }
 
 impl fmt::Display for LevelFetch {
@@ -219,7 +228,9 @@ impl<L: LevelLoader> Strategy for Progressive<L> {
     type Piece = L::Piece;
 
     fn job(loader: Arc<L>) -> Job<LevelFetch, L::Piece> {
-        Arc::new(move |f: LevelFetch| loader.fetch(f.id, f.have, f.want))
+        Arc::new(move |f: LevelFetch, cancel: &CancelToken| {
+            loader.fetch(f.id, f.have, f.want, cancel)
+        })
     }
 
     fn refit_base(loader: &L, tile: &mut L::Loaded) -> usize {
@@ -228,8 +239,12 @@ impl<L: LevelLoader> Strategy for Progressive<L> {
 
     /// Before culling: takes in what arrived and finds the complete square.
     fn update(pager: &mut StreamPager<L>, viewer: (f64, f64)) {
-        for (fetch, result) in pager.begin(viewer) {
+        let (arrivals, cut) = pager.begin(viewer);
+        for (fetch, result) in arrivals {
             pager.integrate(fetch, result);
+        }
+        for (fetch, bytes) in cut {
+            pager.strategy.stats.crossed(bytes, fetch.reason);
         }
         let now = pager.resident.time();
         pager.strategy.stats.settle(now);
@@ -393,8 +408,7 @@ impl<L: LevelLoader> StreamPager<L> {
                 continue;
             };
             self.strategy.flights.remove(&fetch.id);
-            self.resident.ledger.cancel(fetch.id);
-            self.resident.downloaded_bytes += crossed;
+            self.resident.cancel(fetch.id, crossed);
             self.strategy.stats.cut(crossed, reason);
         }
     }
@@ -551,6 +565,7 @@ impl<L: LevelLoader> StreamPager<L> {
                 id: request.id,
                 have,
                 want: request.levels,
+                reason: request.reason,
             };
             self.strategy
                 .flights

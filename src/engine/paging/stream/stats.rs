@@ -88,12 +88,21 @@ impl StreamStats {
     pub fn cut(&mut self, bytes: u64, reason: Reason) {
         self.cancelled += 1;
         self.cancelled_in_flight += 1;
+        if reason == Reason::Predicted {
+            self.predicted_settled += 1;
+        }
+        self.crossed(bytes, reason);
+    }
+
+    /// `bytes` more of a request made for `reason` and cancelled on its way crossed the link
+    /// (the fetch thread's requests tell once they stopped): received, never drawn.
+    pub fn crossed(&mut self, bytes: u64, reason: Reason) {
         self.cut_bytes += bytes;
         self.received_bytes += bytes;
         self.settled_bytes += bytes;
         match reason {
             Reason::View => self.view_settled_bytes += bytes,
-            Reason::Predicted => self.predicted_settled += 1,
+            Reason::Predicted => {}
             Reason::Belt => self.belt_bytes += bytes,
         }
     }

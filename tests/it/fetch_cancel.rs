@@ -214,6 +214,26 @@ fn a_large_range_the_pager_gives_up_stops_downloading_and_the_tile_can_come_agai
     assert_eq!(ranges.lock().unwrap().len(), 1, "one slow range");
 }
 
+/// Raises `cancel` once the server has sent 4 KiB of slow range number `k`.
+fn cancel_once_sent(
+    cancel: &CancelToken,
+    ranges: &Arc<Mutex<Vec<SlowRange>>>,
+    k: usize,
+) -> std::thread::JoinHandle<()> {
+    let (cancel, ranges) = (cancel.clone(), Arc::clone(ranges));
+    std::thread::spawn(move || {
+        while ranges
+            .lock()
+            .unwrap()
+            .get(k)
+            .is_none_or(|r| r.written < 4096)
+        {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        cancel.cancel();
+    })
+}
+
 #[test]
 fn an_http_read_cancelled_under_way_stops_and_one_almost_done_finishes() {
     let dir = tempfile::tempdir().unwrap();
@@ -238,20 +258,7 @@ fn an_http_read_cancelled_under_way_stops_and_one_almost_done_finishes() {
     assert!(ranges.lock().unwrap().is_empty());
     // Cancelled under way: the read stops with what arrived, far short of the range.
     let cancel = CancelToken::new();
-    let raise = {
-        let (cancel, ranges) = (cancel.clone(), Arc::clone(&ranges));
-        std::thread::spawn(move || {
-            while ranges
-                .lock()
-                .unwrap()
-                .first()
-                .is_none_or(|r| r.written < 4096)
-            {
-                std::thread::sleep(Duration::from_millis(5));
-            }
-            cancel.cancel();
-        })
-    };
+    let raise = cancel_once_sent(&cancel, &ranges, 0);
     let cut = http.read_range_cancellable(0, 6 * FINISH_BELOW, &cancel);
     raise.join().unwrap();
     let received = match cut {
@@ -275,20 +282,7 @@ fn an_http_read_cancelled_under_way_stops_and_one_almost_done_finishes() {
     // Cancelled with less than FINISH_BELOW left: it runs to its end, whole and right.
     let almost = CancelToken::new();
     let len = FINISH_BELOW + 1024;
-    let raise = {
-        let (almost, ranges) = (almost.clone(), Arc::clone(&ranges));
-        std::thread::spawn(move || {
-            while ranges
-                .lock()
-                .unwrap()
-                .get(1)
-                .is_none_or(|r| r.written < 4096)
-            {
-                std::thread::sleep(Duration::from_millis(5));
-            }
-            almost.cancel();
-        })
-    };
+    let raise = cancel_once_sent(&almost, &ranges, 1);
     let whole = http.read_range_cancellable(100, len, &almost).unwrap();
     raise.join().unwrap();
     assert!(almost.is_cancelled());

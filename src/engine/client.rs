@@ -28,7 +28,7 @@ use crate::engine::geomorph::{Geomorph, Morpher, SUBDIVISION};
 use crate::engine::importance::{TileMeasure, Weights, visual_importance};
 use crate::engine::masks::{LevelSet, MaskSet};
 use crate::engine::paging::stream::{
-    LevelLoader, PredictedView, Predictor, StreamPager, Streaming, Want,
+    LevelLoader, PredictedView, Predictor, StreamPager, StreamSettings, Streaming, Want,
 };
 use crate::engine::paging::{
     ArchiveLoader, BeltPager, PagerConfig, PagerMode, PagerStats, Paging, Residency,
@@ -163,7 +163,8 @@ pub struct Engine {
     terrain: TerrainFrame,
     pager: Box<dyn Paging>,
     grid: Grid,
-    /// The viewpoint predictor when streaming progressively with prediction.
+    /// The viewpoint predictor when streaming progressively: it extrapolates the view to
+    /// where requests arrive and, with prediction, a second ahead.
     predictor: Option<Predictor>,
     masks: MaskSet,
     cracks: TileIndices,
@@ -214,7 +215,7 @@ impl Engine {
                 settings.level_set = LevelSet::PowerOfTwo;
                 (
                     Box::new(StreamPager::new(loader, grid, config, stream)?),
-                    stream.prediction.map(Predictor::new),
+                    Some(Predictor::new(stream.prediction.unwrap_or_default())),
                 )
             }
         };
@@ -364,7 +365,7 @@ impl Engine {
         self.fit_depth_range(&mut camera);
         let (width, height) = target.size();
         let aspect = f64::from(width) / f64::from(height);
-        let predicted = self.predict(&camera);
+        let (predicted, arrival) = self.predict(&camera);
         let kept = self.kept_levels();
         let inputs = FrameInputs {
             pager: &*self.pager,
@@ -391,7 +392,10 @@ impl Engine {
                 self.grid,
                 &plan,
                 &camera,
-                predicted.as_ref(),
+                Ahead {
+                    arrival: arrival.as_ref(),
+                    predicted: predicted.as_ref(),
+                },
                 aspect,
             ),
         };
@@ -446,12 +450,27 @@ impl Engine {
         })
     }
 
-    /// The view the predictor expects a second ahead, when streaming with prediction; it hears
-    /// this frame's camera first.
-    fn predict(&mut self, camera: &Camera) -> Option<PredictedView> {
-        let predictor = self.predictor.as_mut()?;
+    /// When streaming progressively, the camera extrapolated to when this frame's requests
+    /// will arrive ([`StreamStats::round_trip`]), and with prediction the view the predictor
+    /// expects a second ahead; the predictor hears this frame's camera first.
+    fn predict(&mut self, camera: &Camera) -> (Option<PredictedView>, Option<Camera>) {
+        let Some(predictor) = self.predictor.as_mut() else {
+            return (None, None);
+        };
         predictor.observe(self.pager.resident().time(), *camera);
-        predictor.predict()
+        let arrival = self
+            .pager
+            .stream_stats()
+            .and_then(StreamStats::round_trip)
+            .and_then(|seconds| predictor.ahead(seconds));
+        let prefetch = matches!(
+            self.settings.streaming,
+            Streaming::Progressive(StreamSettings {
+                prediction: Some(_),
+                ..
+            })
+        );
+        (prefetch.then(|| predictor.predict()).flatten(), arrival)
     }
 
     /// Tells the pager what the frame wished for and which progressive levels it drew (a
@@ -782,29 +801,56 @@ impl<'p> FramePlan<'p> {
     }
 }
 
+/// The views ahead of the frame that streaming asks for.
+#[derive(Clone, Copy)]
+struct Ahead<'a> {
+    /// The camera when this frame's requests arrive: a tile out of its view by then would
+    /// not draw what it asked for.
+    arrival: Option<&'a Camera>,
+    /// The predicted view, with prediction.
+    predicted: Option<&'a PredictedView>,
+}
+
 /// What a progressive pager should fetch for this frame: the levels the budget the controller
-/// is heading for offers each tile in view, the coarsest level of absent tiles the view meets,
-/// and the same for the predicted view at half weight.
+/// is heading for offers each tile in view (no more than it holds for a tile that will have
+/// left the view when they arrive), the coarsest level of absent tiles the view meets, and the
+/// same for the predicted view at half weight.
 fn streaming_wants(
     inputs: &FrameInputs<'_>,
     grid: Grid,
     plan: &FramePlan<'_>,
     camera: &Camera,
-    predicted: Option<&PredictedView>,
+    ahead: Ahead<'_>,
     aspect: f64,
 ) -> Vec<Want> {
     let resident = inputs.pager.resident();
     let levels = progressive_levels(inputs.terrain.tile_size);
+    let arrival = ahead.arrival.map(|c| {
+        (
+            c.position,
+            Frustum::from_view_projection(&c.view_projection(aspect)),
+        )
+    });
     let mut wants: Vec<Want> = plan
         .visible
         .iter()
         .zip(&plan.wished)
         .zip(&plan.importance)
-        .map(|((&(id, _, _), o), &priority)| Want {
-            id,
-            levels: levels_for_mask(o.level, levels),
-            priority,
-            predicted: false,
+        .map(|((&(id, tile, _), o), &priority)| {
+            let wished = levels_for_mask(o.level, levels);
+            let stays = arrival.as_ref().is_none_or(|(eye, frustum)| {
+                frustum.intersects(&held_box(inputs.terrain, id, tile, *eye))
+            });
+            Want {
+                id,
+                levels: if stays {
+                    wished
+                } else {
+                    wished.min(tile.levels)
+                },
+                priority,
+                predicted: false,
+            }
         })
         .collect();
     wants.extend(absent_wants(
@@ -815,7 +861,7 @@ fn streaming_wants(
         aspect,
         false,
     ));
-    if let Some(view) = predicted {
+    if let Some(view) = ahead.predicted {
         wants.extend(absent_wants(
             resident,
             grid,
@@ -827,6 +873,12 @@ fn streaming_wants(
         wants.extend(predicted_wants(inputs, view, aspect));
     }
     wants
+}
+
+/// The box of resident tile `id` between its lowest and highest held heights, relative to `eye`.
+fn held_box(terrain: &TerrainFrame, id: TileId, tile: &ResidentTile, eye: DVec3) -> Aabb {
+    let (lo, hi) = terrain.tile_box(id.x, id.y, f64::from(tile.min), f64::from(tile.max));
+    Aabb::new(lo - eye, hi - eye)
 }
 
 /// The resident tiles whose boxes meet the view of `camera` at `aspect`, each with its
@@ -841,8 +893,7 @@ fn cull<'p>(
     let mut visible = Vec::new();
     let mut measures = Vec::new();
     for (id, tile) in resident.drawable() {
-        let (lo, hi) = terrain.tile_box(id.x, id.y, f64::from(tile.min), f64::from(tile.max));
-        let aabb = Aabb::new(lo - camera.position, hi - camera.position);
+        let aabb = held_box(terrain, id, tile, camera.position);
         if frustum.intersects(&aabb) {
             let distance = aabb.distance(DVec3::ZERO);
             visible.push((id, tile, distance));
@@ -924,13 +975,9 @@ fn predicted_wants(inputs: &FrameInputs<'_>, view: &PredictedView, aspect: f64) 
     let (seen, _) = cull(inputs.pager.resident(), terrain, &view.cull, aspect);
     let measures: Vec<TileMeasure> = seen
         .iter()
-        .map(|&(id, tile, _)| {
-            let (lo, hi) = terrain.tile_box(id.x, id.y, f64::from(tile.min), f64::from(tile.max));
-            TileMeasure {
-                distance: Aabb::new(lo - view.camera.position, hi - view.camera.position)
-                    .distance(DVec3::ZERO),
-                height: f64::from(tile.max - tile.min),
-            }
+        .map(|&(id, tile, _)| TileMeasure {
+            distance: held_box(terrain, id, tile, view.camera.position).distance(DVec3::ZERO),
+            height: f64::from(tile.max - tile.min),
         })
         .collect();
     let importance = visual_importance(&measures, inputs.weights);

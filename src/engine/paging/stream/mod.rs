@@ -213,7 +213,8 @@ pub struct Progressive<L> {
     square_share: f64,
     queue: RequestQueue,
     wishes: Wishes,
-    flights: HashMap<TileId, (LevelFetch, Reason)>,
+    /// Each request on its way, why it was made and when it was sent.
+    flights: HashMap<TileId, (LevelFetch, Reason, f64)>,
     stats: StreamStats,
     loader: PhantomData<fn() -> L>,
 }
@@ -392,18 +393,18 @@ impl<L: LevelLoader> StreamPager<L> {
         now: f64,
     ) {
         let link = &self.link;
-        let mut unwanted: Vec<(LevelFetch, Reason)> = self
+        let mut unwanted: Vec<(LevelFetch, Reason, f64)> = self
             .strategy
             .flights
             .values()
-            .filter(|(f, _)| {
+            .filter(|(f, _, _)| {
                 wanted.get(&f.id).map_or(0, |w| w.levels) < f.want
                     || (!asks.contains_key(&f.id) && link.started(f, now) == Some(false))
             })
             .copied()
             .collect();
-        unwanted.sort_by_key(|(f, _)| f.id);
-        for (fetch, reason) in unwanted {
+        unwanted.sort_by_key(|(f, _, _)| f.id);
+        for (fetch, reason, _) in unwanted {
             let Some(crossed) = self.link.cancel(&fetch, now) else {
                 continue;
             };
@@ -567,9 +568,10 @@ impl<L: LevelLoader> StreamPager<L> {
                 want: request.levels,
                 reason: request.reason,
             };
+            let sent = self.resident.time();
             self.strategy
                 .flights
-                .insert(request.id, (level_fetch, request.reason));
+                .insert(request.id, (level_fetch, request.reason, sent));
             if let Some((fetch, result)) = self.start(level_fetch) {
                 self.integrate(fetch, result);
             }
@@ -696,11 +698,14 @@ impl<L: LevelLoader> StreamPager<L> {
 
     fn integrate(&mut self, fetch: LevelFetch, result: Result<(L::Piece, u64)>) {
         let id = fetch.id;
-        let reason = self
-            .strategy
-            .flights
-            .remove(&id)
-            .map_or_else(Reason::default, |(_, reason)| reason);
+        let now = self.resident.time();
+        let reason = match self.strategy.flights.remove(&id) {
+            Some((_, reason, sent)) => {
+                self.strategy.stats.arrived_after(now - sent);
+                reason
+            }
+            None => Reason::default(),
+        };
         let merged = result.and_then(|(piece, downloaded)| {
             let mut tile = self.loader.merge(id, self.resident.get(id), piece)?;
             let levels = self.loader.held_levels(&tile);

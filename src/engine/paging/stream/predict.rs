@@ -85,22 +85,10 @@ impl Predictor {
     /// The view `horizon` seconds after the last frame seen; `None` before two frames at
     /// different times were seen.
     pub fn predict(&self) -> Option<PredictedView> {
+        let camera = self.ahead(self.settings.horizon)?;
         let (&(t0, first), &(t1, last)) = (self.seen.front()?, self.seen.back()?);
-        let span = t1 - t0;
-        if span <= 0.0 {
-            return None;
-        }
-        let velocity = (last.position - first.position) / span;
-        let turn = wrap_angle(last.heading() - first.heading()) / span;
-        let ahead = self.settings.horizon;
-        // Heading grows clockwise seen from above (y up): a negative rotation about +y.
-        let forward = DQuat::from_rotation_y(-turn * ahead) * last.forward;
-        let camera = Camera {
-            position: last.position + velocity * ahead,
-            forward: forward.normalize_or(last.forward),
-            ..last
-        };
-        let margin = self.settings.margin + self.settings.margin_per_speed * velocity.length();
+        let speed = (last.position - first.position).length() / (t1 - t0);
+        let margin = self.settings.margin + self.settings.margin_per_speed * speed;
         let cull = Camera {
             position: camera.position - camera.forward * margin,
             ..camera
@@ -109,6 +97,25 @@ impl Predictor {
             camera,
             cull,
             margin,
+        })
+    }
+
+    /// The camera `seconds` after the last frame seen: position by the mean velocity, viewing
+    /// direction by the turn rate; `None` before two frames at different times were seen.
+    pub fn ahead(&self, seconds: f64) -> Option<Camera> {
+        let (&(t0, first), &(t1, last)) = (self.seen.front()?, self.seen.back()?);
+        let span = t1 - t0;
+        if span <= 0.0 {
+            return None;
+        }
+        let velocity = (last.position - first.position) / span;
+        let turn = wrap_angle(last.heading() - first.heading()) / span;
+        // Heading grows clockwise seen from above (y up): a negative rotation about +y.
+        let forward = DQuat::from_rotation_y(-turn * seconds) * last.forward;
+        Some(Camera {
+            position: last.position + velocity * seconds,
+            forward: forward.normalize_or(last.forward),
+            ..last
         })
     }
 }
@@ -149,6 +156,10 @@ mod tests {
         assert!(close(v.camera.forward, DVec3::X));
         assert!((v.margin - 50.0).abs() < 1e-9);
         assert!(close(v.cull.position, DVec3::new(140.0, 50.0, 0.0)));
+        // Half a second ahead (where a request sent now arrives, say), no margin.
+        let soon = p.ahead(0.5).unwrap();
+        assert!(close(soon.position, DVec3::new(140.0, 50.0, 0.0)));
+        assert!(close(soon.forward, DVec3::X));
         // At rest the margin is the base margin and the view is the current one.
         let mut still = Predictor::new(PredictionSettings::default());
         still.observe(0.0, camera(DVec3::ZERO, 0.0));

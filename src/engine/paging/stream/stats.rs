@@ -62,7 +62,12 @@ pub struct StreamStats {
     pub predicted_hits: u64,
     /// Deliveries still inside their window, with whether they were drawn yet.
     open: VecDeque<(Delivery, bool)>,
+    /// The recent requests' seconds from sending to arrival, smoothed.
+    round_trip: Option<f64>,
 }
+
+/// Weight of the newest arrival in the smoothed round trip.
+const ROUND_TRIP_SMOOTHING: f64 = 0.25;
 
 impl StreamStats {
     /// The share of settled received bytes that were rendered within a second (`None` before
@@ -81,6 +86,21 @@ impl StreamStats {
     pub fn hit_rate(&self) -> Option<f64> {
         (self.predicted_settled > 0)
             .then(|| self.predicted_hits as f64 / self.predicted_settled as f64)
+    }
+
+    /// Seconds a request takes from being sent to arriving at a frame, smoothed over the
+    /// recent arrivals (`None` before any): how far ahead a request must look to be drawn.
+    pub fn round_trip(&self) -> Option<f64> {
+        self.round_trip
+    }
+
+    /// A request arrived `seconds` after it was sent.
+    pub fn arrived_after(&mut self, seconds: f64) {
+        let seconds = seconds.max(0.0);
+        self.round_trip = Some(
+            self.round_trip
+                .map_or(seconds, |r| r + ROUND_TRIP_SMOOTHING * (seconds - r)),
+        );
     }
 
     /// A request made for `reason` was cancelled on its way after `bytes` of it crossed the

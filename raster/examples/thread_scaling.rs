@@ -11,25 +11,13 @@
 
 #[path = "../tests/it/scene.rs"]
 mod scene;
-
-use std::time::Instant;
+#[path = "support/turns.rs"]
+mod turns;
 
 use stripmask_raster::*;
 
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
-
 fn main() {
-    let frames: usize = match std::env::args().nth(1).map(|a| a.parse()) {
-        None => 20,
-        Some(Ok(n)) if n > 0 => n,
-        _ => {
-            eprintln!("thread_scaling: the frame count must be a positive number");
-            std::process::exit(2);
-        }
-    };
+    let frames = turns::frames_arg("thread_scaling", 20);
     let s = scene::terrain(470, 1280, 720);
     let peers = RenderState {
         shading: Shading::Gouraud,
@@ -65,31 +53,17 @@ fn main() {
     for (name, color, depth, state) in cases {
         let mut fbs = [1, 2].map(|_| Framebuffer::new(1280, 720, color, depth).expect("valid"));
         let mut rs = [Rasterizer::with_threads(1), Rasterizer::with_threads(2)];
-        let (mut times, mut ratios) = ([Vec::new(), Vec::new()], Vec::new());
-        for f in 0..frames + 1 {
-            let mut t = [0.0; 2];
-            // Taking turns to go first.
-            for k in [f % 2, 1 - f % 2] {
-                let start = Instant::now();
-                fbs[k].clear([140, 180, 230]);
-                rs[k]
-                    .draw(&mut fbs[k], &s.mesh(), &s.transform, &state)
-                    .expect("the scene is valid");
-                t[k] = start.elapsed().as_secs_f64();
-            }
-            // The first frame sizes the scratch buffers: not counted.
-            if f > 0 {
-                times[0].push(t[0]);
-                times[1].push(t[1]);
-                ratios.push(t[0] / t[1]);
-            }
-        }
+        let (times, ratio) = turns::take_turns(frames, |k| {
+            fbs[k].clear([140, 180, 230]);
+            rs[k]
+                .draw(&mut fbs[k], &s.mesh(), &s.transform, &state)
+                .expect("the scene is valid");
+        });
         assert!(fbs[0] == fbs[1], "one and two threads give the same bytes");
         println!(
-            "{name}: 1 thread {:.1} ms, 2 threads {:.1} ms, median ratio {:.2}",
-            median(&mut times[0]) * 1e3,
-            median(&mut times[1]) * 1e3,
-            median(&mut ratios)
+            "{name}: 1 thread {:.1} ms, 2 threads {:.1} ms, median ratio {ratio:.2}",
+            times[0] * 1e3,
+            times[1] * 1e3,
         );
     }
 }

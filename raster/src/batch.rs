@@ -42,6 +42,11 @@ const SETUP_CHUNK: usize = 1024;
 const VERTEX_CHUNK: usize = 2048;
 /// Below this many vertices the vertex stage runs on the calling thread.
 const PARALLEL_MIN: usize = 4096;
+/// Below this many triangles a flush is drawn on the calling thread: handing a smaller flush to
+/// a second thread costs more than the thread saves (`examples/split_threshold.rs`, measured in
+/// docs/raster.md: at 1280x720 a second thread paid from about 9,000 triangles, at 320x240 not
+/// below 36,000).
+pub(crate) const SPLIT_TRIANGLES: usize = 8192;
 
 /// The geometry of the pending draws: copies of the vertices they use, and their triangles as
 /// indices into those copies.
@@ -163,7 +168,8 @@ impl<'t> Batch<'_, 't> {
             return;
         }
         let r = &mut *self.rasterizer;
-        let (threads, tile, pass) = (r.thread_count(), r.tile_size, r.pass_triangles);
+        let threads = r.thread_count(r.pending.triangles.len());
+        let (tile, pass) = (r.tile_size, r.pass_triangles);
         let (rasterized, fragments) = match self.precision {
             Precision::Fixed => flush_with::<FixedPipeline>(
                 &mut r.fixed,
@@ -467,7 +473,7 @@ impl DepthView<'_> {
 mod tests {
     use glam::{DMat4, DVec3};
 
-    use super::PASS_TRIANGLES;
+    use super::{PASS_TRIANGLES, SPLIT_TRIANGLES};
     use crate::{
         ColorFormat, DepthFormat, Fog, Framebuffer, Indices, Mesh, Perspective, Precision,
         Rasterizer, RenderState, Sampler, Shading, Texture, TextureBinding, Topology, Transform,
@@ -543,7 +549,8 @@ mod tests {
             let mut fb =
                 Framebuffer::new(200, 150, ColorFormat::Rgba8888, DepthFormat::D32).unwrap();
             fb.clear([10, 20, 30]);
-            let mut r = Rasterizer::new();
+            // Split from the first triangle: a flush this small is otherwise drawn on one thread.
+            let mut r = Rasterizer::new().with_split_from(0);
             r.tile_size = tile;
             r.pass_triangles = pass;
             let draws: Vec<Vec<u32>> = strips
@@ -632,5 +639,21 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_flush_too_small_to_split_stays_on_the_calling_thread() {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let r = Rasterizer::with_threads(2);
+            assert_eq!(r.thread_count(SPLIT_TRIANGLES - 1), 1);
+            assert_eq!(r.thread_count(SPLIT_TRIANGLES), 2);
+            let r = Rasterizer::with_threads(2).with_split_from(10);
+            assert_eq!((r.thread_count(9), r.thread_count(10)), (1, 2));
+            assert_eq!(Rasterizer::with_threads(1).thread_count(1 << 20), 1);
+        });
     }
 }

@@ -7,7 +7,7 @@
 //! submission order, so any thread count and any batching give the same bytes.
 
 use crate::RasterError;
-use crate::batch::{PASS_TRIANGLES, Pending};
+use crate::batch::{PASS_TRIANGLES, Pending, SPLIT_TRIANGLES};
 use crate::bin::TILE_SIZE;
 use crate::framebuffer::Framebuffer;
 use crate::matrix::Transform;
@@ -45,6 +45,8 @@ pub struct Rasterizer {
     pub(crate) fixed: Stages<FixedPipeline>,
     pub(crate) float: Stages<FloatPipeline>,
     threads: Option<usize>,
+    /// Fewest triangles a flush needs to be split between threads (`SPLIT_TRIANGLES`).
+    split_triangles: usize,
     /// Side of the screen tiles, `TILE_SIZE` (tests try others: the picture must not change).
     pub(crate) tile_size: u32,
     /// Triangles per pass of a flush, `PASS_TRIANGLES` (tests try others, as for tiles).
@@ -75,6 +77,7 @@ impl Default for Rasterizer {
             fixed: Stages::default(),
             float: Stages::default(),
             threads: None,
+            split_triangles: SPLIT_TRIANGLES,
             tile_size: TILE_SIZE,
             pass_triangles: PASS_TRIANGLES,
         }
@@ -104,7 +107,22 @@ impl Rasterizer {
         }
     }
 
-    pub(crate) fn thread_count(&self) -> usize {
+    /// A rasterizer that splits a flush between threads only from `triangles` triangles up,
+    /// and draws smaller ones on the calling thread. The default is the measured point below
+    /// which a second thread costs more than it saves (`examples/split_threshold.rs`); a caller
+    /// on another machine can measure its own. The picture does not depend on it.
+    pub fn with_split_from(self, triangles: usize) -> Self {
+        Self {
+            split_triangles: triangles,
+            ..self
+        }
+    }
+
+    /// The threads a flush of `triangles` triangles is drawn on.
+    pub(crate) fn thread_count(&self, triangles: usize) -> usize {
+        if triangles < self.split_triangles {
+            return 1;
+        }
         self.threads
             .unwrap_or_else(rayon::current_num_threads)
             .min(rayon::current_num_threads())

@@ -78,7 +78,9 @@ fn render(
             indices: Indices::U32(&idx),
             topology: Topology::TriangleStrip,
         };
+        // Split from the first triangle: a flush this small is otherwise drawn on one thread.
         Rasterizer::new()
+            .with_split_from(0)
             .draw(&mut fb, &mesh, &Transform::new(m).unwrap(), &state)
             .unwrap();
         fb

@@ -203,7 +203,6 @@ impl Coverage {
             eight: [0; 3],
             wide: width > 8,
             columns: (1u32 << width) - 1,
-            width: width as i64,
             x0: r.x0 as i64,
             y: start,
             end,
@@ -304,8 +303,6 @@ pub(crate) struct SmallRows {
     wide: bool,
     /// The rectangle's columns as bits.
     columns: u32,
-    /// How many: a popcount of `columns` costs a dozen instructions without `popcnt`.
-    width: i64,
     /// First column of the rectangle: bit `k` of a mask is column `x0 + k`.
     pub x0: i64,
     /// The current row.
@@ -315,12 +312,6 @@ pub(crate) struct SmallRows {
 }
 
 impl SmallRows {
-    /// Columns of the rectangle (bits of a mask).
-    #[inline(always)]
-    pub fn width(&self) -> i64 {
-        self.width
-    }
-
     /// The owned columns of the current row as bits (bit `k` is column `x0 + k`), and a step to
     /// the next row.
     #[inline(always)]

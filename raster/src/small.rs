@@ -56,8 +56,10 @@ pub(crate) fn small_triangle<
     test: DepthTest,
 ) {
     let tile = color.rect();
-    let rows = t.coverage.small_rows(tile.y0 as i64, tile.y1 as i64);
-    if rows.y >= rows.end {
+    let rect = t.coverage.rect;
+    // The rows `small_rows` walks: built in `rows_of`, where they live.
+    let (y0, end) = (rect.y0.max(tile.y0) as i64, rect.y1.min(tile.y1) as i64);
+    if y0 >= end {
         return;
     }
     // The texture's interpolation, fixed for the row loop: texture coordinates per pixel
@@ -67,7 +69,7 @@ pub(crate) fn small_triangle<
         TexMode::Perspective(_) if F::ENABLED => TEX_PERSPECTIVE,
         _ => TEX_OFF,
     };
-    let (x0, y0) = (rows.x0, rows.y);
+    let x0 = rect.x0 as i64;
     let at = |q: &AttrPlane, used: bool| if used { q.at_pixel(x0, y0) } else { 0 };
     let channels = channels::<SHADE, GREY>();
     let start = RowValues {
@@ -85,7 +87,7 @@ pub(crate) fn small_triangle<
         ],
     };
     // The extremes of a plane over the columns and rows the triangle may own here.
-    let (w, h) = (rows.width() - 1, rows.end - y0 - 1);
+    let (w, h) = ((rect.x1 - rect.x0 - 1) as i64, end - y0 - 1);
     let within = |q: &AttrPlane, v: i64, lo: i64, hi: i64| {
         let (ex, ey) = (q.dx * w, q.dy * h);
         v + ex.min(0) + ey.min(0) >= lo && v + ex.max(0) + ey.max(0) < hi
@@ -98,7 +100,7 @@ pub(crate) fn small_triangle<
         && (texes != TEX_AFFINE
             || (within(&p.tex[0], start.tex[0], -coord.0, coord.1)
                 && within(&p.tex[1], start.tex[1], -coord.0, coord.1)));
-    let args = (p, rows, start, color, depth, frags, views, attrs, test);
+    let args = (p, t, start, color, depth, frags, views, attrs, test);
     match (texes, in_range) {
         (TEX_AFFINE, false) => rows_of::<P, D, F, SHADE, GREY, FOG, TEX_AFFINE, true>(args),
         (TEX_AFFINE, true) => rows_of::<P, D, F, SHADE, GREY, FOG, TEX_AFFINE, false>(args),
@@ -129,10 +131,10 @@ const fn channels<const SHADE: bool, const GREY: bool>() -> usize {
     }
 }
 
-/// What `rows_of` walks: the triangle's planes, rows and starting values, and the tile.
+/// What `rows_of` walks: the triangle's planes and starting values, and the tile.
 type RowsArgs<'a, 'v, 't, P, D, F> = (
     &'a NarrowPlanes,
-    crate::edge::SmallRows,
+    &'a FixedTriangle,
     RowValues,
     &'a mut TileBuf<<P as PixelFormat>::Pixel>,
     Option<&'a mut TileBuf<<D as DepthFormat>::Value>>,
@@ -156,16 +158,10 @@ fn rows_of<
     const TEX: usize,
     const CLAMP: bool,
 >(
-    (p, mut rows, mut row, color, mut depth, frags, views, attrs, test): RowsArgs<
-        '_,
-        '_,
-        '_,
-        P,
-        D,
-        F,
-    >,
+    (p, t, mut row, color, mut depth, frags, views, attrs, test): RowsArgs<'_, '_, '_, P, D, F>,
 ) {
     let tile = color.rect();
+    let mut rows = t.coverage.small_rows(tile.y0 as i64, tile.y1 as i64);
     let channels = channels::<SHADE, GREY>();
     // The tile's columns as bits of the rows' masks (a small triangle spans at most 16).
     let lo = (tile.x0 as i64 - rows.x0).clamp(0, 32);

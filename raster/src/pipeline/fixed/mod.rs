@@ -7,8 +7,8 @@
 use crate::clip::{ClipVertex, Plane};
 use crate::edge::Coverage;
 use crate::fixed_point::{
-    ATTR_FRAC_BITS, DEPTH_ONE, GUARD_BAND_PX, Q_BITS, SUBPIXEL_BITS, SUBPIXEL_HALF, TEXCOORD_LIMIT,
-    normalise_positive, saturate_i64, shift_round,
+    ATTR_FRAC_BITS, DEPTH_ONE, GUARD_BAND_PX, MAX_DIMENSION, Q_BITS, SUBPIXEL_BITS, SUBPIXEL_HALF,
+    TEXCOORD_LIMIT, normalise_positive, saturate_i64, shift_round,
 };
 use crate::matrix::{FixedMat4, Transform};
 use crate::pipeline::{Attributes, Pipeline, Setup, TexMode, Viewport};
@@ -195,24 +195,17 @@ impl Pipeline for FixedPipeline {
 
 impl FixedScreen {
     pub fn project(v: &FixedClip, vp: &Viewport, fog: Option<FixedFog>) -> Self {
-        let [x, y, z, w] = v.clip.map(i128::from);
-        let w = w.max(1);
-        let (wn, shift) = normalise_positive(w);
-        let scale = |c: i128| if shift > 0 { c >> shift } else { c << -shift };
-        let inv_w = ((1u64 << 62) / wn as u64) as i64; // (2^31, 2^32]: a 64-bit division
-        let half_w = vp.width as i128 * SUBPIXEL_HALF as i128;
-        let half_h = vp.height as i128 * SUBPIXEL_HALF as i128;
-        // Inside the guard band |x'| < 2^48, so the products stay below 2^100.
-        let sx = half_w + shift_round(scale(x) * inv_w as i128 * half_w, 62);
-        let sy = half_h - shift_round(scale(y) * inv_w as i128 * half_h, 62);
-        let depth =
-            shift_round(scale(z) * inv_w as i128, 30).clamp(0, DEPTH_ONE as i128 - 1) as i64;
+        let w = v.clip[3].max(1);
+        let (xy, depth, inv_w, shift) = project_narrow(v.clip, w, vp).unwrap_or_else(|| {
+            let (xy, depth, inv_w, shift) = project_wide(v.clip, vp);
+            (vp.clamp_to_guard_band(xy), depth, inv_w, shift)
+        });
         let fog = match fog {
-            Some(f) if f.end > f.start => (((f.end as i128 - w) * 256)
+            Some(f) if f.end > f.start => (((f.end as i128 - w as i128) * 256)
                 / (f.end as i128 - f.start as i128))
                 .clamp(0, 256) as i64,
             Some(f) => {
-                if w < f.end as i128 {
+                if w < f.end {
                     256
                 } else {
                     0
@@ -221,7 +214,7 @@ impl FixedScreen {
             None => 256,
         };
         Self {
-            xy: vp.clamp_to_guard_band([saturate_i64(sx), saturate_i64(sy)]),
+            xy,
             depth,
             inv_w,
             w_shift: shift,
@@ -230,6 +223,70 @@ impl FixedScreen {
             fog,
         }
     }
+}
+
+/// What the projection gives: the snapped position (inside the guard band), depth (0.32),
+/// `1/w` and its shift (see `FixedScreen::inv_w`).
+type Projected = ([i64; 2], i64, i64, i32);
+
+/// The projection in i64 products and one widening multiplication per coordinate, for the
+/// vertices where the bounds allow it (almost all: those within 8 viewport half-sizes of the
+/// centre and inside the depth range); `None` for the others.
+///
+/// Bounds: `x' = x * 2^-shift` (rounded down when `shift > 0`, exact otherwise), as
+/// `project_wide` scales it; `|x'| < 2^34` and a viewport side up to 2^13 keep
+/// `x' * SUBPIXEL_HALF * side` below `2^34 * 2^7 * 2^13 = 2^54`, and that times `inv_w <= 2^32`
+/// below 2^86 (one widening multiplication, rounded in i128 as `shift_round` does). Depth
+/// needs `0 <= z <= w`, so `0 <= z' <= wn` and `z' * inv_w <= wn * 2^62 / wn = 2^62`: an i64
+/// product whose rounding half cannot overflow. The result is `project_wide`'s to the bit
+/// (tested at the extremes and at random).
+#[inline]
+fn project_narrow(clip: [i64; 4], w: i64, vp: &Viewport) -> Option<Projected> {
+    debug_assert!(w > 0 && vp.width <= MAX_DIMENSION && vp.height <= MAX_DIMENSION);
+    const LIMIT: u32 = 34;
+    let [x, y, z, _] = clip;
+    if z < 0 || z > w {
+        return None;
+    }
+    // `normalise_positive` of `w` in i64: `wn` in `[2^30, 2^31)`, `shift` in `-30..=32`.
+    let shift = 33 - w.leading_zeros() as i32;
+    let (wn, x, y, z) = if shift >= 0 {
+        (w >> shift, x >> shift, y >> shift, z >> shift)
+    } else {
+        let up = -shift as u32;
+        if (x.unsigned_abs() | y.unsigned_abs()) >> (LIMIT - up) != 0 {
+            return None;
+        }
+        (w << up, x << up, y << up, z << up)
+    };
+    if (x.unsigned_abs() | y.unsigned_abs()) >> LIMIT != 0 {
+        return None;
+    }
+    let inv_w = ((1u64 << 62) / wn as u64) as i64; // (2^31, 2^32]: a 64-bit division
+    let half_w = vp.width as i64 * SUBPIXEL_HALF;
+    let half_h = vp.height as i64 * SUBPIXEL_HALF;
+    let offset = |c: i64, half: i64| ((c * half) as i128 * inv_w as i128 + (1 << 61)) >> 62;
+    let sx = half_w + offset(x, half_w) as i64;
+    let sy = half_h - offset(y, half_h) as i64;
+    let depth = ((z * inv_w + (1 << 29)) >> 30).min(DEPTH_ONE - 1);
+    Some((vp.clamp_to_guard_band([sx, sy]), depth, inv_w, shift))
+}
+
+/// The projection of any clip position (`w` taken as at least 1) in 128-bit products: the
+/// position before the guard band's clamp.
+fn project_wide(clip: [i64; 4], vp: &Viewport) -> Projected {
+    let [x, y, z, w] = clip.map(i128::from);
+    let w = w.max(1);
+    let (wn, shift) = normalise_positive(w);
+    let scale = |c: i128| if shift > 0 { c >> shift } else { c << -shift };
+    let inv_w = ((1u64 << 62) / wn as u64) as i64; // (2^31, 2^32]: a 64-bit division
+    let half_w = vp.width as i128 * SUBPIXEL_HALF as i128;
+    let half_h = vp.height as i128 * SUBPIXEL_HALF as i128;
+    // Inside the guard band |x'| < 2^48, so the products stay below 2^100.
+    let sx = half_w + shift_round(scale(x) * inv_w as i128 * half_w, 62);
+    let sy = half_h - shift_round(scale(y) * inv_w as i128 * half_h, 62);
+    let depth = shift_round(scale(z) * inv_w as i128, 30).clamp(0, DEPTH_ONE as i128 - 1) as i64;
+    ([saturate_i64(sx), saturate_i64(sy)], depth, inv_w, shift)
 }
 
 /// An attribute as a plane over the triangle: per-pixel gradients and a base, all with
@@ -577,6 +634,96 @@ mod tests {
             ..FixedScreen::default()
         });
         (area2 > 0).then(|| Geometry::new(&[&screen[0], &screen[1], &screen[2]], area2, small))
+    }
+
+    /// `project_narrow`, where it applies, against `project_wide`.
+    fn check_projection(clip: [i64; 4], vp: &Viewport) -> bool {
+        let w = clip[3].max(1);
+        let Some(narrow) = project_narrow(clip, w, vp) else {
+            return false;
+        };
+        let (xy, depth, inv_w, shift) = project_wide(clip, vp);
+        assert_eq!(
+            narrow,
+            (vp.clamp_to_guard_band(xy), depth, inv_w, shift),
+            "{clip:?} {vp:?}"
+        );
+        true
+    }
+
+    #[test]
+    fn narrow_projection_equals_128_bit_products_at_the_extremes() {
+        let ws = [
+            1i64,
+            (1 << 30) - 1,
+            1 << 30,
+            (1 << 31) - 1,
+            1 << 31,
+            (1 << 31) + 1,
+            1 << 47,
+            (1 << 61) + 12345,
+            (1 << 62) - 1,
+        ];
+        let (mut narrow, mut all) = (0, 0);
+        for size in [1u32, 320, MAX_DIMENSION] {
+            let vp = Viewport {
+                width: size,
+                height: (size / 2).max(1),
+            };
+            for &w in &ws {
+                let shift = 33 - w.leading_zeros() as i32;
+                // The largest x the narrow path takes, one past it, the guard band's edge, and
+                // the ends of i64.
+                let edge = if shift >= 0 {
+                    ((1i128 << 34) << shift) - 1
+                } else {
+                    ((1i128 << 34) >> -shift) - 1
+                };
+                let band = w as i128 * 2 * GUARD_BAND_PX as i128 / size as i128;
+                let [edge, band] = [edge, band].map(|c| c.min(i64::MAX as i128 - 1) as i64);
+                let xs = [0, 1, edge, edge + 1, band, band + 1, i64::MAX];
+                let zs = [
+                    0,
+                    1,
+                    w / 2,
+                    w - 1,
+                    w,
+                    w + 1,
+                    w + (1 << shift.max(0)),
+                    -1,
+                    i64::MIN,
+                ];
+                for &x in &xs {
+                    for sign in [1, -1] {
+                        for &z in &zs {
+                            let c = sign * x;
+                            for clip in [[c, -c / 3, z, w], [c / 5, c, z, w]] {
+                                narrow += check_projection(clip, &vp) as u32;
+                                all += 1;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(narrow > 1000 && narrow < all, "{narrow} of {all}");
+    }
+
+    proptest::proptest! {
+        /// Random vertices inside and around the guard band project as in 128 bits.
+        #[test]
+        fn narrow_projection_equals_128_bit_products(
+            w in 1i64..1 << 62,
+            x in -(1i64 << 40)..1 << 40,
+            y in -(1i64 << 40)..1 << 40,
+            z in -(1i64 << 10)..1 << 33,
+            size in 1u32..=MAX_DIMENSION,
+        ) {
+            let vp = Viewport { width: size, height: size };
+            // Coordinates as multiples of w / 2^32 (z up to twice w).
+            let at = |c: i64| ((c as i128 * w as i128) >> 32) as i64;
+            check_projection([at(x), at(y), at(z), w], &vp);
+        }
     }
 
     /// The largest attribute difference a plane meets: `s, t` under perspective.

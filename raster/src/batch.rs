@@ -44,9 +44,9 @@ const VERTEX_CHUNK: usize = 2048;
 const PARALLEL_MIN: usize = 4096;
 /// Below this many triangles a flush is drawn on the calling thread: handing a smaller flush to
 /// a second thread costs more than the thread saves (`examples/split_threshold.rs`, measured in
-/// docs/raster.md: at 1280x720 a second thread paid from about 9,000 triangles, at 320x240 not
-/// below 36,000).
-pub(crate) const SPLIT_TRIANGLES: usize = 8192;
+/// docs/raster.md: on a quiet machine a second thread lost below about 2,200 triangles at
+/// 320x240 and paid 1.21x from 4,418).
+pub(crate) const SPLIT_TRIANGLES: usize = 4096;
 
 /// The geometry of the pending draws: copies of the vertices they use, and their triangles as
 /// indices into those copies.

@@ -261,15 +261,12 @@ pub fn draw_tiles<T: DrawTarget>(
             } else {
                 partial_indices(held, mode, t)
             };
+            let lit = t.tile.lit_vertices(t.level, &mut relit);
             let (vertices, tile_transform) = match &mut morph {
                 Some((view, fine, morpher)) => {
-                    let lit = t.tile.lit_vertices(t.level, true, &mut relit);
                     (morphed(morpher, view, t, lit), fine.tile(t.x, t.y)?)
                 }
-                None => (
-                    t.tile.lit_vertices(t.level, false, &mut relit),
-                    transform.tile(t.x, t.y)?,
-                ),
+                None => (lit, transform.tile(t.x, t.y)?),
             };
             let mesh = Mesh {
                 vertices,
@@ -358,7 +355,7 @@ fn draw_shadows<'t, E: From<RasterError>>(
             continue;
         };
         // Lit like the tile's corners at the level it is drawn at.
-        let lit = t.tile.lit_vertices(t.level, false, &mut relit);
+        let lit = t.tile.lit_vertices(t.level, &mut relit);
         for (v, k) in vertices.iter_mut().zip(shadow::corners(t.tile.side())) {
             v.color = lit[k].color;
         }

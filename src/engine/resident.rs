@@ -256,12 +256,12 @@ impl ResidentTile {
     /// lit from the grid that mask needs: [`Self::vertices`] when that is the held grid, else
     /// `scratch`, as long as the vertices, holding every sample of that grid and the skirt
     /// vertices under its border samples, coloured by [`Self::coarse_shades`]. Its other
-    /// entries are left as they were (the draw does not read them), or copied from the
-    /// vertices with `complete` (for a reader of every sample, such as the geomorph).
+    /// entries are left as they were: neither the draw nor the geomorph reads them (a morph
+    /// of the mask's samples needs only their ancestors, which lie on that grid too, see
+    /// `crate::engine::geomorph::MorphTree::needs`), so no copy of the whole tile is paid.
     pub fn lit_vertices<'v>(
         &'v self,
         mask_level: usize,
-        complete: bool,
         scratch: &'v mut Vec<Vertex>,
     ) -> &'v [Vertex] {
         let level = levels_for_mask(mask_level, progressive_levels(self.tile_size)) - 1;
@@ -269,13 +269,8 @@ impl ResidentTile {
             return &self.vertices;
         }
         let (side, grid) = (self.side(), self.normals.len());
-        if complete {
-            scratch.clear();
-            scratch.extend_from_slice(&self.vertices);
-        } else {
-            scratch.resize(self.vertices.len(), Vertex::default());
-            scratch[grid..].copy_from_slice(&self.vertices[grid..]);
-        }
+        scratch.resize(self.vertices.len(), Vertex::default());
+        scratch[grid..].copy_from_slice(&self.vertices[grid..]);
         let (n, step) = (level_side(level), 1 << (self.levels - 1 - level));
         for (k, &c) in self.coarse_shades[level].iter().enumerate() {
             let at = (k / n) * step * side + (k % n) * step;
@@ -418,6 +413,8 @@ fn chain_from(tile: &Tile, base: usize) -> Texture {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::engine::geomorph::MorphTree;
+    use crate::engine::partial_meshes::compact_level;
 
     fn sloped_tile() -> Tile {
         let s = 9;
@@ -622,14 +619,21 @@ mod tests {
                     let only = ResidentTile::new(&tile.truncated(levels), 0, 2.0, &light, cracks);
                     let mask = only.finest_mask_level();
                     let mut scratch = Vec::new();
-                    let lit = r.lit_vertices(mask, false, &mut scratch).to_vec();
-                    let mut copied = Vec::new();
-                    let all = r.lit_vertices(mask, true, &mut copied);
+                    let lit = r.lit_vertices(mask, &mut scratch).to_vec();
                     let (side, step) = (only.side(), only.stride() / r.stride());
+                    let mut on_grid = vec![false; r.side().pow(2)];
                     for (k, v) in only.vertices[..side * side].iter().enumerate() {
                         let at = (k / side) * step * r.side() + (k % side) * step;
                         assert_eq!(lit[at], *v, "{held} held, drawn with {levels}, {cracks:?}");
-                        assert_eq!(all[at], *v);
+                        on_grid[at] = true;
+                    }
+                    // The geomorph reads the samples its mask keeps and their ancestors: all
+                    // lit, none left as the scratch buffer held them.
+                    let tree = MorphTree::new(r.side()).unwrap();
+                    let needs = tree.needs(compact_level(mask, r.stride()));
+                    for (k, lit) in on_grid.iter().enumerate() {
+                        let needed = needs[k / 64] & (1 << (k % 64)) != 0;
+                        assert!(!needed || *lit, "sample {k} is morphed but not lit");
                     }
                     let (skirt, only_skirt) = (r.side().pow(2), side * side);
                     for (k, v) in only.vertices[only_skirt..].iter().enumerate() {

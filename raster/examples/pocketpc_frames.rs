@@ -2,11 +2,13 @@
 //! shaded, depth-tested strip triangles, one thread) a number of times and prints the median
 //! frame time and a checksum of the pixels: a small, steady driver for instruction counts, where
 //! the shared machine makes wall-clock medians noisy, and a quick check that a change kept every
-//! pixel.
+//! pixel. With `--peers` it draws the same triangles in the peers' state (RGBA8888, 32-bit depth,
+//! bilinear without mipmaps, exact perspective), the state the peer benchmark compares.
 //!
 //! ```sh
 //! cargo build --release -p stripmask-raster --example pocketpc_frames
 //! valgrind --tool=callgrind target/release/examples/pocketpc_frames 10
+//! valgrind --tool=callgrind target/release/examples/pocketpc_frames 10 --peers
 //! target/release/examples/pocketpc_frames 2000
 //! ```
 
@@ -16,7 +18,9 @@ mod scene;
 use stripmask_raster::*;
 
 fn main() {
-    let frames: u32 = match std::env::args().nth(1).map(|a| a.parse()) {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let peers = args.iter().any(|a| a == "--peers");
+    let frames: u32 = match args.iter().find(|a| *a != "--peers").map(|a| a.parse()) {
         None => 10,
         Some(Ok(n)) => n,
         Some(Err(e)) => {
@@ -25,10 +29,23 @@ fn main() {
         }
     };
     let s = scene::terrain(72, 320, 240);
-    let mut fb = Framebuffer::new(320, 240, ColorFormat::Rgb565, DepthFormat::D16)
-        .expect("a 320x240 target is valid");
+    let (color, depth, state) = if peers {
+        let sampler = Sampler {
+            wrap: Wrap::Repeat,
+            ..Sampler::BILINEAR
+        };
+        let state = RenderState {
+            shading: Shading::Gouraud,
+            texture: Some(TextureBinding::new(&s.texture, sampler)),
+            perspective: Perspective::Exact,
+            ..RenderState::default()
+        };
+        (ColorFormat::Rgba8888, DepthFormat::D32, state)
+    } else {
+        (ColorFormat::Rgb565, DepthFormat::D16, s.state())
+    };
+    let mut fb = Framebuffer::new(320, 240, color, depth).expect("a 320x240 target is valid");
     let mut r = Rasterizer::with_threads(1);
-    let state = s.state();
     let mut stats = DrawStats::default();
     let mut times = Vec::with_capacity(frames as usize);
     for _ in 0..frames {

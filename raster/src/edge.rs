@@ -135,6 +135,13 @@ impl Coverage {
         })
     }
 
+    /// The rectangle's first pixel `(x0, y0)`: where narrow attribute planes are based
+    /// (`AttrPlane::on_grid`).
+    #[inline]
+    pub fn corner(&self) -> [i64; 2] {
+        [self.rect.x0 as i64, self.rect.y0 as i64]
+    }
+
     /// Vertex 0 in sub-pixels: the origin of the triangle's attribute planes.
     #[inline]
     pub fn origin(&self) -> [i64; 2] {

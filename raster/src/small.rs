@@ -69,8 +69,8 @@ pub(crate) fn small_triangle<
         TexMode::Perspective(_) if F::ENABLED => TEX_PERSPECTIVE,
         _ => TEX_OFF,
     };
-    let x0 = rect.x0 as i64;
-    let at = |q: &AttrPlane, used: bool| if used { q.at_pixel(x0, y0) } else { 0 };
+    let row = y0 - rect.y0 as i64;
+    let at = |q: &AttrPlane, used: bool| if used { q.at_pixel(0, row) } else { 0 };
     let channels = channels::<SHADE, GREY>();
     let start = RowValues {
         z: at(&p.z, D::ENABLED),

@@ -8,7 +8,7 @@ use crate::clip::{ClipVertex, Plane};
 use crate::edge::Coverage;
 use crate::fixed_point::{
     ATTR_FRAC_BITS, DEPTH_ONE, GUARD_BAND_PX, MAX_DIMENSION, Q_BITS, SUBPIXEL_BITS, SUBPIXEL_HALF,
-    TEXCOORD_LIMIT, normalise_positive, saturate_i64, shift_round,
+    SUBPIXEL_ONE, TEXCOORD_LIMIT, normalise_positive, saturate_i64, shift_round,
 };
 use crate::matrix::{FixedMat4, Transform};
 use crate::pipeline::{Attributes, Pipeline, Setup, TexMode, Viewport};
@@ -303,32 +303,57 @@ pub(crate) struct AttrPlane {
 /// inside the guard band, the base below 2^61).
 const NARROW_GRADIENT: u64 = 1 << 36;
 
+/// Gradients below this keep a small triangle's planes inside i64 once they are on its pixel
+/// grid (`AttrPlane::on_grid`), where they are only ever evaluated inside its rectangle.
+///
+/// Bounds: a small triangle's rectangle starts at the pixel column of its leftmost vertex (or
+/// right of it, cut by the scissor) and at its first row whose centre lies between its top and
+/// bottom vertex, and its vertices lie within 17 pixel columns and rows (`SMALL_EDGE`), so the
+/// offset from the origin vertex to the centre of the rectangle's first pixel is below
+/// `17 * 256 + 128 < 2^13` sub-pixels on each axis. Then `dx * ox + dy * oy + 128` stays below
+/// `2 * 2^49 * 2^13 = 2^63`, and the base moves by less than 2^55 (after the shift by 8). Inside
+/// the rectangle (at most 16 pixels a side) `dx * col + dy * row` stays below `2^54`: with the
+/// base below 2^61, every value and sum of the small loop and the row step stays below 2^62.
+const SMALL_NARROW_GRADIENT: u64 = 1 << 49;
+
 impl AttrPlane {
-    /// True when the plane's gradients are small enough for i64 evaluation.
+    /// True when the plane's gradients are below `limit` (`NARROW_GRADIENT`, or
+    /// `SMALL_NARROW_GRADIENT` for a small triangle's).
     #[inline]
-    fn narrow(&self) -> bool {
-        (self.dx.unsigned_abs() | self.dy.unsigned_abs()) < NARROW_GRADIENT
+    fn narrow_below(&self, limit: u64) -> bool {
+        (self.dx.unsigned_abs() | self.dy.unsigned_abs()) < limit
     }
 
-    /// Moves a narrow plane's base from the origin vertex at `origin` (sub-pixels) to pixel
-    /// `(0, 0)`. At pixel `(x, y)` the offset is `(256 x + 128 - ox, 256 y + 128 - oy)`, so the
-    /// rounded product `(dx * off_x + dy * off_y + 128) >> 8` of `at` splits exactly into
-    /// `dx * x + dy * y` plus the same expression at pixel `(0, 0)`: a row start then costs two
-    /// multiplications and no rounding (`at_pixel`).
-    fn on_grid(self, origin: [i64; 2]) -> Self {
-        debug_assert!(self.narrow());
+    /// True when the plane's gradients are small enough for i64 evaluation anywhere in the
+    /// guard band.
+    #[inline]
+    fn narrow(&self) -> bool {
+        self.narrow_below(NARROW_GRADIENT)
+    }
+
+    /// Moves a narrow plane's base from the origin vertex at `origin` (sub-pixels) to the centre
+    /// of pixel `corner` (the first pixel of the triangle's rectangle). At pixel
+    /// `corner + (col, row)` the offset is `(256 col + ox, 256 row + oy)` with `(ox, oy)` the
+    /// offset of the corner's centre, so the rounded product `(dx * off_x + dy * off_y + 128) >> 8`
+    /// of `at` splits exactly into `dx * col + dy * row` plus the same expression at the corner:
+    /// a row start then costs two multiplications and no rounding (`at_pixel`). The offsets stay
+    /// small inside the rectangle, which is what lets a small triangle's planes be narrow up to
+    /// `SMALL_NARROW_GRADIENT`.
+    fn on_grid(self, origin: [i64; 2], corner: [i64; 2]) -> Self {
         let half = 1 << (SUBPIXEL_BITS - 1);
-        let (ox, oy) = (SUBPIXEL_HALF - origin[0], SUBPIXEL_HALF - origin[1]);
+        let ox = corner[0] * SUBPIXEL_ONE + SUBPIXEL_HALF - origin[0];
+        let oy = corner[1] * SUBPIXEL_ONE + SUBPIXEL_HALF - origin[1];
         Self {
             base: self.base + ((self.dx * ox + self.dy * oy + half) >> SUBPIXEL_BITS),
             ..self
         }
     }
 
-    /// Value at the centre of pixel `(x, y)` of a plane `on_grid`, equal to `at` there.
+    /// Value at the centre of pixel `(col, row)` of the triangle's rectangle (counted from its
+    /// first pixel) of a plane `on_grid`, equal to `at` there.
     #[inline]
-    pub(crate) fn at_pixel(&self, x: i64, y: i64) -> i64 {
-        self.base + self.dx * x + self.dy * y
+    pub(crate) fn at_pixel(&self, col: i64, row: i64) -> i64 {
+        self.base + self.dx * col + self.dy * row
     }
 
     /// Value at the sub-pixel offset `(ox, oy)` from the origin vertex.
@@ -464,7 +489,8 @@ pub(crate) struct FixedTriangle {
     level: u8,
     /// One colour plane serves the three channels (grey vertices): rows step one channel.
     pub(crate) grey: bool,
-    /// Every plane is narrow and on the pixel grid: rows start from `AttrPlane::at_pixel`
+    /// Every plane is narrow (below `NARROW_GRADIENT`, or `SMALL_NARROW_GRADIENT` for a small
+    /// triangle) and on its rectangle's pixel grid: rows start from `AttrPlane::at_pixel`
     /// (otherwise from `AttrPlane::at`).
     pub(crate) narrow: bool,
     /// The draw it belongs to.
@@ -538,10 +564,16 @@ impl FixedTriangle {
             }
         }
         let mine = &mut planes[first..];
-        t.narrow = mine.iter().all(AttrPlane::narrow);
+        let limit = if coverage.is_small() {
+            SMALL_NARROW_GRADIENT
+        } else {
+            NARROW_GRADIENT
+        };
+        t.narrow = mine.iter().all(|p| p.narrow_below(limit));
         if t.narrow {
+            let corner = coverage.corner();
             for p in mine {
-                *p = p.on_grid(v[0].xy);
+                *p = p.on_grid(v[0].xy, corner);
             }
         }
         t
@@ -622,7 +654,7 @@ pub(crate) use rows::{DepthTest, NarrowPlanes, RunPiece, run_fragments};
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fixed_point::SUBPIXEL_ONE;
+    use crate::edge::PixelRect;
 
     /// The geometry `Geometry::new` makes of the triangle `v` (sub-pixels), if its orientation
     /// is positive.
@@ -786,14 +818,128 @@ mod tests {
             dx in -(1i64 << 36) + 1..1 << 36,
             dy in -(1i64 << 36) + 1..1 << 36,
             origin in (-(1i64 << 23)..1 << 23, -(1i64 << 23)..1 << 23),
-            pixel in (0i64..8192, 0i64..8192),
+            corner in (0i64..4096, 0i64..4096),
+            pixel in (0i64..4096, 0i64..4096),
         ) {
             let plane = AttrPlane { base, dx, dy };
             let origin = [origin.0, origin.1];
-            let (x, y) = pixel;
+            let corner = [corner.0, corner.1];
+            let (x, y) = (corner[0] + pixel.0, corner[1] + pixel.1);
             let ox = x * SUBPIXEL_ONE + SUBPIXEL_HALF - origin[0];
             let oy = y * SUBPIXEL_ONE + SUBPIXEL_HALF - origin[1];
-            proptest::prop_assert_eq!(plane.on_grid(origin).at_pixel(x, y), plane.at(ox, oy));
+            let on_grid = plane.on_grid(origin, corner);
+            proptest::prop_assert_eq!(on_grid.at_pixel(pixel.0, pixel.1), plane.at(ox, oy));
+        }
+    }
+
+    /// The value of `plane` (based at the origin vertex) at the centre of pixel `(x, y)`, in
+    /// 128-bit products: what the rows of a plane that is not narrow start from.
+    fn at_in_128_bits(plane: &AttrPlane, origin: [i64; 2], x: i64, y: i64) -> i128 {
+        let ox = (x * SUBPIXEL_ONE + SUBPIXEL_HALF - origin[0]) as i128;
+        let oy = (y * SUBPIXEL_ONE + SUBPIXEL_HALF - origin[1]) as i128;
+        plane.base as i128 + shift_round(plane.dx as i128 * ox + plane.dy as i128 * oy, 8)
+    }
+
+    /// Checks a small triangle's plane on its pixel grid against the 128-bit evaluation at every
+    /// pixel of its rectangle (with overflow checks on, an overflow on the way panics). Returns
+    /// false when `v` is not a small triangle owning a row inside `clip`.
+    fn check_small_plane(v: [[i64; 2]; 3], plane: AttrPlane, clip: PixelRect) -> bool {
+        let d = |i: usize| [v[i][0] - v[0][0], v[i][1] - v[0][1]];
+        let area2 = d(1)[0] * d(2)[1] - d(2)[0] * d(1)[1];
+        let v = if area2 < 0 { [v[0], v[2], v[1]] } else { v };
+        let Some(cov) = Coverage::new(v, clip).filter(|c| c.is_small() && area2 != 0) else {
+            return false;
+        };
+        assert!(plane.narrow_below(SMALL_NARROW_GRADIENT));
+        let (origin, corner) = (v[0], cov.corner());
+        let on_grid = plane.on_grid(origin, corner);
+        let r = cov.rect;
+        for y in r.y0 as i64..r.y1 as i64 {
+            for x in r.x0 as i64..r.x1 as i64 {
+                let got = on_grid.at_pixel(x - corner[0], y - corner[1]);
+                let wide = at_in_128_bits(&plane, origin, x, y);
+                assert!(wide.unsigned_abs() < 1 << 62, "{v:?} {plane:?} ({x}, {y})");
+                assert_eq!(got as i128, wide, "{v:?} {plane:?} ({x}, {y})");
+            }
+        }
+        true
+    }
+
+    #[test]
+    fn small_planes_on_the_pixel_grid_equal_128_bit_products_at_the_extremes() {
+        let screen = PixelRect {
+            x0: 0,
+            y0: 0,
+            x1: MAX_DIMENSION as i32,
+            y1: MAX_DIMENSION as i32,
+        };
+        let cut = PixelRect {
+            x0: 7,
+            y0: 7,
+            x1: 9,
+            y1: 9,
+        };
+        let g = SMALL_NARROW_GRADIENT as i64 - 1;
+        let gradients = [-g, -(1 << 36), -1, 0, 1, g];
+        let bases = [-(1i64 << 60), 0, (1 << 60) - 1];
+        // Vertices at the far ends of the 16 pixel columns and rows a small triangle's vertices
+        // lie in (at either side of a pixel), with the origin vertex at either end.
+        let (mut checked, mut at) = (0, 0);
+        for (lo, hi) in [
+            (0, 15 * SUBPIXEL_ONE),
+            (SUBPIXEL_ONE - 1, 16 * SUBPIXEL_ONE - 1),
+        ] {
+            let shapes = [
+                [[lo, lo], [hi, lo], [lo, hi]],
+                [[hi, hi], [lo, hi], [hi, lo]],
+                [[hi, lo], [lo, hi], [hi, hi]],
+                [[lo, hi], [hi, hi], [lo, lo]],
+                [[lo, lo], [hi, hi], [lo + 1, hi]],
+            ];
+            for shape in shapes {
+                for clip in [screen, cut] {
+                    for dx in gradients {
+                        for dy in gradients {
+                            for base in bases {
+                                let plane = AttrPlane { base, dx, dy };
+                                at += 1;
+                                checked += check_small_plane(shape, plane, clip) as u32;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(checked * 4 > at, "{checked} of {at}");
+    }
+
+    proptest::proptest! {
+        /// A small triangle anywhere in the guard band, with gradients up to the small bound: its
+        /// planes on its pixel grid give the 128-bit values at every pixel of its rectangle.
+        #[test]
+        fn small_planes_on_the_pixel_grid_equal_128_bit_products(
+            at in (-(1i64 << 23)..1 << 23, -(1i64 << 23)..1 << 23),
+            v in proptest::collection::vec(0..16 * SUBPIXEL_ONE, 6),
+            base in -(1i64 << 60)..1 << 60,
+            dx in -(SMALL_NARROW_GRADIENT as i64) + 1..SMALL_NARROW_GRADIENT as i64,
+            dy in -(SMALL_NARROW_GRADIENT as i64) + 1..SMALL_NARROW_GRADIENT as i64,
+            clip in (0i32..8192, 0i32..8192, 1i32..8192, 1i32..8192),
+        ) {
+            // Some triangles on screen, inside the scissor; the others wherever `at` puts them.
+            let near = (at.0 & 1) == 0;
+            let origin = if near {
+                [(clip.0 as i64 - 4) * SUBPIXEL_ONE, (clip.1 as i64 - 4) * SUBPIXEL_ONE]
+            } else {
+                [at.0, at.1]
+            };
+            let v = [0, 1, 2].map(|i| [origin[0] + v[2 * i], origin[1] + v[2 * i + 1]]);
+            let clip = PixelRect {
+                x0: clip.0,
+                y0: clip.1,
+                x1: (clip.0 + clip.2).min(MAX_DIMENSION as i32),
+                y1: (clip.1 + clip.3).min(MAX_DIMENSION as i32),
+            };
+            check_small_plane(v, AttrPlane { base, dx, dy }, clip);
         }
     }
 }

@@ -97,12 +97,13 @@ fn shade_span<
     let channels = if GREY { 1 } else { 3 };
     let perspective = matches!(tri.tex_mode, TexMode::Perspective(_));
     let origin = tri.coverage.origin();
+    let corner = tri.coverage.corner();
     let ox = x0 * SUBPIXEL_ONE + SUBPIXEL_HALF - origin[0];
     let oy = y * SUBPIXEL_ONE + SUBPIXEL_HALF - origin[1];
     // A plane's value at pixel `x` of the run, as stepping from `x0` reaches it.
     let at = |p: &AttrPlane, x: i64| {
         if NARROW {
-            p.at_pixel(x, y)
+            p.at_pixel(x - corner[0], y - corner[1])
         } else {
             p.at(ox, oy).wrapping_add(p.dx.wrapping_mul(x - x0))
         }

@@ -26,16 +26,15 @@ use stripmask::named::Named;
 use stripmask::sim::flight::{Builtin, Flight};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
+#[path = "support/median.rs"]
+mod median;
+use median::median;
+
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
 /// The size and budget of `stripmask tradeoff`'s frames.
 const SIZE: (u32, u32) = (320, 240);
 const BUDGET: usize = 20_000;
-
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
 
 fn parse_setting(s: &str) -> Result<Geomorph> {
     if s == "off" {

@@ -29,10 +29,9 @@ use stripmask::sim::device::DeviceProfile;
 use stripmask::sim::flight::{Builtin, Flight};
 use stripmask_raster::Framebuffer;
 
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
+#[path = "support/median.rs"]
+mod median;
+use median::median;
 
 fn engine(archive: &str, p: &DeviceProfile, threads: usize) -> Result<Engine> {
     let mut settings = EngineSettings {

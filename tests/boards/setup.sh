@@ -28,7 +28,7 @@ set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
 out=${STRIPMASK_BOARDS_DIR:-$root/target/boards}
-profile=${STRIPMASK_BOARDS_PROFILE:-ci}
+profile=${STRIPMASK_BOARDS_PROFILE:-suite}
 boards=("$@")
 [ "${#boards[@]}" -gt 0 ] || boards=(vexpress-a9 x86-vesa)
 

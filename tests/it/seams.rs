@@ -7,7 +7,7 @@
 //! two tiles sharing a border hold the same texels on it. Tiles holding the same level, whole
 //! or partial, light the vertices they share alike.
 //!
-//! `cargo test --profile ci --test it seams -- --nocapture` prints the ratios docs/cracks.md
+//! `cargo test --profile suite --test it seams -- --nocapture` prints the ratios docs/cracks.md
 //! quotes.
 
 use std::path::{Path, PathBuf};

@@ -1,6 +1,6 @@
 //! Golden images of the rasterizer, one per behaviour, in `raster/tests/golden/`, compared byte
 //! for byte (rendering is deterministic, on every CPU). Re-bless after an intended change with
-//! `STRIPMASK_BLESS=1 cargo test -p stripmask-raster --profile ci --test it golden` and explain
+//! `STRIPMASK_BLESS=1 cargo test -p stripmask-raster --profile suite --test it golden` and explain
 //! the change in the commit; on a mismatch the new picture is written to
 //! `raster/target/golden-failures/` for inspection.
 

@@ -605,6 +605,27 @@ mod tests {
         );
     }
 
+    /// Why `ResidentTile::lit_vertices` lights only the grid a partial tile holds: a level drawn
+    /// from a grid of every `g`-th sample (`level + 1` a multiple of `g`) needs, ancestors
+    /// included, no sample off that grid.
+    #[test]
+    fn a_level_needs_only_samples_of_the_grid_it_is_drawn_from() {
+        let s = 65;
+        let tree = MorphTree::new(s).unwrap();
+        for g in [2, 4, 8, 16, 32, 64] {
+            for level in (g - 1..s - 1).step_by(g) {
+                let bits = tree.needs(level);
+                for k in (0..s * s).filter(|&k| is_set(bits, k)) {
+                    let (i, j) = (k % s, k / s);
+                    assert!(
+                        i % g == 0 && j % g == 0,
+                        "level {level} needs ({i}, {j}), off the grid of every {g}th sample"
+                    );
+                }
+            }
+        }
+    }
+
     /// Why a tile morphs only what its own level needs: whatever its neighbours' levels, no
     /// crack mode's indices read a sample of the grid beyond it.
     #[test]

@@ -257,8 +257,8 @@ impl ResidentTile {
     /// `scratch`, as long as the vertices, holding every sample of that grid and the skirt
     /// vertices under its border samples, coloured by [`Self::coarse_shades`]. Its other
     /// entries are left as they were: neither the draw nor the geomorph reads them (a morph
-    /// of the mask's samples needs only their ancestors, which lie on that grid too), so no
-    /// copy of the whole tile is paid.
+    /// of the mask's samples needs only their ancestors, which lie on that grid too: the
+    /// geomorph's tests check it), so no copy of the whole tile is paid.
     pub fn lit_vertices<'v>(
         &'v self,
         mask_level: usize,

@@ -8,6 +8,7 @@
 # compares stripmask fb on the emulated vexpress-a9 with the host, byte for byte).
 #
 #   tests/boards/arm-tests.sh [TARGET...]     # default: both
+#   STRIPMASK_ARM_TESTS=all tests/boards/arm-tests.sh   # the unit tests on aarch64 too
 #
 # Installs with apt-get when missing: qemu-user-static, gcc-arm-linux-gnueabihf and
 # libc6-dev-armhf-cross (armv7), gcc-aarch64-linux-gnu (aarch64: one C file of the benchmark
@@ -57,8 +58,8 @@ for target in "${targets[@]}"; do
     # instructions, unlike the host's. On 64-bit ARM the integration tests (golden images,
     # watertightness, determinism) check the pictures, and compiling the unit tests a second time
     # would double the step.
-    case "$target" in
-    armv7-*) which=() ;;
+    case "$target:${STRIPMASK_ARM_TESTS:-}" in
+    armv7-*:* | *:all) which=() ;;
     *) which=(--test it) ;;
     esac
     say "$target: the rasterizer's tests (${which[*]:-all}), run by ${!runner}"

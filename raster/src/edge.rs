@@ -10,7 +10,7 @@
 //! per-pixel test. Two triangles sharing an edge see it with opposite `dy`, so each centre on it
 //! belongs to exactly one of them.
 
-use wide::{CmpGt, i32x8};
+use wide::i32x8;
 
 use crate::fixed_point::{SUBPIXEL_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE, ceil_div, floor_div};
 
@@ -203,12 +203,12 @@ impl Coverage {
         let xc = r.x0 * one + SUBPIXEL_HALF as i32;
         let yc = start as i32 * one + SUBPIXEL_HALF as i32;
         let v = self.v;
+        let wide = width > 8;
         let mut rows = SmallRows {
-            row: [0; 3],
-            step_y: [0; 3],
-            lanes: [i32x8::ZERO; 3],
-            eight: [0; 3],
-            wide: width > 8,
+            lo: [i32x8::ZERO; 3],
+            hi: [i32x8::ZERO; 3],
+            step: [i32x8::ZERO; 3],
+            wide,
             columns: (1u32 << width) - 1,
             x0: r.x0 as i64,
             y: start,
@@ -218,10 +218,13 @@ impl Coverage {
             let (a, b) = (v[i], v[(i + 1) % 3]);
             let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
             let top_left = dy < 0 || (dy == 0 && dx > 0);
-            rows.row[i] = dx * (yc - a[1]) - dy * (xc - a[0]) + top_left as i32;
-            rows.step_y[i] = dx * one;
-            rows.lanes[i] = lane_steps(-dy * one);
-            rows.eight[i] = -dy * one * 8;
+            // `E + bias > 0` is `E + bias - 1 >= 0`: the sign bit says "outside".
+            let row = dx * (yc - a[1]) - dy * (xc - a[0]) + top_left as i32 - 1;
+            rows.lo[i] = i32x8::splat(row) + lane_steps(-dy * one);
+            if wide {
+                rows.hi[i] = rows.lo[i] + i32x8::splat(-dy * one * 8);
+            }
+            rows.step[i] = i32x8::splat(dx * one);
         }
         rows
     }
@@ -299,13 +302,16 @@ fn lane_steps(s: i32) -> i32x8 {
 }
 
 /// A small triangle's rows, one mask of owned columns at a time: the edge functions of a row's
-/// pixels in `i32x8` lanes (see `Coverage::walk_small` for the bounds).
+/// pixels in `i32x8` lanes, stepped down the rows lane by lane (see `Coverage::walk_small` for
+/// the bounds).
 pub(crate) struct SmallRows {
-    /// `E + bias` of the three edges at the current row's first column.
-    row: [i32; 3],
-    step_y: [i32; 3],
-    lanes: [i32x8; 3],
-    eight: [i32; 3],
+    /// `E + bias - 1` of the three edges at the current row's columns `0..8`: negative (sign
+    /// bit set) where the pixel is outside.
+    lo: [i32x8; 3],
+    /// The same at columns `8..16`, when the rectangle is wider than 8 columns.
+    hi: [i32x8; 3],
+    /// What each edge's lanes change by from a row to the next.
+    step: [i32x8; 3],
     /// Wider than 8 columns: two groups of lanes per row.
     wide: bool,
     /// The rectangle's columns as bits.
@@ -320,25 +326,23 @@ pub(crate) struct SmallRows {
 
 impl SmallRows {
     /// The owned columns of the current row as bits (bit `k` is column `x0 + k`), and a step to
-    /// the next row.
+    /// the next row. A pixel is owned when no edge's sign bit is set: one `or` of the three
+    /// edges and one `movemask` per group of 8 columns.
     #[inline(always)]
     pub fn next_mask(&mut self) -> u32 {
-        let at = |k: usize, g: i32| i32x8::splat(self.row[k] + g * self.eight[k]) + self.lanes[k];
-        let group = |g: i32| {
-            let all = at(0, g).cmp_gt(i32x8::ZERO)
-                & at(1, g).cmp_gt(i32x8::ZERO)
-                & at(2, g).cmp_gt(i32x8::ZERO);
-            all.move_mask() as u32
+        let outside = |e: &mut [i32x8; 3], step: &[i32x8; 3]| {
+            let bits = (e[0] | e[1] | e[2]).move_mask() as u32;
+            for k in 0..3 {
+                e[k] += step[k];
+            }
+            bits
         };
-        let mut inside = group(0);
+        let mut out = outside(&mut self.lo, &self.step);
         if self.wide {
-            inside |= group(1) << 8;
-        }
-        for k in 0..3 {
-            self.row[k] += self.step_y[k];
+            out |= outside(&mut self.hi, &self.step) << 8;
         }
         self.y += 1;
-        inside & self.columns
+        !out & self.columns
     }
 }
 

@@ -10,7 +10,7 @@
 //! per-pixel test. Two triangles sharing an edge see it with opposite `dy`, so each centre on it
 //! belongs to exactly one of them.
 
-use wide::i32x8;
+use wide::i32x4;
 
 use crate::fixed_point::{SUBPIXEL_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE, ceil_div, floor_div};
 
@@ -203,12 +203,11 @@ impl Coverage {
         let xc = r.x0 * one + SUBPIXEL_HALF as i32;
         let yc = start as i32 * one + SUBPIXEL_HALF as i32;
         let v = self.v;
-        let wide = width > 8;
+        let groups = ((width + 3) / 4) as usize;
         let mut rows = SmallRows {
-            lo: [i32x8::ZERO; 3],
-            hi: [i32x8::ZERO; 3],
-            step: [i32x8::ZERO; 3],
-            wide,
+            lanes: [[i32x4::ZERO; 3]; 4],
+            step: [i32x4::ZERO; 3],
+            groups,
             columns: (1u32 << width) - 1,
             x0: r.x0 as i64,
             y: start,
@@ -220,11 +219,13 @@ impl Coverage {
             let top_left = dy < 0 || (dy == 0 && dx > 0);
             // `E + bias > 0` is `E + bias - 1 >= 0`: the sign bit says "outside".
             let row = dx * (yc - a[1]) - dy * (xc - a[0]) + top_left as i32 - 1;
-            rows.lo[i] = i32x8::splat(row) + lane_steps(-dy * one);
-            if wide {
-                rows.hi[i] = rows.lo[i] + i32x8::splat(-dy * one * 8);
+            let s = -dy * one;
+            let first = i32x4::new([row, row + s, row + 2 * s, row + 3 * s]);
+            rows.lanes[0][i] = first;
+            for g in 1..groups {
+                rows.lanes[g][i] = first + i32x4::splat(4 * g as i32 * s);
             }
-            rows.step[i] = i32x8::splat(dx * one);
+            rows.step[i] = i32x4::splat(dx * one);
         }
         rows
     }
@@ -294,26 +295,18 @@ impl Coverage {
     }
 }
 
-/// `[0, s, 2s, .., 7s]` without a lane multiplication (which SSE2 lacks).
-#[inline(always)]
-fn lane_steps(s: i32) -> i32x8 {
-    let (s2, s4) = (s * 2, s * 4);
-    i32x8::new([0, s, s2, s2 + s, s4, s4 + s, s4 + s2, s4 + s2 + s])
-}
-
 /// A small triangle's rows, one mask of owned columns at a time: the edge functions of a row's
-/// pixels in `i32x8` lanes, stepped down the rows lane by lane (see `Coverage::walk_small` for
-/// the bounds).
+/// pixels in groups of 4 `i32x4` lanes (one vector on SSE2 and NEON; a terrain triangle's
+/// rectangle is mostly within 4 columns), stepped down the rows lane by lane (see
+/// `Coverage::walk_small` for the bounds).
 pub(crate) struct SmallRows {
-    /// `E + bias - 1` of the three edges at the current row's columns `0..8`: negative (sign
-    /// bit set) where the pixel is outside.
-    lo: [i32x8; 3],
-    /// The same at columns `8..16`, when the rectangle is wider than 8 columns.
-    hi: [i32x8; 3],
+    /// `E + bias - 1` of the three edges at the current row's columns `4g..4g + 4` in group `g`:
+    /// negative (sign bit set) where the pixel is outside.
+    lanes: [[i32x4; 3]; 4],
     /// What each edge's lanes change by from a row to the next.
-    step: [i32x8; 3],
-    /// Wider than 8 columns: two groups of lanes per row.
-    wide: bool,
+    step: [i32x4; 3],
+    /// Groups of 4 columns the rectangle spans, `1..=4`.
+    groups: usize,
     /// The rectangle's columns as bits.
     columns: u32,
     /// First column of the rectangle: bit `k` of a mask is column `x0 + k`.
@@ -327,19 +320,27 @@ pub(crate) struct SmallRows {
 impl SmallRows {
     /// The owned columns of the current row as bits (bit `k` is column `x0 + k`), and a step to
     /// the next row. A pixel is owned when no edge's sign bit is set: one `or` of the three
-    /// edges and one `movemask` per group of 8 columns.
+    /// edges and one `movemask` per group of 4 columns.
     #[inline(always)]
     pub fn next_mask(&mut self) -> u32 {
-        let outside = |e: &mut [i32x8; 3], step: &[i32x8; 3]| {
+        let step = self.step;
+        let outside = |e: &mut [i32x4; 3]| {
             let bits = (e[0] | e[1] | e[2]).move_mask() as u32;
             for k in 0..3 {
                 e[k] += step[k];
             }
             bits
         };
-        let mut out = outside(&mut self.lo, &self.step);
-        if self.wide {
-            out |= outside(&mut self.hi, &self.step) << 8;
+        let [g0, g1, g2, g3] = &mut self.lanes;
+        let mut out = outside(g0);
+        if self.groups > 1 {
+            out |= outside(g1) << 4;
+            if self.groups > 2 {
+                out |= outside(g2) << 8;
+                if self.groups > 3 {
+                    out |= outside(g3) << 12;
+                }
+            }
         }
         self.y += 1;
         !out & self.columns

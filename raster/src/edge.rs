@@ -102,20 +102,20 @@ impl Coverage {
     /// Coverage of the triangle `v` (sub-pixel x, y) with positive signed area
     /// `(v1 - v0) x (v2 - v0) > 0`, limited to the pixels of `clip`. `None` when it owns no row
     /// there (it may still own no pixel: a sliver between two pixel centres).
+    #[inline(always)]
     pub fn new(v: [[i64; 2]; 3], clip: PixelRect) -> Option<Self> {
         let ymin = v[0][1].min(v[1][1]).min(v[2][1]);
         let ymax = v[0][1].max(v[1][1]).max(v[2][1]);
-        // A horizontal edge with dx < 0 has the triangle above it: a bottom edge, which does not
-        // own its row.
-        let bottom_edge =
-            (0..3).any(|i| v[i][1] == v[(i + 1) % 3][1] && v[(i + 1) % 3][0] < v[i][0]);
-        // Rows whose centre yc satisfies ymin <= yc <= ymax (yc < ymax under a bottom edge).
+        // Rows whose centre yc satisfies ymin <= yc <= ymax, and yc < ymax under a bottom edge
+        // (a horizontal edge with dx < 0 has the triangle above it and does not own its row),
+        // which only matters when ymax lies on a row's centre.
         let first = ceil_div(ymin - SUBPIXEL_HALF, SUBPIXEL_ONE);
-        let end = if bottom_edge {
-            ceil_div(ymax - SUBPIXEL_HALF, SUBPIXEL_ONE)
-        } else {
-            floor_div(ymax - SUBPIXEL_HALF, SUBPIXEL_ONE) + 1
-        };
+        let mut end = floor_div(ymax - SUBPIXEL_HALF, SUBPIXEL_ONE) + 1;
+        if (ymax - SUBPIXEL_HALF) & (SUBPIXEL_ONE - 1) == 0
+            && (0..3).any(|i| v[i][1] == v[(i + 1) % 3][1] && v[(i + 1) % 3][0] < v[i][0])
+        {
+            end -= 1;
+        }
         let (y0, y1) = (first.max(clip.y0 as i64), end.min(clip.y1 as i64));
         let xmin = v[0][0].min(v[1][0]).min(v[2][0]) >> SUBPIXEL_BITS;
         let xmax = v[0][0].max(v[1][0]).max(v[2][0]) >> SUBPIXEL_BITS;
@@ -232,7 +232,7 @@ impl Coverage {
 
     /// Small triangles: evaluate the edge functions at every pixel of the rectangle, with no
     /// division and no data-dependent branch (`SmallRows`). Within `SMALL` pixels each edge value
-    /// fits in i32 (`|E| < 2 * (SMALL * 256)^2 < 2^25`), so a row's pixels are tested in lanes, 8
+    /// fits in i32 (`|E| < 2 * (SMALL * 256)^2 < 2^25`), so a row's pixels are tested in lanes, 4
     /// at a time.
     #[inline]
     fn walk_small(

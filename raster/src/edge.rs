@@ -10,7 +10,7 @@
 //! per-pixel test. Two triangles sharing an edge see it with opposite `dy`, so each centre on it
 //! belongs to exactly one of them.
 
-use wide::{CmpGt, i32x8};
+use wide::i32x4;
 
 use crate::fixed_point::{SUBPIXEL_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE, ceil_div, floor_div};
 
@@ -102,20 +102,20 @@ impl Coverage {
     /// Coverage of the triangle `v` (sub-pixel x, y) with positive signed area
     /// `(v1 - v0) x (v2 - v0) > 0`, limited to the pixels of `clip`. `None` when it owns no row
     /// there (it may still own no pixel: a sliver between two pixel centres).
+    #[inline(always)]
     pub fn new(v: [[i64; 2]; 3], clip: PixelRect) -> Option<Self> {
         let ymin = v[0][1].min(v[1][1]).min(v[2][1]);
         let ymax = v[0][1].max(v[1][1]).max(v[2][1]);
-        // A horizontal edge with dx < 0 has the triangle above it: a bottom edge, which does not
-        // own its row.
-        let bottom_edge =
-            (0..3).any(|i| v[i][1] == v[(i + 1) % 3][1] && v[(i + 1) % 3][0] < v[i][0]);
-        // Rows whose centre yc satisfies ymin <= yc <= ymax (yc < ymax under a bottom edge).
+        // Rows whose centre yc satisfies ymin <= yc <= ymax, and yc < ymax under a bottom edge
+        // (a horizontal edge with dx < 0 has the triangle above it and does not own its row),
+        // which only matters when ymax lies on a row's centre.
         let first = ceil_div(ymin - SUBPIXEL_HALF, SUBPIXEL_ONE);
-        let end = if bottom_edge {
-            ceil_div(ymax - SUBPIXEL_HALF, SUBPIXEL_ONE)
-        } else {
-            floor_div(ymax - SUBPIXEL_HALF, SUBPIXEL_ONE) + 1
-        };
+        let mut end = floor_div(ymax - SUBPIXEL_HALF, SUBPIXEL_ONE) + 1;
+        if (ymax - SUBPIXEL_HALF) & (SUBPIXEL_ONE - 1) == 0
+            && (0..3).any(|i| v[i][1] == v[(i + 1) % 3][1] && v[(i + 1) % 3][0] < v[i][0])
+        {
+            end -= 1;
+        }
         let (y0, y1) = (first.max(clip.y0 as i64), end.min(clip.y1 as i64));
         let xmin = v[0][0].min(v[1][0]).min(v[2][0]) >> SUBPIXEL_BITS;
         let xmax = v[0][0].max(v[1][0]).max(v[2][0]) >> SUBPIXEL_BITS;
@@ -203,12 +203,11 @@ impl Coverage {
         let xc = r.x0 * one + SUBPIXEL_HALF as i32;
         let yc = start as i32 * one + SUBPIXEL_HALF as i32;
         let v = self.v;
+        let groups = ((width + 3) / 4) as usize;
         let mut rows = SmallRows {
-            row: [0; 3],
-            step_y: [0; 3],
-            lanes: [i32x8::ZERO; 3],
-            eight: [0; 3],
-            wide: width > 8,
+            lanes: [[i32x4::ZERO; 3]; 4],
+            step: [i32x4::ZERO; 3],
+            groups,
             columns: (1u32 << width) - 1,
             x0: r.x0 as i64,
             y: start,
@@ -218,17 +217,22 @@ impl Coverage {
             let (a, b) = (v[i], v[(i + 1) % 3]);
             let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
             let top_left = dy < 0 || (dy == 0 && dx > 0);
-            rows.row[i] = dx * (yc - a[1]) - dy * (xc - a[0]) + top_left as i32;
-            rows.step_y[i] = dx * one;
-            rows.lanes[i] = lane_steps(-dy * one);
-            rows.eight[i] = -dy * one * 8;
+            // `E + bias > 0` is `E + bias - 1 >= 0`: the sign bit says "outside".
+            let row = dx * (yc - a[1]) - dy * (xc - a[0]) + top_left as i32 - 1;
+            let s = -dy * one;
+            let first = i32x4::new([row, row + s, row + 2 * s, row + 3 * s]);
+            rows.lanes[0][i] = first;
+            for g in 1..groups {
+                rows.lanes[g][i] = first + i32x4::splat(4 * g as i32 * s);
+            }
+            rows.step[i] = i32x4::splat(dx * one);
         }
         rows
     }
 
     /// Small triangles: evaluate the edge functions at every pixel of the rectangle, with no
     /// division and no data-dependent branch (`SmallRows`). Within `SMALL` pixels each edge value
-    /// fits in i32 (`|E| < 2 * (SMALL * 256)^2 < 2^25`), so a row's pixels are tested in lanes, 8
+    /// fits in i32 (`|E| < 2 * (SMALL * 256)^2 < 2^25`), so a row's pixels are tested in lanes, 4
     /// at a time.
     #[inline]
     fn walk_small(
@@ -291,23 +295,18 @@ impl Coverage {
     }
 }
 
-/// `[0, s, 2s, .., 7s]` without a lane multiplication (which SSE2 lacks).
-#[inline(always)]
-fn lane_steps(s: i32) -> i32x8 {
-    let (s2, s4) = (s * 2, s * 4);
-    i32x8::new([0, s, s2, s2 + s, s4, s4 + s, s4 + s2, s4 + s2 + s])
-}
-
 /// A small triangle's rows, one mask of owned columns at a time: the edge functions of a row's
-/// pixels in `i32x8` lanes (see `Coverage::walk_small` for the bounds).
+/// pixels in groups of 4 `i32x4` lanes (one vector on SSE2 and NEON; a terrain triangle's
+/// rectangle is mostly within 4 columns), stepped down the rows lane by lane (see
+/// `Coverage::walk_small` for the bounds).
 pub(crate) struct SmallRows {
-    /// `E + bias` of the three edges at the current row's first column.
-    row: [i32; 3],
-    step_y: [i32; 3],
-    lanes: [i32x8; 3],
-    eight: [i32; 3],
-    /// Wider than 8 columns: two groups of lanes per row.
-    wide: bool,
+    /// `E + bias - 1` of the three edges at the current row's columns `4g..4g + 4` in group `g`:
+    /// negative (sign bit set) where the pixel is outside.
+    lanes: [[i32x4; 3]; 4],
+    /// What each edge's lanes change by from a row to the next.
+    step: [i32x4; 3],
+    /// Groups of 4 columns the rectangle spans, `1..=4`.
+    groups: usize,
     /// The rectangle's columns as bits.
     columns: u32,
     /// First column of the rectangle: bit `k` of a mask is column `x0 + k`.
@@ -320,25 +319,31 @@ pub(crate) struct SmallRows {
 
 impl SmallRows {
     /// The owned columns of the current row as bits (bit `k` is column `x0 + k`), and a step to
-    /// the next row.
+    /// the next row. A pixel is owned when no edge's sign bit is set: one `or` of the three
+    /// edges and one `movemask` per group of 4 columns.
     #[inline(always)]
     pub fn next_mask(&mut self) -> u32 {
-        let at = |k: usize, g: i32| i32x8::splat(self.row[k] + g * self.eight[k]) + self.lanes[k];
-        let group = |g: i32| {
-            let all = at(0, g).cmp_gt(i32x8::ZERO)
-                & at(1, g).cmp_gt(i32x8::ZERO)
-                & at(2, g).cmp_gt(i32x8::ZERO);
-            all.move_mask() as u32
+        let step = self.step;
+        let outside = |e: &mut [i32x4; 3]| {
+            let bits = (e[0] | e[1] | e[2]).move_mask() as u32;
+            for k in 0..3 {
+                e[k] += step[k];
+            }
+            bits
         };
-        let mut inside = group(0);
-        if self.wide {
-            inside |= group(1) << 8;
-        }
-        for k in 0..3 {
-            self.row[k] += self.step_y[k];
+        let [g0, g1, g2, g3] = &mut self.lanes;
+        let mut out = outside(g0);
+        if self.groups > 1 {
+            out |= outside(g1) << 4;
+            if self.groups > 2 {
+                out |= outside(g2) << 8;
+                if self.groups > 3 {
+                    out |= outside(g3) << 12;
+                }
+            }
         }
         self.y += 1;
-        inside & self.columns
+        !out & self.columns
     }
 }
 

@@ -236,6 +236,7 @@ impl Run<'_> {
             ..EngineSettings::default()
         };
         settings.budget.target_fps = p.target_fps;
+        settings.budget.expected = Some(clock.expected_cost(p.width, p.height));
         let link = (!self.link.link.is_unlimited()).then(|| self.link.link.to_link_profile(1));
         let (source, meter) = connect(source::open(&self.options.source)?, link, &clock);
         let mut engine = Engine::new(source, settings, p.height)?;

@@ -226,7 +226,8 @@ fn slow_link_flight_of(
         Some(link.to_link_profile(1)),
         &clock,
     );
-    let s = settings(4 << 20, streaming, PagerMode::Simulated { queue_depth: 4 });
+    let mut s = settings(4 << 20, streaming, PagerMode::Simulated { queue_depth: 4 });
+    s.budget.expected = Some(clock.expected_cost(160, 120));
     let mut engine = Engine::new(source, s, 120).unwrap();
     engine.set_transfer_clock(meter.unwrap());
     let flight = Flight::builtin(builtin, engine.terrain());

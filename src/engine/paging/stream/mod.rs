@@ -40,7 +40,7 @@ mod queue;
 mod stats;
 mod wishes;
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, HashMap, HashSet};
 use std::fmt;
 use std::marker::PhantomData;
 use std::sync::Arc;
@@ -360,13 +360,26 @@ impl<L: LevelLoader> StreamPager<L> {
             let levels = view.entry(w.id).or_default();
             *levels = (*levels).max(w.levels);
         }
+        // A wish the view made and still holds is the view's, even in a frame asking for less.
+        for (id, w) in wanted.iter().filter(|(_, w)| !w.predicted) {
+            let levels = view.entry(*id).or_default();
+            *levels = (*levels).max(w.levels);
+        }
         self.cancel_unwanted(&wanted, &asks, now);
         let candidates = self.candidates(&wanted, &view);
         let cancelled = self.strategy.queue.reprioritise(candidates);
         self.strategy.stats.cancelled += cancelled.len() as u64;
-        let resting = self.strategy.queue.set_aside(|r| {
-            r.reason != Reason::Belt && r.levels > asks.get(&r.id).copied().unwrap_or(0)
-        });
+        // A held wish's request waits unsent while this frame asks for nothing more than its
+        // tile holds; once the frame asks for more (if not for all it holds), it goes.
+        let short: HashSet<TileId> = asks
+            .iter()
+            .filter(|&(&id, &levels)| levels > self.held_levels(id))
+            .map(|(&id, _)| id)
+            .collect();
+        let resting = self
+            .strategy
+            .queue
+            .set_aside(|r| r.reason != Reason::Belt && !short.contains(&r.id));
         let stepped = matches!(self.mode, PagerMode::Stepped { .. });
         let mut room = self.mode.room(self.resident.ledger.fetching());
         while room > 0 && self.send_next(&wanted) {

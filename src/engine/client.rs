@@ -296,15 +296,50 @@ impl Engine {
         &mut self.settings.render
     }
 
-    /// The tiles within `radius` belts of the current one whose boxes, at the archive's height
-    /// range, meet the view of `camera` at `aspect` (held or not).
-    pub fn tiles_in_view(&self, camera: &Camera, aspect: f64, radius: u32) -> Vec<TileId> {
-        match self.pager.resident().current_tile() {
-            Some(center) => {
-                view_tiles(self.grid, &self.terrain, center, radius, camera, aspect).collect()
-            }
-            None => Vec::new(),
+    /// Whether the view of `camera` on a `screen` of (width, height) pixels has everything it
+    /// should draw with `budget` triangles: every tile within `radius` belts of the current one
+    /// whose box (at the archive's height range) meets the view is held, with at least the
+    /// progressive levels of the mask level it would get if every tile in view held all its
+    /// levels and `budget` were shared among them (by the engine's allocation, no finer than τ
+    /// needs, without the bonus of freshly fetched levels). It depends on the camera, the
+    /// archive and `budget` only, not on the budgets the frames were drawn by, so paging
+    /// strategies can be compared by it (`stream-compare`'s first complete view).
+    pub fn holds_view(
+        &self,
+        camera: &Camera,
+        screen: (u32, u32),
+        radius: u32,
+        budget: usize,
+    ) -> bool {
+        let aspect = f64::from(screen.0) / f64::from(screen.1);
+        let resident = self.pager.resident();
+        let Some(center) = resident.current_tile() else {
+            return false;
+        };
+        let reach: Vec<TileId> =
+            view_tiles(self.grid, &self.terrain, center, radius, camera, aspect).collect();
+        if reach.iter().any(|&id| resident.get(id).is_none()) {
+            return false;
         }
+        let no_kept = HashMap::new();
+        let inputs = FrameInputs {
+            pager: &*self.pager,
+            terrain: &self.terrain,
+            masks: &self.masks,
+            weights: self.settings.weights,
+            budget,
+            forced_levels: None,
+            max_error: self.settings.max_error,
+            allocation: self.settings.allocation,
+            height: screen.1,
+            clearance: self.settings.clearance,
+            kept: &no_kept,
+        };
+        let reference = reference_levels(&inputs, camera, aspect);
+        let levels = progressive_levels(self.terrain.tile_size);
+        reference.iter().all(|&(id, tile, level)| {
+            !reach.contains(&id) || tile.levels >= levels_for_mask(level, levels)
+        })
     }
 
     /// The ground height under `position` if its tile is loaded.
@@ -733,6 +768,29 @@ fn plan_frame<'p>(inputs: &FrameInputs<'p>, camera: &Camera, aspect: f64) -> Fra
         need,
         bound,
     }
+}
+
+/// Each resident tile in view with the mask level the budget of `inputs` buys it when every
+/// tile in view could draw any level, no finer than τ needs (the frame's offer, had every
+/// tile held all its levels).
+fn reference_levels<'p>(
+    inputs: &FrameInputs<'p>,
+    camera: &Camera,
+    aspect: f64,
+) -> Vec<(TileId, &'p ResidentTile, usize)> {
+    let (visible, measures) = cull(inputs.pager.resident(), inputs.terrain, camera, aspect);
+    let importance = visual_importance(&measures, inputs.weights);
+    let needed = inputs.needed_levels(camera, visible.iter().map(|&(_, t, d)| (t, d)));
+    let errors = inputs.tile_errors(camera, visible.iter().copied());
+    let offered =
+        inputs
+            .allocation
+            .share(inputs.budget, &importance, inputs.masks, &errors, &needed);
+    visible
+        .iter()
+        .zip(&offered)
+        .map(|(&(id, tile, _), o)| (id, tile, o.level))
+        .collect()
 }
 
 impl<'p> FramePlan<'p> {

@@ -320,3 +320,53 @@ fn the_fetch_thread_streams_levels_too() {
     assert!(stats.requests > 0 && stats.received_bytes > 0);
     assert_eq!(engine.pager().stats().errors, 0);
 }
+
+/// Renders `frames` frames of a still view half a second apart; returns the last report.
+fn hold_still(engine: &mut Engine, frames: u32) -> FrameReport {
+    let (eye, target) = (
+        DVec3::new(900.0, 900.0, 7200.0),
+        DVec3::new(4000.0, 0.0, 3000.0),
+    );
+    let mut fb = frame();
+    let mut last = None;
+    for k in 0..frames {
+        let camera = engine.camera(eye, target, false);
+        engine.set_time(0.5 * f64::from(k));
+        let report = engine.render(&camera, &mut fb).unwrap();
+        check_memory(engine, &report);
+        last = Some(report);
+    }
+    last.unwrap()
+}
+
+#[test]
+fn a_view_is_complete_by_the_reference_budget_whatever_budget_its_frames_had() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = archive(dir.path(), 33);
+    let mode = PagerMode::Stepped {
+        fetches_per_update: 4,
+    };
+    let streaming = Streaming::Progressive(StreamSettings {
+        prediction: None,
+        ..StreamSettings::default()
+    });
+    let (low, high) = (1_000, 40_000);
+    // Frames held at a low budget ask for little: the view holds what that budget draws, not
+    // what a higher reference budget would.
+    let mut stingy = open(&path, settings(4 << 20, streaming, mode));
+    stingy.hold_budget(low);
+    let report = hold_still(&mut stingy, 60);
+    assert!(report.rendered.iter().all(|r| !r.capped), "settled");
+    assert!(stingy.holds_view(&report.camera, (160, 120), 7, low));
+    assert!(!stingy.holds_view(&report.camera, (160, 120), 7, high));
+    // Frames at the high budget fetch what it draws.
+    let mut generous = open(&path, settings(4 << 20, streaming, mode));
+    generous.hold_budget(high);
+    let report = hold_still(&mut generous, 60);
+    assert!(generous.holds_view(&report.camera, (160, 120), 7, high));
+    // Whole tiles hold every level once loaded, whatever the budget.
+    let mut belts = open(&path, settings(4 << 20, Streaming::Belts, mode));
+    belts.hold_budget(low);
+    let report = hold_still(&mut belts, 60);
+    assert!(belts.holds_view(&report.camera, (160, 120), 7, high));
+}

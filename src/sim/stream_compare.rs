@@ -33,7 +33,7 @@ use crate::sim::holes::HoleTally;
 pub const FULL_BUDGET: f64 = 0.95;
 
 /// A view is complete when it holds what this share of the device's steady budget (by its cost
-/// model) draws: below the 3–6% by which the controller settles from that figure, so no
+/// model) draws: below the up to 6% by which the controller settles from that figure, so no
 /// strategy is judged by detail its own frames would not ask for (docs/streaming.md).
 pub const REFERENCE_SHARE: f64 = 0.9;
 

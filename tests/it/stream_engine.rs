@@ -282,12 +282,21 @@ fn levels_are_not_asked_for_tiles_that_leave_the_view_before_they_arrive() {
     let (engine, _) = slow_link_flight_of(&path, streaming, Builtin::Low, 60.0);
     let stats = engine.stream_stats().unwrap();
     assert!(stats.round_trip().is_some_and(|r| r > 0.0), "{stats:?}");
-    assert!(stats.view_settled_bytes > 0, "{stats:?}");
-    // Without looking ahead to the arrival, 98.4% of them are (107,519 of 109,241 bytes):
-    // tiles passing behind the eye asked for levels that arrived after they left; 98.7% with.
+    // The first frame that draws stands its eye on the archive's lowest height (the ground
+    // under it is not held yet), the next ones on the ground: a tile only that first view
+    // meets asks for levels that arrive after it left (one level, 4,204 bytes, settled by
+    // 1.6 s), which no look-ahead sees (no round trip measured yet). The flight after it:
+    let (start, _) = slow_link_flight_of(&path, streaming, Builtin::Low, 2.0);
+    let start = start.stream_stats().unwrap();
+    let settled = stats.view_settled_bytes - start.view_settled_bytes;
+    let rendered = stats.view_rendered_bytes - start.view_rendered_bytes;
+    assert!(settled > 50_000, "{stats:?}");
+    // Without looking ahead to the arrival, tiles passing behind the eye ask for levels that
+    // arrive after they left.
     assert!(
-        stats.view_rendered_share().unwrap() >= 0.985,
-        "the bytes the view asked for are drawn within a second: {stats:?}"
+        rendered as f64 >= 0.985 * settled as f64,
+        "the bytes the view asked for after the first 2 s are drawn within a second: \
+         {rendered} of {settled}; {stats:?}"
     );
 }
 

@@ -163,6 +163,8 @@ impl SceneArgs {
             ..EngineSettings::default()
         };
         engine.budget.target_fps = device.target_fps;
+        let clock = self.device.clock.with_slowdown(device.cpu_slowdown);
+        engine.budget.expected = Some(clock.expected_cost(device.width, device.height));
         if self.float {
             engine.render.precision = Precision::Float;
         }
@@ -173,7 +175,7 @@ impl SceneArgs {
             color: device.color,
             depth: device.depth,
             target_fps: device.target_fps,
-            clock: self.device.clock.with_slowdown(device.cpu_slowdown),
+            clock,
             link: (!device.link.is_unlimited())
                 .then(|| device.link.to_link_profile(self.device.seed)),
         })

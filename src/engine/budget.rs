@@ -35,6 +35,27 @@ pub struct BudgetSettings {
     /// Relative difference between the predicted and the current budget below which the budget
     /// stays as it is, so that frame-time noise does not make tiles switch levels.
     pub deadband: f64,
+    /// What a frame is expected to cost before any was timed (the device's cost model), or
+    /// nothing known: see [`BudgetController`].
+    pub expected: Option<FrameCost>,
+}
+
+/// A frame's expected cost: `overhead_s + triangle_s × triangles` seconds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameCost {
+    /// Seconds a frame costs whatever it draws (clearing, filling pixels, set-up).
+    pub overhead_s: f64,
+    /// Seconds per triangle drawn.
+    pub triangle_s: f64,
+}
+
+impl FrameCost {
+    /// The triangles a frame of `frame_seconds` affords, or `None` when the cost is not a
+    /// positive finite slope.
+    fn triangles_in(&self, frame_seconds: f64) -> Option<f64> {
+        (self.triangle_s.is_finite() && self.triangle_s > 0.0 && self.overhead_s.is_finite())
+            .then(|| ((frame_seconds - self.overhead_s) / self.triangle_s).max(0.0))
+    }
 }
 
 impl Default for BudgetSettings {
@@ -47,6 +68,7 @@ impl Default for BudgetSettings {
             damping: 0.5,
             max_step: 2.0,
             deadband: 0.02,
+            expected: None,
         }
     }
 }
@@ -74,6 +96,15 @@ const OVERHEAD_GAIN: f64 = 0.5;
 /// samples, when their triangle counts differ enough) only sets how fast it gets there; it is
 /// kept at most `(1 - damping)` of the frame time, where an error cannot make the budget
 /// overshoot.
+///
+/// A controller that knows what a frame is expected to cost ([`BudgetSettings::expected`])
+/// starts at the budget that cost says holds the target, instead of at
+/// [`BudgetSettings::initial_budget`], and until the recent triangle counts spread enough to fit
+/// the overhead it takes the expected cost per triangle as the slope: the first frames draw
+/// little (a view whose tiles are still coming in), and a slope through the origin would read
+/// their fixed cost (clearing, filling pixels) as the cost of their few triangles and hold the
+/// budget low for several frames. The expected slope stays admissible afterwards: the overhead
+/// estimate may always be as large as that slope implies.
 #[derive(Clone, Debug)]
 pub struct BudgetController {
     settings: BudgetSettings,
@@ -87,6 +118,8 @@ pub struct BudgetController {
     sum_nt: f64,
     overhead: f64,
     cost: Option<f64>,
+    /// Whether the overhead was ever fitted to samples that spread enough.
+    fitted: bool,
 }
 
 impl BudgetController {
@@ -95,11 +128,13 @@ impl BudgetController {
         debug_assert!(settings.target_fps > 0.0 && settings.min_budget <= settings.max_budget);
         debug_assert!(settings.damping > 0.0 && settings.damping <= 1.0);
         debug_assert!(settings.max_step > 1.0 && settings.deadband >= 0.0);
+        let initial = settings
+            .expected
+            .and_then(|e| e.triangles_in(1.0 / settings.target_fps))
+            .map_or(settings.initial_budget, |n| n.round() as usize);
         Self {
             settings,
-            budget: settings
-                .initial_budget
-                .clamp(settings.min_budget, settings.max_budget),
+            budget: initial.clamp(settings.min_budget, settings.max_budget),
             weight: 0.0,
             sum_n: 0.0,
             sum_t: 0.0,
@@ -107,6 +142,7 @@ impl BudgetController {
             sum_nt: 0.0,
             overhead: 0.0,
             cost: None,
+            fitted: false,
         }
     }
 
@@ -118,17 +154,6 @@ impl BudgetController {
     /// Triangles the next frame may draw.
     pub fn budget(&self) -> usize {
         self.budget
-    }
-
-    /// The budget the controller is heading for: the one its fit says holds the target frame
-    /// rate, within the limits (the current budget before any frame was timed). It moves
-    /// there over several frames; what streams in for the next second is asked for by it.
-    pub fn heading(&self) -> usize {
-        match self.cost {
-            Some(cost) if cost > 0.0 => (self.holding_target(cost) as usize)
-                .clamp(self.settings.min_budget, self.settings.max_budget),
-            _ => self.budget,
-        }
     }
 
     /// The estimated per-frame time that does not depend on triangles, in seconds.
@@ -160,6 +185,11 @@ impl BudgetController {
         triangles: usize,
         need: Option<usize>,
     ) -> usize {
+        // A frame that drew nothing (its tiles still on their way) tells neither bound
+        // anything: its need of nothing is not the view's.
+        if !(frame_seconds.is_finite() && frame_seconds > 0.0) || triangles == 0 {
+            return self.budget;
+        }
         let before = self.budget;
         let next = self.predict(frame_seconds, triangles);
         if let Some(need) = need.filter(|&n| n <= before) {
@@ -192,12 +222,22 @@ impl BudgetController {
         let mean_t = self.sum_t / self.weight;
         let var_n = self.sum_nn / self.weight - mean_n * mean_n;
         let cov = self.sum_nt / self.weight - mean_n * mean_t;
+        // The overhead the expected cost per triangle implies for the recent samples.
+        let implied = self
+            .settings
+            .expected
+            .filter(|e| e.triangles_in(0.0).is_some())
+            .map(|e| (mean_t - e.triangle_s * mean_n).max(0.0));
         if var_n > (EXCITATION * mean_n).powi(2) && cov > 0.0 {
             let fitted = mean_t - cov / var_n * mean_n;
             self.overhead += OVERHEAD_GAIN * (fitted - self.overhead);
+            self.fitted = true;
+        } else if let Some(implied) = implied.filter(|_| !self.fitted) {
+            self.overhead = implied;
         }
         let target = 1.0 / self.settings.target_fps;
-        let ceiling = (1.0 - self.settings.damping) * target.min(mean_t);
+        let ceiling = ((1.0 - self.settings.damping) * target.min(mean_t))
+            .max(implied.unwrap_or(0.0).min(mean_t));
         self.overhead = self.overhead.clamp(0.0, ceiling);
         let cost = (mean_t - self.overhead) / mean_n;
         self.cost = Some(cost);
@@ -541,27 +581,62 @@ pub(crate) mod tests {
     }
 
     #[test]
-    fn the_heading_is_where_the_budget_settles_before_it_gets_there() {
-        let mut c = BudgetController::new(BudgetSettings {
-            target_fps: 25.0,
+    fn a_known_frame_cost_starts_at_the_steady_budget_and_does_not_climb() {
+        // A PocketPC-like frame: 60 ms whatever it draws, 27 µs per triangle, 7 fps: about
+        // 3,070 triangles hold the target. The first frames draw only a few hundred (their
+        // tiles are on their way), as a streaming view does.
+        let (overhead, cost) = (0.060, 27e-6);
+        let steady = (1.0 / 7.0 - overhead) / cost;
+        let settings = BudgetSettings {
+            target_fps: 7.0,
+            ..BudgetSettings::default()
+        };
+        let expected = FrameCost {
+            overhead_s: overhead,
+            triangle_s: cost,
+        };
+        let mut seeded = BudgetController::new(BudgetSettings {
+            expected: Some(expected),
+            ..settings
+        });
+        let mut blind = BudgetController::new(BudgetSettings {
             initial_budget: 1_000,
+            ..settings
+        });
+        let near = |b: usize| (b as f64 / steady - 1.0).abs() <= 0.05;
+        assert!(
+            near(seeded.budget()),
+            "{} against {steady}",
+            seeded.budget()
+        );
+        let mut blind_lowest = usize::MAX;
+        for frame in 0..20 {
+            for c in [&mut seeded, &mut blind] {
+                let drawn = if frame < 5 { 400 } else { c.budget() };
+                c.record(overhead + cost * drawn as f64, drawn);
+            }
+            assert!(near(seeded.budget()), "frame {frame}: {}", seeded.budget());
+            if frame < 5 {
+                blind_lowest = blind_lowest.min(blind.budget());
+            }
+        }
+        // Without the expected cost, the first frames' fixed cost reads as the cost of their
+        // few triangles, and the budget stays far below what holds the target.
+        assert!((blind_lowest as f64) < 0.6 * steady, "{blind_lowest}");
+        assert!(near(blind.budget()), "both settle: {}", blind.budget());
+    }
+
+    #[test]
+    fn an_empty_frame_changes_nothing_even_while_the_error_bound_binds() {
+        let mut c = BudgetController::new(BudgetSettings {
+            initial_budget: 3_000,
             ..BudgetSettings::default()
         });
-        assert_eq!(c.heading(), 1_000, "nothing timed yet");
-        // 1,000 triangles in 10 ms: 4,000 hold 25 fps, and the budget moves at most twofold.
-        c.record(0.01, 1_000);
-        assert_eq!(c.budget(), 2_000);
-        assert!((3_990..=4_000).contains(&c.heading()), "{}", c.heading());
-        for _ in 0..20 {
-            let b = c.budget();
-            c.record(1e-5 * b as f64, b);
-        }
-        assert!(
-            c.budget().abs_diff(c.heading()) <= c.heading() / 25,
-            "settled at {} heading {}",
-            c.budget(),
-            c.heading()
-        );
+        // Nothing drawn (the tiles are on their way): its need of nothing is not the view's.
+        assert_eq!(c.record_needing(0.05, 0, Some(0)), 3_000);
+        assert_eq!(c.record_needing(0.0, 0, Some(0)), 3_000);
+        // A frame that drew what τ asks still holds the budget at twice its need.
+        assert_eq!(c.record_needing(0.001, 500, Some(500)), 1_000);
     }
 
     #[test]

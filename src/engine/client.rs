@@ -19,7 +19,9 @@ use crate::db::grid::{Grid, TileId};
 use crate::db::source::TileSource;
 use crate::db::tile::{PartialGrid, finest_mask_for_levels, levels_for_mask, progressive_levels};
 use crate::engine::allocation::{Allocation, TileErrors};
-use crate::engine::budget::{BudgetController, BudgetSettings, TileAllocation, drawable_level};
+use crate::engine::budget::{
+    BudgetController, BudgetSettings, FrameCost, TileAllocation, drawable_level,
+};
 use crate::engine::camera::Camera;
 use crate::engine::cracks::{CrackMode, TileIndices, neighbours::neighbour_levels};
 use crate::engine::error_bound::{Bound, ErrorBound};
@@ -294,15 +296,50 @@ impl Engine {
         &mut self.settings.render
     }
 
-    /// The tiles within `radius` belts of the current one whose boxes, at the archive's height
-    /// range, meet the view of `camera` at `aspect` (held or not).
-    pub fn tiles_in_view(&self, camera: &Camera, aspect: f64, radius: u32) -> Vec<TileId> {
-        match self.pager.resident().current_tile() {
-            Some(center) => {
-                view_tiles(self.grid, &self.terrain, center, radius, camera, aspect).collect()
-            }
-            None => Vec::new(),
+    /// Whether the view of `camera` on a `screen` of (width, height) pixels has everything it
+    /// should draw with `budget` triangles: every tile within `radius` belts of the current one
+    /// whose box (at the archive's height range) meets the view is held, with at least the
+    /// progressive levels of the mask level it would get if every tile in view held all its
+    /// levels and `budget` were shared among them (by the engine's allocation, no finer than τ
+    /// needs, without the bonus of freshly fetched levels). It depends on the camera, the
+    /// archive and `budget` only, not on the budgets the frames were drawn by, so paging
+    /// strategies can be compared by it (`stream-compare`'s first complete view).
+    pub fn holds_view(
+        &self,
+        camera: &Camera,
+        screen: (u32, u32),
+        radius: u32,
+        budget: usize,
+    ) -> bool {
+        let aspect = f64::from(screen.0) / f64::from(screen.1);
+        let resident = self.pager.resident();
+        let Some(center) = resident.current_tile() else {
+            return false;
+        };
+        let reach: Vec<TileId> =
+            view_tiles(self.grid, &self.terrain, center, radius, camera, aspect).collect();
+        if reach.iter().any(|&id| resident.get(id).is_none()) {
+            return false;
         }
+        let no_kept = HashMap::new();
+        let inputs = FrameInputs {
+            pager: &*self.pager,
+            terrain: &self.terrain,
+            masks: &self.masks,
+            weights: self.settings.weights,
+            budget,
+            forced_levels: None,
+            max_error: self.settings.max_error,
+            allocation: self.settings.allocation,
+            height: screen.1,
+            clearance: self.settings.clearance,
+            kept: &no_kept,
+        };
+        let reference = reference_levels(&inputs, camera, aspect);
+        let levels = progressive_levels(self.terrain.tile_size);
+        reference.iter().all(|&(id, tile, level)| {
+            !reach.contains(&id) || tile.levels >= levels_for_mask(level, levels)
+        })
     }
 
     /// The ground height under `position` if its tile is loaded.
@@ -373,10 +410,6 @@ impl Engine {
             masks: &self.masks,
             weights: self.settings.weights,
             budget: self.budget.budget(),
-            wish_budget: match self.settings.streaming {
-                Streaming::Belts => self.budget.budget(),
-                Streaming::Progressive(_) => self.budget.heading(),
-            },
             forced_levels: self.forced_levels.as_deref(),
             max_error: self.settings.max_error,
             allocation: self.settings.allocation,
@@ -525,8 +558,13 @@ impl Engine {
         settings.target_fps = fps;
         self.settings.budget.target_fps = fps;
         let budget = self.budget.budget();
+        let learned = self.budget.cost_per_triangle().map(|triangle_s| FrameCost {
+            overhead_s: self.budget.overhead(),
+            triangle_s,
+        });
         self.budget = BudgetController::new(BudgetSettings {
             initial_budget: budget,
+            expected: learned.or(settings.expected),
             ..settings
         });
     }
@@ -539,6 +577,7 @@ impl Engine {
             initial_budget: triangles,
             min_budget: settings.min_budget.min(triangles),
             max_budget: settings.max_budget.max(triangles),
+            expected: None,
             ..settings
         });
     }
@@ -594,11 +633,8 @@ struct FrameInputs<'e> {
     terrain: &'e TerrainFrame,
     masks: &'e MaskSet,
     weights: Weights,
-    /// This frame's triangle budget.
+    /// This frame's triangle budget: the frame draws by it, and streaming wishes by it.
     budget: usize,
-    /// The budget streaming wishes by: where the controller is heading, so that a level
-    /// fetched now is one the frames it arrives for can draw.
-    wish_budget: usize,
     /// Levels pinned per tile instead of the budget's choice.
     forced_levels: Option<&'e (dyn Fn(TileId) -> usize + Send)>,
     /// The pixel-error bound τ.
@@ -661,10 +697,9 @@ struct FramePlan<'p> {
     importance: Vec<f64>,
     /// The levels drawn.
     allocation: Vec<TileAllocation>,
-    /// The levels the budget offered: a tile drawn coarser is capped by what it holds.
+    /// The levels the budget offered: a tile drawn coarser is capped by what it holds, and
+    /// streaming asks for what they lack.
     offered: Vec<TileAllocation>,
-    /// The levels the budget streaming wishes by offers: streaming asks for what they lack.
-    wished: Vec<TileAllocation>,
     /// Per tile, pixels per metre of height error at its distance.
     pixels_per_metre: Vec<f64>,
     budget: usize,
@@ -710,26 +745,15 @@ fn plan_frame<'p>(inputs: &FrameInputs<'p>, camera: &Camera, aspect: f64) -> Fra
     } else {
         allocation.clone()
     };
-    let mut wished = if inputs.wish_budget == inputs.budget {
-        offered.clone()
-    } else {
-        share(inputs.wish_budget, &needed)
-    };
     let bound = match inputs.max_error {
         _ if need > inputs.budget || inputs.forced_levels.is_some() => Bound::Budget,
         ErrorBound::Off => Bound::Full,
         ErrorBound::Pixels(_) => Bound::Error,
     };
     if let Some(level_of) = inputs.forced_levels {
-        for (((a, o), w), &(id, tile, _)) in allocation
-            .iter_mut()
-            .zip(&mut offered)
-            .zip(&mut wished)
-            .zip(&visible)
-        {
+        for ((a, o), &(id, tile, _)) in allocation.iter_mut().zip(&mut offered).zip(&visible) {
             let pinned = level_of(id);
             o.level = drawable_level(pinned, 0, partial.is_some());
-            w.level = o.level;
             a.level = drawable_level(pinned, tile.finest_mask_level(), partial.is_some());
             a.triangles = inputs.masks.triangle_count(a.level);
         }
@@ -739,12 +763,34 @@ fn plan_frame<'p>(inputs: &FrameInputs<'p>, camera: &Camera, aspect: f64) -> Fra
         importance: importance.values,
         allocation,
         offered,
-        wished,
         pixels_per_metre,
         budget: inputs.budget,
         need,
         bound,
     }
+}
+
+/// Each resident tile in view with the mask level the budget of `inputs` buys it when every
+/// tile in view could draw any level, no finer than τ needs (the frame's offer, had every
+/// tile held all its levels).
+fn reference_levels<'p>(
+    inputs: &FrameInputs<'p>,
+    camera: &Camera,
+    aspect: f64,
+) -> Vec<(TileId, &'p ResidentTile, usize)> {
+    let (visible, measures) = cull(inputs.pager.resident(), inputs.terrain, camera, aspect);
+    let importance = visual_importance(&measures, inputs.weights);
+    let needed = inputs.needed_levels(camera, visible.iter().map(|&(_, t, d)| (t, d)));
+    let errors = inputs.tile_errors(camera, visible.iter().copied());
+    let offered =
+        inputs
+            .allocation
+            .share(inputs.budget, &importance, inputs.masks, &errors, &needed);
+    visible
+        .iter()
+        .zip(&offered)
+        .map(|(&(id, tile, _), o)| (id, tile, o.level))
+        .collect()
 }
 
 impl<'p> FramePlan<'p> {
@@ -811,8 +857,8 @@ struct Ahead<'a> {
     predicted: Option<&'a PredictedView>,
 }
 
-/// What a progressive pager should fetch for this frame: the levels the budget the controller
-/// is heading for offers each tile in view (no more than it holds for a tile that will have
+/// What a progressive pager should fetch for this frame: the levels the frame's budget offers
+/// each tile in view (no more than it holds for a tile that will have
 /// left the view when they arrive), the coarsest level of absent tiles the view meets, and the
 /// same for the predicted view at half weight.
 fn streaming_wants(
@@ -834,7 +880,7 @@ fn streaming_wants(
     let mut wants: Vec<Want> = plan
         .visible
         .iter()
-        .zip(&plan.wished)
+        .zip(&plan.offered)
         .zip(&plan.importance)
         .map(|((&(id, tile, _), o), &priority)| {
             let wished = levels_for_mask(o.level, levels);
@@ -985,22 +1031,18 @@ fn predicted_wants(inputs: &FrameInputs<'_>, view: &PredictedView, aspect: f64) 
         &view.camera,
         seen.iter().zip(&measures).map(|(s, m)| (s.1, m.distance)),
     );
-    // The predicted view shares the budget the way the frame does (by the budget the
-    // controller is heading for, as the view's wishes), so that what it asks for ahead is what
-    // the frame will draw when the eye gets there.
+    // The predicted view shares the budget the way the frame does, so that what it asks for
+    // ahead is what the frame will draw when the eye gets there.
     let errors = inputs.tile_errors(
         &view.camera,
         seen.iter()
             .zip(&measures)
             .map(|(s, m)| (s.0, s.1, m.distance)),
     );
-    let offered = inputs.allocation.share(
-        inputs.wish_budget,
-        &importance,
-        inputs.masks,
-        &errors,
-        &needed,
-    );
+    let offered =
+        inputs
+            .allocation
+            .share(inputs.budget, &importance, inputs.masks, &errors, &needed);
     let levels = progressive_levels(terrain.tile_size);
     seen.iter()
         .zip(&offered)

@@ -19,6 +19,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use crate::db::source::TileSource;
 use crate::db::source::throttle::{DropDice, LatencyDice, LinkProfile, SimulatedLink};
 use crate::engine::FrameReport;
+use crate::engine::budget::FrameCost;
 use crate::engine::paging::{PagerMode, TransferClock};
 use crate::error::Result;
 use crate::named::Named;
@@ -53,6 +54,10 @@ impl CostModel {
         self.frame_s + self.triangle_s * triangles as f64 + self.fragment_s * fragments as f64
     }
 }
+
+/// Share of the screen a flyover's terrain covers: the pixels a frame writes whatever its
+/// triangle count (53,000–54,000 of the 76,800 at 320x240, `docs/pocketpc.md`).
+pub const FLYOVER_COVERAGE: f64 = 0.7;
 
 /// Where a frame's cost comes from.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -105,6 +110,22 @@ impl Clock {
         match self {
             Clock::Wall { .. } => Clock::Wall { slowdown },
             Clock::Simulated { model, .. } => Clock::Simulated { model, slowdown },
+        }
+    }
+
+    /// What a frame of a flyover on a `width` x `height` screen is expected to cost in device
+    /// time before any is timed: the clock's cost model (on the wall clock, the one fitted to
+    /// this machine, [`CostModel::HOST`]) with [`FLYOVER_COVERAGE`] of the screen written, times
+    /// the slowdown. The budget controller starts from it ([`FrameCost`]).
+    pub fn expected_cost(&self, width: u32, height: u32) -> FrameCost {
+        let (model, slowdown) = match *self {
+            Clock::Wall { slowdown } => (CostModel::HOST, slowdown),
+            Clock::Simulated { model, slowdown } => (model, slowdown),
+        };
+        let pixels = FLYOVER_COVERAGE * f64::from(width) * f64::from(height);
+        FrameCost {
+            overhead_s: slowdown * (model.frame_s + model.fragment_s * pixels),
+            triangle_s: slowdown * model.triangle_s,
         }
     }
 

@@ -205,6 +205,8 @@ pub fn run_live(o: &DemoOptions, live: Option<LiveView<'_>>) -> Result<DemoSumma
         ..EngineSettings::default()
     };
     engine.budget.target_fps = p.target_fps;
+    let clock = o.clock.with_slowdown(p.cpu_slowdown);
+    engine.budget.expected = Some(clock.expected_cost(p.width, p.height));
     let fly_options = FlyOptions {
         source: archive_name,
         flight: Flight::builtin(Builtin::Diagonal, &terrain),
@@ -217,7 +219,7 @@ pub fn run_live(o: &DemoOptions, live: Option<LiveView<'_>>) -> Result<DemoSumma
         every: o.every,
         hud: true,
         progress: o.progress,
-        clock: o.clock.with_slowdown(p.cpu_slowdown),
+        clock,
         link: (!p.link.is_unlimited()).then(|| p.link.to_link_profile(1)),
         plots: true,
         http: crate::db::source::http::HttpOptions::default(),

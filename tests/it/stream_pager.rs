@@ -451,3 +451,35 @@ fn a_transfer_not_started_is_cancelled_as_soon_as_its_tile_leaves_the_views() {
     assert_eq!(p.held_levels(TileId::new(1, 0)), 1);
     check_accounting(&p);
 }
+
+#[test]
+fn a_held_wish_waiting_unsent_goes_as_far_as_the_first_frame_asking_for_more_than_its_tile_holds() {
+    let mut p = simulated(2, 1);
+    // The belts bring both tiles' coarsest levels, one after the other.
+    for k in 0..3 {
+        frame(&mut p, SECONDS_PER_FETCH * f64::from(k), &[]);
+    }
+    assert_eq!(p.held_levels(TileId::new(0, 0)), 1);
+    // Tile (1, 0) takes the link; tile (0, 0)'s request for 4 levels waits.
+    let busy = 2.0 * SECONDS_PER_FETCH;
+    frame(&mut p, busy, &[want(1, 0, 2, 0.9), want(0, 0, 4, 0.5)]);
+    assert_eq!(p.resident().stats().fetching, 1);
+    assert_eq!(p.queue().waiting().len(), 1);
+    // The link is free when a frame asks tile (0, 0) for fewer levels than its held wish, but
+    // for more than it holds: the request goes, for the levels the frame asks (a level
+    // beyond them would arrive for frames that may not draw it).
+    let free = busy + SECONDS_PER_FETCH;
+    frame(&mut p, free, &[want(0, 0, 3, 0.5)]);
+    assert_eq!(p.held_levels(TileId::new(1, 0)), 2);
+    assert_eq!(
+        p.resident().stats().fetching,
+        1,
+        "sent in the frame asking for 3"
+    );
+    frame(&mut p, free + 0.5, &[want(0, 0, 3, 0.5)]);
+    frame(&mut p, free + SECONDS_PER_FETCH, &[want(0, 0, 3, 0.5)]);
+    assert_eq!(p.held_levels(TileId::new(0, 0)), 3);
+    assert_eq!(p.stream_stats().cancelled, 0, "nothing sent was cut");
+    assert_eq!(p.resident().stats().fetching, 0);
+    check_accounting(&p);
+}

@@ -360,16 +360,30 @@ impl<L: LevelLoader> StreamPager<L> {
             let levels = view.entry(w.id).or_default();
             *levels = (*levels).max(w.levels);
         }
+        // A wish the view made and still holds is the view's, even in a frame asking for less.
+        for (id, w) in wanted.iter().filter(|(_, w)| !w.predicted) {
+            let levels = view.entry(*id).or_default();
+            *levels = (*levels).max(w.levels);
+        }
         self.cancel_unwanted(&wanted, &asks, now);
         let candidates = self.candidates(&wanted, &view);
         let cancelled = self.strategy.queue.reprioritise(candidates);
         self.strategy.stats.cancelled += cancelled.len() as u64;
-        let resting = self.strategy.queue.set_aside(|r| {
-            r.reason != Reason::Belt && r.levels > asks.get(&r.id).copied().unwrap_or(0)
-        });
+        // A held wish's request waits unsent while this frame asks for nothing more than its
+        // tile holds; once the frame asks for more, it goes, up to what the frame asks: levels
+        // beyond it would arrive for frames that may not draw them.
+        let short: HashMap<TileId, usize> = asks
+            .iter()
+            .filter(|&(&id, &levels)| levels > self.held_levels(id))
+            .map(|(&id, &levels)| (id, levels))
+            .collect();
+        let resting = self
+            .strategy
+            .queue
+            .set_aside(|r| r.reason != Reason::Belt && !short.contains_key(&r.id));
         let stepped = matches!(self.mode, PagerMode::Stepped { .. });
         let mut room = self.mode.room(self.resident.ledger.fetching());
-        while room > 0 && self.send_next(&wanted) {
+        while room > 0 && self.send_next(&wanted, &short) {
             room = if stepped {
                 room - 1
             } else {
@@ -527,10 +541,21 @@ impl<L: LevelLoader> StreamPager<L> {
         r.fetch.is_none() && r.failure.is_none() && self.resident.ledger.grid().contains(id)
     }
 
-    /// Sends the best waiting request that is still valid; false when there is none or it does
-    /// not fit in memory even after making room (it waits then).
-    fn send_next(&mut self, wanted: &HashMap<TileId, Want>) -> bool {
-        while let Some(request) = self.strategy.queue.pop() {
+    /// Sends the best waiting request that is still valid, up to no more levels than this frame
+    /// asks for its tile (`asked`) when it asks for any more than the tile holds; false when
+    /// there is none or it does not fit in memory even after making room (it waits then).
+    fn send_next(
+        &mut self,
+        wanted: &HashMap<TileId, Want>,
+        asked: &HashMap<TileId, usize>,
+    ) -> bool {
+        while let Some(waiting) = self.strategy.queue.pop() {
+            let request = LevelRequest {
+                levels: asked
+                    .get(&waiting.id)
+                    .map_or(waiting.levels, |&levels| waiting.levels.min(levels)),
+                ..waiting
+            };
             let have = self.held_levels(request.id);
             if request.levels <= have || !self.can_request(request.id) {
                 continue;
@@ -545,7 +570,8 @@ impl<L: LevelLoader> StreamPager<L> {
                     self.loader.predicted_bytes(paged)
                 };
             if !self.make_room(bytes, &request, wanted) {
-                self.strategy.queue.push_back(request);
+                // It waits as it was made: the wish, not this frame's part of it.
+                self.strategy.queue.push_back(waiting);
                 self.resident.memory_bound = true;
                 return false;
             }

@@ -167,6 +167,7 @@ fn viewer_on_host(
         ..EngineSettings::default()
     };
     engine.budget.target_fps = p.target_fps;
+    engine.budget.expected = Some(clock.expected_cost(size.0, size.1));
     let frames = inputs.len() as u64;
     let mut script = Script {
         inputs: inputs.into(),

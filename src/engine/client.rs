@@ -335,11 +335,15 @@ impl Engine {
             clearance: self.settings.clearance,
             kept: &no_kept,
         };
-        let reference = reference_levels(&inputs, camera, aspect);
+        // The frame's offer: the levels the budget buys each tile in view had it held them all.
+        let plan = plan_frame(&inputs, camera, aspect);
         let levels = progressive_levels(self.terrain.tile_size);
-        reference.iter().all(|&(id, tile, level)| {
-            !reach.contains(&id) || tile.levels >= levels_for_mask(level, levels)
-        })
+        plan.visible
+            .iter()
+            .zip(&plan.offered)
+            .all(|(&(id, tile, _), o)| {
+                !reach.contains(&id) || tile.levels >= levels_for_mask(o.level, levels)
+            })
     }
 
     /// The ground height under `position` if its tile is loaded.
@@ -768,29 +772,6 @@ fn plan_frame<'p>(inputs: &FrameInputs<'p>, camera: &Camera, aspect: f64) -> Fra
         need,
         bound,
     }
-}
-
-/// Each resident tile in view with the mask level the budget of `inputs` buys it when every
-/// tile in view could draw any level, no finer than τ needs (the frame's offer, had every
-/// tile held all its levels).
-fn reference_levels<'p>(
-    inputs: &FrameInputs<'p>,
-    camera: &Camera,
-    aspect: f64,
-) -> Vec<(TileId, &'p ResidentTile, usize)> {
-    let (visible, measures) = cull(inputs.pager.resident(), inputs.terrain, camera, aspect);
-    let importance = visual_importance(&measures, inputs.weights);
-    let needed = inputs.needed_levels(camera, visible.iter().map(|&(_, t, d)| (t, d)));
-    let errors = inputs.tile_errors(camera, visible.iter().copied());
-    let offered =
-        inputs
-            .allocation
-            .share(inputs.budget, &importance, inputs.masks, &errors, &needed);
-    visible
-        .iter()
-        .zip(&offered)
-        .map(|(&(id, tile, _), o)| (id, tile, o.level))
-        .collect()
 }
 
 impl<'p> FramePlan<'p> {

@@ -424,13 +424,18 @@ proptest! {
     }
 }
 
+/// Three frames of nothing asked, one fetch apart: the belts bring two tiles' coarsest levels,
+/// one after the other.
+fn belts_bring_the_coarsest_levels(p: &mut StreamPager<Synthetic>) {
+    for k in 0..3 {
+        frame(p, SECONDS_PER_FETCH * f64::from(k), &[]);
+    }
+}
+
 #[test]
 fn a_transfer_not_started_is_cancelled_as_soon_as_its_tile_leaves_the_views() {
     let mut p = simulated(2, 2);
-    // The belts bring both tiles' coarsest levels, one after the other.
-    for k in 0..3 {
-        frame(&mut p, SECONDS_PER_FETCH * f64::from(k), &[]);
-    }
+    belts_bring_the_coarsest_levels(&mut p);
     assert_eq!(p.held_levels(TileId::new(1, 0)), 1);
     // Both tiles are asked up to 4 levels: the link carries the first, the second waits.
     let sent = 3.0 * SECONDS_PER_FETCH;
@@ -455,10 +460,7 @@ fn a_transfer_not_started_is_cancelled_as_soon_as_its_tile_leaves_the_views() {
 #[test]
 fn a_held_wish_waiting_unsent_goes_as_far_as_the_first_frame_asking_for_more_than_its_tile_holds() {
     let mut p = simulated(2, 1);
-    // The belts bring both tiles' coarsest levels, one after the other.
-    for k in 0..3 {
-        frame(&mut p, SECONDS_PER_FETCH * f64::from(k), &[]);
-    }
+    belts_bring_the_coarsest_levels(&mut p);
     assert_eq!(p.held_levels(TileId::new(0, 0)), 1);
     // Tile (1, 0) takes the link; tile (0, 0)'s request for 4 levels waits.
     let busy = 2.0 * SECONDS_PER_FETCH;

@@ -37,6 +37,19 @@ pub(crate) struct PixelRect {
     pub y1: i32,
 }
 
+impl PixelRect {
+    /// Index of pixel `(x, y)` (screen coordinates, inside) in the rectangle's pixels stored
+    /// row after row, as a tile's buffers are.
+    #[inline(always)]
+    pub fn index(&self, y: i64, x: i64) -> usize {
+        debug_assert!(
+            (self.y0 as i64..self.y1 as i64).contains(&y)
+                && (self.x0 as i64..self.x1 as i64).contains(&x)
+        );
+        (y - self.y0 as i64) as usize * (self.x1 - self.x0) as usize + (x - self.x0 as i64) as usize
+    }
+}
+
 #[derive(Clone, Copy, Debug, Default)]
 struct Edge {
     ax: i64,

@@ -140,7 +140,10 @@ impl Fragments {
 
     /// Colours the held fragments and writes those that passed into `color`, in the order they
     /// arrived; empties the buffer. `views` are the draw's texture levels.
-    #[inline]
+    ///
+    /// Not inlined: it runs once per full buffer, and inlined at every call site it built the
+    /// colour stage again in each of the row loops' specialisations.
+    #[inline(never)]
     pub fn finish<P: PixelFormat, F: Filtering, const SHADE: bool, const FOG: bool>(
         &mut self,
         color: &mut TileBuf<P::Pixel>,

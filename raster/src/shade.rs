@@ -10,7 +10,7 @@ use crate::pipeline::fixed::{
 use crate::pipeline::float::{self, FloatPipeline, FloatPlane, FloatTriangle};
 use crate::pipeline::{Attributes, Pipeline, Setup, TexMode};
 use crate::pixel::{Depth16, Depth32, DepthFormat, NoDepth, PixelFormat, Rgb565, Rgba8888};
-use crate::sampler::{Bilinear, Filtering, LevelView, Nearest, NoTexture, TexViews, ViewOf};
+use crate::sampler::{Bilinear, Filtering, Nearest, NoTexture, TexViews, ViewOf};
 use crate::setup::ChunkOut;
 use crate::small::small_triangle;
 use crate::state::RenderState;
@@ -219,33 +219,14 @@ fn fixed_flags<P: PixelFormat, D: DepthFormat, F: Filtering>(
             });
         }
         let mut frags = Fragments::new();
-        let test = fixed::DepthTest::new(attrs);
-        let mut depth = depth;
-        for &i in list {
-            let t = &tris[i as usize];
-            let grey = SHADE && t.grey;
-            if !frags.accepts(t.level(), grey) {
-                frags.finish::<P, F, SHADE, FOG>(color, views, attrs);
-            }
-            frags.hold(t.level(), grey);
-            let args = (
-                rect,
-                &mut *color,
-                depth.as_deref_mut(),
-                views,
-                attrs,
-                planes,
-                test,
-            );
-            match (t.narrow, grey) {
-                (false, false) => {
-                    triangle::<P, D, F, SHADE, false, FOG, false>(t, &mut frags, args)
-                }
-                (false, true) => triangle::<P, D, F, true, true, FOG, false>(t, &mut frags, args),
-                (true, true) => triangle::<P, D, F, true, true, FOG, true>(t, &mut frags, args),
-                (true, false) => triangle::<P, D, F, SHADE, false, FOG, true>(t, &mut frags, args),
-            }
-        }
+        let tile = color.rect();
+        let mut flush =
+            |frags: &mut Fragments| frags.finish::<P, F, SHADE, FOG>(color, views, attrs);
+        triangles::<D, F, SHADE, FOG>(
+            (rect, tile, depth, attrs, tris, planes, list),
+            &mut frags,
+            &mut flush,
+        );
         frags.finish::<P, F, SHADE, FOG>(color, views, attrs);
         frags.written()
     }
@@ -257,22 +238,58 @@ fn fixed_flags<P: PixelFormat, D: DepthFormat, F: Filtering>(
     }
 }
 
-/// What the rows of one triangle need besides the triangle and the fragment buffer.
-type TriangleArgs<'r, 'v, 't, P, D, F> = (
+/// What the triangles of a tile need besides the fragment buffer and its colour stage.
+type TrianglesArgs<'r, 't, D> = (
     PixelRect,
-    &'r mut TileBuf<<P as PixelFormat>::Pixel>,
+    PixelRect,
     Option<&'r mut TileBuf<<D as DepthFormat>::Value>>,
-    &'r [LevelView<'t, <F as Filtering>::Texel>],
     &'r Attributes<'t>,
+    &'r [FixedTriangle],
+    &'r [AttrPlane],
+    &'r [u32],
+);
+
+/// The triangles `list` inside `rect` of the tile `tile`, in order, into `frags`; `flush` is the colour stage, the
+/// only part that depends on the colour format. Behind that call, these loops are built once
+/// for both colour formats (compile time and code size: `cargo llvm-lines -p
+/// stripmask-raster`); the call runs once per full buffer.
+#[inline(never)]
+fn triangles<D: DepthFormat, F: Filtering, const SHADE: bool, const FOG: bool>(
+    (rect, tile, mut depth, attrs, tris, planes, list): TrianglesArgs<'_, '_, D>,
+    frags: &mut Fragments,
+    flush: &mut dyn FnMut(&mut Fragments),
+) {
+    let test = fixed::DepthTest::new(attrs);
+    for &i in list {
+        let t = &tris[i as usize];
+        let grey = SHADE && t.grey;
+        if !frags.accepts(t.level(), grey) {
+            flush(frags);
+        }
+        frags.hold(t.level(), grey);
+        let args = (rect, tile, depth.as_deref_mut(), planes, test);
+        match (t.narrow, grey) {
+            (false, false) => triangle::<D, F, SHADE, false, FOG, false>(t, frags, flush, args),
+            (false, true) => triangle::<D, F, true, true, FOG, false>(t, frags, flush, args),
+            (true, true) => triangle::<D, F, true, true, FOG, true>(t, frags, flush, args),
+            (true, false) => triangle::<D, F, SHADE, false, FOG, true>(t, frags, flush, args),
+        }
+    }
+}
+
+/// What the rows of one triangle need besides the triangle and the fragment buffer.
+type TriangleArgs<'r, D> = (
+    PixelRect,
+    PixelRect,
+    Option<&'r mut TileBuf<<D as DepthFormat>::Value>>,
     &'r [AttrPlane],
     fixed::DepthTest,
 );
 
 /// The rows of triangle `t` inside the tile `rect`: the row step for each run (cut to the tile,
-/// in pieces that fit the buffer), the colour stage whenever the buffer is full.
+/// in pieces that fit the buffer), the colour stage (`flush`) whenever the buffer is full.
 #[inline(always)]
 fn triangle<
-    P: PixelFormat,
     D: DepthFormat,
     F: Filtering,
     const SHADE: bool,
@@ -282,23 +299,50 @@ fn triangle<
 >(
     t: &FixedTriangle,
     frags: &mut Fragments,
-    (rect, color, mut depth, views, attrs, planes, test): TriangleArgs<'_, '_, '_, P, D, F>,
+    flush: &mut dyn FnMut(&mut Fragments),
+    (rect, tile, depth, planes, test): TriangleArgs<'_, D>,
 ) {
     if NARROW && t.coverage.is_small() {
         let p = NarrowPlanes::new::<D, F, SHADE, GREY, FOG>(t, planes);
         if p.per_pixel() {
-            return small_triangle::<P, D, F, SHADE, GREY, FOG>(
-                &p, t, color, depth, frags, views, attrs, test,
+            return small_triangle::<D, F, SHADE, GREY, FOG>(
+                &p, t, tile, depth, frags, flush, test,
             );
         }
     }
+    spans_of::<D, F, SHADE, GREY, FOG, NARROW>(t, frags, flush, (rect, tile), depth, planes, test);
+}
+
+/// The general row step of `triangle`: its spans inside `rect` of the tile `tile`, in pieces
+/// that fit the buffer.
+///
+/// Not inlined: its specialisations are then built once per depth format, texture, shading and
+/// fog, not once per colour format as well at every call site (compile time and code size,
+/// `cargo llvm-lines -p stripmask-raster`); a call per triangle that is not small is the price.
+#[inline(never)]
+fn spans_of<
+    D: DepthFormat,
+    F: Filtering,
+    const SHADE: bool,
+    const GREY: bool,
+    const FOG: bool,
+    const NARROW: bool,
+>(
+    t: &FixedTriangle,
+    frags: &mut Fragments,
+    flush: &mut dyn FnMut(&mut Fragments),
+    (rect, tile): (PixelRect, PixelRect),
+    mut depth: Option<&mut TileBuf<D::Value>>,
+    planes: &[AttrPlane],
+    test: fixed::DepthTest,
+) {
     let (tx0, tx1) = (rect.x0 as i64, rect.x1 as i64);
     t.coverage
         .for_each_span(rect.y0 as i64, rect.y1 as i64, |y, x0, x1| {
             let (mut xs, xe) = (x0.max(tx0), x1.min(tx1));
             while xs < xe {
                 if frags.room() == 0 {
-                    frags.finish::<P, F, SHADE, FOG>(color, views, attrs);
+                    flush(frags);
                 }
                 let e = xe.min(xs + frags.room() as i64);
                 let depth = match &mut depth {
@@ -306,7 +350,7 @@ fn triangle<
                     None => &mut [],
                 };
                 let piece = RunPiece { y, x0, x1, xs };
-                let slots = frags.push_slots(color.index(y, xs), (e - xs) as usize);
+                let slots = frags.push_slots(tile.index(y, xs), (e - xs) as usize);
                 fixed::run_fragments::<D, F, SHADE, GREY, FOG, NARROW>(
                     t, planes, piece, depth, slots, test,
                 );

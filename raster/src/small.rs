@@ -14,12 +14,13 @@
 //! columns the triangle can own here (an affine function over a rectangle is extreme at its
 //! corners), the clamps are left out.
 
+use crate::edge::PixelRect;
 use crate::fixed_point::{ATTR_FRAC_BITS, TEXCOORD_LIMIT};
 use crate::fragments::{Fragments, SLOTS};
+use crate::pipeline::TexMode;
 use crate::pipeline::fixed::{AttrPlane, DepthTest, FixedTriangle, NarrowPlanes, divide};
-use crate::pipeline::{Attributes, TexMode};
-use crate::pixel::{DepthFormat, PixelFormat};
-use crate::sampler::{Filtering, LevelView, clamp_coord};
+use crate::pixel::DepthFormat;
+use crate::sampler::{Filtering, clamp_coord};
 use crate::tile_view::TileBuf;
 
 /// Masks an index into the fragment arrays (which never exceeds `CAPACITY + 16`): no bounds
@@ -35,11 +36,10 @@ struct RowValues {
 }
 
 /// Draws the rows of `t` (small and narrow, with planes `p` that are `NarrowPlanes::per_pixel`)
-/// inside the tile of `color` and `depth` into `frags`, colouring them whenever the buffer fills.
+/// inside `tile` (and its `depth`) into `frags`, coloured by `flush` whenever the buffer fills.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub(crate) fn small_triangle<
-    P: PixelFormat,
     D: DepthFormat,
     F: Filtering,
     const SHADE: bool,
@@ -48,14 +48,12 @@ pub(crate) fn small_triangle<
 >(
     p: &NarrowPlanes,
     t: &FixedTriangle,
-    color: &mut TileBuf<P::Pixel>,
+    tile: PixelRect,
     depth: Option<&mut TileBuf<D::Value>>,
     frags: &mut Fragments,
-    views: &[LevelView<'_, F::Texel>],
-    attrs: &Attributes,
+    flush: &mut dyn FnMut(&mut Fragments),
     test: DepthTest,
 ) {
-    let tile = color.rect();
     let rect = t.coverage.rect;
     // The rows `small_rows` walks: built in `rows_of`, where they live.
     let (y0, end) = (rect.y0.max(tile.y0) as i64, rect.y1.min(tile.y1) as i64);
@@ -102,25 +100,32 @@ pub(crate) fn small_triangle<
         && (texes != TEX_AFFINE
             || (within(&p.tex[0], start.tex[0], -coord.0, coord.1)
                 && within(&p.tex[1], start.tex[1], -coord.0, coord.1)));
-    let args = (p, t, start, color, depth, frags, views, attrs, test);
     // The branch on the constant `F::ENABLED` keeps the compiler from building the textured row
     // loops for untextured runs and the untextured one for textured runs, which no draw can
-    // reach: a fifth of the crate's code (`cargo llvm-lines -p stripmask-raster`).
+    // reach.
     if !F::ENABLED {
         return match in_range {
-            false => rows_of::<P, D, F, SHADE, GREY, FOG, TEX_OFF, true>(args),
-            true => rows_of::<P, D, F, SHADE, GREY, FOG, TEX_OFF, false>(args),
+            false => rows_of::<D, SHADE, GREY, FOG, TEX_OFF, true>(
+                p, t, start, tile, depth, frags, flush, test,
+            ),
+            true => rows_of::<D, SHADE, GREY, FOG, TEX_OFF, false>(
+                p, t, start, tile, depth, frags, flush, test,
+            ),
         };
     }
     match (texes, in_range) {
-        (TEX_PERSPECTIVE, false) => {
-            rows_of::<P, D, F, SHADE, GREY, FOG, TEX_PERSPECTIVE, true>(args)
-        }
-        (TEX_PERSPECTIVE, true) => {
-            rows_of::<P, D, F, SHADE, GREY, FOG, TEX_PERSPECTIVE, false>(args)
-        }
-        (_, false) => rows_of::<P, D, F, SHADE, GREY, FOG, TEX_AFFINE, true>(args),
-        (_, true) => rows_of::<P, D, F, SHADE, GREY, FOG, TEX_AFFINE, false>(args),
+        (TEX_PERSPECTIVE, false) => rows_of::<D, SHADE, GREY, FOG, TEX_PERSPECTIVE, true>(
+            p, t, start, tile, depth, frags, flush, test,
+        ),
+        (TEX_PERSPECTIVE, true) => rows_of::<D, SHADE, GREY, FOG, TEX_PERSPECTIVE, false>(
+            p, t, start, tile, depth, frags, flush, test,
+        ),
+        (_, false) => rows_of::<D, SHADE, GREY, FOG, TEX_AFFINE, true>(
+            p, t, start, tile, depth, frags, flush, test,
+        ),
+        (_, true) => rows_of::<D, SHADE, GREY, FOG, TEX_AFFINE, false>(
+            p, t, start, tile, depth, frags, flush, test,
+        ),
     }
 }
 
@@ -140,36 +145,28 @@ const fn channels<const SHADE: bool, const GREY: bool>() -> usize {
     }
 }
 
-/// What `rows_of` walks: the triangle's planes and starting values, and the tile.
-type RowsArgs<'a, 'v, 't, P, D, F> = (
-    &'a NarrowPlanes,
-    &'a FixedTriangle,
-    RowValues,
-    &'a mut TileBuf<<P as PixelFormat>::Pixel>,
-    Option<&'a mut TileBuf<<D as DepthFormat>::Value>>,
-    &'a mut Fragments,
-    &'a [LevelView<'v, <F as Filtering>::Texel>],
-    &'a Attributes<'t>,
-    DepthTest,
-);
-
 /// The row loop of `small_triangle`: `TEX` texture planes (`TEX_OFF`, `TEX_AFFINE` or
 /// `TEX_PERSPECTIVE`); `CLAMP` false when every value is known to be in range (the perspective
 /// division clamps its own).
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn rows_of<
-    P: PixelFormat,
     D: DepthFormat,
-    F: Filtering,
     const SHADE: bool,
     const GREY: bool,
     const FOG: bool,
     const TEX: usize,
     const CLAMP: bool,
 >(
-    (p, t, mut row, color, mut depth, frags, views, attrs, test): RowsArgs<'_, '_, '_, P, D, F>,
+    p: &NarrowPlanes,
+    t: &FixedTriangle,
+    mut row: RowValues,
+    tile: PixelRect,
+    mut depth: Option<&mut TileBuf<D::Value>>,
+    frags: &mut Fragments,
+    flush: &mut dyn FnMut(&mut Fragments),
+    test: DepthTest,
 ) {
-    let tile = color.rect();
     let mut rows = t.coverage.small_rows(tile.y0 as i64, tile.y1 as i64);
     let channels = channels::<SHADE, GREY>();
     // The tile's columns as bits of the rows' masks (a small triangle spans at most 16).
@@ -186,7 +183,7 @@ fn rows_of<
             let first = owned.trailing_zeros() as usize;
             let n = (32 - owned.leading_zeros()) as usize - first;
             if n > frags.room() {
-                frags.finish::<P, F, SHADE, FOG>(color, views, attrs);
+                flush(frags);
             }
             let at = (row_at + first as i64) as usize;
             let k = frags.push(at, n);

@@ -84,17 +84,7 @@ impl<T> TileBuf<T> {
         self.rect
     }
 
-    /// Index of pixel `(x, y)` (screen coordinates, inside the tile) in `pixels`.
-    #[inline(always)]
-    pub fn index(&self, y: i64, x: i64) -> usize {
-        debug_assert!(
-            (self.rect.y0 as i64..self.rect.y1 as i64).contains(&y)
-                && (self.rect.x0 as i64..self.rect.x1 as i64).contains(&x)
-        );
-        (y - self.rect.y0 as i64) as usize * self.width + (x - self.rect.x0 as i64) as usize
-    }
-
-    /// The tile's pixels, row after row (`index` finds a pixel).
+    /// The tile's pixels, row after row.
     #[inline(always)]
     pub fn pixels(&mut self) -> &mut [T] {
         &mut self.pixels
@@ -172,7 +162,7 @@ mod tests {
                 ((r.x1 - r.x0) * (r.y1 - r.y0)) as usize
             );
             let (y, x) = (r.y1 as i64 - 1, r.x0 as i64 + 1);
-            let i = tile.index(y, x);
+            let i = tile.rect().index(y, x);
             assert_eq!(tile.pixels()[i], (y * 150 + x) as u32);
             tile.row(y, x, x + 1)[0] = 1_000_000 + t as u32;
             view.store(tile);

@@ -162,9 +162,8 @@ impl SceneArgs {
             allocation: device.allocation,
             ..EngineSettings::default()
         };
-        engine.budget.target_fps = device.target_fps;
         let clock = self.device.clock.with_slowdown(device.cpu_slowdown);
-        engine.budget.expected = Some(clock.expected_cost(device.width, device.height));
+        engine.budget = device.budget(clock);
         if self.float {
             engine.render.precision = Precision::Float;
         }

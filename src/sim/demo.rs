@@ -204,9 +204,8 @@ pub fn run_live(o: &DemoOptions, live: Option<LiveView<'_>>) -> Result<DemoSumma
         allocation: p.allocation,
         ..EngineSettings::default()
     };
-    engine.budget.target_fps = p.target_fps;
     let clock = o.clock.with_slowdown(p.cpu_slowdown);
-    engine.budget.expected = Some(clock.expected_cost(p.width, p.height));
+    engine.budget = p.budget(clock);
     let fly_options = FlyOptions {
         source: archive_name,
         flight: Flight::builtin(Builtin::Diagonal, &terrain),

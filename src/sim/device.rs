@@ -36,9 +36,11 @@ use stripmask_raster::{ColorFormat, DepthFormat};
 
 use crate::db::source::throttle::LinkProfile;
 use crate::engine::allocation::Allocation;
+use crate::engine::budget::BudgetSettings;
 use crate::engine::error_bound::ErrorBound;
 use crate::error::{Error, Result};
 use crate::named::Named;
+use crate::sim::clock::Clock;
 
 /// The link between the device and the tile server.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -345,6 +347,18 @@ impl DeviceProfile {
     /// The memory limit in bytes.
     pub fn memory_limit_bytes(&self) -> usize {
         (self.memory_mb * 1e6) as usize
+    }
+
+    /// The budget controller's settings on this device: its target frame rate, and what the
+    /// `clock` at this device's CPU slowdown expects a frame on its screen to cost, where the
+    /// controller starts instead of learning it from the first frames.
+    pub fn budget(&self, clock: Clock) -> BudgetSettings {
+        let clock = clock.with_slowdown(self.cpu_slowdown);
+        BudgetSettings {
+            target_fps: self.target_fps,
+            expected: Some(clock.expected_cost(self.width, self.height)),
+            ..BudgetSettings::default()
+        }
     }
 
     /// The pixel-error bound τ of `max_error_px`.

@@ -242,8 +242,7 @@ impl Run<'_> {
             allocation: p.allocation,
             ..EngineSettings::default()
         };
-        settings.budget.target_fps = p.target_fps;
-        settings.budget.expected = Some(clock.expected_cost(p.width, p.height));
+        settings.budget = p.budget(clock);
         // A view is complete against a share of the budget the cost model says holds the
         // target (where the controller starts), not against the budgets the run's frames had.
         let steady = BudgetController::new(settings.budget).budget();

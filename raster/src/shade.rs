@@ -249,10 +249,10 @@ type TrianglesArgs<'r, 't, D> = (
     &'r [u32],
 );
 
-/// The triangles `list` inside `rect` of the tile `tile`, in order, into `frags`; `flush` is the colour stage, the
-/// only part that depends on the colour format. Behind that call, these loops are built once
-/// for both colour formats (compile time and code size: `cargo llvm-lines -p
-/// stripmask-raster`); the call runs once per full buffer.
+/// The triangles `list` inside `rect` of the tile `tile`, in order, into `frags`; `flush` is
+/// the colour stage, the only part that depends on the colour format. Behind that call, these
+/// loops are built once for both colour formats (compile time and code size: `cargo llvm-lines
+/// -p stripmask-raster`); the call runs once per full buffer.
 #[inline(never)]
 fn triangles<D: DepthFormat, F: Filtering, const SHADE: bool, const FOG: bool>(
     (rect, tile, mut depth, attrs, tris, planes, list): TrianglesArgs<'_, '_, D>,

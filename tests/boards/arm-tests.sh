@@ -11,8 +11,8 @@
 #   STRIPMASK_ARM_TESTS=all tests/boards/arm-tests.sh   # the unit tests too
 #
 # Installs with apt-get when missing: qemu-user-static, gcc-arm-linux-gnueabihf and
-# libc6-dev-armhf-cross (armv7), gcc-aarch64-linux-gnu (aarch64: one C file of the benchmark
-# harness); adds the Rust targets with rustup. Settings: tests/boards/cross.sh.
+# libc6-dev-armhf-cross (armv7; aarch64 needs no C toolchain); adds the Rust targets with rustup.
+# Settings: tests/boards/cross.sh.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
@@ -31,7 +31,7 @@ packages=(qemu-user-static)
 for target in "${targets[@]}"; do
     case "$target" in
     armv7-unknown-linux-gnueabihf) packages+=(gcc-arm-linux-gnueabihf libc6-dev-armhf-cross) ;;
-    aarch64-unknown-linux-musl) packages+=(gcc-aarch64-linux-gnu) ;;
+    aarch64-unknown-linux-musl) ;;
     *) die "unknown target '$target' (armv7-unknown-linux-gnueabihf, aarch64-unknown-linux-musl)" ;;
     esac
 done
@@ -51,18 +51,22 @@ fi
 . "$here/cross.sh"
 installed=$(rustup target list --installed)
 cd "$root"
+target_args=()
 for target in "${targets[@]}"; do
     grep -qx "$target" <<<"$installed" || rustup target add "$target"
     runner=CARGO_TARGET_$(tr 'a-z-' 'A-Z_' <<<"$target")_RUNNER
-    # The integration tests (golden images, watertightness, determinism, extremes) check every
-    # drawing path byte for byte, which is what can differ on ARM: 32-bit ARM composes its 64-
-    # and 128-bit arithmetic of 32-bit instructions, and the lanes run on NEON. The unit tests
-    # check the pieces, and run on the host; compiling them for each target would double the
-    # step.
-    case "${STRIPMASK_ARM_TESTS:-}" in
-    all) which=() ;;
-    *) which=(--test it) ;;
-    esac
-    say "$target: the rasterizer's tests (${which[*]:-all}), run by ${!runner}"
-    cargo test --profile "$profile" --target "$target" -p stripmask-raster "${which[@]}"
+    say "$target: run by ${!runner}"
+    target_args+=(--target "$target")
 done
+# The integration tests (golden images, watertightness, determinism, extremes) check every
+# drawing path byte for byte, which is what can differ on ARM: 32-bit ARM composes its 64- and
+# 128-bit arithmetic of 32-bit instructions, and the lanes run on NEON. The unit tests check the
+# pieces, and run on the host; compiling them for each target would double the step.
+case "${STRIPMASK_ARM_TESTS:-}" in
+all) which=() ;;
+*) which=(--test it) ;;
+esac
+# One cargo call for all targets: their builds share the two cores where one alone leaves a
+# core idle.
+say "the rasterizer's tests (${which[*]:-all})"
+cargo test --profile "$profile" "${target_args[@]}" -p stripmask-raster "${which[@]}"

@@ -13,11 +13,6 @@ export CARGO_TARGET_ARMV7_UNKNOWN_LINUX_GNUEABIHF_RUNNER="qemu-arm-static -L /us
 
 # 64-bit ARM on musl: static by default; Rust's own lld and musl's objects from rustup, no cross gcc.
 export CARGO_TARGET_AARCH64_UNKNOWN_LINUX_MUSL_LINKER=rust-lld
-# The tests' benchmark harness (criterion, through the crate alloca) compiles one C file: Debian's
-# aarch64 cross gcc does (package gcc-aarch64-linux-gnu); the binaries themselves need no C.
-# It includes only compiler headers: -ffreestanding keeps gcc from reaching for glibc's.
-export CC_aarch64_unknown_linux_musl=aarch64-linux-gnu-gcc
-export CFLAGS_aarch64_unknown_linux_musl=-ffreestanding
 export CARGO_TARGET_AARCH64_UNKNOWN_LINUX_MUSL_RUNNER=qemu-aarch64-static
 
 # 64-bit x86 on musl (the x86 board's binary): static by default, linked by the host's cc.

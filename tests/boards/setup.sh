@@ -191,17 +191,21 @@ host_busybox=$(extract_busybox amd64)
 # shellcheck source=tests/boards/cross.sh
 . "$here/cross.sh"
 installed_targets=$(rustup target list --installed 2>/dev/null || true)
+target_args=()
 for board in "${boards[@]}"; do
     target=$(board_target "$board")
     if ! grep -qx "$target" <<<"$installed_targets"; then
         say "rustup target add $target"
         rustup target add "$target" >&2 || die "rustup target add $target failed"
     fi
-    say "cargo build stripmask for $target (--profile $profile, fbdev, no window)"
-    (cd "$root" && cargo build --bin stripmask --quiet --profile "$profile" --target "$target" \
-        -p stripmask --no-default-features --features fbdev) ||
-        die "building stripmask for $target failed"
+    target_args+=(--target "$target")
 done
+# One cargo call for all boards: their builds share the two cores where one alone leaves a core
+# idle (a crate's last steps run on one).
+say "cargo build stripmask for ${target_args[*]} (--profile $profile, fbdev, no window)"
+(cd "$root" && cargo build --bin stripmask --quiet --profile "$profile" "${target_args[@]}" \
+    -p stripmask --no-default-features --features fbdev) ||
+    die "building stripmask for ${target_args[*]} failed"
 
 # --- Kernels, device trees, initramfs ---------------------------------------------------------
 for board in "${boards[@]}"; do

@@ -12,13 +12,16 @@
 //! is evaluated from (see `AttrPlane::on_grid`), and neither sums nor products of it overflow.
 //! When every plane stays inside the range its pixel value is clamped to over the rows and
 //! columns the triangle can own here (an affine function over a rectangle is extreme at its
-//! corners), the clamps are left out.
+//! corners), the clamps are left out; under perspective, so are the division's when the
+//! texture planes bound every quotient.
 
 use crate::edge::PixelRect;
 use crate::fixed_point::{ATTR_FRAC_BITS, TEXCOORD_LIMIT};
 use crate::fragments::{Fragments, SLOTS};
 use crate::pipeline::TexMode;
-use crate::pipeline::fixed::{AttrPlane, DepthTest, FixedTriangle, NarrowPlanes, divide};
+use crate::pipeline::fixed::{
+    AttrPlane, DepthTest, FixedTriangle, NarrowPlanes, divide, divide_in_range,
+};
 use crate::pixel::DepthFormat;
 use crate::sampler::{Filtering, clamp_coord};
 use crate::tile_view::TileBuf;
@@ -94,12 +97,25 @@ pub(crate) fn small_triangle<
     };
     let one = 1i64 << ATTR_FRAC_BITS;
     let coord = (TEXCOORD_LIMIT << 16, (TEXCOORD_LIMIT + 1) << 16);
+    // Under perspective, `divide`'s quotients need no clamp where `|s|, |t| <= q * LIMIT` at
+    // every pixel: with `q` at least its least value `q0 >= 1` over the rectangle, `s` and `t`
+    // within `q0 * LIMIT` suffice (`q0` capped so that the product stays in i64: a smaller
+    // bound only sends more triangles to the clamps).
+    let quotients_in_range = || {
+        let q = &p.tex[2];
+        let q0 = (start.tex[2] + (q.dx * w).min(0) + (q.dy * h).min(0)).min(1 << 37);
+        let bound = q0 * TEXCOORD_LIMIT;
+        q0 >= 1
+            && within(&p.tex[0], start.tex[0], -bound, bound + 1)
+            && within(&p.tex[1], start.tex[1], -bound, bound + 1)
+    };
     let in_range = (!D::ENABLED || within(&p.z, start.z, 0, 1 << 48))
         && (0..channels).all(|k| within(&p.c[k], start.c[k], 0, 256 * one))
         && (!FOG || within(&p.f, start.f, 0, 257 * one))
         && (texes != TEX_AFFINE
             || (within(&p.tex[0], start.tex[0], -coord.0, coord.1)
-                && within(&p.tex[1], start.tex[1], -coord.0, coord.1)));
+                && within(&p.tex[1], start.tex[1], -coord.0, coord.1)))
+        && (texes != TEX_PERSPECTIVE || quotients_in_range());
     // The branch on the constant `F::ENABLED` keeps the compiler from building the textured row
     // loops for untextured runs and the untextured one for textured runs, which no draw can
     // reach.
@@ -146,8 +162,8 @@ const fn channels<const SHADE: bool, const GREY: bool>() -> usize {
 }
 
 /// The row loop of `small_triangle`: `TEX` texture planes (`TEX_OFF`, `TEX_AFFINE` or
-/// `TEX_PERSPECTIVE`); `CLAMP` false when every value is known to be in range (the perspective
-/// division clamps its own).
+/// `TEX_PERSPECTIVE`); `CLAMP` false when every value, and every quotient of the perspective
+/// division, is known to be in range.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn rows_of<
@@ -248,7 +264,11 @@ fn rows_of<
                     TEX_PERSPECTIVE => {
                         // `divide` clamps to the coordinate range: `clamp_coord` would change
                         // nothing.
-                        let (u, v) = divide(uv[0], uv[1], uv[2]);
+                        let (u, v) = if CLAMP {
+                            divide(uv[0], uv[1], uv[2])
+                        } else {
+                            divide_in_range(uv[0], uv[1], uv[2])
+                        };
                         debug_assert_eq!(clamp_coord(u >> 16), u >> 16);
                         (frags.u[i], frags.v[i]) = ((u >> 16) as i32, (v >> 16) as i32);
                         for (a, q) in uv.iter_mut().zip(&p.tex) {

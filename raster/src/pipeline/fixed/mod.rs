@@ -609,6 +609,21 @@ pub(crate) fn divide(s: i64, t: i64, q: i64) -> (i64, i64) {
     (uv(s), uv(t))
 }
 
+/// `divide` where the quotients are known to be inside the range (`q >= 1` and
+/// `|s|, |t| <= q * TEXCOORD_LIMIT`, so `|s| * 2^16 / q <= TEXCOORD_LIMIT << 16`): the same
+/// values without the clamps, each a 64x64-bit product and a shift.
+#[inline(always)]
+pub(crate) fn divide_in_range(s: i64, t: i64, q: i64) -> (i64, i64) {
+    debug_assert!(
+        q >= 1 && s.unsigned_abs().max(t.unsigned_abs()) <= q as u64 * TEXCOORD_LIMIT as u64
+    );
+    let r = ((1u64 << 63) / q as u64) as i64;
+    let uv = |a: i64| ((a as i128 * r as i128) >> 47) as i64;
+    let out = (uv(s), uv(t));
+    debug_assert_eq!(out, divide(s, t, q));
+    out
+}
+
 /// `2^32 / n` for span lengths `n` in `1..=64`, rounded up.
 const RECIPROCALS: [i64; 65] = {
     let mut t = [0i64; 65];

@@ -226,19 +226,27 @@ impl Coverage {
             y: start,
             end,
         };
+        // Each edge's value at the first column and its step to the next column, the edges in
+        // lanes: the first group's columns are then three additions and one 4x4 transpose
+        // (edges in lanes to columns in lanes), not twelve values placed lane by lane.
+        let (mut row, mut s) = ([0i32; 4], [0i32; 4]);
         for i in 0..3 {
             let (a, b) = (v[i], v[(i + 1) % 3]);
             let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
             let top_left = dy < 0 || (dy == 0 && dx > 0);
             // `E + bias > 0` is `E + bias - 1 >= 0`: the sign bit says "outside".
-            let row = dx * (yc - a[1]) - dy * (xc - a[0]) + top_left as i32 - 1;
-            let s = -dy * one;
-            let first = i32x4::new([row, row + s, row + 2 * s, row + 3 * s]);
-            rows.lanes[0][i] = first;
-            for g in 1..groups {
-                rows.lanes[g][i] = first + i32x4::splat(4 * g as i32 * s);
-            }
+            row[i] = dx * (yc - a[1]) - dy * (xc - a[0]) + top_left as i32 - 1;
+            s[i] = -dy * one;
             rows.step[i] = i32x4::splat(dx * one);
+        }
+        let (row0, step) = (i32x4::new(row), i32x4::new(s));
+        let row2 = row0 + step + step;
+        let [e0, e1, e2, _] = i32x4::transpose([row0, row0 + step, row2, row2 + step]);
+        rows.lanes[0] = [e0, e1, e2];
+        for g in 1..groups {
+            for (i, &s) in s[..3].iter().enumerate() {
+                rows.lanes[g][i] = rows.lanes[0][i] + i32x4::splat(4 * g as i32 * s);
+            }
         }
         rows
     }

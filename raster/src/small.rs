@@ -97,25 +97,13 @@ pub(crate) fn small_triangle<
     };
     let one = 1i64 << ATTR_FRAC_BITS;
     let coord = (TEXCOORD_LIMIT << 16, (TEXCOORD_LIMIT + 1) << 16);
-    // Under perspective, `divide`'s quotients need no clamp where `|s|, |t| <= q * LIMIT` at
-    // every pixel: with `q` at least its least value `q0 >= 1` over the rectangle, `s` and `t`
-    // within `q0 * LIMIT` suffice (`q0` capped so that the product stays in i64: a smaller
-    // bound only sends more triangles to the clamps).
-    let quotients_in_range = || {
-        let q = &p.tex[2];
-        let q0 = (start.tex[2] + (q.dx * w).min(0) + (q.dy * h).min(0)).min(1 << 37);
-        let bound = q0 * TEXCOORD_LIMIT;
-        q0 >= 1
-            && within(&p.tex[0], start.tex[0], -bound, bound + 1)
-            && within(&p.tex[1], start.tex[1], -bound, bound + 1)
-    };
     let in_range = (!D::ENABLED || within(&p.z, start.z, 0, 1 << 48))
         && (0..channels).all(|k| within(&p.c[k], start.c[k], 0, 256 * one))
         && (!FOG || within(&p.f, start.f, 0, 257 * one))
         && (texes != TEX_AFFINE
             || (within(&p.tex[0], start.tex[0], -coord.0, coord.1)
                 && within(&p.tex[1], start.tex[1], -coord.0, coord.1)))
-        && (texes != TEX_PERSPECTIVE || quotients_in_range());
+        && (texes != TEX_PERSPECTIVE || quotients_in_range(&p.tex, &start.tex, w, h));
     // The branch on the constant `F::ENABLED` keeps the compiler from building the textured row
     // loops for untextured runs and the untextured one for textured runs, which no draw can
     // reach.
@@ -142,6 +130,31 @@ pub(crate) fn small_triangle<
         (_, true) => rows_of::<D, SHADE, GREY, FOG, TEX_AFFINE, false>(
             p, t, start, tile, depth, frags, flush, test,
         ),
+    }
+}
+
+/// True when `divide`'s quotients need no clamp at any pixel `(col, row)`, `col <= w`,
+/// `row <= h`, of the perspective planes `tex` (`s, t, q`, with values `start` at `(0, 0)`):
+/// they do not where `q >= 2` and `|s|, |t| <= q * TEXCOORD_LIMIT` (see `divide_in_range`). With
+/// `q` at least its least value `q0 >= 2` over the rectangle (an affine function is extreme at
+/// its corners), `s` and `t` within `q0 * TEXCOORD_LIMIT` suffice; `q0` is capped so that the
+/// product stays in i64 (a smaller bound only sends more triangles to the clamps).
+fn quotients_in_range(tex: &[AttrPlane; 3], start: &[i64; 3], w: i64, h: i64) -> bool {
+    // The least and the greatest value of plane `k` over the rectangle.
+    let range = |k: usize| {
+        let (ex, ey) = (tex[k].dx * w, tex[k].dy * h);
+        (
+            start[k] + ex.min(0) + ey.min(0),
+            start[k] + ex.max(0) + ey.max(0),
+        )
+    };
+    let q0 = range(2).0.min(1 << 37);
+    q0 >= 2 && {
+        let bound = q0 * TEXCOORD_LIMIT;
+        (0..2).all(|k| {
+            let (lo, hi) = range(k);
+            lo >= -bound && hi <= bound
+        })
     }
 }
 
@@ -293,5 +306,81 @@ fn rows_of<
             row.tex[q] = row.tex[q].wrapping_add(p.tex[q].dy);
         }
         row_at += width;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+
+    use super::*;
+    use crate::pipeline::fixed::divide;
+
+    fn plane(dx: i64, dy: i64) -> AttrPlane {
+        let mut p = AttrPlane::default();
+        (p.dx, p.dy) = (dx, dy);
+        p
+    }
+
+    /// Where `quotients_in_range` says so, the unclamped division equals `divide` at every pixel
+    /// of the rectangle (`divide_in_range` also asserts its own bounds).
+    fn check(tex: [(i64, i64, i64); 3], w: i64, h: i64) -> bool {
+        let planes = tex.map(|(_, dx, dy)| plane(dx, dy));
+        let start = tex.map(|(v, _, _)| v);
+        let ok = quotients_in_range(&planes, &start, w, h);
+        if ok {
+            for row in 0..=h {
+                for col in 0..=w {
+                    let [s, t, q] = tex.map(|(v, dx, dy)| v + dx * col + dy * row);
+                    assert_eq!(divide_in_range(s, t, q), divide(s, t, q));
+                }
+            }
+        }
+        ok
+    }
+
+    #[test]
+    fn extreme_planes_neither_overflow_nor_pass_unbounded() {
+        // Values and gradients at the bounds of a small triangle's narrow planes (below 2^61 and
+        // 2^49): q far below zero over the rectangle once overflowed the bound's product.
+        let values = [-(1 << 61), -1, 0, 1, 1 << 36, (1 << 61) - 1];
+        let gradients = [-(1 << 49) + 1, -1, 0, 1, (1 << 49) - 1];
+        for q in values {
+            for dq in gradients {
+                for s in values {
+                    for ds in gradients {
+                        for (w, h) in [(0, 0), (15, 15), (3, 0)] {
+                            check([(s, ds, ds), (0, 0, 0), (q, dq, -dq)], w, h);
+                            check([(0, 0, 0), (s, -ds, ds), (q, dq, dq)], w, h);
+                        }
+                    }
+                }
+            }
+        }
+        // q of one texel, coordinates within 256 repeats: no clamp needed.
+        assert!(check(
+            [(3 << 16, 0, 0), (-(5 << 16), 0, 0), (1 << 16, 0, 0)],
+            15,
+            15
+        ));
+        // q reaching zero in the rectangle: clamps.
+        assert!(!check([(0, 0, 0), (0, 0, 0), (15, -1, 0)], 15, 15));
+    }
+
+    proptest! {
+        #[test]
+        fn quotients_in_range_only_where_no_clamp_changes_them(
+            q in 1i64..1 << 36,
+            dq in -(1i64 << 20)..1 << 20,
+            u in -(300i64 << 16)..300 << 16,
+            du in -(1i64 << 40)..1 << 40,
+            w in 0i64..16,
+            h in 0i64..16,
+        ) {
+            // s = u * q as the set-up makes it (u in 16.16, q's scale), stepped across the
+            // rectangle.
+            let s = ((u as i128 * q as i128) >> 16) as i64;
+            check([(s, du, -du), (-s, du / 2, du), (q, dq, -dq)], w, h);
+        }
     }
 }

@@ -380,6 +380,9 @@ struct Geometry {
     d2: [i64; 2],
     inv_area: i64,
     shift: i32,
+    /// Half of `2^shift`, the rounding of `plane_small`'s products (once per triangle, not per
+    /// plane); 0 for a triangle that is not small.
+    half: i64,
     /// Edge vectors below `SMALL_EDGE` (a small triangle): the planes take `plane_small`.
     small: bool,
 }
@@ -415,6 +418,8 @@ impl Geometry {
             d2,
             inv_area: ((1u64 << 62) / an as u64) as i64,
             shift,
+            // The shift lies in 8..=32 for a small triangle (see `SMALL_EDGE`).
+            half: if small { 1 << ((shift - 1) & 63) } else { 0 },
             small,
         }
     }
@@ -443,10 +448,10 @@ impl Geometry {
         let nx = a1 * self.d2[1] - a2 * self.d1[1];
         let ny = a2 * self.d1[0] - a1 * self.d2[0];
         debug_assert!((8..=32).contains(&self.shift));
-        // Masked: the compiler then knows the shift is below 64, and the rounding half below
-        // 2^63, a 64-bit constant added to the 128-bit product.
+        // Masked: the compiler then knows the shift is below 64; the rounding half is below
+        // 2^63, a 64-bit value added to the 128-bit product.
         let s = self.shift as u32 & 63;
-        let half = (1i64 << (s - 1)) as i128;
+        let half = self.half as i128;
         let inv = self.inv_area as i128;
         let scaled = |n: i64| i64::try_from((n as i128 * inv + half) >> s);
         match (scaled(nx), scaled(ny)) {
@@ -609,13 +614,15 @@ pub(crate) fn divide(s: i64, t: i64, q: i64) -> (i64, i64) {
     (uv(s), uv(t))
 }
 
-/// `divide` where the quotients are known to be inside the range (`q >= 1` and
+/// `divide` where the quotients are known to be inside the range (`q >= 2` and
 /// `|s|, |t| <= q * TEXCOORD_LIMIT`, so `|s| * 2^16 / q <= TEXCOORD_LIMIT << 16`): the same
-/// values without the clamps, each a 64x64-bit product and a shift.
+/// values without the clamps, each a 64x64-bit product and a shift (`q >= 2` keeps the
+/// reciprocal below 2^63, in i64).
 #[inline(always)]
 pub(crate) fn divide_in_range(s: i64, t: i64, q: i64) -> (i64, i64) {
     debug_assert!(
-        q >= 1 && s.unsigned_abs().max(t.unsigned_abs()) <= q as u64 * TEXCOORD_LIMIT as u64
+        q >= 2
+            && s.unsigned_abs().max(t.unsigned_abs()) as u128 <= q as u128 * TEXCOORD_LIMIT as u128
     );
     let r = ((1u64 << 63) / q as u64) as i64;
     let uv = |a: i64| ((a as i128 * r as i128) >> 47) as i64;

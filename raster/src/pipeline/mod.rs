@@ -24,13 +24,16 @@ impl Viewport {
     /// Keeps a snapped position within the guard band around the viewport centre. Clipping puts
     /// every vertex there already; this only catches the rounding of a cut far along a long
     /// segment (or a NaN), so that the edge arithmetic's bounds hold for any input.
+    #[inline]
     pub fn clamp_to_guard_band(&self, xy: [i64; 2]) -> [i64; 2] {
         let band = GUARD_BAND_PX * SUBPIXEL_ONE;
         let centre = [
             self.width as i64 * SUBPIXEL_HALF,
             self.height as i64 * SUBPIXEL_HALF,
         ];
-        [0, 1].map(|k| xy[k].clamp(centre[k] - band, centre[k] + band))
+        // Written out: `[0, 1].map(..)` was compiled to an out-of-line call per vertex.
+        let clamp = |k: usize| xy[k].clamp(centre[k] - band, centre[k] + band);
+        [clamp(0), clamp(1)]
     }
 }
 

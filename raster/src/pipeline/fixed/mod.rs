@@ -43,6 +43,7 @@ pub(crate) struct FixedClip {
 }
 
 impl FixedClip {
+    #[inline]
     pub fn from_vertex(v: &Vertex, m: &FixedMat4) -> Self {
         Self {
             clip: m.transform(v.position),
@@ -180,7 +181,9 @@ impl Pipeline for FixedPipeline {
         s.xy
     }
 
-    #[inline]
+    /// Always inlined into the set-up loop: out of line, the call per triangle cost more than
+    /// the copies of the loop it saves.
+    #[inline(always)]
     fn triangle(
         v: [&FixedScreen; 3],
         area2: i64,
@@ -194,6 +197,7 @@ impl Pipeline for FixedPipeline {
 }
 
 impl FixedScreen {
+    #[inline]
     pub fn project(v: &FixedClip, vp: &Viewport, fog: Option<FixedFog>) -> Self {
         let w = v.clip[3].max(1);
         let (xy, depth, inv_w, shift) = project_narrow(v.clip, w, vp).unwrap_or_else(|| {
@@ -504,7 +508,7 @@ pub(crate) struct FixedTriangle {
 
 impl FixedTriangle {
     /// Sets up `v` (positive orientation, `area2 > 0`), appending its planes to `planes`.
-    #[inline]
+    #[inline(always)]
     pub fn new(
         v: [&FixedScreen; 3],
         area2: i64,

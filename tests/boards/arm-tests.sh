@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The same bytes on every CPU: builds the rasterizer's tests, golden images included, for 32-bit
-# ARM (armv7-unknown-linux-gnueabihf, static glibc) and 64-bit ARM (aarch64-unknown-linux-musl):
-# the integration tests, in the `suite` profile, and runs them under
+# ARM with NEON (thumbv7neon-unknown-linux-gnueabihf, static glibc) and 64-bit ARM
+# (aarch64-unknown-linux-musl): the integration tests, in the `suite` profile, and runs them under
 # QEMU user-mode emulation. The golden PNGs (raster/tests/golden/) were made
 # on x86-64 and the tests compare byte for byte, so passing here means byte-identical pictures on
 # ARM in both precisions. Whole engine frames on ARM are the board tests' job (tests/it/boards.rs
@@ -18,7 +18,7 @@ here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
 profile=${STRIPMASK_BOARDS_PROFILE:-suite}
 targets=("$@")
-[ "${#targets[@]}" -gt 0 ] || targets=(armv7-unknown-linux-gnueabihf aarch64-unknown-linux-musl)
+[ "${#targets[@]}" -gt 0 ] || targets=(thumbv7neon-unknown-linux-gnueabihf aarch64-unknown-linux-musl)
 
 say() { echo "arm-tests: $*" >&2; }
 die() {
@@ -30,9 +30,9 @@ if [ "$(id -u)" -eq 0 ]; then sudo=(); else sudo=(sudo); fi
 packages=(qemu-user-static)
 for target in "${targets[@]}"; do
     case "$target" in
-    armv7-unknown-linux-gnueabihf) packages+=(gcc-arm-linux-gnueabihf libc6-dev-armhf-cross) ;;
+    thumbv7neon-unknown-linux-gnueabihf) packages+=(gcc-arm-linux-gnueabihf libc6-dev-armhf-cross) ;;
     aarch64-unknown-linux-musl) ;;
-    *) die "unknown target '$target' (armv7-unknown-linux-gnueabihf, aarch64-unknown-linux-musl)" ;;
+    *) die "unknown target '$target' (thumbv7neon-unknown-linux-gnueabihf, aarch64-unknown-linux-musl)" ;;
     esac
 done
 missing=()

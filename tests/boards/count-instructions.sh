@@ -7,8 +7,9 @@
 #
 #   tests/boards/count-instructions.sh [FRAMES]      # default 10
 #
-# Builds the example with the release profile for x86_64, armv7 and aarch64, runs it with 0 and
-# FRAMES frames and prints (count(FRAMES) - count(0)) / FRAMES: the scene's set-up cancels out.
+# Builds the example with the release profile for x86_64, 32-bit ARM with NEON and aarch64, runs
+# it with 0 and FRAMES frames and prints (count(FRAMES) - count(0)) / FRAMES: the scene's set-up
+# cancels out.
 # Needs the packages of arm-tests.sh, a C compiler, and Debian's qemu-user package (which loads
 # plugins; qemu-user-static cannot), downloaded and extracted under target/boards/qemu-user.
 set -euo pipefail
@@ -30,10 +31,10 @@ cc -shared -fPIC -O2 -o "$plugin" "$here/insn-count.c"
 # shellcheck source=tests/boards/cross.sh
 . "$here/cross.sh"
 cd "$root"
-for target in x86_64-unknown-linux-gnu armv7-unknown-linux-gnueabihf aarch64-unknown-linux-musl; do
+for target in x86_64-unknown-linux-gnu thumbv7neon-unknown-linux-gnueabihf aarch64-unknown-linux-musl; do
     case "$target" in
     x86_64-*) emulator=qemu-x86_64 ;;
-    armv7-*) emulator=qemu-arm ;;
+    thumbv7neon-*) emulator=qemu-arm ;;
     aarch64-*) emulator=qemu-aarch64 ;;
     esac
     cargo build --quiet --release --target "$target" -p stripmask-raster --example pocketpc_frames

@@ -6,7 +6,8 @@
 # Boards:
 #   vexpress-a9   32-bit ARM (Cortex-A9), the PL111 CLCD colour LCD controller at 640x480 RGB565
 #                 (Debian's armmp kernel, its vexpress-v2p-ca9 device tree with a DPI panel),
-#                 a PS/2 keyboard on the PL050 KMI; stripmask for armv7-unknown-linux-gnueabihf
+#                 a PS/2 keyboard on the PL050 KMI; stripmask for
+#                 thumbv7neon-unknown-linux-gnueabihf (32-bit ARM with NEON)
 #   x86-vesa      64-bit PC, VESA BIOS framebuffer (vesafb) at 800x600, 24 bits per pixel, an
 #                 i8042 PS/2 keyboard; stripmask for x86_64-unknown-linux-musl
 #
@@ -60,7 +61,7 @@ board_arch() { case "$1" in vexpress-a9) echo armhf ;; x86-vesa) echo amd64 ;; e
 board_flavour() { case "$1" in vexpress-a9) echo armmp ;; x86-vesa) echo amd64 ;; esac; }
 board_target() {
     case "$1" in
-    vexpress-a9) echo armv7-unknown-linux-gnueabihf ;;
+    vexpress-a9) echo thumbv7neon-unknown-linux-gnueabihf ;;
     x86-vesa) echo x86_64-unknown-linux-musl ;;
     esac
 }

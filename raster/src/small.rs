@@ -89,11 +89,11 @@ pub(crate) fn small_triangle<
             at(&p.tex[2], texes > 2),
         ],
     };
-    // The extremes of a plane over the columns and rows the triangle may own here.
+    // The last column and row the triangle may own here, from its first.
     let (w, h) = ((rect.x1 - rect.x0 - 1) as i64, end - y0 - 1);
     let within = |q: &AttrPlane, v: i64, lo: i64, hi: i64| {
-        let (ex, ey) = (q.dx * w, q.dy * h);
-        v + ex.min(0) + ey.min(0) >= lo && v + ex.max(0) + ey.max(0) < hi
+        let (least, most) = extremes(q, v, w, h);
+        least >= lo && most < hi
     };
     let one = 1i64 << ATTR_FRAC_BITS;
     let coord = (TEXCOORD_LIMIT << 16, (TEXCOORD_LIMIT + 1) << 16);
@@ -140,22 +140,23 @@ pub(crate) fn small_triangle<
 /// its corners), `s` and `t` within `q0 * TEXCOORD_LIMIT` suffice; `q0` is capped so that the
 /// product stays in i64 (a smaller bound only sends more triangles to the clamps).
 fn quotients_in_range(tex: &[AttrPlane; 3], start: &[i64; 3], w: i64, h: i64) -> bool {
-    // The least and the greatest value of plane `k` over the rectangle.
-    let range = |k: usize| {
-        let (ex, ey) = (tex[k].dx * w, tex[k].dy * h);
-        (
-            start[k] + ex.min(0) + ey.min(0),
-            start[k] + ex.max(0) + ey.max(0),
-        )
-    };
-    let q0 = range(2).0.min(1 << 37);
+    let q0 = extremes(&tex[2], start[2], w, h).0.min(1 << 37);
     q0 >= 2 && {
         let bound = q0 * TEXCOORD_LIMIT;
         (0..2).all(|k| {
-            let (lo, hi) = range(k);
+            let (lo, hi) = extremes(&tex[k], start[k], w, h);
             lo >= -bound && hi <= bound
         })
     }
+}
+
+/// The least and the greatest value of plane `q` over the pixels `(col, row)`, `col <= w`,
+/// `row <= h`, where its value at `(0, 0)` is `v`: an affine function over a rectangle is
+/// extreme at its corners.
+#[inline(always)]
+fn extremes(q: &AttrPlane, v: i64, w: i64, h: i64) -> (i64, i64) {
+    let (ex, ey) = (q.dx * w, q.dy * h);
+    (v + ex.min(0) + ey.min(0), v + ex.max(0) + ey.max(0))
 }
 
 /// The row loop's texture interpolation, as the number of texture planes it steps: none,

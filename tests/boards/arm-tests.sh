@@ -11,7 +11,7 @@
 #   STRIPMASK_ARM_TESTS=all tests/boards/arm-tests.sh   # the unit tests too
 #
 # Installs with apt-get when missing: qemu-user-static, gcc-arm-linux-gnueabihf and
-# libc6-dev-armhf-cross (armv7; aarch64 needs no C toolchain); adds the Rust targets with rustup.
+# libc6-dev-armhf-cross (32-bit ARM; aarch64 needs no C toolchain); adds the Rust targets with rustup.
 # Settings: tests/boards/cross.sh.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)

@@ -16,5 +16,3 @@ export CARGO_TARGET_THUMBV7NEON_UNKNOWN_LINUX_GNUEABIHF_RUNNER="qemu-arm-static 
 # 64-bit ARM on musl: static by default; Rust's own lld and musl's objects from rustup, no cross gcc.
 export CARGO_TARGET_AARCH64_UNKNOWN_LINUX_MUSL_LINKER=rust-lld
 export CARGO_TARGET_AARCH64_UNKNOWN_LINUX_MUSL_RUNNER=qemu-aarch64-static
-
-# 64-bit x86 on musl (the x86 board's binary): static by default, linked by the host's cc.

@@ -1,5 +1,7 @@
 //! stripmask on emulated embedded Linux boards: QEMU boots a Debian kernel with an initramfs that
-//! holds busybox and a static `stripmask` for the board's CPU; `stripmask fb` draws a fixed
+//! holds busybox and a `stripmask` for the board's CPU (on the ARM board a static one that
+//! tests/boards/setup.sh cross-built, on the x86 board the suite's own binary with the shared
+//! libraries it loads); `stripmask fb` draws a fixed
 //! flight on the simulated clock into the kernel's framebuffer driver; the QEMU monitor's
 //! `screendump` captures the screen, which must equal, byte for byte in the framebuffer's pixel
 //! format, the same frame that `stripmask fly` renders on the host into a PNG. A second run
@@ -240,6 +242,10 @@ struct Board {
     dir: PathBuf,
     /// The QEMU command line from `qemu-args`, without the initramfs and the I/O.
     qemu: Vec<String>,
+    /// Whether the board runs the host's own `stripmask` (appended to the initramfs at boot)
+    /// rather than one that tests/boards/setup.sh cross-built into it: x86-vesa is the host's
+    /// architecture.
+    runs_host_binary: bool,
 }
 
 fn boards_dir() -> PathBuf {
@@ -278,7 +284,12 @@ impl Board {
                 return Err(format!("{} is missing", path.display()));
             }
         }
-        Ok(Board { name, dir, qemu })
+        Ok(Board {
+            name,
+            dir,
+            qemu,
+            runs_host_binary: name == "x86-vesa",
+        })
     }
 }
 
@@ -347,8 +358,8 @@ struct Machine {
 }
 
 impl Machine {
-    /// Boots `board` with its initramfs and `extra` files appended under /data.
-    fn boot(board: &Board, extra: &[(&str, Vec<u8>)]) -> Machine {
+    /// Boots `board` with its initramfs and `extra` files appended.
+    fn boot(board: &Board, extra: &[GuestFile]) -> Machine {
         let dir = tempfile::tempdir().unwrap();
         let initrd = dir.path().join("initramfs");
         let mut bytes = std::fs::read(board.dir.join("initramfs.cpio.gz")).unwrap();
@@ -626,8 +637,58 @@ fn read_ppm(bytes: &[u8]) -> RgbImage {
     RgbImage::from_raw(w, h, bytes[at + 1..].to_vec()).expect("PPM pixel data")
 }
 
-/// An uncompressed cpio archive (the kernel's "newc" format) of `files` under /data.
-fn newc(files: &[(&str, Vec<u8>)]) -> Vec<u8> {
+/// A file the test adds to a board's initramfs: its path from the root, its mode, its bytes.
+struct GuestFile {
+    path: String,
+    mode: u32,
+    data: Vec<u8>,
+}
+
+impl GuestFile {
+    /// A data file under /data (the archive, a flight).
+    fn data(name: &str, data: Vec<u8>) -> GuestFile {
+        GuestFile {
+            path: format!("data/{name}"),
+            mode: 0o644,
+            data,
+        }
+    }
+}
+
+/// The host's `stripmask` as /usr/bin/stripmask, with the shared libraries `ldd` says it loads
+/// at their host paths: on a board of the host's architecture the suite's own binary runs
+/// unchanged, and the board needs no build of its own.
+fn host_binary() -> Vec<GuestFile> {
+    let binary = env!("CARGO_BIN_EXE_stripmask");
+    let read = |path: &str| std::fs::read(path).unwrap_or_else(|e| panic!("{path}: {e}"));
+    let ldd = Command::new("ldd")
+        .arg(binary)
+        .output()
+        .unwrap_or_else(|e| panic!("ldd {binary}: {e}"));
+    assert!(ldd.status.success(), "ldd {binary}: {:?}", ldd.status);
+    let mut files = vec![GuestFile {
+        path: "usr/bin/stripmask".into(),
+        mode: 0o755,
+        data: read(binary),
+    }];
+    for line in String::from_utf8_lossy(&ldd.stdout).lines() {
+        // `libc.so.6 => /lib/x86_64-linux-gnu/libc.so.6 (0x...)` or `/lib64/ld-linux-x86-64.so.2 (0x...)`;
+        // the vDSO has no path.
+        let Some(path) = line.split_whitespace().find(|word| word.starts_with('/')) else {
+            continue;
+        };
+        files.push(GuestFile {
+            path: path.trim_start_matches('/').into(),
+            mode: 0o755,
+            data: read(path),
+        });
+    }
+    files
+}
+
+/// An uncompressed cpio archive (the kernel's "newc" format) of `files`, with a directory entry
+/// for every folder above them (the kernel keeps a folder that is already there).
+fn newc(files: &[GuestFile]) -> Vec<u8> {
     fn entry(out: &mut Vec<u8>, ino: usize, name: &str, mode: u32, data: &[u8]) {
         let header = format!(
             "070701{ino:08x}{mode:08x}{:08x}{:08x}{:08x}{:08x}{:08x}{:08x}{:08x}{:08x}{:08x}{:08x}{:08x}",
@@ -650,9 +711,21 @@ fn newc(files: &[(&str, Vec<u8>)]) -> Vec<u8> {
         out.extend_from_slice(data);
         out.resize(out.len().next_multiple_of(4), 0);
     }
+    let folders: std::collections::BTreeSet<&str> = files
+        .iter()
+        .flat_map(|file| Path::new(&file.path).ancestors().skip(1))
+        .filter_map(|folder| folder.to_str())
+        .filter(|folder| !folder.is_empty())
+        .collect();
     let mut out = Vec::new();
-    for (k, (name, data)) in files.iter().enumerate() {
-        entry(&mut out, k + 1, &format!("data/{name}"), 0o100644, data);
+    let mut ino = 0;
+    for folder in folders {
+        ino += 1;
+        entry(&mut out, ino, folder, 0o040755, &[]);
+    }
+    for file in files {
+        ino += 1;
+        entry(&mut out, ino, &file.path, 0o100000 | file.mode, &file.data);
     }
     entry(&mut out, 0, "TRAILER!!!", 0, &[]);
     out
@@ -685,13 +758,14 @@ fn board_test(name: &'static str, color: &str) {
     let work = tempfile::tempdir().unwrap();
     let archive = build_archive(work.path());
     let still = still_flight(&archive);
-    let mut machine = Machine::boot(
-        &board,
-        &[
-            ("terrain.smdb", std::fs::read(&archive).unwrap()),
-            ("still.toml", still.clone().into_bytes()),
-        ],
-    );
+    let mut files = vec![
+        GuestFile::data("terrain.smdb", std::fs::read(&archive).unwrap()),
+        GuestFile::data("still.toml", still.clone().into_bytes()),
+    ];
+    if board.runs_host_binary {
+        files.extend(host_binary());
+    }
+    let mut machine = Machine::boot(&board, &files);
     let screen = Screen::parse(&machine.ready);
     let color_format = match color {
         "rgb565" => ColorFormat::Rgb565,

@@ -35,12 +35,26 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 initrd="$work/initramfs"
 cp "$dir/initramfs.cpio.gz" "$initrd"
-if [ $# -gt 0 ]; then
-    # A second archive after the first, on a 4-byte boundary: the kernel unpacks both.
-    size=$(stat -c %s "$initrd")
-    head -c $(((4 - size % 4) % 4)) /dev/zero >>"$initrd"
-    mkdir -p "$work/extra/data"
-    cp "$@" "$work/extra/data/"
-    (cd "$work/extra" && find data | "$out/busybox-amd64/bin/busybox" cpio -o -H newc 2>/dev/null) >>"$initrd"
+extra="$work/extra"
+mkdir -p "$extra/data"
+cp "$@" "$extra/data/"
+if [ "$board" = x86-vesa ]; then
+    # The board is the host's architecture and setup.sh builds no stripmask for it: the host's
+    # own binary goes in, with the shared libraries it loads, as tests/it/boards.rs does.
+    binary=${STRIPMASK_BIN:-$root/target/suite/stripmask}
+    [ -x "$binary" ] || {
+        echo "run.sh: no $binary: build it (cargo build --profile suite) or name one in STRIPMASK_BIN" >&2
+        exit 1
+    }
+    mkdir -p "$extra/usr/bin"
+    cp "$binary" "$extra/usr/bin/stripmask"
+    for lib in $(ldd "$binary" | grep -o '/[^ ]*'); do
+        mkdir -p "$extra$(dirname "$lib")"
+        cp -L "$lib" "$extra$lib"
+    done
 fi
+# A second archive after the first, on a 4-byte boundary: the kernel unpacks both.
+size=$(stat -c %s "$initrd")
+head -c $(((4 - size % 4) % 4)) /dev/zero >>"$initrd"
+(cd "$extra" && find . -mindepth 1 | sed "s|^\./||" | "$out/busybox-amd64/bin/busybox" cpio -o -H newc 2>/dev/null) >>"$initrd"
 "${qemu[@]}" -initrd "$initrd" -serial mon:stdio -display none -vnc 127.0.0.1:0 -nic none -no-reboot

@@ -37,9 +37,9 @@ initrd="$work/initramfs"
 cp "$dir/initramfs.cpio.gz" "$initrd"
 extra="$work/extra"
 mkdir -p "$extra/data"
-cp "$@" "$extra/data/"
-if [ "$board" = x86-vesa ]; then
-    # The board is the host's architecture and setup.sh builds no stripmask for it: the host's
+[ $# -eq 0 ] || cp "$@" "$extra/data/"
+if [ -e "$dir/host-binary" ]; then
+    # The board is the host's architecture and setup.sh built no stripmask for it: the host's
     # own binary goes in, with the shared libraries it loads, as tests/it/boards.rs does.
     binary=${STRIPMASK_BIN:-$root/target/suite/stripmask}
     [ -x "$binary" ] || {

@@ -243,8 +243,8 @@ struct Board {
     /// The QEMU command line from `qemu-args`, without the initramfs and the I/O.
     qemu: Vec<String>,
     /// Whether the board runs the host's own `stripmask` (appended to the initramfs at boot)
-    /// rather than one that tests/boards/setup.sh cross-built into it: x86-vesa is the host's
-    /// architecture.
+    /// rather than one that tests/boards/setup.sh cross-built into it: setup.sh leaves
+    /// `host-binary` in the board's folder when the board is the host's architecture.
     runs_host_binary: bool,
 }
 
@@ -284,11 +284,12 @@ impl Board {
                 return Err(format!("{} is missing", path.display()));
             }
         }
+        let runs_host_binary = dir.join("host-binary").exists();
         Ok(Board {
             name,
             dir,
             qemu,
-            runs_host_binary: name == "x86-vesa",
+            runs_host_binary,
         })
     }
 }

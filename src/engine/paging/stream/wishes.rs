@@ -33,8 +33,10 @@ pub struct Wishes {
 
 impl Wishes {
     /// Takes in a frame's wishes at `now` (seconds); returns each tile's held wish (those
-    /// asking for at least one level). A tile's priority is this frame's when it asks, and it
-    /// is the prediction's when only the predicted view asks for it.
+    /// asking for at least one level). A tile's priority is this frame's when it asks; its wish
+    /// is the prediction's when the frame that set its levels had them from the predicted view
+    /// alone (a held wish the prediction raised stays the prediction's while the view asks
+    /// for less).
     pub fn update(&mut self, wants: &[Want], now: f64) -> HashMap<TileId, Want> {
         let frame = merge(wants);
         for (id, w) in &frame {
@@ -46,19 +48,16 @@ impl Wishes {
         self.held.retain(|id, held| {
             let asked = frame.get(id);
             let levels = asked.map_or(0, |w| w.levels);
-            if levels >= held.want.levels {
+            let lower = levels < held.want.levels;
+            if !lower || now - *held.lower_since.get_or_insert(now) >= HOLD_SECONDS {
                 held.want.levels = levels;
                 held.lower_since = None;
-            } else {
-                let since = *held.lower_since.get_or_insert(now);
-                if now - since >= HOLD_SECONDS {
-                    held.want.levels = levels;
-                    held.lower_since = None;
+                if let Some(w) = asked {
+                    held.want.predicted = w.predicted;
                 }
             }
             if let Some(w) = asked {
                 held.want.priority = w.priority;
-                held.want.predicted = w.predicted;
             }
             held.want.levels > 0
         });
@@ -67,16 +66,19 @@ impl Wishes {
 }
 
 /// Each tile's strongest wish of a frame: the most levels and the highest priority asked; the
-/// prediction's only when only the predicted view asks for it.
+/// prediction's when only the predicted view asks for that many levels (levels the view does
+/// not ask for are the prediction's, even where the view asks for fewer).
 pub fn merge(wants: &[Want]) -> HashMap<TileId, Want> {
     let mut frame: HashMap<TileId, Want> = HashMap::new();
     for w in wants {
         frame
             .entry(w.id)
             .and_modify(|m| {
+                if w.levels > m.levels || (w.levels == m.levels && !w.predicted) {
+                    m.predicted = w.predicted;
+                }
                 m.levels = m.levels.max(w.levels);
                 m.priority = m.priority.max(w.priority);
-                m.predicted &= w.predicted;
             })
             .or_insert(*w);
     }
@@ -119,5 +121,45 @@ mod tests {
         assert_eq!(held(&mut w, None, 3.0), 2);
         assert_eq!(held(&mut w, None, 4.0), 0);
         assert!(w.held.is_empty(), "a tile nobody asks for is forgotten");
+    }
+
+    fn asked(levels: usize, predicted: bool) -> Want {
+        Want {
+            predicted,
+            ..want(levels)
+        }
+    }
+
+    #[test]
+    fn levels_only_the_prediction_asks_for_are_the_predictions() {
+        let id = TileId::new(1, 2);
+        let merged = |wants: &[Want]| merge(wants)[&id];
+        let m = merged(&[asked(3, false), asked(5, true)]);
+        assert_eq!((m.levels, m.predicted), (5, true));
+        let m = merged(&[asked(5, true), asked(3, false)]);
+        assert_eq!((m.levels, m.predicted), (5, true));
+        let m = merged(&[asked(5, true), asked(5, false)]);
+        assert_eq!((m.levels, m.predicted), (5, false));
+        let m = merged(&[asked(4, false), asked(2, true)]);
+        assert_eq!((m.levels, m.predicted), (4, false));
+
+        // A wish the prediction raised stays its own while held against the view's fewer
+        // levels, and becomes the view's once the view asks for as many.
+        let mut w = Wishes::default();
+        let held = |w: &mut Wishes, wants: &[Want], now: f64| {
+            let h = w.update(wants, now)[&id];
+            (h.levels, h.predicted)
+        };
+        assert_eq!(
+            held(&mut w, &[asked(3, false), asked(5, true)], 0.0),
+            (5, true)
+        );
+        assert_eq!(held(&mut w, &[asked(3, false)], 0.25), (5, true));
+        assert_eq!(held(&mut w, &[asked(3, false)], 1.5), (3, false));
+        assert_eq!(
+            held(&mut w, &[asked(3, false), asked(4, true)], 1.75),
+            (4, true)
+        );
+        assert_eq!(held(&mut w, &[asked(4, false)], 2.0), (4, false));
     }
 }

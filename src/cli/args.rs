@@ -32,18 +32,19 @@ use stripmask_raster::{ColorFormat, DepthFormat, Precision};
 /// How tiles come in, and its settings: what `fly`, `view`, `fb` and `demo` share.
 #[derive(Args, Debug)]
 pub(super) struct StreamingArgs {
-    /// belts: whole tiles, belt by belt (the paper); progressive: tile levels by importance
-    /// (docs/streaming.md).
+    /// belts: whole tiles, belt by belt (the paper); progressive: tile levels as the view needs
+    /// them, the worst-looking tile first (docs/streaming.md).
     #[arg(long, value_parser = named::<Streaming>(), default_value = Streaming::default().name())]
     streaming: Streaming,
     /// With --streaming progressive: (tile, level) requests waiting to be sent, at most.
     #[arg(long, default_value_t = StreamSettings::default().queue_capacity)]
     queue: usize,
-    /// With --streaming progressive: no viewpoint prediction.
+    /// With --streaming progressive: prefetch for the viewpoint predicted ahead (fuller frames
+    /// sooner, some bytes no frame draws).
     #[arg(long)]
-    no_prediction: bool,
-    /// With --streaming progressive: seconds ahead the viewpoint is predicted.
-    #[arg(long, default_value_t = PredictionSettings::default().horizon, allow_negative_numbers = true)]
+    predict: bool,
+    /// With --predict: seconds ahead the viewpoint is predicted.
+    #[arg(long, default_value_t = PredictionSettings::default().horizon, allow_negative_numbers = true, requires = "predict")]
     predict_seconds: f64,
 }
 
@@ -59,7 +60,7 @@ impl StreamingArgs {
         let horizon = positive("--predict-seconds", self.predict_seconds)?;
         Ok(Streaming::Progressive(StreamSettings {
             queue_capacity: self.queue,
-            prediction: (!self.no_prediction).then_some(PredictionSettings {
+            prediction: self.predict.then_some(PredictionSettings {
                 horizon,
                 ..PredictionSettings::default()
             }),

@@ -77,7 +77,7 @@ pub struct EngineSettings {
     pub clearance: f64,
     /// Rasterizer threads (0: all cores).
     pub threads: usize,
-    /// Whole tiles in belts (the paper) or progressive levels by importance.
+    /// Whole tiles in belts (the paper) or progressive levels as the view needs them.
     pub streaming: Streaming,
     /// Keep the archive's coarse base (every tile's first levels) resident, fetched first and
     /// drawn wherever no finer copy of a tile is held, so that no view of the terrain is empty.
@@ -862,8 +862,8 @@ fn streaming_wants(
         .visible
         .iter()
         .zip(&plan.offered)
-        .zip(&plan.importance)
-        .map(|((&(id, tile, _), o), &priority)| {
+        .zip(&plan.pixels_per_metre)
+        .map(|((&(id, tile, _), o), &ppm)| {
             let wished = levels_for_mask(o.level, levels);
             let stays = arrival.as_ref().is_none_or(|(eye, frustum)| {
                 frustum.intersects(&held_box(inputs.terrain, id, tile, *eye))
@@ -875,7 +875,7 @@ fn streaming_wants(
                 } else {
                     wished.min(tile.levels)
                 },
-                priority,
+                priority: shown_error_px(tile, ppm),
                 predicted: false,
             }
         })
@@ -996,7 +996,7 @@ fn holes(
 
 /// The predicted view's wishes: the resident tiles its (pulled-back) frustum meets, weighed
 /// from the predicted eye, given the levels this frame's budget would buy them there, at half
-/// their importance (a guess counts less than what is on screen).
+/// the error they would show there (a guess counts less than what is on screen).
 fn predicted_wants(inputs: &FrameInputs<'_>, view: &PredictedView, aspect: f64) -> Vec<Want> {
     let terrain = inputs.terrain;
     let (seen, _) = cull(inputs.pager.resident(), terrain, &view.cull, aspect);
@@ -1027,14 +1027,25 @@ fn predicted_wants(inputs: &FrameInputs<'_>, view: &PredictedView, aspect: f64) 
     let levels = progressive_levels(terrain.tile_size);
     seen.iter()
         .zip(&offered)
-        .zip(&importance.values)
-        .map(|((&(id, _, _), o), &priority)| Want {
+        .zip(&errors)
+        .map(|((&(id, tile, _), o), e)| Want {
             id,
             levels: levels_for_mask(o.level, levels),
-            priority: 0.5 * priority,
+            priority: 0.5 * shown_error_px(tile, e.pixels_per_metre),
             predicted: true,
         })
         .collect()
+}
+
+/// The screen error `tile` shows at the finest mask its held levels draw, in pixels at
+/// `pixels_per_metre`: the priority of its wish. The pager fetches the worst-looking tile
+/// first (the tile under a low eye before the far ones); the visual importance, a share
+/// among the tiles in view that differs little between them, made it fetch almost in
+/// arbitrary order.
+fn shown_error_px(tile: &ResidentTile, pixels_per_metre: f64) -> f64 {
+    tile.level_errors
+        .get(tile.finest_mask_level())
+        .map_or(0.0, |&e| f64::from(e) * pixels_per_metre)
 }
 
 /// The most of the memory limit the base may take: the rest is for paging.

@@ -20,7 +20,7 @@ use crate::db::archive::ArchiveReader;
 use crate::db::source;
 use crate::engine::budget::BudgetController;
 use crate::engine::paging::PagerMode;
-use crate::engine::paging::stream::{StreamSettings, Streaming};
+use crate::engine::paging::stream::{PredictionSettings, StreamSettings, Streaming};
 use crate::engine::terrain::TerrainFrame;
 use crate::engine::{Engine, EngineSettings};
 use crate::error::{Error, Result};
@@ -79,7 +79,7 @@ pub const LINKS: [LinkCase; 3] = [
 pub enum Strategy {
     /// The paper's whole-tile belts.
     Belts,
-    /// Progressive levels by importance, no prediction.
+    /// Progressive levels as the view needs them, no prediction (the default).
     Progressive,
     /// Progressive levels with viewpoint prediction.
     Predicted,
@@ -101,11 +101,11 @@ impl Strategy {
     fn streaming(self) -> Streaming {
         match self {
             Strategy::Belts => Streaming::Belts,
-            Strategy::Progressive => Streaming::Progressive(StreamSettings {
-                prediction: None,
+            Strategy::Progressive => Streaming::Progressive(StreamSettings::default()),
+            Strategy::Predicted => Streaming::Progressive(StreamSettings {
+                prediction: Some(PredictionSettings::default()),
                 ..StreamSettings::default()
             }),
-            Strategy::Predicted => Streaming::Progressive(StreamSettings::default()),
         }
     }
 }

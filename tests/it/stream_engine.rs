@@ -5,6 +5,9 @@
 
 use glam::DVec3;
 use stripmask::db::archive::ArchiveReader;
+use stripmask::db::builder::{BuildOptions, build};
+use stripmask::db::dem::{MemoryReader, NodataFill};
+use stripmask::db::grid::TileId;
 use stripmask::db::source;
 use stripmask::db::tile::PartialGrid;
 use stripmask::engine::geomorph::Geomorph;
@@ -378,4 +381,68 @@ fn a_view_is_complete_by_the_reference_budget_whatever_budget_its_frames_had() {
     belts.hold_budget(low);
     let report = hold_still(&mut belts, 60);
     assert!(belts.holds_view(&report.camera, (160, 120), 7, high));
+}
+
+/// The tiles holding more than their coarsest level.
+fn refined(engine: &Engine) -> Vec<TileId> {
+    let mut ids: Vec<TileId> = engine
+        .pager()
+        .tiles()
+        .filter(|(_, t)| t.held_levels() > 1)
+        .map(|(id, _)| id)
+        .collect();
+    ids.sort();
+    ids
+}
+
+/// Gentle ripples 30 m apart with one tall peak in tile (5, 4): the peak's relief gives its
+/// tile the largest share of visual importance in a view across it, though from afar it shows
+/// little error.
+fn peak_archive(dir: &std::path::Path) -> std::path::PathBuf {
+    let n = 257;
+    let samples = (0..n * n)
+        .map(|k| {
+            let (i, j) = ((k % n) as f32, (k / n) as f32);
+            let ripples = 10.0 * (i * 0.7).sin() * (j * 0.6).cos();
+            let r2 = (i - 176.0).powi(2) + (j - 144.0).powi(2);
+            400.0 + ripples + 600.0 * (-r2 / 60.0).exp()
+        })
+        .collect();
+    let reader = MemoryReader::new("peak", n, n, samples).unwrap();
+    let out = dir.join("peak.smdb");
+    let options = BuildOptions {
+        tile_size: 33,
+        spacing: Some(30.0),
+        texture_factor: 1,
+        ..BuildOptions::default()
+    };
+    build(NodataFill::new(reader, None), &out, &options, &|_, _| {}).unwrap();
+    out
+}
+
+#[test]
+fn the_worst_looking_tile_is_refined_first() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = peak_archive(dir.path());
+    // One request a frame: the order of the requests is the order tiles are refined in.
+    let mode = PagerMode::Stepped {
+        fetches_per_update: 1,
+    };
+    let mut engine = open(&path, settings(4 << 20, progressive(), mode));
+    // Low over tile (1, 4), looking east across the peak: the tile under the eye shows the
+    // largest error at its coarsest level, the peak's the largest share of importance.
+    let (eye, target) = (
+        DVec3::new(1440.0, 30.0, 4320.0),
+        DVec3::new(5280.0, 0.0, 4320.0),
+    );
+    let mut fb = frame();
+    let mut k = 0;
+    while refined(&engine).is_empty() {
+        assert!(k < 10, "nothing refined in ten frames");
+        let camera = engine.camera(eye, target, true);
+        engine.set_time(0.5 * f64::from(k));
+        engine.render(&camera, &mut fb).unwrap();
+        k += 1;
+    }
+    assert_eq!(refined(&engine), vec![TileId::new(1, 4)]);
 }

@@ -4,21 +4,21 @@
 //! The unit of work is a (tile, level) pair, not a whole tile: a request brings a tile from the
 //! `k` progressive levels it holds to `m > k` with one range request ([`crate::db::tile`] stores
 //! each level as a separate chunk, coarse first, so levels `k..m` are contiguous bytes). The
-//! engine asks for as many levels as the mask its importance buys (no finer than the error bound
+//! engine asks for as many levels as the mask the budget buys it (no finer than the error bound
 //! τ needs) uses. Each frame:
 //!
 //! 1. [`StreamPager::update`] takes in what arrived (merging a finer level into the resident
 //!    tile) and finds `d_c`, the complete square of belts held at the coarsest level at least;
 //! 2. the engine culls and weighs the held tiles, asks the budget which mask each would get if
 //!    it held every level, and tells [`StreamPager::request`] how many levels each wants and how
-//!    much it matters (its visual importance; the predicted view's wishes count half), and which
+//!    much it matters (the screen error it shows now; the predicted view's wishes count half), and which
 //!    absent tiles of the belts the view (or the predicted view) meets;
 //! 3. the pager passes the wishes through [`Wishes`] (hysteresis: a wish rises at once and
 //!    falls only after the frames asked for less during [`HOLD_SECONDS`]; meanwhile its request
 //!    waits unsent in frames that ask for less) and turns them into requests — a tile the view
 //!    needs and nobody holds comes above everything, in one range request up to the levels it
 //!    is wished; a held tile
-//!    comes up to its wish in one range request, by importance; and the coarse level of each
+//!    comes up to its wish in one range request, the worst-looking first; and the coarse level of each
 //!    tile of belt `d_c + 1` (Algorithm 1 at the coarsest level, while the coarse square takes
 //!    at most [`StreamSettings::square_share`] of the memory) comes when nothing a view asks
 //!    for waits — cancels the requests on their way that bring more than their tile is still
@@ -65,7 +65,7 @@ pub enum Streaming {
     /// The paper's way: whole tiles, belt by belt ([`super::BeltPager`]).
     #[default]
     Belts,
-    /// Progressive levels by importance ([`StreamPager`]).
+    /// Progressive levels as the view needs them ([`StreamPager`]).
     Progressive(StreamSettings),
 }
 
@@ -95,7 +95,8 @@ pub struct StreamSettings {
     pub queue_capacity: usize,
     /// The most of the memory limit the coarse square may take.
     pub square_share: f64,
-    /// Prefetching for the predicted view, or none.
+    /// Prefetching for the predicted view, or none (the default: a guess that misses spends
+    /// bytes no frame draws, docs/streaming.md).
     pub prediction: Option<PredictionSettings>,
 }
 
@@ -104,19 +105,21 @@ impl Default for StreamSettings {
         StreamSettings {
             queue_capacity: 32,
             square_share: 0.5,
-            prediction: Some(PredictionSettings::default()),
+            prediction: None,
         }
     }
 }
 
-/// Priority of the coarsest level of a tile the view needs: above every refinement (importance
-/// is at most 1).
-const COARSE_PRIORITY: f64 = 2.0;
+/// Priority of the coarsest level of a tile the view needs: above every refinement.
+const COARSE_PRIORITY: f64 = f64::INFINITY;
 
-/// Priority of the coarsest level of a belt tile no view needs yet, at ring 0 (divided by
-/// `1 + ring`): below any refinement a view asks for, so on a slow link the square grows while
-/// the link would otherwise idle, never instead of the detail on screen.
-const BELT_PRIORITY: f64 = 1e-3;
+/// Priority of the coarsest level of a belt tile no view needs yet, at ring `ring`: below any
+/// refinement a view asks for (a wish's priority, the error its tile shows, is never
+/// negative), so on a slow link the square grows while the link would otherwise idle, never
+/// instead of the detail on screen; nearer rings first.
+fn belt_priority(ring: u32) -> f64 {
+    -f64::from(1 + ring)
+}
 
 /// What the engine gives the stream pager: level costs known before fetching, fetching a range
 /// of levels, and merging them into the resident tile.
@@ -156,8 +159,9 @@ pub trait LevelLoader: ResidentLoader {
     }
 }
 
-/// One tile's wish this frame: `levels` progressive levels, mattering `priority` (its visual
-/// importance, 0 ..= 1). A tile may have several (the current and the predicted view's).
+/// One tile's wish this frame: `levels` progressive levels, mattering `priority` (the screen
+/// error in pixels it shows at the levels it holds, never negative). A tile may have several
+/// (the current and the predicted view's).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Want {
     /// The tile.
@@ -492,7 +496,7 @@ impl<L: LevelLoader> StreamPager<L> {
                             out.push(LevelRequest {
                                 id,
                                 levels: 1,
-                                priority: BELT_PRIORITY / f64::from(1 + next),
+                                priority: belt_priority(next),
                                 reason: Reason::Belt,
                             });
                         }
@@ -504,7 +508,7 @@ impl<L: LevelLoader> StreamPager<L> {
         }
         // A tile the view needs and nobody holds comes above everything, in one request up to
         // the levels it is wished (one range request: the levels are contiguous); a held tile
-        // comes up to its wish by importance.
+        // comes up to its wish by priority.
         let mut ids: Vec<&TileId> = wanted.keys().collect();
         ids.sort();
         for id in ids {

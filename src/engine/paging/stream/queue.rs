@@ -1,6 +1,6 @@
 //! The bounded request queue of progressive streaming (the 2009 follow-up's queue): at most
-//! `capacity` (tile, level) requests wait to be sent, re-prioritised every frame by current
-//! importance. A waiting request that is no longer among the best — its tile left the belts,
+//! `capacity` (tile, level) requests wait to be sent, re-prioritised every frame by the screen
+//! error their tiles show now. A waiting request that is no longer among the best — its tile left the belts,
 //! the viewer turned away, or better requests arrived — is cancelled before it is sent, so a
 //! slow link spends its bytes only on what the next frames need.
 
@@ -29,7 +29,8 @@ pub struct LevelRequest {
     pub id: TileId,
     /// Progressive levels the tile holds once the request arrives (1: the coarsest level).
     pub levels: usize,
-    /// Higher goes first: coarse belt fill above refinements, refinements by importance.
+    /// Higher goes first: absent tiles the view needs, then refinements by the error their
+    /// tiles show, then the coarse belt fill.
     pub priority: f64,
     /// Why it was made.
     pub reason: Reason,

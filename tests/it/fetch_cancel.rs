@@ -11,8 +11,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use stripmask::db::archive::ArchiveReader;
-use stripmask::db::builder::{BuildOptions, build};
-use stripmask::db::dem::{MemoryReader, NodataFill};
+use stripmask::db::builder::BuildOptions;
 use stripmask::db::grid::{Grid, TileId};
 use stripmask::db::source::http::FINISH_BELOW;
 use stripmask::db::source::{self, CancelToken, TileSource};
@@ -23,26 +22,21 @@ use stripmask::engine::resident::Light;
 use stripmask::error::Error;
 
 use crate::support::fake_http::next_range;
+use crate::support::hills::synthetic;
 
 /// One tile of 257 samples of rough relief: its finer levels are ranges of many kilobytes.
 fn one_large_tile(dir: &Path) -> PathBuf {
     let n = 257;
-    let samples = (0..n * n)
-        .map(|k| {
-            let (i, j) = ((k % n) as f32, (k / n) as f32);
-            let noise = ((k as u32).wrapping_mul(2_654_435_761) >> 20) as f32;
-            300.0 + 80.0 * (i * 0.05).sin() * (j * 0.07).cos() + noise * 0.05
-        })
-        .collect();
-    let reader = MemoryReader::new("rough", n, n, samples).unwrap();
-    let out = dir.join("rough.smdb");
     let options = BuildOptions {
         tile_size: 257,
         spacing: Some(10.0),
         ..BuildOptions::default()
     };
-    build(NodataFill::new(reader, None), &out, &options, &|_, _| {}).unwrap();
-    out
+    synthetic(dir, "rough", (n, n), &options, |i, j| {
+        let noise = (((j * n + i) as u32).wrapping_mul(2_654_435_761) >> 20) as f32;
+        let (i, j) = (i as f32, j as f32);
+        300.0 + 80.0 * (i * 0.05).sin() * (j * 0.07).cos() + noise * 0.05
+    })
 }
 
 /// What the server did with one range it sent slowly.

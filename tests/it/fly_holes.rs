@@ -8,8 +8,7 @@
 use std::path::{Path, PathBuf};
 
 use stripmask::db::archive::ArchiveReader;
-use stripmask::db::builder::{BuildOptions, build};
-use stripmask::db::dem::{MemoryReader, NodataFill};
+use stripmask::db::builder::BuildOptions;
 use stripmask::db::source;
 use stripmask::engine::EngineSettings;
 use stripmask::engine::paging::stream::{StreamSettings, Streaming};
@@ -21,27 +20,20 @@ use stripmask::sim::fly::{FlyOptions, FlySummary, Length, fly};
 use stripmask::sim::report::StatsTable;
 
 use crate::support::cli::{fly_quietly, plain_archive};
+use crate::support::hills::synthetic;
 
 /// A ridged model of `n x n` samples 40 m apart in tiles of 65 samples, written into `dir`.
 fn ridges(dir: &Path, n: usize) -> PathBuf {
-    let samples = (0..n * n)
-        .map(|k| {
-            let (i, j) = ((k % n) as f32, (k / n) as f32);
-            600.0
-                + 400.0 * (i * 0.013).sin() * (j * 0.011).cos()
-                + 60.0 * (i * 0.09 + j * 0.07).sin()
-        })
-        .collect();
-    let reader = MemoryReader::new("ridges", n, n, samples).unwrap();
-    let out = dir.join(format!("ridges{n}.smdb"));
     let options = BuildOptions {
         tile_size: 65,
         spacing: Some(40.0),
         texture_factor: 1,
         ..BuildOptions::default()
     };
-    build(NodataFill::new(reader, None), &out, &options, &|_, _| {}).unwrap();
-    out
+    synthetic(dir, &format!("ridges{n}"), (n, n), &options, |i, j| {
+        let (i, j) = (i as f32, j as f32);
+        600.0 + 400.0 * (i * 0.013).sin() * (j * 0.011).cos() + 60.0 * (i * 0.09 + j * 0.07).sin()
+    })
 }
 
 /// Flies the diagonal over `archive` as `p` for `length` on `clock`, over `p`'s link.

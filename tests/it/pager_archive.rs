@@ -5,8 +5,7 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use stripmask::db::archive::{ArchiveReader, Codec};
-use stripmask::db::builder::{BuildOptions, build};
-use stripmask::db::dem::{MemoryReader, NodataFill};
+use stripmask::db::builder::BuildOptions;
 use stripmask::db::grid::Grid;
 use stripmask::db::grid::TileId;
 use stripmask::db::source::file::FileSource;
@@ -15,25 +14,20 @@ use stripmask::engine::paging::{
     BeltPager, PagerConfig, PagerMode, ResidentLoader, TileLoader, TileState,
 };
 
+use crate::support::hills::synthetic;
+
 /// Builds an 8 x 6 tile archive of 17-sample tiles (129 x 97 samples) with 16-texel textures.
 fn build_archive(dir: &Path) -> PathBuf {
-    let (w, h) = (129, 97);
-    let samples = (0..w * h)
-        .map(|k| {
-            let (i, j) = ((k % w) as f32, (k / w) as f32);
-            800.0 + 200.0 * (i * 0.11).sin() * (j * 0.05).cos() + i - 0.5 * j
-        })
-        .collect();
-    let reader = MemoryReader::new("synthetic", w, h, samples).unwrap();
-    let out = dir.join("pager.smdb");
     let options = BuildOptions {
         tile_size: 17,
         spacing: Some(30.0),
         codec: Codec::Lz4,
         ..BuildOptions::default()
     };
-    build(NodataFill::new(reader, None), &out, &options, &|_, _| {}).unwrap();
-    out
+    synthetic(dir, "pager", (129, 97), &options, |i, j| {
+        let (i, j) = (i as f32, j as f32);
+        800.0 + 200.0 * (i * 0.11).sin() * (j * 0.05).cos() + i - 0.5 * j
+    })
 }
 
 /// Decodes tiles and keeps texture mips from level `ring - 1` down (all of them in belts 0 and

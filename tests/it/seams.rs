@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 use glam::{DVec3, DVec4};
 use stripmask::db::archive::{ArchiveReader, ArchiveWriter, compress};
 use stripmask::db::builder::{BuildOptions, build};
-use stripmask::db::dem::{self, FillStats, MemoryReader, NodataFill, OpenOptions};
+use stripmask::db::dem::{self, FillStats, OpenOptions};
 use stripmask::db::rgb565::mip_chain;
 use stripmask::db::source;
 use stripmask::db::source::file::FileSource;
@@ -27,6 +27,8 @@ use stripmask::engine::paging::PagerMode;
 use stripmask::engine::resident::{Light, ResidentTile};
 use stripmask::engine::{Engine, EngineSettings};
 use stripmask_raster::{ColorFormat, DepthBuffer, DepthFormat, Framebuffer, rgb565_to_rgb};
+
+use crate::support::hills::synthetic;
 
 const WIDTH: u32 = 480;
 const HEIGHT: u32 = 360;
@@ -100,21 +102,15 @@ fn puget(dir: &Path) -> Model {
 /// A smooth surface of long swells, 257², 30 m apart, in tiles of 33 samples (8 x 8 tiles),
 /// textures of 32 texels.
 fn swells(dir: &Path) -> Model {
-    let n = 257;
-    let samples = (0..n * n)
-        .map(|k| {
-            let (x, z) = ((k % n) as f32, (k / n) as f32);
-            300.0 + 120.0 * (x / 23.0).sin() * (z / 31.0).cos() + 40.0 * ((x + z) / 17.0).sin()
-        })
-        .collect();
-    let reader = MemoryReader::new("swells", n, n, samples).unwrap();
-    let path = dir.join("swells.smdb");
     let options = BuildOptions {
         tile_size: 33,
         spacing: Some(30.0),
         ..BuildOptions::default()
     };
-    build(NodataFill::new(reader, None), &path, &options, &|_, _| {}).unwrap();
+    let path = synthetic(dir, "swells", (257, 257), &options, |x, z| {
+        let (x, z) = (x as f32, z as f32);
+        300.0 + 120.0 * (x / 23.0).sin() * (z / 31.0).cos() + 40.0 * ((x + z) / 17.0).sin()
+    });
     let tile = 32.0 * 30.0;
     Model {
         path,

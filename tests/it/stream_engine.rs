@@ -5,8 +5,7 @@
 
 use glam::DVec3;
 use stripmask::db::archive::ArchiveReader;
-use stripmask::db::builder::{BuildOptions, build};
-use stripmask::db::dem::{MemoryReader, NodataFill};
+use stripmask::db::builder::BuildOptions;
 use stripmask::db::grid::TileId;
 use stripmask::db::source;
 use stripmask::db::tile::PartialGrid;
@@ -21,7 +20,7 @@ use stripmask::sim::flight::{Builtin, Flight};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
 use crate::support::hills;
-use hills::archive;
+use hills::{archive, synthetic};
 
 fn settings(memory_limit_bytes: usize, streaming: Streaming, mode: PagerMode) -> EngineSettings {
     EngineSettings {
@@ -399,25 +398,18 @@ fn refined(engine: &Engine) -> Vec<TileId> {
 /// tile the largest share of visual importance in a view across it, though from afar it shows
 /// little error.
 fn peak_archive(dir: &std::path::Path) -> std::path::PathBuf {
-    let n = 257;
-    let samples = (0..n * n)
-        .map(|k| {
-            let (i, j) = ((k % n) as f32, (k / n) as f32);
-            let ripples = 10.0 * (i * 0.7).sin() * (j * 0.6).cos();
-            let r2 = (i - 176.0).powi(2) + (j - 144.0).powi(2);
-            400.0 + ripples + 600.0 * (-r2 / 60.0).exp()
-        })
-        .collect();
-    let reader = MemoryReader::new("peak", n, n, samples).unwrap();
-    let out = dir.join("peak.smdb");
     let options = BuildOptions {
         tile_size: 33,
         spacing: Some(30.0),
         texture_factor: 1,
         ..BuildOptions::default()
     };
-    build(NodataFill::new(reader, None), &out, &options, &|_, _| {}).unwrap();
-    out
+    synthetic(dir, "peak", (257, 257), &options, |i, j| {
+        let (i, j) = (i as f32, j as f32);
+        let ripples = 10.0 * (i * 0.7).sin() * (j * 0.6).cos();
+        let r2 = (i - 176.0).powi(2) + (j - 144.0).powi(2);
+        400.0 + ripples + 600.0 * (-r2 / 60.0).exp()
+    })
 }
 
 #[test]

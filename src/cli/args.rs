@@ -44,7 +44,12 @@ pub(super) struct StreamingArgs {
     #[arg(long)]
     predict: bool,
     /// With --predict: seconds ahead the viewpoint is predicted.
-    #[arg(long, default_value_t = PredictionSettings::default().horizon, allow_negative_numbers = true, requires = "predict")]
+    #[arg(
+        long,
+        default_value_t = PredictionSettings::default().horizon,
+        allow_negative_numbers = true,
+        requires = "predict"
+    )]
     predict_seconds: f64,
 }
 

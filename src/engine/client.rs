@@ -1038,14 +1038,17 @@ fn predicted_wants(inputs: &FrameInputs<'_>, view: &PredictedView, aspect: f64) 
 }
 
 /// The screen error `tile` shows at the finest mask its held levels draw, in pixels at
-/// `pixels_per_metre`: the priority of its wish. The pager fetches the worst-looking tile
-/// first (the tile under a low eye before the far ones); the visual importance, a share
-/// among the tiles in view that differs little between them, made it fetch almost in
-/// arbitrary order.
+/// `pixels_per_metre` (as the allocation counts it, [`TileErrors::pixels`]): the priority of
+/// its wish, so that the pager fetches the worst-looking tile first, the tile under a low eye
+/// before the far ones. The visual importance, a share among the tiles in view that differs
+/// little between them, would fetch them in almost arbitrary order.
 fn shown_error_px(tile: &ResidentTile, pixels_per_metre: f64) -> f64 {
-    tile.level_errors
-        .get(tile.finest_mask_level())
-        .map_or(0.0, |&e| f64::from(e) * pixels_per_metre)
+    TileErrors {
+        metres: &tile.level_errors,
+        pixels_per_metre,
+        kept: None,
+    }
+    .pixels(tile.finest_mask_level())
 }
 
 /// The most of the memory limit the base may take: the rest is for paging.

@@ -2,12 +2,13 @@
 //!
 //! Two strategies share one core. [`BeltPager`] is the paper's: Algorithm 1 ([`belts`]) keeps
 //! the largest complete square of belts of whole tiles that fits the limit. [`StreamPager`]
-//! streams progressive levels as the view needs them ([`stream`]). Both hold a [`Residency`] — the
-//! [`Ledger`] that accounts every byte before it is fetched, the resident tiles, the viewpoint's
-//! tile and square, and the counters — and send their requests over a [`Link`]: a fetch thread
-//! ([`PagerMode::Threaded`]) or, deterministically, this thread ([`PagerMode::Stepped`],
-//! [`PagerMode::Simulated`]). Each keeps only what differs: what to fetch next and how an
-//! arrival joins the resident tile. The engine drives either through the [`Paging`] trait.
+//! streams progressive levels as the view needs them ([`stream`]). Both hold a [`Residency`] —
+//! the [`Ledger`] that accounts every byte before it is fetched, the resident tiles, the
+//! viewpoint's tile and square, and the counters — and send their requests over a [`Link`]: a
+//! fetch thread ([`PagerMode::Threaded`]) or, deterministically, this thread
+//! ([`PagerMode::Stepped`], [`PagerMode::Simulated`]). Each keeps only what differs: what to fetch
+//! next and how an arrival joins the resident tile. The engine drives either through the [`Paging`]
+//! trait.
 
 mod base;
 mod belt_pager;

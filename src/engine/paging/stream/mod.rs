@@ -11,21 +11,20 @@
 //!    tile) and finds `d_c`, the complete square of belts held at the coarsest level at least;
 //! 2. the engine culls and weighs the held tiles, asks the budget which mask each would get if
 //!    it held every level, and tells [`StreamPager::request`] how many levels each wants and how
-//!    much it matters (the screen error it shows now; the predicted view's wishes count half), and which
-//!    absent tiles of the belts the view (or the predicted view) meets;
-//! 3. the pager passes the wishes through [`Wishes`] (hysteresis: a wish rises at once and
-//!    falls only after the frames asked for less during [`HOLD_SECONDS`]; meanwhile its request
-//!    waits unsent in frames that ask for less) and turns them into requests — a tile the view
-//!    needs and nobody holds comes above everything, in one range request up to the levels it
-//!    is wished; a held tile
-//!    comes up to its wish in one range request, the worst-looking first; and the coarse level of each
-//!    tile of belt `d_c + 1` (Algorithm 1 at the coarsest level, while the coarse square takes
-//!    at most [`StreamSettings::square_share`] of the memory) comes when nothing a view asks
-//!    for waits — cancels the requests on their way that bring more than their tile is still
-//!    wished, or whose tile no view asks for and whose transfer has not started (where the
-//!    link can: the simulated link drops the transfer), re-prioritises its
-//!    bounded [`RequestQueue`] with them, cancelling what fell out before it was sent, and sends
-//!    the best while the link has room;
+//!    much it matters (the screen error it shows now; the predicted view's wishes count half),
+//!    and which absent tiles of the belts the view (or the predicted view) meets;
+//! 3. the pager passes the wishes through [`Wishes`] (hysteresis: a wish rises at once and falls
+//!    only after the frames asked for less during [`HOLD_SECONDS`]; meanwhile its request waits
+//!    unsent in frames that ask for less) and turns them into requests — a tile the view needs and
+//!    nobody holds comes above everything, in one range request up to the levels it is wished; a
+//!    held tile comes up to its wish in one range request, the worst-looking first; and the coarse
+//!    level of each tile of belt `d_c + 1` (Algorithm 1 at the coarsest level, while the coarse
+//!    square takes at most [`StreamSettings::square_share`] of the memory) comes when nothing a
+//!    view asks for waits — cancels the requests on their way that bring more than their tile is
+//!    still wished, or whose tile no view asks for and whose transfer has not started (where the
+//!    link can: the simulated link drops the transfer), re-prioritises its bounded [`RequestQueue`]
+//!    with them, cancelling what fell out before it was sent, and sends the best while the link has
+//!    room;
 //! 4. [`StreamPager::drawn`] hears which levels the frame used, for the share of received
 //!    bytes rendered within a second.
 //!

@@ -1,8 +1,8 @@
 //! The bounded request queue of progressive streaming (the 2009 follow-up's queue): at most
 //! `capacity` (tile, level) requests wait to be sent, re-prioritised every frame by the screen
-//! error their tiles show now. A waiting request that is no longer among the best — its tile left the belts,
-//! the viewer turned away, or better requests arrived — is cancelled before it is sent, so a
-//! slow link spends its bytes only on what the next frames need.
+//! error their tiles show now. A waiting request that is no longer among the best — its tile
+//! left the belts, the viewer turned away, or better requests arrived — is cancelled before it
+//! is sent, so a slow link spends its bytes only on what the next frames need.
 
 use std::cmp::Ordering;
 use std::collections::HashSet;

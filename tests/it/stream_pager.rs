@@ -316,30 +316,41 @@ fn a_tile_oscillating_across_a_level_boundary_asks_once() {
     assert_eq!(p.stream_stats().cancelled, 0);
 }
 
-/// A simulated link on which every fetch takes [`SECONDS_PER_FETCH`].
-struct PerFetch(Arc<AtomicU64>);
+/// A simulated link on which every fetch takes the same seconds.
+struct PerFetch(Arc<AtomicU64>, f64);
 
+/// Seconds a fetch takes on the slow link most tests use.
 const SECONDS_PER_FETCH: f64 = 3.0;
 
 impl TransferClock for PerFetch {
     fn busy_seconds(&self) -> f64 {
-        SECONDS_PER_FETCH * self.0.load(Ordering::Relaxed) as f64
+        self.1 * self.0.load(Ordering::Relaxed) as f64
     }
 }
 
 /// A pager over `tiles` x 1 tiles on a simulated link carrying `queue_depth` requests, each
 /// taking [`SECONDS_PER_FETCH`].
 fn simulated(tiles: u32, queue_depth: usize) -> StreamPager<Synthetic> {
-    let loader = Synthetic::default();
-    let clock = PerFetch(Arc::clone(&loader.fetched));
-    let config = PagerConfig::new(1 << 20, PagerMode::Simulated { queue_depth });
-    let mut p = StreamPager::new(
-        loader,
-        Grid::new(tiles, 1).unwrap(),
-        config,
+    link_of(
+        tiles,
+        queue_depth,
+        SECONDS_PER_FETCH,
         StreamSettings::default(),
     )
-    .unwrap();
+}
+
+/// A pager over `tiles` x 1 tiles with `settings` on a simulated link carrying `queue_depth`
+/// requests, each taking `seconds`.
+fn link_of(
+    tiles: u32,
+    queue_depth: usize,
+    seconds: f64,
+    settings: StreamSettings,
+) -> StreamPager<Synthetic> {
+    let loader = Synthetic::default();
+    let clock = PerFetch(Arc::clone(&loader.fetched), seconds);
+    let config = PagerConfig::new(1 << 20, PagerMode::Simulated { queue_depth });
+    let mut p = StreamPager::new(loader, Grid::new(tiles, 1).unwrap(), config, settings).unwrap();
     p.set_transfer_clock(Arc::new(clock));
     p
 }
@@ -349,6 +360,60 @@ fn frame(p: &mut StreamPager<Synthetic>, t: f64, wants: &[Want]) {
     p.set_time(t);
     p.update((0.5, 0.5));
     p.request(wants);
+}
+
+/// Five tiles asked for 3 levels each, a frame after their coarsest levels arrived, at a frame
+/// interval of 0.25 s on a link carrying `queue_depth` requests whose fetches take `seconds`,
+/// with a queue of `capacity`; returns how many of the five requests went out in that frame.
+fn sent_in_one_frame(queue_depth: usize, seconds: f64, capacity: usize) -> usize {
+    let settings = StreamSettings {
+        queue_capacity: capacity,
+        ..StreamSettings::default()
+    };
+    let mut p = link_of(5, queue_depth, seconds, settings);
+    let mut t = 0.0;
+    while (0..5).any(|x| p.held_levels(TileId::new(x, 0)) == 0) {
+        frame(&mut p, t, &[]);
+        t += 0.25;
+        assert!(t < 100.0, "the belts never brought the coarsest levels");
+    }
+    let before = p.stream_stats().requests;
+    let wants: Vec<Want> = (0..5)
+        .map(|x| want(x, 0, 3, 1.0 - 0.1 * f64::from(x)))
+        .collect();
+    frame(&mut p, t, &wants);
+    check_accounting(&p);
+    (p.stream_stats().requests - before) as usize
+}
+
+#[test]
+fn a_link_that_delivers_within_a_frame_takes_more_than_the_queue_depth() {
+    // 20 ms a fetch, 250 ms a frame: all five go at once, past a depth of 2.
+    assert_eq!(sent_in_one_frame(2, 0.02, 32), 5);
+    // 100 ms a fetch: the third starts at 0.2 s, within the frame, and the link is then busy
+    // past the next one: three go.
+    assert_eq!(sent_in_one_frame(2, 0.1, 32), 3);
+    // 3 s a fetch: no more than the depth.
+    assert_eq!(sent_in_one_frame(2, SECONDS_PER_FETCH, 32), 2);
+    // A link that takes no time stops at the queue's capacity.
+    assert_eq!(sent_in_one_frame(1, 0.0, 3), 3);
+}
+
+#[test]
+fn the_belt_fill_goes_on_over_a_link_slower_than_a_frame() {
+    // Each coarsest level takes 3 s, frames come every 0.25 s and no view asks for anything:
+    // the fill's requests stay on the link until they arrive.
+    let mut p = simulated(3, 1);
+    let mut t = 0.0;
+    while t <= 3.0 * SECONDS_PER_FETCH + 0.5 {
+        frame(&mut p, t, &[]);
+        t += 0.25;
+    }
+    for x in 0..3 {
+        assert_eq!(p.held_levels(TileId::new(x, 0)), 1, "tile {x}");
+    }
+    assert_eq!(p.stream_stats().cancelled, 0);
+    check_accounting(&p);
 }
 
 #[test]

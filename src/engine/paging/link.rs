@@ -51,7 +51,12 @@ pub struct Link<R: Request, T> {
     free_at: f64,
     /// Requests sent to the fetch thread and not back yet, with their cancel tokens.
     sent: Vec<(R, CancelToken)>,
+    /// The fetch thread's seconds per request, smoothed over those that came back.
+    per_request: Option<f64>,
 }
+
+/// How much a request's time moves the fetch thread's smoothed seconds per request.
+const PER_REQUEST_SMOOTHING: f64 = 0.25;
 
 impl<R: Request, T: Send + 'static> Link<R, T> {
     /// Runs `job` for each request the way `mode` says: on a fetch thread when threaded.
@@ -69,6 +74,7 @@ impl<R: Request, T: Send + 'static> Link<R, T> {
             pending: VecDeque::new(),
             free_at: 0.0,
             sent: Vec::new(),
+            per_request: None,
         })
     }
 
@@ -130,6 +136,17 @@ impl<R: Request, T: Send + 'static> Link<R, T> {
             request,
             result,
         });
+    }
+
+    /// Seconds from `time` until the link has delivered every request it carries: exact on the
+    /// simulated link, the requests not back times the seconds one took so far on the fetch
+    /// thread (`None` before any came back), `None` when stepped (fetches run when sent).
+    pub fn backlog(&self, time: f64) -> Option<f64> {
+        match self.mode {
+            PagerMode::Simulated { .. } => Some((self.free_at - time).max(0.0)),
+            PagerMode::Threaded { .. } => self.per_request.map(|s| s * self.sent.len() as f64),
+            PagerMode::Stepped { .. } => None,
+        }
     }
 
     /// Whether the transfer of `request` has started by `time` (`None` when the link holds no
@@ -210,8 +227,13 @@ impl<R: Request, T: Send + 'static> Link<R, T> {
                         request,
                         cancel,
                         result,
+                        took,
                     })) => {
                         self.sent.retain(|(_, c)| !c.is(&cancel));
+                        self.per_request = Some(
+                            self.per_request
+                                .map_or(took, |s| s + PER_REQUEST_SMOOTHING * (took - s)),
+                        );
                         if cancel.is_cancelled() {
                             received.cut.push((request, downloaded(&result)));
                         } else {
@@ -248,5 +270,84 @@ fn downloaded<T>(result: &Result<(T, u64)>) -> u64 {
         Ok((_, bytes)) => *bytes,
         Err(Error::Cancelled { received, .. }) => *received,
         Err(_) => 0,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    use std::time::{Duration, Instant};
+
+    use super::*;
+
+    /// A transfer clock on which every fetch takes half a second.
+    struct HalfSecond(Arc<AtomicU64>);
+
+    impl TransferClock for HalfSecond {
+        fn busy_seconds(&self) -> f64 {
+            0.5 * self.0.load(Ordering::Relaxed) as f64
+        }
+    }
+
+    #[test]
+    fn the_simulated_backlog_is_what_the_link_has_left_to_carry() {
+        let fetched = Arc::new(AtomicU64::new(0));
+        let counter = Arc::clone(&fetched);
+        let job: Job<u32, ()> = Arc::new(move |_, _| {
+            counter.fetch_add(1, Ordering::Relaxed);
+            Ok(((), 10))
+        });
+        let mut link = Link::new(job, PagerMode::Simulated { queue_depth: 4 }).unwrap();
+        link.set_transfer_clock(Arc::new(HalfSecond(fetched)));
+        assert_eq!(link.backlog(0.0), Some(0.0));
+        for r in 0..3 {
+            assert!(link.start(r, 0.0).is_none());
+        }
+        assert_eq!(link.backlog(0.0), Some(1.5));
+        assert_eq!(link.backlog(1.0), Some(0.5));
+        // The last transfer, not started yet, is dropped: the link is done at 1 s.
+        assert_eq!(link.cancel(&2, 0.2), Some(0));
+        assert_eq!(link.backlog(0.2), Some(0.8));
+        assert_eq!(link.receive(1.0).arrivals.len(), 2);
+        assert_eq!(link.backlog(3.0), Some(0.0));
+    }
+
+    #[test]
+    fn the_fetch_threads_backlog_counts_its_requests_at_the_time_one_took() {
+        let job: Job<u32, ()> = Arc::new(|_, _| {
+            std::thread::sleep(Duration::from_millis(10));
+            Ok(((), 10))
+        });
+        let mut link = Link::new(job, PagerMode::Threaded { queue_depth: 4 }).unwrap();
+        assert!(link.start(0, 0.0).is_none());
+        assert_eq!(link.backlog(0.0), None, "nothing came back to time");
+        let started = Instant::now();
+        while link.receive(0.0).arrivals.is_empty() {
+            assert!(started.elapsed() < Duration::from_secs(30), "no arrival");
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        assert_eq!(link.backlog(0.0), Some(0.0), "nothing on its way");
+        for r in 1..4 {
+            assert!(link.start(r, 0.0).is_none());
+        }
+        let backlog = link.backlog(0.0).unwrap();
+        assert!(
+            backlog >= 0.03,
+            "three requests of at least 10 ms: {backlog}"
+        );
+    }
+
+    #[test]
+    fn a_stepped_link_has_no_backlog() {
+        let job: Job<u32, ()> = Arc::new(|_, _| Ok(((), 10)));
+        let mut link = Link::new(
+            job,
+            PagerMode::Stepped {
+                fetches_per_update: 1,
+            },
+        )
+        .unwrap();
+        assert!(link.start(0, 0.0).is_some());
+        assert_eq!(link.backlog(0.0), None);
     }
 }

@@ -7,6 +7,7 @@ use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, Sender, TryRecvError, channel};
+use std::time::Instant;
 
 use crate::db::source::CancelToken;
 use crate::error::{Error, Result};
@@ -24,6 +25,8 @@ pub struct Arrival<R, T> {
     pub cancel: CancelToken,
     /// What the job made of it, and the bytes it downloaded.
     pub result: Result<(T, u64)>,
+    /// Seconds the job ran: how long the link took over the request.
+    pub took: f64,
 }
 
 /// What the fetch thread runs for each request, reading with its cancel token (a job that
@@ -59,11 +62,13 @@ impl<R: Request, T: Send + 'static> Worker<R, T> {
                     if stopped.load(Ordering::Relaxed) {
                         break;
                     }
+                    let started = Instant::now();
                     let result = run(&*job, request, &cancel);
                     let arrival = Arrival {
                         request,
                         cancel,
                         result,
+                        took: started.elapsed().as_secs_f64(),
                     };
                     if done.send(arrival).is_err() {
                         break;

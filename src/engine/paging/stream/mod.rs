@@ -218,6 +218,8 @@ pub struct Progressive<L> {
     wishes: Wishes,
     /// Each request on its way, why it was made and when it was sent.
     flights: HashMap<TileId, (LevelFetch, Reason, f64)>,
+    /// When the last frame's requests were made: the frame interval the link is paced by.
+    last_request: Option<f64>,
     stats: StreamStats,
     loader: PhantomData<fn() -> L>,
 }
@@ -334,6 +336,7 @@ impl<L: LevelLoader> StreamPager<L> {
             queue: RequestQueue::new(settings.queue_capacity),
             wishes: Wishes::default(),
             flights: HashMap::new(),
+            last_request: None,
             stats: StreamStats::default(),
             loader: PhantomData,
         };
@@ -346,6 +349,12 @@ impl<L: LevelLoader> StreamPager<L> {
     /// fits.
     pub fn request(&mut self, wants: &[Want]) {
         let now = self.resident.time();
+        let interval = self
+            .strategy
+            .last_request
+            .replace(now)
+            .map(|then| now - then)
+            .filter(|&d| d > 0.0);
         let mut wanted = self.strategy.wishes.update(wants, now);
         // What this frame asks for; a held wish beyond it keeps its request waiting unsent.
         let mut asks: HashMap<TileId, usize> = HashMap::new();
@@ -393,6 +402,16 @@ impl<L: LevelLoader> StreamPager<L> {
                 self.mode.room(self.resident.ledger.fetching())
             };
         }
+        // Past the queue depth a request still goes while the link would deliver everything it
+        // carries before the next frame (a frame interval from now), up to the queue's capacity:
+        // on a fast link a view's levels come in one round trip however many tiles need them,
+        // and on a slow one no request waits on the link longer than the depth alone lets it.
+        if let Some(interval) = interval.filter(|_| !stepped) {
+            while self.resident.ledger.fetching() < self.strategy.queue.capacity()
+                && self.link.backlog(now).is_some_and(|b| b < interval)
+                && self.send_next(&wanted, &short)
+            {}
+        }
         for r in resting {
             self.strategy.queue.push_back(r);
         }
@@ -403,6 +422,8 @@ impl<L: LevelLoader> StreamPager<L> {
     /// ask for at all (`asks`: it left the views, and bytes that arrive while it is out of
     /// them are not drawn; cancelling a transfer not started costs nothing): its reservation
     /// is released, and the bytes that had crossed the link count as received and never drawn.
+    /// The belt fill, which no view asks for, is cancelled once its tile is past the belt the
+    /// square grows into.
     fn cancel_unwanted(
         &mut self,
         wanted: &HashMap<TileId, Want>,
@@ -410,11 +431,21 @@ impl<L: LevelLoader> StreamPager<L> {
         now: f64,
     ) {
         let link = &self.link;
+        // The belt the coarse square grows into, around the current tile.
+        let filling = self
+            .resident
+            .center
+            .map(|c| (c, self.resident.complete.map_or(0, |d| d + 1)));
         let mut unwanted: Vec<(LevelFetch, Reason, f64)> = self
             .strategy
             .flights
             .values()
-            .filter(|(f, _, _)| {
+            .filter(|(f, reason, _)| {
+                if *reason == Reason::Belt && !wanted.contains_key(&f.id) {
+                    // No view asks for the square's fill: it goes on while its tile is within
+                    // the belt being filled.
+                    return filling.is_none_or(|(c, next)| Grid::ring(c, f.id) > next);
+                }
                 wanted.get(&f.id).map_or(0, |w| w.levels) < f.want
                     || (!asks.contains_key(&f.id) && link.started(f, now) == Some(false))
             })

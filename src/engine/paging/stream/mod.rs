@@ -218,8 +218,8 @@ pub struct Progressive<L> {
     wishes: Wishes,
     /// Each request on its way, why it was made and when it was sent.
     flights: HashMap<TileId, (LevelFetch, Reason, f64)>,
-    /// When the last frame's requests were made: the frame interval the link is paced by.
-    last_request: Option<f64>,
+    /// When the last two updates were: the frame interval the link is paced by.
+    updates: (Option<f64>, Option<f64>),
     stats: StreamStats,
     loader: PhantomData<fn() -> L>,
 }
@@ -245,6 +245,8 @@ impl<L: LevelLoader> Strategy for Progressive<L> {
 
     /// Before culling: takes in what arrived and finds the complete square.
     fn update(pager: &mut StreamPager<L>, viewer: (f64, f64)) {
+        let updates = &mut pager.strategy.updates;
+        *updates = (updates.1, Some(pager.resident.time()));
         let (arrivals, cut) = pager.begin(viewer);
         for (fetch, result) in arrivals {
             pager.integrate(fetch, result);
@@ -336,7 +338,7 @@ impl<L: LevelLoader> StreamPager<L> {
             queue: RequestQueue::new(settings.queue_capacity),
             wishes: Wishes::default(),
             flights: HashMap::new(),
-            last_request: None,
+            updates: (None, None),
             stats: StreamStats::default(),
             loader: PhantomData,
         };
@@ -349,12 +351,10 @@ impl<L: LevelLoader> StreamPager<L> {
     /// fits.
     pub fn request(&mut self, wants: &[Want]) {
         let now = self.resident.time();
-        let interval = self
-            .strategy
-            .last_request
-            .replace(now)
-            .map(|then| now - then)
-            .filter(|&d| d > 0.0);
+        let interval = match self.strategy.updates {
+            (Some(before), Some(last)) if last > before => Some(last - before),
+            _ => None,
+        };
         let mut wanted = self.strategy.wishes.update(wants, now);
         // What this frame asks for; a held wish beyond it keeps its request waiting unsent.
         let mut asks: HashMap<TileId, usize> = HashMap::new();

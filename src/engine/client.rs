@@ -400,9 +400,13 @@ impl Engine {
         Error: From<T::Error>,
     {
         let started = Instant::now();
+        let placed_on_ground = self.ground(camera.position).is_some();
         self.pager
             .update(self.terrain.tile_position(camera.position));
         let mut camera = *camera;
+        if !placed_on_ground {
+            self.stand_on_arrived_ground(&mut camera);
+        }
         self.fit_depth_range(&mut camera);
         let (width, height) = target.size();
         let aspect = f64::from(width) / f64::from(height);
@@ -485,6 +489,23 @@ impl Engine {
             draw_seconds,
             pager: self.pager.resident().stats(),
         })
+    }
+
+    /// Lifts the eye of `camera`, placed while the ground under it was not held, when that
+    /// ground arrived in this frame's update and the eye is under it (or within the clearance):
+    /// [`Engine::camera`] stood it on the archive's lowest height, so it goes up by the
+    /// ground's height over that, where [`Engine::camera`] places it now, and at least
+    /// `clearance` above the ground. Without this, the first frame the base arrives for would
+    /// be drawn, and its levels wished, from under the terrain.
+    fn stand_on_arrived_ground(&self, camera: &mut Camera) {
+        let Some(ground) = self.ground(camera.position) else {
+            return;
+        };
+        let floor = ground + self.settings.clearance;
+        if camera.position.y < floor {
+            let lowest = self.terrain.heights.0 + self.terrain.origin.y;
+            camera.position.y = (camera.position.y + ground - lowest).max(floor);
+        }
     }
 
     /// When streaming progressively, the camera extrapolated to when this frame's requests

@@ -297,19 +297,20 @@ impl Engine {
     }
 
     /// Whether the view of `camera` on a `screen` of (width, height) pixels has everything it
-    /// should draw with `budget` triangles: every tile within `radius` belts of the current one
-    /// whose box (at the archive's height range) meets the view is held, with at least the
-    /// progressive levels of the mask level it would get if every tile in view held all its
-    /// levels and `budget` were shared among them (by the engine's allocation, no finer than τ
-    /// needs, without the bonus of freshly fetched levels). It depends on the camera, the
-    /// archive and `budget` only, not on the budgets the frames were drawn by, so paging
-    /// strategies can be compared by it (`stream-compare`'s first complete view).
+    /// should draw with any of `budgets` triangles: every tile within `radius` belts of the
+    /// current one whose box (at the archive's height range) meets the view is held, with at
+    /// least the progressive levels of the coarsest mask level any of the budgets gives it if
+    /// every tile in view held all its levels and that budget were shared among them (by the
+    /// engine's allocation, no finer than τ needs, without the bonus of freshly fetched
+    /// levels). It depends on the camera, the archive and `budgets` only, not on the budgets
+    /// the frames were drawn by, so paging strategies can be compared by it
+    /// (`stream-compare`'s first complete view). Without budgets, the tiles need only be held.
     pub fn holds_view(
         &self,
         camera: &Camera,
         screen: (u32, u32),
         radius: u32,
-        budget: usize,
+        budgets: &[usize],
     ) -> bool {
         let aspect = f64::from(screen.0) / f64::from(screen.1);
         let resident = self.pager.resident();
@@ -322,28 +323,39 @@ impl Engine {
             return false;
         }
         let no_kept = HashMap::new();
-        let inputs = FrameInputs {
-            pager: &*self.pager,
-            terrain: &self.terrain,
-            masks: &self.masks,
-            weights: self.settings.weights,
-            budget,
-            forced_levels: None,
-            max_error: self.settings.max_error,
-            allocation: self.settings.allocation,
-            height: screen.1,
-            clearance: self.settings.clearance,
-            kept: &no_kept,
-        };
-        // The frame's offer: the levels the budget buys each tile in view had it held them all.
-        let plan = plan_frame(&inputs, camera, aspect);
         let levels = progressive_levels(self.terrain.tile_size);
-        plan.visible
+        // Per tile in reach, the fewest levels any of the budgets would have it draw.
+        let mut needed: HashMap<TileId, usize> = HashMap::new();
+        for &budget in budgets {
+            let inputs = FrameInputs {
+                pager: &*self.pager,
+                terrain: &self.terrain,
+                masks: &self.masks,
+                weights: self.settings.weights,
+                budget,
+                forced_levels: None,
+                max_error: self.settings.max_error,
+                allocation: self.settings.allocation,
+                height: screen.1,
+                clearance: self.settings.clearance,
+                kept: &no_kept,
+            };
+            // The frame's offer: the levels the budget buys each tile in view had it held
+            // them all.
+            let plan = plan_frame(&inputs, camera, aspect);
+            for (&(id, _, _), o) in plan.visible.iter().zip(&plan.offered) {
+                if reach.contains(&id) {
+                    let l = levels_for_mask(o.level, levels);
+                    needed
+                        .entry(id)
+                        .and_modify(|n| *n = (*n).min(l))
+                        .or_insert(l);
+                }
+            }
+        }
+        needed
             .iter()
-            .zip(&plan.offered)
-            .all(|(&(id, tile, _), o)| {
-                !reach.contains(&id) || tile.levels >= levels_for_mask(o.level, levels)
-            })
+            .all(|(&id, &n)| resident.get(id).is_some_and(|t| t.levels >= n))
     }
 
     /// The ground height under `position` if its tile is loaded.

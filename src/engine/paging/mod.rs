@@ -205,6 +205,11 @@ pub struct Residency<T> {
 pub const FIRST_ERRORS: usize = 5;
 
 impl<T> Residency<T> {
+    /// The belt the square grows into next: one past the complete square (0 when none is).
+    fn next_belt(&self) -> u32 {
+        self.complete.map_or(0, |d| d + 1)
+    }
+
     fn new(grid: Grid, config: &PagerConfig) -> Self {
         Residency {
             ledger: Ledger::new(grid, config.memory_limit_bytes, config.retry),

@@ -432,10 +432,7 @@ impl<L: LevelLoader> StreamPager<L> {
     ) {
         let link = &self.link;
         // The belt the coarse square grows into, around the current tile.
-        let filling = self
-            .resident
-            .center
-            .map(|c| (c, self.resident.complete.map_or(0, |d| d + 1)));
+        let filling = self.resident.center.map(|c| (c, self.resident.next_belt()));
         let mut unwanted: Vec<(LevelFetch, Reason, f64)> = self
             .strategy
             .flights
@@ -515,7 +512,7 @@ impl<L: LevelLoader> StreamPager<L> {
         self.resident.memory_bound = false;
         if let Some(center) = self.resident.center {
             let grid = self.resident.ledger.grid();
-            let next = self.resident.complete.map_or(0, |d| d + 1);
+            let next = self.resident.next_belt();
             if next <= grid.max_ring(center) {
                 let square: usize = (0..=next).map(|d| grid.belt(center, d).len()).sum();
                 let coarse = square.saturating_mul(self.loader.predicted_bytes(1));
@@ -695,7 +692,7 @@ impl<L: LevelLoader> StreamPager<L> {
     fn room_steps(&self, request: &LevelRequest, wanted: &HashMap<TileId, Want>) -> Vec<RoomStep> {
         let r = &self.resident;
         let ring = |id: TileId| r.center.map_or(0, |c| Grid::ring(c, id));
-        let square = r.complete.map_or(0, |d| d + 1);
+        let square = r.next_belt();
         let predicted = |levels| self.loader.predicted_bytes(levels);
         let mut steps = Vec::new();
         for (id, tile) in r.tiles() {

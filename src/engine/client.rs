@@ -358,6 +358,11 @@ impl Engine {
             .all(|(&id, &n)| resident.get(id).is_some_and(|t| t.levels >= n))
     }
 
+    /// The archive's lowest height in the engine's frame: the ground assumed where none is held.
+    fn lowest_height(&self) -> f64 {
+        self.terrain.heights.0 + self.terrain.origin.y
+    }
+
     /// The ground height under `position` if its tile is loaded.
     pub fn ground(&self, position: DVec3) -> Option<f64> {
         let (px, py) = self.terrain.tile_position(position);
@@ -376,7 +381,7 @@ impl Engine {
         let (eye, target) = (eye + self.terrain.origin, target + self.terrain.origin);
         let ground = self.ground(eye);
         let lift = if above_ground {
-            ground.unwrap_or(self.terrain.heights.0 + self.terrain.origin.y)
+            ground.unwrap_or(self.lowest_height())
         } else {
             0.0
         };
@@ -515,8 +520,7 @@ impl Engine {
         };
         let floor = ground + self.settings.clearance;
         if camera.position.y < floor {
-            let lowest = self.terrain.heights.0 + self.terrain.origin.y;
-            camera.position.y = (camera.position.y + ground - lowest).max(floor);
+            camera.position.y = (camera.position.y + ground - self.lowest_height()).max(floor);
         }
     }
 
@@ -641,9 +645,7 @@ impl Engine {
     /// below the eye's height, or the ground under the lower screen edge would be clipped away
     /// (down to a millimetre: an eye a centimetre above the ground still sees the ground).
     fn fit_depth_range(&self, camera: &mut Camera) {
-        let ground = self
-            .ground(camera.position)
-            .unwrap_or(self.terrain.heights.0 + self.terrain.origin.y);
+        let ground = self.ground(camera.position).unwrap_or(self.lowest_height());
         let height = (camera.position.y - ground).max(0.0);
         camera.near = (0.25 * height).clamp(1e-3, 1000.0);
         let far = self

@@ -3,12 +3,16 @@
 //! frame time and a checksum of the pixels: a small, steady driver for instruction counts, where
 //! the shared machine makes wall-clock medians noisy, and a quick check that a change kept every
 //! pixel. With `--peers` it draws the same triangles in the peers' state (RGBA8888, 32-bit depth,
-//! bilinear without mipmaps, exact perspective), the state the peer benchmark compares.
+//! bilinear without mipmaps, exact perspective), the state the peer benchmark compares. With
+//! `--grid N` the terrain is an N x N grid of quads instead of 72 x 72: at 34 it has 2,178
+//! triangles over the same pixels, the few larger triangles of the engine's own PocketPC frames
+//! (about 2,600), which take the general row step rather than the small-triangle loop.
 //!
 //! ```sh
 //! cargo build --release -p stripmask-raster --example pocketpc_frames
 //! valgrind --tool=callgrind target/release/examples/pocketpc_frames 10
 //! valgrind --tool=callgrind target/release/examples/pocketpc_frames 10 --peers
+//! valgrind --tool=callgrind target/release/examples/pocketpc_frames 10 --grid 34
 //! target/release/examples/pocketpc_frames 2000
 //! ```
 
@@ -18,17 +22,25 @@ mod scene;
 use stripmask_raster::*;
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let peers = args.iter().any(|a| a == "--peers");
-    let frames: u32 = match args.iter().find(|a| *a != "--peers").map(|a| a.parse()) {
-        None => 10,
-        Some(Ok(n)) => n,
-        Some(Err(e)) => {
-            eprintln!("pocketpc_frames: the frame count must be a number: {e}");
-            std::process::exit(2);
+    let mut args = std::env::args().skip(1);
+    let (mut peers, mut grid, mut frames) = (false, 72, 10);
+    while let Some(a) = args.next() {
+        let number = |what: &str, v: Option<String>| -> u32 {
+            match v.as_deref().map(str::parse) {
+                Some(Ok(n)) => n,
+                _ => {
+                    eprintln!("pocketpc_frames: {what} must be a number (got {v:?})");
+                    std::process::exit(2);
+                }
+            }
+        };
+        match a.as_str() {
+            "--peers" => peers = true,
+            "--grid" => grid = number("the grid size after --grid", args.next()).max(1),
+            _ => frames = number("the frame count", Some(a)),
         }
-    };
-    let s = scene::terrain(72, 320, 240);
+    }
+    let s = scene::terrain(grid, 320, 240);
     let (color, depth, state) = if peers {
         let sampler = Sampler {
             wrap: Wrap::Repeat,

@@ -320,6 +320,34 @@ const NARROW_GRADIENT: u64 = 1 << 36;
 /// base below 2^61, every value and sum of the small loop and the row step stays below 2^62.
 const SMALL_NARROW_GRADIENT: u64 = 1 << 49;
 
+/// The gradient below which a triangle's planes stay inside i64 on its pixel grid, from how far
+/// its rectangle's pixel centres lie from its origin vertex (`reach`, in sub-pixels, below
+/// `2^b`): at least `NARROW_GRADIENT` (which holds anywhere in the guard band), and `2^(61 - b)`
+/// where that is more. Then `dx * ox + dy * oy + 128` in `on_grid` stays below `2^62`, the base
+/// moves by less than 2^54, and inside the rectangle (`256 * col` and `256 * row` at most twice
+/// the reach) `dx * col + dy * row` stays below 2^55: with the base below 2^61, every value and
+/// sum of the row step stays below 2^62, as for a small triangle (`SMALL_NARROW_GRADIENT`). A
+/// triangle of a few dozen pixels thus gets narrow texture planes under exact perspective, whose
+/// gradients pass `NARROW_GRADIENT`, and its rows start in i64 instead of 128-bit products.
+///
+/// Out of line: only triangles beyond 16x16 pixels ask, and inlined it made the set-up loop of
+/// the small ones 0.05M instructions per PocketPC frame dearer (`pocketpc_frames`, callgrind).
+#[inline(never)]
+fn reach_gradient(c: &Coverage) -> u64 {
+    let origin = c.origin();
+    let (first, last) = (c.corner(), [c.rect.x1 as i64 - 1, c.rect.y1 as i64 - 1]);
+    let centre = |p: i64| p * SUBPIXEL_ONE + SUBPIXEL_HALF;
+    let reach = (0..2)
+        .map(|k| {
+            let (a, b) = (centre(first[k]) - origin[k], centre(last[k]) - origin[k]);
+            a.unsigned_abs().max(b.unsigned_abs())
+        })
+        .max()
+        .unwrap_or(0);
+    let bits = 64 - reach.leading_zeros();
+    NARROW_GRADIENT.max(1 << (61 - bits.min(61)))
+}
+
 impl AttrPlane {
     /// True when the plane's gradients are below `limit` (`NARROW_GRADIENT`, or
     /// `SMALL_NARROW_GRADIENT` for a small triangle's).
@@ -576,7 +604,7 @@ impl FixedTriangle {
         let limit = if coverage.is_small() {
             SMALL_NARROW_GRADIENT
         } else {
-            NARROW_GRADIENT
+            reach_gradient(&coverage)
         };
         t.narrow = mine.iter().all(|p| p.narrow_below(limit));
         if t.narrow {
@@ -966,6 +994,107 @@ mod tests {
                 y1: (clip.1 + clip.3).min(MAX_DIMENSION as i32),
             };
             check_small_plane(v, AttrPlane { base, dx, dy }, clip);
+        }
+    }
+
+    /// Checks a triangle's plane with gradients at its reach bound (`reach_gradient`) on its
+    /// pixel grid against the 128-bit evaluation at the corners of its rectangle, where an affine
+    /// function is extreme (with overflow checks on, an overflow on the way panics). Returns false
+    /// when `v` owns no row inside `clip` or is small (`SMALL_NARROW_GRADIENT` covers those).
+    fn check_reach_plane(v: [[i64; 2]; 3], base: i64, signs: [i64; 2], clip: PixelRect) -> bool {
+        let d = |i: usize| [v[i][0] - v[0][0], v[i][1] - v[0][1]];
+        let area2 = d(1)[0] * d(2)[1] - d(2)[0] * d(1)[1];
+        let v = if area2 < 0 { [v[0], v[2], v[1]] } else { v };
+        let Some(cov) = Coverage::new(v, clip).filter(|c| !c.is_small() && area2 != 0) else {
+            return false;
+        };
+        let g = reach_gradient(&cov) as i64 - 1;
+        let plane = AttrPlane {
+            base,
+            dx: signs[0] * g,
+            dy: signs[1] * g,
+        };
+        assert!(plane.narrow_below(reach_gradient(&cov)));
+        let (origin, corner) = (v[0], cov.corner());
+        let on_grid = plane.on_grid(origin, corner);
+        let r = cov.rect;
+        for y in [r.y0 as i64, r.y1 as i64 - 1] {
+            for x in [r.x0 as i64, r.x1 as i64 - 1] {
+                let got = on_grid.at_pixel(x - corner[0], y - corner[1]);
+                let wide = at_in_128_bits(&plane, origin, x, y);
+                assert!(wide.unsigned_abs() < 1 << 62, "{v:?} {plane:?} ({x}, {y})");
+                assert_eq!(got as i128, wide, "{v:?} {plane:?} ({x}, {y})");
+            }
+        }
+        true
+    }
+
+    #[test]
+    fn planes_at_their_reach_bound_equal_128_bit_products_at_the_extremes() {
+        let screen = PixelRect {
+            x0: 0,
+            y0: 0,
+            x1: MAX_DIMENSION as i32,
+            y1: MAX_DIMENSION as i32,
+        };
+        let cut = PixelRect {
+            x0: 100,
+            y0: 100,
+            x1: 140,
+            y1: 120,
+        };
+        let band = GUARD_BAND_PX * SUBPIXEL_ONE;
+        let (far, edge) = (MAX_DIMENSION as i64 * SUBPIXEL_ONE + band - 1, -band);
+        let (mut checked, mut at) = (0, 0);
+        // From a 17-pixel triangle to one across the whole guard band, with the origin vertex at
+        // either end, on screen and cut by a scissor.
+        for size in [
+            17 * SUBPIXEL_ONE,
+            40 * SUBPIXEL_ONE,
+            1 << 16,
+            1 << 20,
+            far - edge,
+        ] {
+            for (lo, hi) in [(0, size), (edge, edge + size), (far - size, far)] {
+                let shapes = [
+                    [[lo, lo], [hi, lo], [lo, hi]],
+                    [[hi, hi], [lo, hi], [hi, lo]],
+                    [[lo, lo], [hi, hi], [lo + 1, hi]],
+                ];
+                for shape in shapes {
+                    for clip in [screen, cut] {
+                        for signs in [[1, 1], [1, -1], [-1, 1], [-1, -1]] {
+                            for base in [-(1i64 << 61) + 1, 0, (1 << 61) - 1] {
+                                at += 1;
+                                checked += check_reach_plane(shape, base, signs, clip) as u32;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(checked * 4 > at, "{checked} of {at}");
+    }
+
+    proptest::proptest! {
+        /// A triangle of any size anywhere in the guard band, with gradients at its reach bound:
+        /// its planes on its pixel grid give the 128-bit values at the corners of its rectangle.
+        #[test]
+        fn planes_at_their_reach_bound_equal_128_bit_products(
+            v in proptest::collection::vec(-(1i64 << 23)..3 << 22, 6),
+            base in -(1i64 << 61) + 1..1 << 61,
+            signs in (proptest::bool::ANY, proptest::bool::ANY),
+            clip in (0i32..8192, 0i32..8192, 1i32..8192, 1i32..8192),
+        ) {
+            let v = [0, 1, 2].map(|i| [v[2 * i], v[2 * i + 1]]);
+            let sign = |b: bool| if b { 1 } else { -1 };
+            let clip = PixelRect {
+                x0: clip.0,
+                y0: clip.1,
+                x1: (clip.0 + clip.2).min(MAX_DIMENSION as i32),
+                y1: (clip.1 + clip.3).min(MAX_DIMENSION as i32),
+            };
+            check_reach_plane(v, base, [sign(signs.0), sign(signs.1)], clip);
         }
     }
 }

@@ -191,7 +191,11 @@ pub(crate) fn run_fragments<
             for j in 0..3 {
                 let p = &planes[tex_at + j];
                 dacc[j] = p.dx;
-                acc[j] = advance(at(p, x0), dacc[j].saturating_mul(chunk), k0);
+                // A run that starts in the tile (most do) starts at its first chunk.
+                acc[j] = match k0 {
+                    0 => at(p, x0),
+                    _ => advance(at(p, x0), dacc[j].saturating_mul(chunk), k0),
+                };
             }
             if chunk == 1 {
                 // Exact: one division per pixel, as stepping chunks of one pixel gives.

@@ -898,35 +898,59 @@ mod tests {
     /// pixel of its rectangle (with overflow checks on, an overflow on the way panics). Returns
     /// false when `v` is not a small triangle owning a row inside `clip`.
     fn check_small_plane(v: [[i64; 2]; 3], plane: AttrPlane, clip: PixelRect) -> bool {
-        let d = |i: usize| [v[i][0] - v[0][0], v[i][1] - v[0][1]];
-        let area2 = d(1)[0] * d(2)[1] - d(2)[0] * d(1)[1];
-        let v = if area2 < 0 { [v[0], v[2], v[1]] } else { v };
-        let Some(cov) = Coverage::new(v, clip).filter(|c| c.is_small() && area2 != 0) else {
+        let Some((origin, cov)) = covered(v, clip).filter(|(_, c)| c.is_small()) else {
             return false;
         };
         assert!(plane.narrow_below(SMALL_NARROW_GRADIENT));
-        let (origin, corner) = (v[0], cov.corner());
-        let on_grid = plane.on_grid(origin, corner);
         let r = cov.rect;
-        for y in r.y0 as i64..r.y1 as i64 {
-            for x in r.x0 as i64..r.x1 as i64 {
-                let got = on_grid.at_pixel(x - corner[0], y - corner[1]);
-                let wide = at_in_128_bits(&plane, origin, x, y);
-                assert!(wide.unsigned_abs() < 1 << 62, "{v:?} {plane:?} ({x}, {y})");
-                assert_eq!(got as i128, wide, "{v:?} {plane:?} ({x}, {y})");
-            }
-        }
+        let pixels = (r.y0 as i64..r.y1 as i64)
+            .flat_map(|y| (r.x0 as i64..r.x1 as i64).map(move |x| (x, y)));
+        assert_on_grid(plane, origin, &cov, pixels);
         true
+    }
+
+    /// The largest screen: triangles on it are cut by no scissor.
+    const SCREEN: PixelRect = PixelRect {
+        x0: 0,
+        y0: 0,
+        x1: MAX_DIMENSION as i32,
+        y1: MAX_DIMENSION as i32,
+    };
+
+    /// The origin vertex of `v` in positive orientation and its coverage inside `clip`, when it
+    /// has an area and owns a row there.
+    fn covered(v: [[i64; 2]; 3], clip: PixelRect) -> Option<([i64; 2], Coverage)> {
+        let d = |i: usize| [v[i][0] - v[0][0], v[i][1] - v[0][1]];
+        let area2 = d(1)[0] * d(2)[1] - d(2)[0] * d(1)[1];
+        let v = if area2 < 0 { [v[0], v[2], v[1]] } else { v };
+        Coverage::new(v, clip)
+            .filter(|_| area2 != 0)
+            .map(|c| (v[0], c))
+    }
+
+    /// Asserts that `plane` (based at `origin`) moved onto the pixel grid of `cov` gives the
+    /// 128-bit value at each of `pixels`, and that the value stays below 2^62.
+    fn assert_on_grid(
+        plane: AttrPlane,
+        origin: [i64; 2],
+        cov: &Coverage,
+        pixels: impl IntoIterator<Item = (i64, i64)>,
+    ) {
+        let corner = cov.corner();
+        let on_grid = plane.on_grid(origin, corner);
+        for (x, y) in pixels {
+            let got = on_grid.at_pixel(x - corner[0], y - corner[1]);
+            let wide = at_in_128_bits(&plane, origin, x, y);
+            assert!(
+                wide.unsigned_abs() < 1 << 62,
+                "{origin:?} {plane:?} ({x}, {y})"
+            );
+            assert_eq!(got as i128, wide, "{origin:?} {plane:?} ({x}, {y})");
+        }
     }
 
     #[test]
     fn small_planes_on_the_pixel_grid_equal_128_bit_products_at_the_extremes() {
-        let screen = PixelRect {
-            x0: 0,
-            y0: 0,
-            x1: MAX_DIMENSION as i32,
-            y1: MAX_DIMENSION as i32,
-        };
         let cut = PixelRect {
             x0: 7,
             y0: 7,
@@ -951,7 +975,7 @@ mod tests {
                 [[lo, lo], [hi, hi], [lo + 1, hi]],
             ];
             for shape in shapes {
-                for clip in [screen, cut] {
+                for clip in [SCREEN, cut] {
                     for dx in gradients {
                         for dy in gradients {
                             for base in bases {
@@ -1002,10 +1026,7 @@ mod tests {
     /// function is extreme (with overflow checks on, an overflow on the way panics). Returns false
     /// when `v` owns no row inside `clip` or is small (`SMALL_NARROW_GRADIENT` covers those).
     fn check_reach_plane(v: [[i64; 2]; 3], base: i64, signs: [i64; 2], clip: PixelRect) -> bool {
-        let d = |i: usize| [v[i][0] - v[0][0], v[i][1] - v[0][1]];
-        let area2 = d(1)[0] * d(2)[1] - d(2)[0] * d(1)[1];
-        let v = if area2 < 0 { [v[0], v[2], v[1]] } else { v };
-        let Some(cov) = Coverage::new(v, clip).filter(|c| !c.is_small() && area2 != 0) else {
+        let Some((origin, cov)) = covered(v, clip).filter(|(_, c)| !c.is_small()) else {
             return false;
         };
         let g = reach_gradient(&cov) as i64 - 1;
@@ -1015,28 +1036,17 @@ mod tests {
             dy: signs[1] * g,
         };
         assert!(plane.narrow_below(reach_gradient(&cov)));
-        let (origin, corner) = (v[0], cov.corner());
-        let on_grid = plane.on_grid(origin, corner);
         let r = cov.rect;
-        for y in [r.y0 as i64, r.y1 as i64 - 1] {
-            for x in [r.x0 as i64, r.x1 as i64 - 1] {
-                let got = on_grid.at_pixel(x - corner[0], y - corner[1]);
-                let wide = at_in_128_bits(&plane, origin, x, y);
-                assert!(wide.unsigned_abs() < 1 << 62, "{v:?} {plane:?} ({x}, {y})");
-                assert_eq!(got as i128, wide, "{v:?} {plane:?} ({x}, {y})");
-            }
-        }
+        let (xs, ys) = ([r.x0, r.x1 - 1], [r.y0, r.y1 - 1]);
+        let corners = ys
+            .into_iter()
+            .flat_map(|y| xs.map(|x| (x as i64, y as i64)));
+        assert_on_grid(plane, origin, &cov, corners);
         true
     }
 
     #[test]
     fn planes_at_their_reach_bound_equal_128_bit_products_at_the_extremes() {
-        let screen = PixelRect {
-            x0: 0,
-            y0: 0,
-            x1: MAX_DIMENSION as i32,
-            y1: MAX_DIMENSION as i32,
-        };
         let cut = PixelRect {
             x0: 100,
             y0: 100,
@@ -1062,7 +1072,7 @@ mod tests {
                     [[lo, lo], [hi, hi], [lo + 1, hi]],
                 ];
                 for shape in shapes {
-                    for clip in [screen, cut] {
+                    for clip in [SCREEN, cut] {
                         for signs in [[1, 1], [1, -1], [-1, 1], [-1, -1]] {
                             for base in [-(1i64 << 61) + 1, 0, (1 << 61) - 1] {
                                 at += 1;

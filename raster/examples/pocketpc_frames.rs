@@ -22,18 +22,18 @@ mod scene;
 use stripmask_raster::*;
 
 fn main() {
+    let number = |what: &str, v: Option<String>| -> u32 {
+        match v.as_deref().map(str::parse) {
+            Some(Ok(n)) => n,
+            _ => {
+                eprintln!("pocketpc_frames: {what} must be a number (got {v:?})");
+                std::process::exit(2);
+            }
+        }
+    };
     let mut args = std::env::args().skip(1);
     let (mut peers, mut grid, mut frames) = (false, 72, 10);
     while let Some(a) = args.next() {
-        let number = |what: &str, v: Option<String>| -> u32 {
-            match v.as_deref().map(str::parse) {
-                Some(Ok(n)) => n,
-                _ => {
-                    eprintln!("pocketpc_frames: {what} must be a number (got {v:?})");
-                    std::process::exit(2);
-                }
-            }
-        };
         match a.as_str() {
             "--peers" => peers = true,
             "--grid" => grid = number("the grid size after --grid", args.next()).max(1),

@@ -10,6 +10,7 @@ use crate::fixed_point::TEXCOORD_LIMIT;
 use crate::lanes::{LANES, Rgb8s, i32x8, narrow_u32, u16x8, u32x8};
 use crate::pixel::rgb565_to_rgb;
 use crate::texture::{MipLevel, Texels, Texture, TextureFormat, Wrap};
+use wide::{CmpEq, CmpLt};
 
 /// Keeps a 16.16 coordinate within `TEXCOORD_LIMIT`, so `u * width` cannot overflow whatever a
 /// degenerate triangle interpolates.
@@ -27,6 +28,9 @@ pub(crate) trait Texel: Copy + Send + Sync + 'static {
 
     /// Eight texels as lanes.
     fn lanes(t: [Self; LANES]) -> Self::Lanes;
+
+    /// Eight pairs of neighbouring texels as the lanes of the first and of the second of each.
+    fn pair_lanes(t: [[Self; 2]; LANES]) -> (Self::Lanes, Self::Lanes);
 
     /// The colours of eight texels, as `rgb`.
     fn rgb_lanes(t: Self::Lanes) -> Rgb8s;
@@ -80,6 +84,13 @@ impl Texel for u16 {
         u16x8::new(t)
     }
 
+    /// Each pair as one 32-bit lane (one load per pair), split into its halves in lanes.
+    #[inline(always)]
+    fn pair_lanes(t: [[u16; 2]; LANES]) -> (u16x8, u16x8) {
+        let w = u32x8::new(t.map(|[a, b]| a as u32 | (b as u32) << 16));
+        (narrow_u32(w & u32x8::splat(0xFFFF)), narrow_u32(w >> 16))
+    }
+
     #[inline(always)]
     fn rgb_lanes(t: u16x8) -> Rgb8s {
         let (m5, m6) = (u16x8::splat(31), u16x8::splat(63));
@@ -128,6 +139,14 @@ impl Texel for [u8; 4] {
     #[inline(always)]
     fn lanes(t: [[u8; 4]; LANES]) -> u32x8 {
         u32x8::new(t.map(u32::from_le_bytes))
+    }
+
+    #[inline(always)]
+    fn pair_lanes(t: [[[u8; 4]; 2]; LANES]) -> (u32x8, u32x8) {
+        (
+            u32x8::new(t.map(|[a, _]| u32::from_le_bytes(a))),
+            u32x8::new(t.map(|[_, b]| u32::from_le_bytes(b))),
+        )
     }
 
     #[inline(always)]
@@ -291,6 +310,31 @@ impl<'a, T: Texel> LevelView<'a, T> {
         pair_lanes(x, self.width as i32, self.wrap)
     }
 
+    /// For bilinear columns `x` and `x + 1` (`x` in `-1..width`) with weights `fx` (0..=255)
+    /// towards the second: a column `s` whose texel and the next (one read each row,
+    /// `gather_pairs`) blend with weights `fx'` to what the wrapped pair blends to with `fx`.
+    /// Under `Clamp` a pair beyond an edge is the edge texel twice, which blends to itself
+    /// whatever the weight: `s` is the pair inside the level that holds it, and `fx'` picks it
+    /// (0 for the first, 256 for the second). Under `Repeat` the pair at the last column wraps
+    /// to the first: `None` when a lane's does, as for a level one texel wide.
+    #[inline(always)]
+    pub fn neighbour_columns_lanes(&self, x: i32x8, fx: i32x8) -> Option<(i32x8, i32x8)> {
+        let last = i32x8::splat(self.width as i32 - 1);
+        match self.wrap {
+            _ if self.width == 1 => None,
+            Wrap::Repeat => {
+                let s = x & last;
+                (!s.cmp_eq(last).any()).then_some((s, fx))
+            }
+            Wrap::Clamp => {
+                let (below, beyond) = (x.cmp_lt(i32x8::ZERO), x.cmp_eq(last));
+                let s = x.max(i32x8::ZERO).min(last - i32x8::splat(1));
+                let fx = beyond.blend(i32x8::splat(256), below.blend(i32x8::ZERO, fx));
+                Some((s, fx))
+            }
+        }
+    }
+
     /// Rows `y` and `y + 1` wrapped into the level, as `row_pair`, for `y` in `-1..height`.
     #[inline(always)]
     pub fn row_pair_lanes(&self, y: i32x8) -> (i32x8, i32x8) {
@@ -313,6 +357,21 @@ impl<'a, T: Texel> LevelView<'a, T> {
             // `0..height`, and `new` checked that the view holds `width * height` texels with
             // `width == 1 << width_shift`.
             unsafe { *self.texels.get_unchecked(i as usize) }
+        }))
+    }
+
+    /// The texels at eight indices and the texels after them: `(gather(index), gather(index +
+    /// 1))`, each pair read at once. Each index and the one after it must lie in
+    /// `0..width * height`.
+    #[inline(always)]
+    pub fn gather_pairs(&self, index: i32x8) -> (T::Lanes, T::Lanes) {
+        T::pair_lanes(index.to_array().map(|i| {
+            debug_assert!((0..self.texels.len() as i64 - 1).contains(&(i as i64)));
+            // SAFETY: every index comes from `index_lanes` of a row in `0..height` (`pair_lanes`)
+            // and a column in `0..width - 1` (`neighbour_columns_lanes`), so it and the next
+            // lie in one row of the `width * height` texels `new` checked; `[T; 2]` has `T`'s
+            // alignment, so reading the two at once needs none beyond the slice's.
+            unsafe { self.texels.as_ptr().add(i as usize).cast::<[T; 2]>().read() }
         }))
     }
 }

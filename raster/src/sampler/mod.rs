@@ -144,8 +144,8 @@ impl Texel for [u8; 4] {
     #[inline(always)]
     fn pair_lanes(t: [[[u8; 4]; 2]; LANES]) -> (u32x8, u32x8) {
         (
-            u32x8::new(t.map(|[a, _]| u32::from_le_bytes(a))),
-            u32x8::new(t.map(|[_, b]| u32::from_le_bytes(b))),
+            Self::lanes(t.map(|[a, _]| a)),
+            Self::lanes(t.map(|[_, b]| b)),
         )
     }
 

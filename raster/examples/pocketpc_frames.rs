@@ -42,17 +42,7 @@ fn main() {
     }
     let s = scene::terrain(grid, 320, 240);
     let (color, depth, state) = if peers {
-        let sampler = Sampler {
-            wrap: Wrap::Repeat,
-            ..Sampler::BILINEAR
-        };
-        let state = RenderState {
-            shading: Shading::Gouraud,
-            texture: Some(TextureBinding::new(&s.texture, sampler)),
-            perspective: Perspective::Exact,
-            ..RenderState::default()
-        };
-        (ColorFormat::Rgba8888, DepthFormat::D32, state)
+        (ColorFormat::Rgba8888, DepthFormat::D32, s.peers_state())
     } else {
         (ColorFormat::Rgb565, DepthFormat::D16, s.state())
     };

@@ -38,7 +38,7 @@ fn main() {
                 Rasterizer::with_threads(2).with_split_from(0),
             ];
             let mut stats = DrawStats::default();
-            let (times, ratio) = turns::take_turns(frames, |k| {
+            let turns = turns::take_turns::<2>(frames, |k| {
                 fbs[k].clear([140, 180, 230]);
                 stats = rs[k]
                     .draw(&mut fbs[k], &s.mesh(), &s.transform, &state)
@@ -46,11 +46,12 @@ fn main() {
             });
             assert!(fbs[0] == fbs[1], "one and two threads give the same bytes");
             println!(
-                "  {:>6} triangles, {:>7} pixels: 1 thread {:.3} ms, 2 threads {:.3} ms, median ratio {ratio:.2}",
+                "  {:>6} triangles, {:>7} pixels: 1 thread {:.3} ms, 2 threads {:.3} ms, median ratio {:.2}",
                 stats.triangles,
                 stats.fragments,
-                times[0] * 1e3,
-                times[1] * 1e3,
+                turns.median(0) * 1e3,
+                turns.median(1) * 1e3,
+                turns.ratio(0, 1),
             );
         }
     }

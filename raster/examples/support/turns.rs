@@ -1,6 +1,5 @@
-//! What the thread examples share: their frame-count argument, and a one-thread and a
-//! two-thread rasterizer drawing the same frame in turns, so that a shared machine's load falls
-//! on both alike.
+//! What the thread examples share: their frame-count argument, and rasterizers drawing the same
+//! frame in turns, so that a shared machine's load falls on all of them alike.
 
 use std::time::Instant;
 
@@ -23,24 +22,37 @@ pub fn median(v: &mut [f64]) -> f64 {
     v[v.len() / 2]
 }
 
-/// Times `frames` frames of `draw(0)` and `draw(1)` taking turns to go first, after one
-/// uncounted frame of each (it sizes the scratch buffers). Returns both median frame times in
-/// seconds and the median of the per-frame ratios (`draw(0)`'s time over `draw(1)`'s).
-pub fn take_turns(frames: usize, mut draw: impl FnMut(usize)) -> ([f64; 2], f64) {
-    let (mut times, mut ratios) = ([Vec::new(), Vec::new()], Vec::new());
+/// The frame times of contenders that took turns: one row of times in seconds per frame.
+pub struct Turns<const N: usize> {
+    frames: Vec<[f64; N]>,
+}
+
+impl<const N: usize> Turns<N> {
+    /// The median frame time of contender `k`, in seconds.
+    pub fn median(&self, k: usize) -> f64 {
+        median(&mut self.frames.iter().map(|t| t[k]).collect::<Vec<_>>())
+    }
+
+    /// The median of the per-frame ratios of contender `a`'s time to contender `b`'s.
+    pub fn ratio(&self, a: usize, b: usize) -> f64 {
+        median(&mut self.frames.iter().map(|t| t[a] / t[b]).collect::<Vec<_>>())
+    }
+}
+
+/// Times `frames` frames of `draw(0)` to `draw(N - 1)`, each frame started by the next in turn,
+/// after one uncounted frame of each (it sizes the scratch buffers).
+pub fn take_turns<const N: usize>(frames: usize, mut draw: impl FnMut(usize)) -> Turns<N> {
+    let mut times = Vec::with_capacity(frames);
     for f in 0..frames + 1 {
-        let mut t = [0.0; 2];
-        for k in [f % 2, 1 - f % 2] {
+        let mut t = [0.0; N];
+        for k in (0..N).map(|i| (f + i) % N) {
             let start = Instant::now();
             draw(k);
             t[k] = start.elapsed().as_secs_f64();
         }
         if f > 0 {
-            times[0].push(t[0]);
-            times[1].push(t[1]);
-            ratios.push(t[0] / t[1]);
+            times.push(t);
         }
     }
-    let [one, two] = &mut times;
-    ([median(one), median(two)], median(&mut ratios))
+    Turns { frames: times }
 }

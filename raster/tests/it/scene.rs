@@ -39,6 +39,40 @@ impl Scene {
             ..RenderState::default()
         }
     }
+
+    /// The state of the peer benchmark (`../shared/anchorbench`), drawn into RGBA8888 colour
+    /// and 32-bit depth: bilinear without mipmaps, repeating, exact perspective, no culling.
+    pub fn peers_state(&self) -> RenderState<'_> {
+        let sampler = Sampler {
+            wrap: Wrap::Repeat,
+            ..Sampler::BILINEAR
+        };
+        RenderState {
+            shading: Shading::Gouraud,
+            texture: Some(TextureBinding::new(&self.texture, sampler)),
+            perspective: Perspective::Exact,
+            ..RenderState::default()
+        }
+    }
+
+    /// The peer benchmark's state and the terrain default, each named and with the colour and
+    /// depth formats it is drawn into: what the thread examples measure.
+    pub fn both_states(&self) -> [(&'static str, ColorFormat, DepthFormat, RenderState<'_>); 2] {
+        [
+            (
+                "peers' state",
+                ColorFormat::Rgba8888,
+                DepthFormat::D32,
+                self.peers_state(),
+            ),
+            (
+                "terrain default",
+                ColorFormat::Rgb565,
+                DepthFormat::D16,
+                self.state(),
+            ),
+        ]
+    }
 }
 
 fn height(x: f64, y: f64) -> f64 {

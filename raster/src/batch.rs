@@ -32,10 +32,13 @@ use crate::vertex::{Mesh, Vertex};
 
 /// Pending triangles that trigger a flush after a draw.
 const FLUSH_TRIANGLES: usize = 1 << 16;
-/// Triangles set up and drawn per pass of a flush: enough to keep every thread busy on many
-/// tiles, few enough that the set-up data of two passes (the one drawn and the next, set up
-/// beside it) stays in cache.
-pub(crate) const PASS_TRIANGLES: usize = 16 * 1024;
+/// Triangles set up and drawn per pass of a flush. A pass ends when its last tile is drawn, and
+/// on several threads its last tiles leave the other threads waiting, once per pass: on scene
+/// B's big draw, passes of 64k instead of 16k triangles made two threads 8-18% faster and one
+/// thread no slower (`examples/pass_size.rs`, docs/raster.md). What they cost is memory: the
+/// set-up data of two passes (the one drawn and the next, set up beside it), some 200 bytes a
+/// triangle, 13 MB a pass at this size.
+pub(crate) const PASS_TRIANGLES: usize = 64 * 1024;
 /// Triangles per unit of parallel set-up work.
 const SETUP_CHUNK: usize = 1024;
 /// Vertices per unit of parallel vertex work.
@@ -550,9 +553,10 @@ mod tests {
                 Framebuffer::new(200, 150, ColorFormat::Rgba8888, DepthFormat::D32).unwrap();
             fb.clear([10, 20, 30]);
             // Split from the first triangle: a flush this small is otherwise drawn on one thread.
-            let mut r = Rasterizer::new().with_split_from(0);
+            let mut r = Rasterizer::new()
+                .with_split_from(0)
+                .with_pass_triangles(pass);
             r.tile_size = tile;
-            r.pass_triangles = pass;
             let draws: Vec<Vec<u32>> = strips
                 .chunks(per_draw)
                 .map(|group| group.join(&u32::MAX))

@@ -49,7 +49,7 @@ pub struct Rasterizer {
     split_triangles: usize,
     /// Side of the screen tiles, `TILE_SIZE` (tests try others: the picture must not change).
     pub(crate) tile_size: u32,
-    /// Triangles per pass of a flush, `PASS_TRIANGLES` (tests try others, as for tiles).
+    /// Triangles per pass of a flush, `PASS_TRIANGLES` unless set (`with_pass_triangles`).
     pub(crate) pass_triangles: usize,
 }
 
@@ -114,6 +114,18 @@ impl Rasterizer {
     pub fn with_split_from(self, triangles: usize) -> Self {
         Self {
             split_triangles: triangles,
+            ..self
+        }
+    }
+
+    /// Sets up and draws a flush in passes of `triangles` triangles (at least 1) instead of the
+    /// default 65,536. A pass ends when its last tile is drawn, so on several threads bigger
+    /// passes wait less (`examples/pass_size.rs`); the rasterizer keeps the set-up data of two
+    /// passes, some 200 bytes a triangle, so a device short of memory may want smaller ones. The
+    /// picture does not depend on it.
+    pub fn with_pass_triangles(self, triangles: usize) -> Self {
+        Self {
+            pass_triangles: triangles.max(1),
             ..self
         }
     }

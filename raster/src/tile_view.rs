@@ -48,6 +48,8 @@ impl<T: Copy> TileView<'_, T> {
     pub fn load(&mut self, mut pixels: Vec<T>) -> TileBuf<T> {
         let r = self.rect;
         pixels.clear();
+        // At once: a thread's first tile of a parallel pass comes with an empty allocation.
+        pixels.reserve(((r.x1 - r.x0) * (r.y1 - r.y0)) as usize);
         for y in r.y0 as i64..r.y1 as i64 {
             pixels.extend_from_slice(self.row(y, r.x0 as i64, r.x1 as i64));
         }

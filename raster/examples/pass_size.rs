@@ -25,11 +25,7 @@ const DEFAULT: usize = 2;
 fn main() {
     let frames = turns::frames_arg("pass_size", 15);
     let s = scene::terrain(470, 1280, 720);
-    println!(
-        "{} triangles at 1280x720, {frames} frames each, {} threads in the pool",
-        scene::Scene::triangles(470),
-        rayon::current_num_threads()
-    );
+    turns::header(scene::Scene::triangles(470), frames);
     for (name, color, depth, state) in s.both_states() {
         // Contender `2 * i + t` draws with passes of `SIZES[i]` on `t + 1` threads.
         let mut rs: Vec<Rasterizer> = (0..2 * SIZES.len())

@@ -24,11 +24,7 @@ use stripmask_raster::*;
 fn main() {
     let frames = turns::frames_arg("thread_scaling", 20);
     let s = scene::terrain(470, 1280, 720);
-    println!(
-        "{} triangles at 1280x720, {frames} frames each, {} threads in the pool",
-        scene::Scene::triangles(470),
-        rayon::current_num_threads()
-    );
+    turns::header(scene::Scene::triangles(470), frames);
     for (name, color, depth, state) in s.both_states() {
         let mut fbs = [0; 4].map(|_| Framebuffer::new(1280, 720, color, depth).expect("valid"));
         let mut rs = [1, 2, 1, 1].map(Rasterizer::with_threads);

@@ -102,6 +102,15 @@ pub(crate) fn raster_tile<P: Shade>(
     tile: &mut TileTarget,
 ) -> u64 {
     let mut fragments = 0;
+    let mut run = |draw: u32, from, to| {
+        let stretch = Stretch {
+            chunks,
+            tile: t,
+            from,
+            to,
+        };
+        fragments += P::run(&draws[draw as usize], &stretch, tile);
+    };
     // The draw of the stretch being gathered, where it starts, and where it has reached.
     let mut current: Option<(u32, (usize, usize))> = None;
     let mut end = (0, 0);
@@ -118,13 +127,7 @@ pub(crate) fn raster_tile<P: Shade>(
                 Some((draw, _)) if draw == d => {}
                 _ => {
                     if let Some((draw, from)) = current {
-                        let stretch = Stretch {
-                            chunks,
-                            tile: t,
-                            from,
-                            to: end,
-                        };
-                        fragments += P::run(&draws[draw as usize], &stretch, tile);
+                        run(draw, from, end);
                     }
                     current = Some((d, (c, k)));
                 }
@@ -134,13 +137,7 @@ pub(crate) fn raster_tile<P: Shade>(
         }
     }
     if let Some((draw, from)) = current {
-        let stretch = Stretch {
-            chunks,
-            tile: t,
-            from,
-            to: end,
-        };
-        fragments += P::run(&draws[draw as usize], &stretch, tile);
+        run(draw, from, end);
     }
     fragments
 }
@@ -164,39 +161,41 @@ macro_rules! with_formats {
     };
 }
 
-/// Walks the spans of `list` inside `rect` and hands each, cut to the tile, to `row`.
+/// Walks the spans of `stretch`'s triangles inside `rect` and hands each, cut to the tile, to
+/// `row` with the planes of the triangle's chunk.
 #[inline(always)]
-fn spans<P: PixelFormat, D: DepthFormat, T: Setup>(
+fn spans<P: PixelFormat, D: DepthFormat, S: Shade>(
     rect: PixelRect,
     color: &mut TileBuf<P::Pixel>,
     mut depth: Option<&mut TileBuf<D::Value>>,
-    tris: &[T],
-    list: &[u32],
-    mut row: impl FnMut(&T, Span<'_, P, D>) -> u64,
+    stretch: &Stretch<S>,
+    mut row: impl FnMut(&S::Triangle, &[S::Plane], Span<'_, P, D>) -> u64,
 ) -> u64 {
     let mut fragments = 0;
     let (tx0, tx1) = (rect.x0 as i64, rect.x1 as i64);
-    for &i in list {
-        let t = &tris[i as usize];
-        t.coverage()
-            .for_each_span(rect.y0 as i64, rect.y1 as i64, |y, x0, x1| {
-                let (xs, xe) = (x0.max(tx0), x1.min(tx1));
-                if xs >= xe {
-                    return;
-                }
-                let span = Span {
-                    y,
-                    x0,
-                    x1,
-                    xs,
-                    color: color.row(y, xs, xe),
-                    depth: match &mut depth {
-                        Some(d) => d.row(y, xs, xe),
-                        None => &mut [],
-                    },
-                };
-                fragments += row(t, span);
-            });
+    for piece in stretch.pieces() {
+        for &i in piece.list {
+            let t = &piece.tris[i as usize];
+            t.coverage()
+                .for_each_span(rect.y0 as i64, rect.y1 as i64, |y, x0, x1| {
+                    let (xs, xe) = (x0.max(tx0), x1.min(tx1));
+                    if xs >= xe {
+                        return;
+                    }
+                    let span = Span {
+                        y,
+                        x0,
+                        x1,
+                        xs,
+                        color: color.row(y, xs, xe),
+                        depth: match &mut depth {
+                            Some(d) => d.row(y, xs, xe),
+                            None => &mut [],
+                        },
+                    };
+                    fragments += row(t, piece.planes, span);
+                });
+        }
     }
     fragments
 }
@@ -251,27 +250,15 @@ fn fixed_flags<P: PixelFormat, D: DepthFormat, F: Filtering>(
         let attrs = draw.attrs;
         #[cfg(test)]
         if fixed::reference::enabled() {
-            return stretch
-                .pieces()
-                .map(|p| {
-                    spans::<P, D, _>(
-                        rect,
-                        color,
-                        depth.as_deref_mut(),
-                        p.tris,
-                        p.list,
-                        |t, span| {
-                            fixed::reference::shade_row::<P, D, F, SHADE, FOG>(
-                                t,
-                                p.planes,
-                                span,
-                                views.get(t.level()),
-                                attrs,
-                            )
-                        },
-                    )
-                })
-                .sum();
+            return spans::<P, D, _>(rect, color, depth, stretch, |t, planes, span| {
+                fixed::reference::shade_row::<P, D, F, SHADE, FOG>(
+                    t,
+                    planes,
+                    span,
+                    views.get(t.level()),
+                    attrs,
+                )
+            });
         }
         let mut frags = Fragments::new();
         let tile = color.rect();
@@ -433,7 +420,7 @@ impl Shade for FloatPipeline {
 fn float_spans<P: PixelFormat, D: DepthFormat>(
     rect: PixelRect,
     color: &mut TileBuf<P::Pixel>,
-    mut depth: Option<&mut TileBuf<D::Value>>,
+    depth: Option<&mut TileBuf<D::Value>>,
     draw: &DrawShade,
     stretch: &Stretch<FloatPipeline>,
 ) -> u64 {
@@ -441,22 +428,10 @@ fn float_spans<P: PixelFormat, D: DepthFormat>(
         .state
         .texture
         .filter(|_| draw.attrs.tex != TexMode::Off);
-    stretch
-        .pieces()
-        .map(|p| {
-            spans::<P, D, _>(
-                rect,
-                color,
-                depth.as_deref_mut(),
-                p.tris,
-                p.list,
-                |t, span| {
-                    let tex = texture.map(|b| (&b.texture.levels()[t.level()], b.sampler));
-                    float::shade_row::<P, D>(t, span, tex, draw.attrs)
-                },
-            )
-        })
-        .sum()
+    spans::<P, D, _>(rect, color, depth, stretch, |t, _, span| {
+        let tex = texture.map(|b| (&b.texture.levels()[t.level()], b.sampler));
+        float::shade_row::<P, D>(t, span, tex, draw.attrs)
+    })
 }
 
 #[cfg(test)]

@@ -1,6 +1,8 @@
 //! What the thread examples share: their frame-count argument, and rasterizers drawing the same
 //! frame in turns, so that a shared machine's load falls on all of them alike.
 
+#![allow(dead_code)] // each including example uses a different part
+
 use std::time::Instant;
 
 /// The frame count, the first argument (`default` without one); exits with status 2 when it is
@@ -14,6 +16,15 @@ pub fn frames_arg(example: &str, default: usize) -> usize {
             std::process::exit(2);
         }
     }
+}
+
+/// Says what a thread example draws: `triangles` at 1280x720 (scene B of the peer benchmark in
+/// size), `frames` frames each, and the threads of the pool.
+pub fn header(triangles: u64, frames: usize) {
+    println!(
+        "{triangles} triangles at 1280x720, {frames} frames each, {} threads in the pool",
+        rayon::current_num_threads()
+    );
 }
 
 /// The median of `v` (reordered).

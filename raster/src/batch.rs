@@ -34,7 +34,7 @@ use crate::vertex::{Mesh, Vertex};
 const FLUSH_TRIANGLES: usize = 1 << 16;
 /// Triangles set up and drawn per pass of a flush. A pass ends when its last tile is drawn, and
 /// on several threads its last tiles leave the other threads waiting, once per pass: on scene
-/// B's big draw, passes of 64k instead of 16k triangles made two threads 8-18% faster and one
+/// B's big draw, passes of 64k instead of 16k triangles make two threads 7-11% faster and one
 /// thread no slower (`examples/pass_size.rs`, docs/raster.md). What they cost is memory: the
 /// set-up data of two passes (the one drawn and the next, set up beside it), some 200 bytes a
 /// triangle, 13 MB a pass at this size.

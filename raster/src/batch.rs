@@ -14,7 +14,7 @@ use std::ops::Range;
 use rayon::prelude::*;
 
 use crate::RasterError;
-use crate::bin::TileGrid;
+use crate::bin::{TileGrid, tile_size};
 use crate::clip::ClipVertex;
 use crate::draw::{DrawStats, Rasterizer, Stages};
 use crate::framebuffer::{ColorBuffer, DepthBuffer, Framebuffer};
@@ -172,7 +172,8 @@ impl<'t> Batch<'_, 't> {
         }
         let r = &mut *self.rasterizer;
         let threads = r.thread_count(r.pending.triangles.len());
-        let (tile, pass) = (r.tile_size, r.pass_triangles);
+        let tile = r.tile_size.unwrap_or_else(|| tile_size(threads));
+        let pass = r.pass_triangles;
         let (rasterized, fragments) = match self.precision {
             Precision::Fixed => flush_with::<FixedPipeline>(
                 &mut r.fixed,
@@ -555,8 +556,8 @@ mod tests {
             // Split from the first triangle: a flush this small is otherwise drawn on one thread.
             let mut r = Rasterizer::new()
                 .with_split_from(0)
-                .with_pass_triangles(pass);
-            r.tile_size = tile;
+                .with_pass_triangles(pass)
+                .with_tile_size(tile);
             let draws: Vec<Vec<u32>> = strips
                 .chunks(per_draw)
                 .map(|group| group.join(&u32::MAX))
@@ -626,6 +627,7 @@ mod tests {
                 // pass before them is drawn, and cut draws anywhere.
                 for (tile, pass, threads, per_draw, batched) in [
                     (64, PASS_TRIANGLES, 1, usize::MAX, true),
+                    (128, PASS_TRIANGLES, 2, 4, true),
                     (8, PASS_TRIANGLES, 1, 1, true),
                     (16, PASS_TRIANGLES, 2, 5, true),
                     (64, PASS_TRIANGLES, 4, 3, true),

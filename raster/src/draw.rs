@@ -8,7 +8,6 @@
 
 use crate::RasterError;
 use crate::batch::{PASS_TRIANGLES, Pending, SPLIT_TRIANGLES};
-use crate::bin::TILE_SIZE;
 use crate::framebuffer::Framebuffer;
 use crate::matrix::Transform;
 use crate::pipeline::Pipeline;
@@ -47,8 +46,8 @@ pub struct Rasterizer {
     threads: Option<usize>,
     /// Fewest triangles a flush needs to be split between threads (`SPLIT_TRIANGLES`).
     split_triangles: usize,
-    /// Side of the screen tiles, `TILE_SIZE` (tests try others: the picture must not change).
-    pub(crate) tile_size: u32,
+    /// Side of the screen tiles, or by the thread count (`bin::tile_size`) when `None`.
+    pub(crate) tile_size: Option<u32>,
     /// Triangles per pass of a flush, `PASS_TRIANGLES` unless set (`with_pass_triangles`).
     pub(crate) pass_triangles: usize,
 }
@@ -78,7 +77,7 @@ impl Default for Rasterizer {
             float: Stages::default(),
             threads: None,
             split_triangles: SPLIT_TRIANGLES,
-            tile_size: TILE_SIZE,
+            tile_size: None,
             pass_triangles: PASS_TRIANGLES,
         }
     }
@@ -126,6 +125,16 @@ impl Rasterizer {
     pub fn with_pass_triangles(self, triangles: usize) -> Self {
         Self {
             pass_triangles: triangles.max(1),
+            ..self
+        }
+    }
+
+    /// Draws in screen tiles of `side` pixels (rounded up to a power of two from 8 to 8,192)
+    /// instead of the default: 64 on several threads, 128 on one (`examples/tile_size.rs`). A
+    /// device with a small data cache may want smaller ones. The picture does not depend on it.
+    pub fn with_tile_size(self, side: u32) -> Self {
+        Self {
+            tile_size: Some(side.clamp(8, 8192).next_power_of_two()),
             ..self
         }
     }

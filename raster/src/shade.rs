@@ -484,7 +484,7 @@ mod tests {
             (0u8..2, 0u8..3, 0u8..3, any::<bool>()),
             (any::<bool>(), any::<bool>(), 0u8..3, any::<bool>()),
             (any::<bool>(), any::<bool>(), 0u8..4, any::<bool>()),
-            prop_oneof![Just(8u32), Just(16), Just(64)],
+            prop_oneof![Just(8u32), Just(16), Just(64), Just(128)],
         )
             .prop_map(
                 |(
@@ -610,8 +610,7 @@ mod tests {
         let transform = Transform::new(m).unwrap();
         let n = c.vertices.len() / 3 * 3;
         let indices: Vec<u32> = (0..n as u32).collect();
-        let mut r = Rasterizer::with_threads(1);
-        r.tile_size = c.tile;
+        let mut r = Rasterizer::with_threads(1).with_tile_size(c.tile);
         let mut stats = DrawStats::default();
         let mut batch = r.batch(&mut fb);
         for part in indices.chunks(n.div_ceil(3).max(3) / 3 * 3) {

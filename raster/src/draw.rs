@@ -23,7 +23,8 @@ pub struct DrawStats {
     /// Non-degenerate triangles assembled from the indices.
     pub triangles: u64,
     /// Triangles (after clipping, a clipped triangle may count several) that reached the tiles:
-    /// they own at least a row of pixels inside the scissor.
+    /// they own at least a row of pixels inside the scissor, and a pixel if they have only one
+    /// row there (slivers of one row that own none are dropped at set-up).
     pub rasterized: u64,
     /// Pixels written (that passed the depth test).
     pub fragments: u64,

@@ -136,6 +136,9 @@ fn setup_one<P: Pipeline>(
         (s, p, area2)
     };
     if let Some(cov) = Coverage::new(p, clip_rect) {
+        if cov.owns_no_pixel_of_its_row(&p) {
+            return;
+        }
         out.bins.insert(grid, cov.rect, out.tris.len() as u32);
         let t = P::triangle(s, area2, cov, setup.attrs, draw, &mut out.planes);
         out.tris.push(t);

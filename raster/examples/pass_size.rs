@@ -28,21 +28,17 @@ fn main() {
     turns::header(scene::Scene::triangles(470), frames);
     for (name, color, depth, state) in s.both_states() {
         // Contender `2 * i + t` draws with passes of `SIZES[i]` on `t + 1` threads.
-        let mut rs: Vec<Rasterizer> = (0..2 * SIZES.len())
-            .map(|k| Rasterizer::with_threads(k % 2 + 1).with_pass_triangles(SIZES[k / 2]))
-            .collect();
-        let mut fbs: Vec<Framebuffer> = (0..rs.len())
-            .map(|_| Framebuffer::new(1280, 720, color, depth).expect("valid"))
-            .collect();
-        let turns = turns::take_turns::<{ 2 * SIZES.len() }>(frames, |k| {
-            fbs[k].clear([140, 180, 230]);
-            rs[k]
-                .draw(&mut fbs[k], &s.mesh(), &s.transform, &state)
-                .expect("the scene is valid");
+        let mut rs: [Rasterizer; 2 * SIZES.len()] = std::array::from_fn(|k| {
+            Rasterizer::with_threads(k % 2 + 1).with_pass_triangles(SIZES[k / 2])
         });
-        assert!(
-            fbs.iter().all(|fb| *fb == fbs[0]),
-            "every pass size and thread count gives the same bytes"
+        let target = ((1280, 720), (color, depth));
+        let turns = turns::draw_in_turns(
+            &mut rs,
+            &s,
+            &state,
+            target,
+            frames,
+            "pass size and thread count",
         );
         println!("{name}:");
         for (i, size) in SIZES.iter().enumerate() {

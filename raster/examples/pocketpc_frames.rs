@@ -6,7 +6,9 @@
 //! bilinear without mipmaps, exact perspective), the state the peer benchmark compares. With
 //! `--grid N` the terrain is an N x N grid of quads instead of 72 x 72: at 34 it has 2,178
 //! triangles over the same pixels, the few larger triangles of the engine's own PocketPC frames
-//! (about 2,600), which take the general row step rather than the small-triangle loop.
+//! (about 2,600), which take the general row step rather than the small-triangle loop. With
+//! `--big` it draws scene B of the peer benchmark instead: 1280x720, a 470 x 470 grid (439,922
+//! triangles), far terrain as slivers.
 //!
 //! ```sh
 //! cargo build --release -p stripmask-raster --example pocketpc_frames
@@ -14,6 +16,7 @@
 //! valgrind --tool=callgrind target/release/examples/pocketpc_frames 10 --peers
 //! valgrind --tool=callgrind target/release/examples/pocketpc_frames 10 --grid 34
 //! target/release/examples/pocketpc_frames 2000
+//! valgrind --tool=callgrind target/release/examples/pocketpc_frames 4 --big
 //! ```
 
 #[path = "../tests/it/scene.rs"]
@@ -33,20 +36,22 @@ fn main() {
     };
     let mut args = std::env::args().skip(1);
     let (mut peers, mut grid, mut frames) = (false, 72, 10);
+    let mut size = (320, 240);
     while let Some(a) = args.next() {
         match a.as_str() {
             "--peers" => peers = true,
+            "--big" => (grid, size) = (470, (1280, 720)),
             "--grid" => grid = number("the grid size after --grid", args.next()).max(1),
             _ => frames = number("the frame count", Some(a)),
         }
     }
-    let s = scene::terrain(grid, 320, 240);
+    let s = scene::terrain(grid, size.0, size.1);
     let (color, depth, state) = if peers {
         (ColorFormat::Rgba8888, DepthFormat::D32, s.peers_state())
     } else {
         (ColorFormat::Rgb565, DepthFormat::D16, s.state())
     };
-    let mut fb = Framebuffer::new(320, 240, color, depth).expect("a 320x240 target is valid");
+    let mut fb = Framebuffer::new(size.0, size.1, color, depth).expect("the target is valid");
     let mut r = Rasterizer::with_threads(1);
     let mut stats = DrawStats::default();
     let mut times = Vec::with_capacity(frames as usize);

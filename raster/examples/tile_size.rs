@@ -35,23 +35,9 @@ fn main() {
         let s = scene::terrain(grid, width, height);
         let frames = if grid == 72 { frames * 20 } else { frames };
         for (name, color, depth, state) in s.both_states() {
-            let mut rs: Vec<Rasterizer> = SIZES
-                .iter()
-                .map(|&side| Rasterizer::with_threads(threads).with_tile_size(side))
-                .collect();
-            let mut fbs: Vec<Framebuffer> = (0..rs.len())
-                .map(|_| Framebuffer::new(width, height, color, depth).expect("valid"))
-                .collect();
-            let turns = turns::take_turns::<{ SIZES.len() }>(frames, |k| {
-                fbs[k].clear([140, 180, 230]);
-                rs[k]
-                    .draw(&mut fbs[k], &s.mesh(), &s.transform, &state)
-                    .expect("the scene is valid");
-            });
-            assert!(
-                fbs.iter().all(|fb| *fb == fbs[0]),
-                "every tile size gives the same bytes"
-            );
+            let mut rs = SIZES.map(|side| Rasterizer::with_threads(threads).with_tile_size(side));
+            let target = ((width, height), (color, depth));
+            let turns = turns::draw_in_turns(&mut rs, &s, &state, target, frames, "tile size");
             print!("{width}x{height}, {threads} thread(s), {name}:");
             for (k, side) in SIZES.iter().enumerate() {
                 print!(

@@ -5,6 +5,10 @@
 
 use std::time::Instant;
 
+use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer, Rasterizer, RenderState};
+
+use super::scene::Scene;
+
 /// The frame count, the first argument (`default` without one); exits with status 2 when it is
 /// not a positive number.
 pub fn frames_arg(example: &str, default: usize) -> usize {
@@ -66,4 +70,31 @@ pub fn take_turns<const N: usize>(frames: usize, mut draw: impl FnMut(usize)) ->
         }
     }
     Turns { frames: times }
+}
+
+/// Times `frames` frames of scene `s` in `state`, drawn by each of `rs` in turn into a
+/// framebuffer of its own (`size`, `formats`), and asserts that they all drew the same bytes
+/// (`what` says what differs between them).
+pub fn draw_in_turns<const N: usize>(
+    rs: &mut [Rasterizer; N],
+    s: &Scene,
+    state: &RenderState,
+    (size, formats): ((u32, u32), (ColorFormat, DepthFormat)),
+    frames: usize,
+    what: &str,
+) -> Turns<N> {
+    let mut fbs = [0; N].map(|_| {
+        Framebuffer::new(size.0, size.1, formats.0, formats.1).expect("the target is valid")
+    });
+    let turns = take_turns::<N>(frames, |k| {
+        fbs[k].clear([140, 180, 230]);
+        rs[k]
+            .draw(&mut fbs[k], &s.mesh(), &s.transform, state)
+            .expect("the scene is valid");
+    });
+    assert!(
+        fbs.iter().all(|fb| *fb == fbs[0]),
+        "every {what} gives the same bytes"
+    );
+    turns
 }

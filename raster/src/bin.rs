@@ -26,8 +26,9 @@ pub(crate) fn tile_size(threads: usize) -> u32 {
     }
 }
 
-/// The tiles of a framebuffer: `cols x rows` square tiles of `1 << shift` pixels (`TILE_SIZE`
-/// unless a test asks for another), the last column and row cut at the framebuffer's edge.
+/// The tiles of a framebuffer: `cols x rows` square tiles of `1 << shift` pixels (`tile_size`
+/// for the flush's threads, or the caller's `Rasterizer::with_tile_size`), the last column and
+/// row cut at the framebuffer's edge.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct TileGrid {
     width: u32,

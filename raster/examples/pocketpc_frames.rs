@@ -46,11 +46,8 @@ fn main() {
         }
     }
     let s = scene::terrain(grid, size.0, size.1);
-    let (color, depth, state) = if peers {
-        (ColorFormat::Rgba8888, DepthFormat::D32, s.peers_state())
-    } else {
-        (ColorFormat::Rgb565, DepthFormat::D16, s.state())
-    };
+    let [peers_case, default_case] = s.both_states();
+    let (_, color, depth, state) = if peers { peers_case } else { default_case };
     let mut fb = Framebuffer::new(size.0, size.1, color, depth).expect("the target is valid");
     let mut r = Rasterizer::with_threads(1);
     let mut stats = DrawStats::default();

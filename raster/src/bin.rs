@@ -14,7 +14,7 @@ pub(crate) const TILE_SIZE: u32 = 64;
 /// Tile side in pixels on one thread, where no tiles need sharing out: fewer triangles straddle
 /// two tiles and are walked twice, and the tile (64 to 128 KiB) still sits in a level-2 cache.
 /// On the PocketPC frame 2% fewer instructions and 2-4% faster than 64, on the 1280x720 frame
-/// 1% faster; 256 is slower in the peers' state (`examples/tile_size.rs`).
+/// 0-3% faster; 256 is slower in the peers' state (`examples/tile_size.rs`).
 pub(crate) const ONE_THREAD_TILE_SIZE: u32 = 128;
 
 /// The tile side a flush drawn on `threads` threads uses.

@@ -39,8 +39,11 @@ const FLUSH_TRIANGLES: usize = 1 << 16;
 /// set-up data of two passes (the one drawn and the next, set up beside it), some 200 bytes a
 /// triangle, 13 MB a pass at this size.
 pub(crate) const PASS_TRIANGLES: usize = 64 * 1024;
-/// Triangles per unit of parallel set-up work.
-const SETUP_CHUNK: usize = 1024;
+/// Triangles per unit of parallel set-up work (or fewer, to give every thread two units). Each
+/// unit bins its triangles into lists of its own, one per tile, which every tile then reads: on
+/// scene B's passes of 64k triangles, units of 4,096 instead of 1,024 made two threads 2-7%
+/// faster; 16,384 was level with 4,096 (docs/raster.md).
+const SETUP_CHUNK: usize = 4096;
 /// Vertices per unit of parallel vertex work.
 const VERTEX_CHUNK: usize = 2048;
 /// Below this many vertices the vertex stage runs on the calling thread.
@@ -207,9 +210,10 @@ impl Drop for Batch<'_, '_> {
     }
 }
 
-/// Vertex stage, then set-up and tiles pass by pass: while the tiles draw one pass, the next
-/// pass is set up beside them, so a thread that runs out of tiles sets up instead of waiting.
-/// Returns the triangles rasterized and the fragments written.
+/// Set-up and tiles pass by pass: while the tiles draw one pass, the next pass's vertices are
+/// transformed and its triangles set up beside them, so a thread that runs out of tiles works on
+/// the next pass instead of waiting. Only the first pass's vertex stage and set-up run before
+/// any tile. Returns the triangles rasterized and the fragments written.
 fn flush_with<P: Shade>(
     stages: &mut Stages<P>,
     pending: &Pending,
@@ -226,13 +230,6 @@ fn flush_with<P: Shade>(
         .iter()
         .map(|d| P::consts(&d.transform, &vp, d.state.fog))
         .collect();
-    vertex_stage::<P>(
-        &mut stages.transformed,
-        &pending.vertices,
-        draws,
-        &consts,
-        threads,
-    );
     let grid = TileGrid::new(vp.width, vp.height, tile);
     let setups: Vec<DrawSetup> = draws
         .iter()
@@ -250,12 +247,45 @@ fn flush_with<P: Shade>(
             views: &d.views,
         })
         .collect();
-    let transformed = &stages.transformed;
-    // Sets up the triangles `range` into `chunks` (as many as it needs, each a range of its
-    // own on its own thread), returning the chunks used.
-    let set_up_pass = |range: Range<usize>, chunks: &mut Vec<ChunkOut<P>>| -> usize {
+    // Every element is written by the vertex stage before set-up reads it: only the elements a
+    // longer flush adds are filled first, not the whole buffer on the calling thread.
+    let transformed = &mut stages.transformed;
+    transformed.truncate(pending.vertices.len());
+    transformed.resize(pending.vertices.len(), Transformed::default());
+    // The vertices before `done` are transformed. A pass needs those its triangles use: all
+    // below one past the largest index of its and the earlier passes' triangles. A strip or a
+    // list over a grid uses its vertices in order, so each pass transforms its own band of them.
+    // Only worth its scan when later passes' vertices can be transformed beside the tiles.
+    let overlap = threads > 1 && pending.triangles.len() > pass;
+    let mut done = 0;
+    // Transforms the vertices the triangles `range` use, then sets them up into `chunks` (as
+    // many as it needs, each a range of its own on its own thread), returning the chunks used.
+    let mut prepare_pass = |range: Range<usize>, chunks: &mut Vec<ChunkOut<P>>| -> usize {
+        let needed = if overlap {
+            pending.triangles[range.clone()]
+                .iter()
+                .fold(done, |m, t| m.max(t[0].max(t[1]).max(t[2]) as usize + 1))
+        } else {
+            pending.vertices.len()
+        };
+        if needed > done {
+            vertex_stage::<P>(
+                &mut transformed[done..needed],
+                done,
+                &pending.vertices,
+                draws,
+                &consts,
+                threads,
+            );
+            done = needed;
+        }
+        let transformed = &transformed[..done];
         let pieces = if threads > 1 {
-            range.len().div_ceil(SETUP_CHUNK)
+            range
+                .len()
+                .div_ceil(SETUP_CHUNK)
+                .max(2 * threads)
+                .min(range.len())
         } else {
             1
         };
@@ -303,7 +333,7 @@ fn flush_with<P: Shade>(
         .collect();
     let [front, back] = &mut stages.passes;
     let (mut ready, mut next) = (front, back);
-    let mut used = set_up_pass(passes[0].clone(), ready);
+    let mut used = prepare_pass(passes[0].clone(), ready);
     let (mut rasterized, mut fragments) = (0, 0);
     for k in 0..passes.len() {
         let chunks = &ready[..used];
@@ -311,9 +341,9 @@ fn flush_with<P: Shade>(
         let draw = |fb: &mut Framebuffer| raster_tiles::<P>(fb, chunks, &shades, &grid, threads);
         let (drawn, set) = match passes.get(k + 1) {
             Some(range) if threads > 1 => {
-                rayon::join(|| draw(fb), || set_up_pass(range.clone(), next))
+                rayon::join(|| draw(fb), || prepare_pass(range.clone(), next))
             }
-            Some(range) => (draw(fb), set_up_pass(range.clone(), next)),
+            Some(range) => (draw(fb), prepare_pass(range.clone(), next)),
             None => (draw(fb), 0),
         };
         fragments += drawn;
@@ -323,18 +353,16 @@ fn flush_with<P: Shade>(
     (rasterized, fragments)
 }
 
-/// Runs the vertex stage over the pending vertices, each with its draw's transform.
+/// Runs the vertex stage over the pending vertices from `start` on into `out` (as many as it
+/// holds), each with its draw's transform.
 fn vertex_stage<P: Pipeline>(
-    out: &mut Vec<Transformed<P>>,
+    out: &mut [Transformed<P>],
+    start: usize,
     vertices: &[Vertex],
     draws: &[PendingDraw],
     consts: &[P::Consts],
     threads: usize,
 ) {
-    // Every element is written below: only the elements a longer flush adds are filled first,
-    // not the whole buffer on the calling thread.
-    out.truncate(vertices.len());
-    out.resize(vertices.len(), Transformed::default());
     let work = |start: usize, chunk: &mut [Transformed<P>]| {
         by_draw(
             draws.len(),
@@ -356,12 +384,12 @@ fn vertex_stage<P: Pipeline>(
             },
         )
     };
-    if threads > 1 && vertices.len() >= PARALLEL_MIN {
+    if threads > 1 && out.len() >= PARALLEL_MIN {
         out.par_chunks_mut(VERTEX_CHUNK)
             .enumerate()
-            .for_each(|(k, chunk)| work(k * VERTEX_CHUNK, chunk));
+            .for_each(|(k, chunk)| work(start + k * VERTEX_CHUNK, chunk));
     } else {
-        work(0, out);
+        work(start, out);
     }
 }
 
@@ -644,6 +672,51 @@ mod tests {
                     );
                 }
             }
+        }
+    }
+
+    /// On several threads a pass transforms only the vertices up to the largest its triangles
+    /// use, beside the tiles of the pass before it: strips out of order, whose passes use
+    /// vertices far behind and far ahead of the earlier passes', draw as on one thread in one pass.
+    #[test]
+    fn passes_out_of_vertex_order_draw_the_same_bytes() {
+        let (v, strips, _, transform) = scene();
+        let order = (30..strips.len()).chain(10..30).rev().chain(0..10);
+        let indices: Vec<u32> = order
+            .map(|j| strips[j].clone())
+            .collect::<Vec<_>>()
+            .join(&u32::MAX);
+        let mesh = Mesh {
+            vertices: &v,
+            indices: Indices::U32(&indices),
+            topology: Topology::TriangleStrip,
+        };
+        let state = RenderState {
+            shading: Shading::Gouraud,
+            ..RenderState::default()
+        };
+        let draw = |threads: usize, pass: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                let mut fb =
+                    Framebuffer::new(200, 150, ColorFormat::Rgb565, DepthFormat::D16).unwrap();
+                fb.clear([10, 20, 30]);
+                let mut r = Rasterizer::new()
+                    .with_split_from(0)
+                    .with_pass_triangles(pass);
+                r.draw(&mut fb, &mesh, &transform, &state).unwrap();
+                fb
+            })
+        };
+        let whole = draw(1, usize::MAX);
+        for (threads, pass) in [(2, 97), (2, 500), (3, 1000)] {
+            assert!(
+                draw(threads, pass) == whole,
+                "{threads} threads, passes of {pass}"
+            );
         }
     }
 

@@ -83,6 +83,9 @@ pub struct Batch<'r, 't> {
     rasterizer: &'r mut Rasterizer,
     fb: &'r mut Framebuffer,
     draws: Vec<PendingDraw<'t>>,
+    /// The vertices of the batch's only draw when it reads them where they are instead of a
+    /// copy (`Batch::draw_in_place`).
+    in_place: Option<&'t [Vertex]>,
     precision: Precision,
     done: DrawStats,
 }
@@ -95,6 +98,7 @@ impl Rasterizer {
             rasterizer: self,
             fb,
             draws: Vec::new(),
+            in_place: None,
             precision: Precision::Fixed,
             done: DrawStats::default(),
         }
@@ -110,6 +114,29 @@ impl<'t> Batch<'_, 't> {
         transform: &Transform,
         state: &RenderState<'t>,
     ) -> Result<DrawStats, RasterError> {
+        self.add(mesh, None, transform, state)
+    }
+
+    /// `draw` for a mesh that outlives the batch: as the batch's first draw, its vertices are
+    /// read where they are instead of copied (a 1280x720 frame's 220,900 vertices took 0.65 ms
+    /// to copy, on every thread count).
+    pub(crate) fn draw_in_place(
+        &mut self,
+        mesh: &Mesh<'t>,
+        transform: &Transform,
+        state: &RenderState<'t>,
+    ) -> Result<DrawStats, RasterError> {
+        self.add(mesh, Some(mesh.vertices), transform, state)
+    }
+
+    /// Adds a draw of `mesh`, whose vertices are `place` (when it outlives the batch).
+    fn add(
+        &mut self,
+        mesh: &Mesh,
+        place: Option<&'t [Vertex]>,
+        transform: &Transform,
+        state: &RenderState<'t>,
+    ) -> Result<DrawStats, RasterError> {
         let scissor = Rect::scissor_on(state.scissor, self.fb.width(), self.fb.height())?;
         if state.precision != self.precision {
             self.flush();
@@ -117,7 +144,8 @@ impl<'t> Batch<'_, 't> {
         }
         let r = &mut *self.rasterizer;
         let (first_vertex, first_triangle) = (r.pending.vertices.len(), r.pending.triangles.len());
-        let triangles = r.gather.append(mesh, &mut r.pending)?;
+        let in_place = place.is_some() && self.draws.is_empty();
+        let (triangles, left_in_place) = r.gather.append(mesh, &mut r.pending, in_place)?;
         let stats = DrawStats {
             triangles: triangles as u64,
             ..DrawStats::default()
@@ -133,6 +161,9 @@ impl<'t> Batch<'_, 't> {
             Some(b) if attrs.tex != TexMode::Off => TexViews::new(b.texture, b.sampler.wrap),
             _ => TexViews::None,
         };
+        if left_in_place {
+            self.in_place = place;
+        }
         self.draws.push(PendingDraw {
             state: *state,
             attrs,
@@ -174,13 +205,15 @@ impl<'t> Batch<'_, 't> {
             return;
         }
         let r = &mut *self.rasterizer;
+        let vertices = self.in_place.take().unwrap_or(&r.pending.vertices);
+        let geometry = (vertices, &r.pending.triangles[..]);
         let threads = r.thread_count(r.pending.triangles.len());
         let tile = r.tile_size.unwrap_or_else(|| tile_size(threads));
         let pass = r.pass_triangles;
         let (rasterized, fragments) = match self.precision {
             Precision::Fixed => flush_with::<FixedPipeline>(
                 &mut r.fixed,
-                &r.pending,
+                geometry,
                 &self.draws,
                 self.fb,
                 threads,
@@ -188,7 +221,7 @@ impl<'t> Batch<'_, 't> {
             ),
             Precision::Float => flush_with::<FloatPipeline>(
                 &mut r.float,
-                &r.pending,
+                geometry,
                 &self.draws,
                 self.fb,
                 threads,
@@ -216,7 +249,7 @@ impl Drop for Batch<'_, '_> {
 /// any tile. Returns the triangles rasterized and the fragments written.
 fn flush_with<P: Shade>(
     stages: &mut Stages<P>,
-    pending: &Pending,
+    (vertices, triangles): (&[Vertex], &[[u32; 3]]),
     draws: &[PendingDraw],
     fb: &mut Framebuffer,
     threads: usize,
@@ -250,29 +283,29 @@ fn flush_with<P: Shade>(
     // Every element is written by the vertex stage before set-up reads it: only the elements a
     // longer flush adds are filled first, not the whole buffer on the calling thread.
     let transformed = &mut stages.transformed;
-    transformed.truncate(pending.vertices.len());
-    transformed.resize(pending.vertices.len(), Transformed::default());
+    transformed.truncate(vertices.len());
+    transformed.resize(vertices.len(), Transformed::default());
     // The vertices before `done` are transformed. A pass needs those its triangles use: all
     // below one past the largest index of its and the earlier passes' triangles. A strip or a
     // list over a grid uses its vertices in order, so each pass transforms its own band of them.
     // Only worth its scan when later passes' vertices can be transformed beside the tiles.
-    let overlap = threads > 1 && pending.triangles.len() > pass;
+    let overlap = threads > 1 && triangles.len() > pass;
     let mut done = 0;
     // Transforms the vertices the triangles `range` use, then sets them up into `chunks` (as
     // many as it needs, each a range of its own on its own thread), returning the chunks used.
     let mut prepare_pass = |range: Range<usize>, chunks: &mut Vec<ChunkOut<P>>| -> usize {
         let needed = if overlap {
-            pending.triangles[range.clone()]
+            triangles[range.clone()]
                 .iter()
                 .fold(done, |m, t| m.max(t[0].max(t[1]).max(t[2]) as usize + 1))
         } else {
-            pending.vertices.len()
+            vertices.len()
         };
         if needed > done {
             vertex_stage::<P>(
                 &mut transformed[done..needed],
                 done,
-                &pending.vertices,
+                vertices,
                 draws,
                 &consts,
                 threads,
@@ -305,8 +338,8 @@ fn flush_with<P: Shade>(
                 part,
                 |d, part| {
                     set_up::<P>(
-                        &pending.triangles[part],
-                        (&pending.vertices, transformed),
+                        &triangles[part],
+                        (vertices, transformed),
                         d as u32,
                         &setups[d],
                         &consts[d],
@@ -326,7 +359,7 @@ fn flush_with<P: Shade>(
         }
         pieces
     };
-    let n = pending.triangles.len();
+    let n = triangles.len();
     let passes: Vec<Range<usize>> = (0..n)
         .step_by(pass)
         .map(|start| start..start + pass.min(n - start))
@@ -662,6 +695,8 @@ mod tests {
                     (32, PASS_TRIANGLES, 2, 2, false),
                     (64, 1000, 1, usize::MAX, true),
                     (64, 300, 2, usize::MAX, true),
+                    (64, 300, 2, usize::MAX, false),
+                    (128, PASS_TRIANGLES, 1, usize::MAX, false),
                     (16, 97, 4, 3, true),
                     (32, 1000, 2, 2, false),
                 ] {

@@ -151,7 +151,8 @@ impl Rasterizer {
             .max(1)
     }
 
-    /// Draws `mesh` into `fb`.
+    /// Draws `mesh` into `fb`. A mesh with no more vertices than indices is drawn from its own
+    /// vertices, not from a copy.
     pub fn draw(
         &mut self,
         fb: &mut Framebuffer,
@@ -160,7 +161,7 @@ impl Rasterizer {
         state: &RenderState,
     ) -> Result<DrawStats, RasterError> {
         let mut batch = self.batch(fb);
-        let drawn = batch.draw(mesh, transform, state)?;
+        let drawn = batch.draw_in_place(mesh, transform, state)?;
         let done = batch.finish();
         Ok(DrawStats {
             triangles: drawn.triangles,
@@ -181,15 +182,28 @@ pub(crate) struct Gather {
 
 impl Gather {
     /// Assembles `mesh`'s triangles into `pending`, copying its vertices (all of them, or the
-    /// used ones once each when the mesh has more vertices than indices). Returns the number of triangles; on an index out of range, `pending` is left as it was.
-    pub fn append(&mut self, mesh: &Mesh, pending: &mut Pending) -> Result<usize, RasterError> {
+    /// used ones once each when the mesh has more vertices than indices). With `in_place` (only
+    /// into an empty `pending`, for a draw that is flushed before its mesh goes), a mesh whose
+    /// vertices would all be copied is not: its triangles index `mesh.vertices` itself. Returns
+    /// the number of triangles and whether the vertices were left in place; on an index out of
+    /// range, `pending` is left as it was.
+    pub fn append(
+        &mut self,
+        mesh: &Mesh,
+        pending: &mut Pending,
+        in_place: bool,
+    ) -> Result<(usize, bool), RasterError> {
+        debug_assert!(!in_place || pending.vertices.is_empty() && pending.triangles.is_empty());
         let n = mesh.vertices.len();
         let (first_vertex, first_triangle) = (pending.vertices.len(), pending.triangles.len());
-        let result = if n <= mesh.indices.len() && first_vertex + n <= u32::MAX as usize {
+        let all = n <= mesh.indices.len() && first_vertex + n <= u32::MAX as usize;
+        let result = if all {
             // No more vertices than indices (a strip or list over its own grid): copying them
             // all costs less than finding the used ones, and the vertex stage's extra work is
             // bounded by the assembly's.
-            pending.vertices.extend_from_slice(mesh.vertices);
+            if !in_place {
+                pending.vertices.extend_from_slice(mesh.vertices);
+            }
             let base = first_vertex as u32;
             let triangles = &mut pending.triangles;
             assemble(mesh, |t| triangles.push(t.map(|v| base + v)))
@@ -197,7 +211,7 @@ impl Gather {
             self.append_used(mesh, pending)
         };
         match result {
-            Ok(()) => Ok(pending.triangles.len() - first_triangle),
+            Ok(()) => Ok((pending.triangles.len() - first_triangle, all && in_place)),
             Err((position, value)) => {
                 pending.vertices.truncate(first_vertex);
                 pending.triangles.truncate(first_triangle);

@@ -5,7 +5,8 @@
 //! store; smaller ones keep a tile in a nearer cache and give two threads more tiles to share
 //! out. For the peers' state and the terrain default it prints, for each case, the median
 //! frame times and the median per-frame ratio of 64's time to each size's (above 1: that size
-//! is faster). The rasterizer's own choice is 128 on one thread and 64 on several.
+//! is faster). The rasterizer's own choice is 128, or 64 where that leaves a thread fewer than
+//! eight tiles.
 //!
 //! ```sh
 //! cargo run --release -p stripmask-raster --example tile_size -- 21

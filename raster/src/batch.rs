@@ -208,7 +208,9 @@ impl<'t> Batch<'_, 't> {
         let vertices = self.in_place.take().unwrap_or(&r.pending.vertices);
         let geometry = (vertices, &r.pending.triangles[..]);
         let threads = r.thread_count(r.pending.triangles.len());
-        let tile = r.tile_size.unwrap_or_else(|| tile_size(threads));
+        let tile = r
+            .tile_size
+            .unwrap_or_else(|| tile_size(threads, self.fb.width(), self.fb.height()));
         let pass = r.pass_triangles;
         let (rasterized, fragments) = match self.precision {
             Precision::Fixed => flush_with::<FixedPipeline>(

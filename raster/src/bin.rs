@@ -7,28 +7,38 @@
 
 use crate::edge::PixelRect;
 
-/// Tile side in pixels on several threads (llvmpipe's 64: a 64x64 tile of RGBA8888 colour and
-/// 32-bit depth is 32 KiB, an L1 cache's worth, and a frame has enough tiles to share out).
-pub(crate) const TILE_SIZE: u32 = 64;
+/// Tile side in pixels: fewer triangles straddle two tiles and are walked twice than at 64,
+/// fewer tiles are loaded and stored, and the tile (64 to 128 KiB) still sits in a level-2
+/// cache. On the PocketPC frame 2% fewer instructions and 2-4% faster than 64 on one thread; on
+/// the 1280x720 frame 0-3% faster on one thread, and 3% on two (the median of ten interleaved
+/// comparisons, from 1% slower to 7% faster); 256 is slower in the peers' state
+/// (`examples/tile_size.rs`, docs/raster.md).
+pub(crate) const TILE_SIZE: u32 = 128;
 
-/// Tile side in pixels on one thread, where no tiles need sharing out: fewer triangles straddle
-/// two tiles and are walked twice, and the tile (64 to 128 KiB) still sits in a level-2 cache.
-/// On the PocketPC frame 2% fewer instructions and 2-4% faster than 64, on the 1280x720 frame
-/// 0-3% faster; 256 is slower in the peers' state (`examples/tile_size.rs`).
-pub(crate) const ONE_THREAD_TILE_SIZE: u32 = 128;
+/// Tile side in pixels when tiles of `TILE_SIZE` would leave threads too few to share out
+/// (llvmpipe's 64: a 64x64 tile of RGBA8888 colour and 32-bit depth is 32 KiB, an L1 cache's
+/// worth).
+pub(crate) const SMALL_TILE_SIZE: u32 = 64;
 
-/// The tile side a flush drawn on `threads` threads uses.
-pub(crate) fn tile_size(threads: usize) -> u32 {
-    if threads > 1 {
-        TILE_SIZE
+/// Tiles a thread should have to draw in a pass: the last tiles of a pass leave the other
+/// threads waiting, so with fewer, larger tiles the wait grows.
+const TILES_PER_THREAD: u32 = 8;
+
+/// The tile side a flush drawn on `threads` threads into a `width x height` framebuffer uses:
+/// `TILE_SIZE`, or `SMALL_TILE_SIZE` where that leaves fewer than `TILES_PER_THREAD` tiles a
+/// thread (at 1280x720, 60 tiles of 128 serve two threads; eight take tiles of 64).
+pub(crate) fn tile_size(threads: usize, width: u32, height: u32) -> u32 {
+    let tiles = width.div_ceil(TILE_SIZE) * height.div_ceil(TILE_SIZE);
+    if threads > 1 && tiles < TILES_PER_THREAD.saturating_mul(threads as u32) {
+        SMALL_TILE_SIZE
     } else {
-        ONE_THREAD_TILE_SIZE
+        TILE_SIZE
     }
 }
 
 /// The tiles of a framebuffer: `cols x rows` square tiles of `1 << shift` pixels (`tile_size`
-/// for the flush's threads, or the caller's `Rasterizer::with_tile_size`), the last column and
-/// row cut at the framebuffer's edge.
+/// for the flush's threads and size, or the caller's `Rasterizer::with_tile_size`), the last
+/// column and row cut at the framebuffer's edge.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct TileGrid {
     width: u32,
@@ -119,7 +129,7 @@ mod tests {
 
     #[test]
     fn tiles_cover_the_framebuffer_once_with_cut_edges() {
-        let grid = TileGrid::new(150, 70, TILE_SIZE);
+        let grid = TileGrid::new(150, 70, SMALL_TILE_SIZE);
         assert_eq!((grid.cols, grid.rows, grid.len()), (3, 2, 6));
         let mut hits = vec![0u8; 150 * 70];
         for t in 0..grid.len() {
@@ -143,8 +153,19 @@ mod tests {
     }
 
     #[test]
+    fn threads_get_small_tiles_only_when_large_ones_are_too_few_to_share() {
+        assert_eq!(tile_size(1, 320, 240), TILE_SIZE);
+        assert_eq!(tile_size(1, 8192, 8192), TILE_SIZE);
+        // 1280x720 is 10 x 6 tiles of 128: enough for two threads, not for eight.
+        assert_eq!(tile_size(2, 1280, 720), TILE_SIZE);
+        assert_eq!(tile_size(8, 1280, 720), SMALL_TILE_SIZE);
+        assert_eq!(tile_size(2, 320, 240), SMALL_TILE_SIZE);
+        assert_eq!(tile_size(usize::MAX, 1, 1), SMALL_TILE_SIZE);
+    }
+
+    #[test]
     fn a_triangle_is_listed_in_every_tile_its_rectangle_touches_in_order() {
-        let grid = TileGrid::new(200, 200, TILE_SIZE);
+        let grid = TileGrid::new(200, 200, SMALL_TILE_SIZE);
         let mut bins = Bins::default();
         bins.reset(&grid);
         let rect = |x0, y0, x1, y1| PixelRect { x0, y0, x1, y1 };

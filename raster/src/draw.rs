@@ -131,8 +131,9 @@ impl Rasterizer {
     }
 
     /// Draws in screen tiles of `side` pixels (rounded up to a power of two from 8 to 8,192)
-    /// instead of the default: 64 on several threads, 128 on one (`examples/tile_size.rs`). A
-    /// device with a small data cache may want smaller ones. The picture does not depend on it.
+    /// instead of the default: 128, or 64 where tiles of 128 would give each thread fewer than
+    /// eight (`examples/tile_size.rs`). A device with a small data cache may want smaller ones.
+    /// The picture does not depend on it.
     pub fn with_tile_size(self, side: u32) -> Self {
         Self {
             tile_size: Some(side.clamp(8, 8192).next_power_of_two()),

@@ -129,7 +129,7 @@ mod tests {
 
     #[test]
     fn every_element_belongs_to_exactly_one_tile_row() {
-        let grid = TileGrid::new(150, 70, crate::bin::TILE_SIZE);
+        let grid = TileGrid::new(150, 70, crate::bin::SMALL_TILE_SIZE);
         let mut buffer = vec![0u32; 150 * 70];
         let mut views = split(&mut buffer, &grid);
         for (t, view) in views.iter_mut().enumerate() {
@@ -153,7 +153,7 @@ mod tests {
 
     #[test]
     fn a_loaded_tile_goes_back_unchanged_or_changed_where_drawn() {
-        let grid = TileGrid::new(150, 70, crate::bin::TILE_SIZE);
+        let grid = TileGrid::new(150, 70, crate::bin::SMALL_TILE_SIZE);
         let mut buffer: Vec<u32> = (0..150 * 70).collect();
         let mut views = split(&mut buffer, &grid);
         for (t, view) in views.iter_mut().enumerate() {
@@ -182,7 +182,7 @@ mod tests {
     #[test]
     #[should_panic(expected = "outside the tile")]
     fn a_run_past_a_loaded_tile_is_refused() {
-        let grid = TileGrid::new(150, 70, crate::bin::TILE_SIZE);
+        let grid = TileGrid::new(150, 70, crate::bin::SMALL_TILE_SIZE);
         let mut buffer = vec![0u8; 150 * 70];
         let mut views = split(&mut buffer, &grid);
         views[0].load(Vec::new()).row(0, 60, 65);
@@ -191,7 +191,7 @@ mod tests {
     #[test]
     #[should_panic(expected = "outside the tile")]
     fn a_row_outside_the_tile_is_refused() {
-        let grid = TileGrid::new(150, 70, crate::bin::TILE_SIZE);
+        let grid = TileGrid::new(150, 70, crate::bin::SMALL_TILE_SIZE);
         let mut buffer = vec![0u8; 150 * 70];
         let mut views = split(&mut buffer, &grid);
         views[0].row(0, 60, 65);

@@ -608,14 +608,7 @@ mod tests {
         batched: bool,
     ) -> Framebuffer {
         let (v, strips, _, transform) = scene();
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
-            let mut fb =
-                Framebuffer::new(200, 150, ColorFormat::Rgba8888, DepthFormat::D32).unwrap();
-            fb.clear([10, 20, 30]);
+        on_threads(threads, (ColorFormat::Rgba8888, DepthFormat::D32), |fb| {
             // Split from the first triangle: a flush this small is otherwise drawn on one thread.
             let mut r = Rasterizer::new()
                 .with_split_from(0)
@@ -633,16 +626,34 @@ mod tests {
                 }
             }
             if batched {
-                let mut batch = r.batch(&mut fb);
+                let mut batch = r.batch(fb);
                 for d in &draws {
                     batch.draw(&mesh(&v, d), &transform, state).unwrap();
                 }
                 batch.finish();
             } else {
                 for d in &draws {
-                    r.draw(&mut fb, &mesh(&v, d), &transform, state).unwrap();
+                    r.draw(fb, &mesh(&v, d), &transform, state).unwrap();
                 }
             }
+        })
+    }
+
+    /// A 200x150 framebuffer in `formats`, cleared, after `f` drew into it on a pool of
+    /// `threads` threads.
+    fn on_threads(
+        threads: usize,
+        formats: (ColorFormat, DepthFormat),
+        f: impl FnOnce(&mut Framebuffer) + Send,
+    ) -> Framebuffer {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut fb = Framebuffer::new(200, 150, formats.0, formats.1).unwrap();
+            fb.clear([10, 20, 30]);
+            f(&mut fb);
             fb
         })
     }
@@ -733,19 +744,11 @@ mod tests {
             ..RenderState::default()
         };
         let draw = |threads: usize, pass: usize| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            pool.install(|| {
-                let mut fb =
-                    Framebuffer::new(200, 150, ColorFormat::Rgb565, DepthFormat::D16).unwrap();
-                fb.clear([10, 20, 30]);
+            on_threads(threads, (ColorFormat::Rgb565, DepthFormat::D16), |fb| {
                 let mut r = Rasterizer::new()
                     .with_split_from(0)
                     .with_pass_triangles(pass);
-                r.draw(&mut fb, &mesh, &transform, &state).unwrap();
-                fb
+                r.draw(fb, &mesh, &transform, &state).unwrap();
             })
         };
         let whole = draw(1, usize::MAX);

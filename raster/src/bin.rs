@@ -28,8 +28,8 @@ const TILES_PER_THREAD: u32 = 8;
 /// `TILE_SIZE`, or `SMALL_TILE_SIZE` where that leaves fewer than `TILES_PER_THREAD` tiles a
 /// thread (at 1280x720, 60 tiles of 128 serve two threads; eight take tiles of 64).
 pub(crate) fn tile_size(threads: usize, width: u32, height: u32) -> u32 {
-    let tiles = width.div_ceil(TILE_SIZE) * height.div_ceil(TILE_SIZE);
-    if threads > 1 && tiles < TILES_PER_THREAD.saturating_mul(threads as u32) {
+    let tiles = width.div_ceil(TILE_SIZE) as usize * height.div_ceil(TILE_SIZE) as usize;
+    if threads > 1 && tiles < (TILES_PER_THREAD as usize).saturating_mul(threads) {
         SMALL_TILE_SIZE
     } else {
         TILE_SIZE
@@ -161,6 +161,11 @@ mod tests {
         assert_eq!(tile_size(8, 1280, 720), SMALL_TILE_SIZE);
         assert_eq!(tile_size(2, 320, 240), SMALL_TILE_SIZE);
         assert_eq!(tile_size(usize::MAX, 1, 1), SMALL_TILE_SIZE);
+        // A thread count beyond u32 (on a 64-bit target) is not cut to its low bits, where
+        // 2^32 would read as 0.
+        if let Ok(threads) = usize::try_from(1u64 << 32) {
+            assert_eq!(tile_size(threads, 8192, 8192), SMALL_TILE_SIZE);
+        }
     }
 
     #[test]

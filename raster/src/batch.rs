@@ -2,10 +2,11 @@
 //! hundreds, one per tile) share the threads and the screen tiles instead of each paying for
 //! its own.
 //!
-//! A draw call only assembles its triangles and copies the vertices they use. When enough
-//! triangles are pending (or the batch ends) they are flushed: the vertex stage runs once per
-//! vertex, set-up runs in chunks on every thread and bins each triangle into the screen tiles it
-//! touches, and then every tile is drawn by one thread, its triangles in submission order. A
+//! A draw call only assembles its triangles and copies the vertices they use (a lone
+//! `Rasterizer::draw` reads them in place). When enough triangles are pending (or the batch
+//! ends) they are flushed pass by pass: each pass's vertices run the vertex stage once, set-up
+//! runs in chunks on every thread and bins each triangle into the screen tiles it touches, and
+//! every tile is drawn by one thread, its triangles in submission order. A
 //! pixel's bytes depend only on the triangles that cover it, in that order: neither the thread
 //! count nor the batching changes a byte.
 

@@ -47,11 +47,17 @@ pub(crate) trait ClipVertex: Copy + Default {
 
     /// Bit set of the planes this vertex is outside of.
     fn outcode(&self, space: &Self::Space) -> u8 {
-        PLANES
-            .iter()
-            .filter(|&&p| !self.inside(p, space))
-            .fold(0, |m, &p| m | p as u8)
+        outcode_by_planes(self, space)
     }
+}
+
+/// The outcode from `inside`, plane by plane: `ClipVertex::outcode` unless a precision computes
+/// it faster.
+pub(crate) fn outcode_by_planes<V: ClipVertex>(v: &V, space: &V::Space) -> u8 {
+    PLANES
+        .iter()
+        .filter(|&&p| !v.inside(p, space))
+        .fold(0, |m, &p| m | p as u8)
 }
 
 /// Most vertices a triangle can have after seven planes.

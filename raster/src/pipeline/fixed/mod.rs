@@ -83,7 +83,9 @@ impl ClipVertex for FixedClip {
     #[inline]
     fn outcode(&self, s: &FixedSpace) -> u8 {
         let [x, y, z, w] = self.clip;
-        if (x.unsigned_abs() | y.unsigned_abs() | z.unsigned_abs() | w.unsigned_abs()) >= NARROW_CLIP {
+        if (x.unsigned_abs() | y.unsigned_abs() | z.unsigned_abs() | w.unsigned_abs())
+            >= NARROW_CLIP
+        {
             return outcode_by_planes(self, s);
         }
         let g = 2 * GUARD_BAND_PX * w;
@@ -861,7 +863,8 @@ mod tests {
             for &w in &coords {
                 // Points on and beside the guard band's planes for this w, and the bounds.
                 let band = (2 * GUARD_BAND_PX as i128 * w as i128 / size as i128)
-                    .clamp(i64::MIN as i128 + 2, i64::MAX as i128 - 2) as i64;
+                    .clamp(i64::MIN as i128 + 2, i64::MAX as i128 - 2)
+                    as i64;
                 let xs: Vec<i64> = coords
                     .iter()
                     .copied()

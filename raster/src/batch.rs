@@ -3,7 +3,8 @@
 //! its own.
 //!
 //! A draw call only assembles its triangles and copies the vertices they use (a lone
-//! `Rasterizer::draw` reads them in place). When enough triangles are pending (or the batch
+//! `Rasterizer::draw` reads them in place, and on several threads leaves a big mesh to be
+//! assembled pass by pass in the flush). When enough triangles are pending (or the batch
 //! ends) they are flushed pass by pass: each pass's vertices run the vertex stage once, set-up
 //! runs in chunks on every thread and bins each triangle into the screen tiles it touches, and
 //! every tile is drawn by one thread, its triangles in submission order. A
@@ -29,7 +30,7 @@ use crate::setup::{ChunkOut, DrawSetup, Transformed, by_draw, set_up};
 use crate::shade::{ColorTile, DepthTile, DrawShade, Shade, TileTarget, raster_tile};
 use crate::state::{Precision, Rect, RenderState};
 use crate::tile_view::{TileView, split};
-use crate::vertex::{Mesh, Vertex};
+use crate::vertex::{Assembly, Mesh, Vertex, indices_in_range};
 
 /// Pending triangles that trigger a flush after a draw.
 const FLUSH_TRIANGLES: usize = 1 << 16;
@@ -87,6 +88,8 @@ pub struct Batch<'r, 't> {
     /// The vertices of the batch's only draw when it reads them where they are instead of a
     /// copy (`Batch::draw_in_place`).
     in_place: Option<&'t [Vertex]>,
+    /// The batch's only draw when its triangles are assembled pass by pass in the flush.
+    deferred: Option<Mesh<'t>>,
     precision: Precision,
     done: DrawStats,
 }
@@ -100,6 +103,7 @@ impl Rasterizer {
             fb,
             draws: Vec::new(),
             in_place: None,
+            deferred: None,
             precision: Precision::Fixed,
             done: DrawStats::default(),
         }
@@ -120,42 +124,58 @@ impl<'t> Batch<'_, 't> {
 
     /// `draw` for a mesh that outlives the batch: as the batch's first draw, its vertices are
     /// read where they are instead of copied (a 1280x720 frame's 220,900 vertices took 0.65 ms
-    /// to copy, on every thread count).
+    /// to copy, on every thread count). A mesh of more than one pass drawn on several threads
+    /// is not assembled here but pass by pass in the flush, each pass beside the tiles of the
+    /// one before (scene B's 439,922 triangles took about 1 ms to assemble, alone before any
+    /// tile): its triangles are then counted in the batch's `finish`.
     pub(crate) fn draw_in_place(
         &mut self,
         mesh: &Mesh<'t>,
         transform: &Transform,
         state: &RenderState<'t>,
     ) -> Result<DrawStats, RasterError> {
-        self.add(mesh, Some(mesh.vertices), transform, state)
+        self.add(mesh, Some(*mesh), transform, state)
     }
 
-    /// Adds a draw of `mesh`, whose vertices are `place` (when it outlives the batch).
+    /// Adds a draw of `mesh`, which is `place` when it outlives the batch.
     fn add(
         &mut self,
         mesh: &Mesh,
-        place: Option<&'t [Vertex]>,
+        place: Option<Mesh<'t>>,
         transform: &Transform,
         state: &RenderState<'t>,
     ) -> Result<DrawStats, RasterError> {
         let scissor = Rect::scissor_on(state.scissor, self.fb.width(), self.fb.height())?;
-        if state.precision != self.precision {
+        if state.precision != self.precision || self.deferred.is_some() {
             self.flush();
             self.precision = state.precision;
         }
         let r = &mut *self.rasterizer;
         let (first_vertex, first_triangle) = (r.pending.vertices.len(), r.pending.triangles.len());
         let in_place = place.is_some() && self.draws.is_empty();
-        let (triangles, left_in_place) = r.gather.append(mesh, &mut r.pending, in_place)?;
+        let empty = scissor.x0 == scissor.x1 || scissor.y0 == scissor.y1;
+        let deferred = place.filter(|m| {
+            in_place
+                && !empty
+                && m.vertices.len() <= m.indices.len()
+                && m.indices.len() > r.pass_triangles
+                && r.thread_count(m.indices.len()) > 1
+                && indices_in_range(m)
+        });
+        let (triangles, left_in_place) = match deferred {
+            Some(_) => (0, true),
+            None => r.gather.append(mesh, &mut r.pending, in_place)?,
+        };
         let stats = DrawStats {
             triangles: triangles as u64,
             ..DrawStats::default()
         };
-        if triangles == 0 || scissor.x0 == scissor.x1 || scissor.y0 == scissor.y1 {
+        if deferred.is_none() && (triangles == 0 || empty) {
             r.pending.vertices.truncate(first_vertex);
             r.pending.triangles.truncate(first_triangle);
             return Ok(stats);
         }
+        self.deferred = deferred;
         let has_depth = !matches!(self.fb.depth(), DepthBuffer::None);
         let attrs = Attributes::new(state, has_depth);
         let views = match state.texture {
@@ -163,7 +183,7 @@ impl<'t> Batch<'_, 't> {
             _ => TexViews::None,
         };
         if left_in_place {
-            self.in_place = place;
+            self.in_place = place.map(|m| m.vertices);
         }
         self.draws.push(PendingDraw {
             state: *state,
@@ -194,7 +214,7 @@ impl<'t> Batch<'_, 't> {
 
     /// Draws what is pending and returns what the batch's draws rasterized: the triangles
     /// that reached the tiles and the fragments written (`triangles` is 0: each draw returned
-    /// its own).
+    /// its own, but for a draw assembled in the flush, see `draw_in_place`).
     pub fn finish(mut self) -> DrawStats {
         self.flush();
         self.done
@@ -207,13 +227,20 @@ impl<'t> Batch<'_, 't> {
         }
         let r = &mut *self.rasterizer;
         let vertices = self.in_place.take().unwrap_or(&r.pending.vertices);
-        let geometry = (vertices, &r.pending.triangles[..]);
-        let threads = r.thread_count(r.pending.triangles.len());
+        let (source, size) = match self.deferred.take() {
+            Some(mesh) => (Source::Mesh(mesh), mesh.indices.len()),
+            None => (
+                Source::Ready(&r.pending.triangles),
+                r.pending.triangles.len(),
+            ),
+        };
+        let geometry = (vertices, source);
+        let threads = r.thread_count(size);
         let tile = r
             .tile_size
             .unwrap_or_else(|| tile_size(threads, self.fb.width(), self.fb.height()));
         let pass = r.pass_triangles;
-        let (rasterized, fragments) = match self.precision {
+        let (assembled, rasterized, fragments) = match self.precision {
             Precision::Fixed => flush_with::<FixedPipeline>(
                 &mut r.fixed,
                 geometry,
@@ -231,6 +258,7 @@ impl<'t> Batch<'_, 't> {
                 (tile, pass),
             ),
         };
+        self.done.triangles += assembled;
         self.done.rasterized += rasterized;
         self.done.fragments += fragments;
         r.pending.vertices.clear();
@@ -246,18 +274,27 @@ impl Drop for Batch<'_, '_> {
     }
 }
 
+/// Where a flush's triangles come from: the batch's assembled triangles, or the mesh of a lone
+/// draw, assembled pass by pass (`Batch::draw_in_place`).
+#[derive(Clone, Copy)]
+enum Source<'a> {
+    Ready(&'a [[u32; 3]]),
+    Mesh(Mesh<'a>),
+}
+
 /// Set-up and tiles pass by pass: while the tiles draw one pass, the next pass's vertices are
-/// transformed and its triangles set up beside them, so a thread that runs out of tiles works on
-/// the next pass instead of waiting. Only the first pass's vertex stage and set-up run before
-/// any tile. Returns the triangles rasterized and the fragments written.
+/// transformed and its triangles set up beside them (and, for a `Source::Mesh`, assembled), so
+/// a thread that runs out of tiles works on the next pass instead of waiting. Only the first
+/// pass's vertex stage and set-up run before any tile. Returns the triangles assembled in the
+/// flush (those of a `Source::Mesh`), the triangles rasterized and the fragments written.
 fn flush_with<P: Shade>(
     stages: &mut Stages<P>,
-    (vertices, triangles): (&[Vertex], &[[u32; 3]]),
+    (vertices, source): (&[Vertex], Source<'_>),
     draws: &[PendingDraw],
     fb: &mut Framebuffer,
     threads: usize,
     (tile, pass): (u32, usize),
-) -> (u64, u64) {
+) -> (u64, u64, u64) {
     let vp = Viewport {
         width: fb.width(),
         height: fb.height(),
@@ -285,20 +322,39 @@ fn flush_with<P: Shade>(
         .collect();
     // Every element is written by the vertex stage before set-up reads it: only the elements a
     // longer flush adds are filled first, not the whole buffer on the calling thread.
-    let transformed = &mut stages.transformed;
+    let Stages {
+        transformed,
+        passes,
+        assembled,
+    } = stages;
     transformed.truncate(vertices.len());
     transformed.resize(vertices.len(), Transformed::default());
     // The vertices before `done` are transformed. A pass needs those its triangles use: all
     // below one past the largest index of its and the earlier passes' triangles. A strip or a
     // list over a grid uses its vertices in order, so each pass transforms its own band of them.
     // Only worth its scan when later passes' vertices can be transformed beside the tiles.
-    let overlap = threads > 1 && triangles.len() > pass;
+    let overlap = threads > 1
+        && match source {
+            Source::Ready(t) => t.len() > pass,
+            Source::Mesh(_) => true,
+        };
     let mut done = 0;
-    // Transforms the vertices the triangles `range` use, then sets them up into `chunks` (as
-    // many as it needs, each a range of its own on its own thread), returning the chunks used.
-    let mut prepare_pass = |range: Range<usize>, chunks: &mut Vec<ChunkOut<P>>| -> usize {
+    // The next pass's first triangle, and where a mesh's assembly stands.
+    let (mut start, mut assembly) = (0, Assembly::default());
+    // Takes the next pass's triangles (assembling them from a mesh), transforms the vertices
+    // they use, then sets them up into `chunks` (as many as it needs, each a range of its own on
+    // its own thread). Returns the chunks used and whether another pass follows.
+    let mut prepare_pass = |chunks: &mut Vec<ChunkOut<P>>| -> (usize, bool) {
+        // The pass is `range` of `tris`: of the ready triangles, or of the mesh's pass just
+        // assembled (its only draw starts at 0).
+        let (tris, range, more) = next_pass(source, start, pass, &mut assembly, assembled);
+        start += range.len();
+        if range.is_empty() {
+            // A mesh's last indices may make only degenerate triangles.
+            return (0, more);
+        }
         let needed = if overlap {
-            triangles[range.clone()]
+            tris[range.clone()]
                 .iter()
                 .fold(done, |m, t| m.max(t[0].max(t[1]).max(t[2]) as usize + 1))
         } else {
@@ -341,7 +397,7 @@ fn flush_with<P: Shade>(
                 part,
                 |d, part| {
                     set_up::<P>(
-                        &triangles[part],
+                        &tris[part],
                         (vertices, transformed),
                         d as u32,
                         &setups[d],
@@ -360,33 +416,63 @@ fn flush_with<P: Shade>(
         } else {
             set_up_piece(0, &mut chunks[0]);
         }
-        pieces
+        (pieces, more)
     };
-    let n = triangles.len();
-    let passes: Vec<Range<usize>> = (0..n)
-        .step_by(pass)
-        .map(|start| start..start + pass.min(n - start))
-        .collect();
-    let [front, back] = &mut stages.passes;
+    let [front, back] = passes;
     let (mut ready, mut next) = (front, back);
-    let mut used = prepare_pass(passes[0].clone(), ready);
+    let (mut used, mut more) = prepare_pass(ready);
     let (mut rasterized, mut fragments) = (0, 0);
-    for k in 0..passes.len() {
+    loop {
         let chunks = &ready[..used];
         rasterized += chunks.iter().map(|c| c.tris.len() as u64).sum::<u64>();
         let draw = |fb: &mut Framebuffer| raster_tiles::<P>(fb, chunks, &shades, &grid, threads);
-        let (drawn, set) = match passes.get(k + 1) {
-            Some(range) if threads > 1 => {
-                rayon::join(|| draw(fb), || prepare_pass(range.clone(), next))
-            }
-            Some(range) => (draw(fb), prepare_pass(range.clone(), next)),
-            None => (draw(fb), 0),
+        if !more {
+            fragments += draw(fb);
+            break;
+        }
+        let (drawn, set) = if threads > 1 {
+            rayon::join(|| draw(fb), || prepare_pass(next))
+        } else {
+            (draw(fb), prepare_pass(next))
         };
         fragments += drawn;
-        used = set;
+        (used, more) = set;
         std::mem::swap(&mut ready, &mut next);
     }
-    (rasterized, fragments)
+    let assembled = match source {
+        Source::Ready(_) => 0,
+        Source::Mesh(_) => start as u64,
+    };
+    (assembled, rasterized, fragments)
+}
+
+/// The triangles of the pass that starts at triangle `start` (at most `pass`) as a range of a
+/// slice, and whether another pass follows: a range of the ready triangles, or the next
+/// triangles of a mesh, assembled into `assembled`.
+fn next_pass<'a>(
+    source: Source<'a>,
+    start: usize,
+    pass: usize,
+    assembly: &mut Assembly,
+    assembled: &'a mut Vec<[u32; 3]>,
+) -> (&'a [[u32; 3]], Range<usize>, bool) {
+    match source {
+        Source::Ready(t) => {
+            let end = (start + pass).min(t.len());
+            (t, start..end, end < t.len())
+        }
+        Source::Mesh(mesh) => {
+            assembled.clear();
+            // Checked in `Batch::add` (`indices_in_range`): no index is out of range.
+            let checked = assembly.resume(&mesh, |t| {
+                assembled.push(t);
+                assembled.len() < pass
+            });
+            debug_assert!(checked.is_ok());
+            let more = checked.is_ok() && !assembly.done(&mesh);
+            (&assembled[..], 0..assembled.len(), more)
+        }
+    }
 }
 
 /// Runs the vertex stage over the pending vertices from `start` on into `out` (as many as it
@@ -759,6 +845,65 @@ mod tests {
                 "{threads} threads, passes of {pass}"
             );
         }
+    }
+
+    /// On several threads a lone draw of more than one pass is assembled pass by pass in the
+    /// flush: it counts its triangles, draws its bytes and fails on an index out of range (with
+    /// nothing drawn) as one assembly on one thread does. The strip ends in degenerate triangles,
+    /// so its last pass assembles none.
+    #[test]
+    fn a_draw_assembled_pass_by_pass_counts_draws_and_fails_as_one_assembly() {
+        let (v, strips, _, transform) = scene();
+        let mut indices = strips.join(&u32::MAX);
+        indices.push(u32::MAX);
+        indices.extend([5; 300]);
+        let state = RenderState {
+            shading: Shading::Gouraud,
+            ..RenderState::default()
+        };
+        let draw = |threads: usize, pass: usize, indices: &[u32]| {
+            let mut result = None;
+            let fb = on_threads(threads, (ColorFormat::Rgb565, DepthFormat::D16), |fb| {
+                let mut r = Rasterizer::new()
+                    .with_split_from(0)
+                    .with_pass_triangles(pass);
+                let mesh = Mesh {
+                    vertices: &v,
+                    indices: Indices::U32(indices),
+                    topology: Topology::TriangleStrip,
+                };
+                result = Some(r.draw(fb, &mesh, &transform, &state));
+            });
+            (result.unwrap(), fb)
+        };
+        let (one, whole) = draw(1, usize::MAX, &indices);
+        let one = one.unwrap();
+        assert_eq!(one.triangles, 4418);
+        assert!(one.rasterized > 1000 && one.fragments > 10_000, "{one:?}");
+        for (threads, pass) in [(2, 97), (2, 4418), (3, 1000)] {
+            let (stats, fb) = draw(threads, pass, &indices);
+            assert_eq!(stats.unwrap(), one, "{threads} threads, passes of {pass}");
+            assert!(fb == whole, "{threads} threads, passes of {pass}");
+        }
+        // An index one past the vertices, after thousands of good triangles.
+        let at = indices.len() - 400;
+        indices[at] = v.len() as u32;
+        let (failed, untouched) = draw(1, usize::MAX, &indices);
+        assert!(failed.is_err());
+        for (threads, pass) in [(2, 97), (3, 1000)] {
+            let (result, fb) = draw(threads, pass, &indices);
+            assert_eq!(result, failed, "{threads} threads, passes of {pass}");
+            assert!(
+                fb == untouched,
+                "nothing drawn: {threads} threads, passes of {pass}"
+            );
+        }
+        assert!(
+            untouched
+                .to_rgba_image()
+                .pixels()
+                .all(|p| p.0 == untouched.to_rgba_image().get_pixel(0, 0).0)
+        );
     }
 
     #[test]

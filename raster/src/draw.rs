@@ -58,6 +58,8 @@ pub struct Rasterizer {
 pub(crate) struct Stages<P: Pipeline> {
     pub transformed: Vec<Transformed<P>>,
     pub passes: [Vec<ChunkOut<P>>; 2],
+    /// A pass's triangles, when a draw is assembled pass by pass (`batch::Source::Mesh`).
+    pub assembled: Vec<[u32; 3]>,
 }
 
 impl<P: Pipeline> Default for Stages<P> {
@@ -65,6 +67,7 @@ impl<P: Pipeline> Default for Stages<P> {
         Self {
             transformed: Vec::new(),
             passes: [Vec::new(), Vec::new()],
+            assembled: Vec::new(),
         }
     }
 }
@@ -164,8 +167,9 @@ impl Rasterizer {
         let mut batch = self.batch(fb);
         let drawn = batch.draw_in_place(mesh, transform, state)?;
         let done = batch.finish();
+        // A draw assembled pass by pass counts its triangles in the flush.
         Ok(DrawStats {
-            triangles: drawn.triangles,
+            triangles: drawn.triangles + done.triangles,
             ..done
         })
     }

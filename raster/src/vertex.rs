@@ -90,46 +90,107 @@ pub(crate) fn assemble(
     mesh: &Mesh,
     mut emit: impl FnMut(IndexTriangle),
 ) -> Result<(), (usize, u32)> {
+    Assembly::default().resume(mesh, |t| {
+        emit(t);
+        true
+    })
+}
+
+/// True when every index of `mesh` but the restart marker is below its vertex count, so that
+/// `assemble` cannot fail on it: a draw whose triangles are assembled while it is drawn is
+/// checked before any of its pixels (one pass over the indices, where assembling them all would
+/// run alone before any tile).
+pub(crate) fn indices_in_range(mesh: &Mesh) -> bool {
     let n = mesh.vertices.len() as u64;
-    let check = |k: usize, v: u32| if (v as u64) < n { Ok(v) } else { Err((k, v)) };
-    match mesh.topology {
-        Topology::TriangleList => {
-            for k in (0..mesh.indices.len() / 3).map(|t| t * 3) {
-                let (Some(a), Some(b), Some(c)) = (
-                    mesh.indices.get(k),
-                    mesh.indices.get(k + 1),
-                    mesh.indices.get(k + 2),
-                ) else {
-                    continue;
-                };
-                let t = [check(k, a)?, check(k + 1, b)?, check(k + 2, c)?];
-                if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] {
-                    emit(t);
-                }
-            }
-        }
-        Topology::TriangleStrip => {
-            let mut window = [0u32; 2];
-            let mut run = 0usize; // indices since the last restart
-            for k in 0..mesh.indices.len() {
-                let Some(v) = mesh.indices.get(k) else {
-                    run = 0;
-                    continue;
-                };
-                let v = check(k, v)?;
-                if run >= 2 {
-                    let [a, b] = window;
-                    if a != b && b != v && a != v {
-                        // Odd triangles of a strip are wound the other way round.
-                        emit(if run % 2 == 0 { [a, b, v] } else { [b, a, v] });
-                    }
-                }
-                window = [window[1], v];
-                run += 1;
-            }
+    // The marker (all ones) wraps to 0 when one is added: the largest index plus one, in one
+    // maximum the compiler keeps in lanes.
+    let most = match mesh.indices {
+        Indices::U16(i) => i.iter().map(|&v| v.wrapping_add(1)).max().map(u64::from),
+        Indices::U32(i) => i.iter().map(|&v| v.wrapping_add(1)).max().map(u64::from),
+    };
+    most.is_none_or(|m| m <= n)
+}
+
+/// Where an assembly of a mesh's indices stands, so that it can stop after any triangle and go
+/// on later: a big draw is assembled pass by pass while the tiles of the pass before are drawn.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Assembly {
+    /// The next index to read.
+    next: usize,
+    /// A strip's last two indices, and how many indices it has read since its last restart.
+    window: [u32; 2],
+    run: usize,
+}
+
+impl Assembly {
+    /// True when every triangle of `mesh` has been emitted.
+    pub fn done(&self, mesh: &Mesh) -> bool {
+        let len = mesh.indices.len();
+        match mesh.topology {
+            Topology::TriangleList => self.next + 3 > len,
+            Topology::TriangleStrip => self.next >= len,
         }
     }
-    Ok(())
+
+    /// Goes on with `mesh` where the last call stopped, calling `emit` for every non-degenerate
+    /// triangle until it returns false or the indices end (see `assemble`). Returns the first
+    /// index that is out of range, if any.
+    pub fn resume(
+        &mut self,
+        mesh: &Mesh,
+        mut emit: impl FnMut(IndexTriangle) -> bool,
+    ) -> Result<(), (usize, u32)> {
+        let n = mesh.vertices.len() as u64;
+        let check = |k: usize, v: u32| if (v as u64) < n { Ok(v) } else { Err((k, v)) };
+        let len = mesh.indices.len();
+        let mut k = self.next;
+        match mesh.topology {
+            Topology::TriangleList => {
+                while k + 3 <= len {
+                    let (a, b, c) = (
+                        mesh.indices.get(k),
+                        mesh.indices.get(k + 1),
+                        mesh.indices.get(k + 2),
+                    );
+                    k += 3;
+                    self.next = k;
+                    let (Some(a), Some(b), Some(c)) = (a, b, c) else {
+                        continue;
+                    };
+                    let t = [check(k - 3, a)?, check(k - 2, b)?, check(k - 1, c)?];
+                    if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] && !emit(t) {
+                        return Ok(());
+                    }
+                }
+            }
+            Topology::TriangleStrip => {
+                // In locals while the loop runs: `emit` may not see them, but the compiler
+                // would store them at every index if they stayed in `self`.
+                let (mut window, mut run) = (self.window, self.run);
+                let mut more = true;
+                while more && k < len {
+                    let v = mesh.indices.get(k);
+                    k += 1;
+                    let Some(v) = v else {
+                        run = 0;
+                        continue;
+                    };
+                    let v = check(k - 1, v)?;
+                    if run >= 2 {
+                        let [a, b] = window;
+                        if a != b && b != v && a != v {
+                            // Odd triangles of a strip are wound the other way round.
+                            more = emit(if run % 2 == 0 { [a, b, v] } else { [b, a, v] });
+                        }
+                    }
+                    window = [window[1], v];
+                    run += 1;
+                }
+                (self.next, self.window, self.run) = (k, window, run);
+            }
+        }
+        Ok(())
+    }
 }
 
 #[cfg(test)]
@@ -172,6 +233,86 @@ mod tests {
         );
         assert_eq!(t16, vec![[0, 1, 2], [3, 4, 5]]);
         assert_eq!(t16, t32);
+    }
+
+    /// A mesh of `n` vertices with `indices` (`u32::MAX` restarts) in 16 or 32 bits.
+    fn with_indices<'a>(
+        v: &'a [Vertex],
+        (i16, i32): (&'a [u16], &'a [u32]),
+        wide: bool,
+        topology: Topology,
+    ) -> Mesh<'a> {
+        Mesh {
+            vertices: v,
+            indices: if wide {
+                Indices::U32(i32)
+            } else {
+                Indices::U16(i16)
+            },
+            topology,
+        }
+    }
+
+    fn narrow(indices: &[u32]) -> Vec<u16> {
+        indices
+            .iter()
+            .map(|&i| if i == u32::MAX { u16::MAX } else { i as u16 })
+            .collect()
+    }
+
+    proptest::proptest! {
+        /// Assembled in pieces of any size, each going on where the last stopped, a mesh gives
+        /// the triangles of one assembly, and the assembly is done after the last.
+        #[test]
+        fn an_assembly_resumed_in_pieces_equals_one_assembly(
+            indices in proptest::collection::vec(
+                proptest::prop_oneof![8 => 0u32..12, 1 => proptest::strategy::Just(u32::MAX)],
+                0..80,
+            ),
+            piece in 1usize..10,
+            strip: bool,
+            wide: bool,
+        ) {
+            let v = vec![Vertex::default(); 12];
+            let short = narrow(&indices);
+            let topology = if strip { Topology::TriangleStrip } else { Topology::TriangleList };
+            let mesh = with_indices(&v, (&short, &indices), wide, topology);
+            let mut whole = vec![];
+            assemble(&mesh, |t| whole.push(t)).unwrap();
+            let (mut a, mut pieces) = (Assembly::default(), vec![]);
+            while !a.done(&mesh) {
+                let before = pieces.len();
+                a.resume(&mesh, |t| {
+                    pieces.push(t);
+                    pieces.len() - before < piece
+                })
+                .unwrap();
+                proptest::prop_assert!(pieces.len() - before == piece || a.done(&mesh));
+            }
+            proptest::prop_assert_eq!(pieces, whole);
+        }
+
+        /// `indices_in_range` says a strip's assembly succeeds exactly when it does; for a list
+        /// (which skips a triangle holding a restart, and indices past its last triangle) it
+        /// may refuse one that would succeed, never the other way round.
+        #[test]
+        fn indices_in_range_exactly_when_a_strip_assembles(
+            indices in proptest::collection::vec(
+                proptest::prop_oneof![8 => 0u32..16, 1 => proptest::strategy::Just(u32::MAX)],
+                0..40,
+            ),
+            n in 0usize..16,
+            wide: bool,
+        ) {
+            let v = vec![Vertex::default(); n];
+            let short = narrow(&indices);
+            let strip = with_indices(&v, (&short, &indices), wide, Topology::TriangleStrip);
+            let ok = indices_in_range(&strip);
+            proptest::prop_assert_eq!(ok, assemble(&strip, |_| {}).is_ok());
+            let list = with_indices(&v, (&short, &indices), wide, Topology::TriangleList);
+            let list_ok = assemble(&list, |_| {}).is_ok();
+            proptest::prop_assert!(!ok || list_ok);
+        }
     }
 
     #[test]

@@ -253,6 +253,17 @@ mod tests {
         }
     }
 
+    /// Up to `most` indices below `below`, with a restart about every ninth.
+    fn some_indices(
+        below: u32,
+        most: usize,
+    ) -> impl proptest::strategy::Strategy<Value = Vec<u32>> {
+        proptest::collection::vec(
+            proptest::prop_oneof![8 => 0..below, 1 => proptest::strategy::Just(u32::MAX)],
+            0..most,
+        )
+    }
+
     fn narrow(indices: &[u32]) -> Vec<u16> {
         indices
             .iter()
@@ -265,10 +276,7 @@ mod tests {
         /// the triangles of one assembly, and the assembly is done after the last.
         #[test]
         fn an_assembly_resumed_in_pieces_equals_one_assembly(
-            indices in proptest::collection::vec(
-                proptest::prop_oneof![8 => 0u32..12, 1 => proptest::strategy::Just(u32::MAX)],
-                0..80,
-            ),
+            indices in some_indices(12, 80),
             piece in 1usize..10,
             strip: bool,
             wide: bool,
@@ -297,10 +305,7 @@ mod tests {
         /// may refuse one that would succeed, never the other way round.
         #[test]
         fn indices_in_range_exactly_when_a_strip_assembles(
-            indices in proptest::collection::vec(
-                proptest::prop_oneof![8 => 0u32..16, 1 => proptest::strategy::Just(u32::MAX)],
-                0..40,
-            ),
+            indices in some_indices(16, 40),
             n in 0usize..16,
             wide: bool,
         ) {

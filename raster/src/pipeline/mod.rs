@@ -60,8 +60,8 @@ pub(crate) struct Attributes<'t> {
     pub fog_color: [u8; 3],
     pub compare: Compare,
     pub depth_write: bool,
-    /// The bound texture, whether the level is chosen per triangle, and the finest level allowed.
-    texture: Option<(&'t Texture, bool, u8)>,
+    /// How a triangle's mip level is chosen, when a texture is bound.
+    mip: Option<MipChoice<'t>>,
 }
 
 impl<'t> Attributes<'t> {
@@ -85,12 +85,15 @@ impl<'t> Attributes<'t> {
             fog_color: state.fog.map_or([0; 3], |f| f.color),
             compare: state.depth.compare,
             depth_write: state.depth.write,
-            texture: state.texture.map(|b| {
-                (
-                    b.texture,
-                    b.sampler.mip == MipFilter::Nearest,
-                    b.finest_level,
-                )
+            mip: state.texture.map(|b| {
+                let t = b.texture;
+                let base = &t.levels()[0];
+                MipChoice {
+                    texture: t,
+                    per_triangle: b.sampler.mip == MipFilter::Nearest,
+                    finest: usize::from(b.finest_level).min(t.levels().len() - 1) as u8,
+                    texels: (base.width() * base.height()).trailing_zeros() as i32,
+                }
             }),
         }
     }
@@ -126,21 +129,31 @@ impl<'t> Attributes<'t> {
     /// Mip level of a triangle from its doubled texture-space area (16.16 repeats squared) and
     /// doubled screen area (sub-pixels squared), never finer than the binding's finest level.
     pub fn level(&self, texel_area2: i128, area2: i64) -> u8 {
-        let Some((texture, per_triangle, finest)) = self.texture else {
+        let Some(m) = self.mip else {
             return 0;
         };
-        let last = texture.levels().len() - 1;
-        let finest = usize::from(finest).min(last);
-        if !per_triangle || texel_area2 <= 0 || area2 <= 0 {
-            return finest as u8;
+        if !m.per_triangle || texel_area2 <= 0 || area2 <= 0 {
+            return m.finest;
         }
-        let base = &texture.levels()[0];
-        let texels = (base.width() * base.height()).trailing_zeros() as i32;
         let bits = |v: i128| 128 - v.leading_zeros() as i32;
         let ratio_log2 =
-            bits(texel_area2) - 32 + texels + 2 * SUBPIXEL_BITS as i32 - bits(area2 as i128);
-        texture.level_for_area_ratio(ratio_log2).max(finest) as u8
+            bits(texel_area2) - 32 + m.texels + 2 * SUBPIXEL_BITS as i32 - bits(area2 as i128);
+        m.texture
+            .level_for_area_ratio(ratio_log2)
+            .max(m.finest.into()) as u8
     }
+}
+
+/// A draw's mip level choice, worked out once per draw rather than per triangle.
+#[derive(Clone, Copy, Debug)]
+struct MipChoice<'t> {
+    texture: &'t Texture,
+    /// The level is chosen per triangle (nearest mip), not always the finest allowed.
+    per_triangle: bool,
+    /// The finest level allowed (the binding's `finest_level`, within the chain).
+    finest: u8,
+    /// Texels of level 0, as a power of two.
+    texels: i32,
 }
 
 /// A set-up triangle of either pipeline.

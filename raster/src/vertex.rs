@@ -143,31 +143,29 @@ impl Assembly {
         let n = mesh.vertices.len() as u64;
         let check = |k: usize, v: u32| if (v as u64) < n { Ok(v) } else { Err((k, v)) };
         let len = mesh.indices.len();
-        let mut k = self.next;
+        // In locals while the loop runs: `emit` may not see them, but the compiler would store
+        // them at every index if they stayed in `self`.
+        let (mut k, mut more) = (self.next, true);
         match mesh.topology {
             Topology::TriangleList => {
-                while k + 3 <= len {
+                while more && k + 3 <= len {
                     let (a, b, c) = (
                         mesh.indices.get(k),
                         mesh.indices.get(k + 1),
                         mesh.indices.get(k + 2),
                     );
                     k += 3;
-                    self.next = k;
                     let (Some(a), Some(b), Some(c)) = (a, b, c) else {
                         continue;
                     };
                     let t = [check(k - 3, a)?, check(k - 2, b)?, check(k - 1, c)?];
-                    if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] && !emit(t) {
-                        return Ok(());
+                    if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] {
+                        more = emit(t);
                     }
                 }
             }
             Topology::TriangleStrip => {
-                // In locals while the loop runs: `emit` may not see them, but the compiler
-                // would store them at every index if they stayed in `self`.
                 let (mut window, mut run) = (self.window, self.run);
-                let mut more = true;
                 while more && k < len {
                     let v = mesh.indices.get(k);
                     k += 1;
@@ -186,9 +184,10 @@ impl Assembly {
                     window = [window[1], v];
                     run += 1;
                 }
-                (self.next, self.window, self.run) = (k, window, run);
+                (self.window, self.run) = (window, run);
             }
         }
+        self.next = k;
         Ok(())
     }
 }
@@ -235,7 +234,8 @@ mod tests {
         assert_eq!(t16, t32);
     }
 
-    /// A mesh of `n` vertices with `indices` (`u32::MAX` restarts) in 16 or 32 bits.
+    /// A mesh over `v` with the indices `i32` (`u32::MAX` restarts), or the same in 16 bits
+    /// (`i16`).
     fn with_indices<'a>(
         v: &'a [Vertex],
         (i16, i32): (&'a [u16], &'a [u32]),

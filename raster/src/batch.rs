@@ -898,12 +898,9 @@ mod tests {
                 "nothing drawn: {threads} threads, passes of {pass}"
             );
         }
-        assert!(
-            untouched
-                .to_rgba_image()
-                .pixels()
-                .all(|p| p.0 == untouched.to_rgba_image().get_pixel(0, 0).0)
-        );
+        let image = untouched.to_rgba_image();
+        let clear = image.get_pixel(0, 0).0;
+        assert!(image.pixels().all(|p| p.0 == clear));
     }
 
     #[test]

@@ -27,7 +27,7 @@ use crate::engine::cracks::{CrackMode, TileIndices, neighbours::neighbour_levels
 use crate::engine::error_bound::{Bound, ErrorBound};
 use crate::engine::frustum::{Aabb, Frustum};
 use crate::engine::geomorph::{Geomorph, Morpher, SUBDIVISION};
-use crate::engine::importance::{TileMeasure, Weights, visual_importance};
+use crate::engine::importance::{Importance, TileMeasure, Weights, visual_importance};
 use crate::engine::masks::{LevelSet, MaskSet};
 use crate::engine::paging::stream::{
     LevelLoader, PredictedView, Predictor, StreamPager, StreamSettings, Streaming, Want,
@@ -154,7 +154,8 @@ pub struct RenderedTile {
     /// The strip-mask level it was drawn at.
     pub level: usize,
     /// Its level's geometric error on screen: the height error (metres, from the archive)
-    /// times pixels per metre at its bounding box's distance from the eye.
+    /// times pixels per metre at its bounding box's distance from the eye; 0 for an exact
+    /// level, infinite for a level without a known error, as the budget's allocation counts it.
     pub error_px: f64,
     /// Whether it drew coarser than the budget offered because it holds too few levels.
     pub capped: bool,
@@ -322,28 +323,31 @@ impl Engine {
         if reach.iter().any(|&id| resident.get(id).is_none()) {
             return false;
         }
+        if budgets.is_empty() {
+            return true;
+        }
         let no_kept = HashMap::new();
         let levels = progressive_levels(self.terrain.tile_size);
-        // Per tile in reach, the fewest levels any of the budgets would have it draw.
+        let inputs = FrameInputs {
+            pager: &*self.pager,
+            terrain: &self.terrain,
+            masks: &self.masks,
+            weights: self.settings.weights,
+            // The view's plan does not depend on the budget: each of `budgets` is shared below.
+            budget: 0,
+            forced_levels: None,
+            max_error: self.settings.max_error,
+            allocation: self.settings.allocation,
+            height: screen.1,
+            clearance: self.settings.clearance,
+            kept: &no_kept,
+        };
+        let view = plan_view(&inputs, camera, aspect);
+        // Per tile in reach, the fewest levels any of the budgets would have it draw: the
+        // levels each budget offers the tiles in view had they held them all.
         let mut needed: HashMap<TileId, usize> = HashMap::new();
         for &budget in budgets {
-            let inputs = FrameInputs {
-                pager: &*self.pager,
-                terrain: &self.terrain,
-                masks: &self.masks,
-                weights: self.settings.weights,
-                budget,
-                forced_levels: None,
-                max_error: self.settings.max_error,
-                allocation: self.settings.allocation,
-                height: screen.1,
-                clearance: self.settings.clearance,
-                kept: &no_kept,
-            };
-            // The frame's offer: the levels the budget buys each tile in view had it held
-            // them all.
-            let plan = plan_frame(&inputs, camera, aspect);
-            for (&(id, _, _), o) in plan.visible.iter().zip(&plan.offered) {
+            for (&(id, _, _), o) in view.visible.iter().zip(view.offer(&inputs, budget)) {
                 if reach.contains(&id) {
                     let l = levels_for_mask(o.level, levels);
                     needed
@@ -748,12 +752,30 @@ struct FramePlan<'p> {
     bound: Bound,
 }
 
-/// Culls, weighs (Algorithm 2) and shares the budget, no tile finer than τ needs: the frame's
-/// plan.
-fn plan_frame<'p>(inputs: &FrameInputs<'p>, camera: &Camera, aspect: f64) -> FramePlan<'p> {
+/// What a frame's plan takes from the view alone, whatever its budget: the resident tiles in
+/// view, their importance, the levels τ needs and each tile's errors.
+struct ViewPlan<'p> {
+    /// In view: the tile, its resident copy and its box's distance from the eye.
+    visible: Vec<(TileId, &'p ResidentTile, f64)>,
+    importance: Importance,
+    /// Per visible tile, the coarsest level whose error is within τ.
+    needed: Vec<usize>,
+    /// Triangles the needed levels take.
+    need: usize,
+    /// Per visible tile, the finest level it can draw: its held levels' finest, no finer than
+    /// it needs.
+    finest: Vec<usize>,
+    errors: Vec<TileErrors<'p>>,
+    /// Some tile in view holds only part of its levels.
+    partial: bool,
+}
+
+/// Culls and weighs the view (Algorithm 2), with the levels τ needs: the part of the frame's
+/// plan its budget does not change (see [`ViewPlan`]).
+fn plan_view<'p>(inputs: &FrameInputs<'p>, camera: &Camera, aspect: f64) -> ViewPlan<'p> {
     let (visible, measures) = cull(inputs.pager.resident(), inputs.terrain, camera, aspect);
     let importance = visual_importance(&measures, inputs.weights);
-    let partial = visible.iter().find(|(_, tile, _)| !tile.is_complete());
+    let partial = visible.iter().any(|(_, tile, _)| !tile.is_complete());
     // Partial tiles holding more than their corners draw powers-of-two levels only, which the
     // engine's masks are whenever such tiles are resident (see `choose_base`): a level whose
     // `l + 1` is not a multiple of a drawn neighbour's stride needs border samples that
@@ -765,46 +787,74 @@ fn plan_frame<'p>(inputs: &FrameInputs<'p>, camera: &Camera, aspect: f64) -> Fra
                 .all(|(_, t, _)| t.is_complete() || t.levels == 1)
     );
     let needed = inputs.needed_levels(camera, visible.iter().map(|&(_, t, d)| (t, d)));
-    let need: usize = needed.iter().map(|&l| inputs.masks.triangle_count(l)).sum();
-    let finest: Vec<usize> = visible
+    let need = needed.iter().map(|&l| inputs.masks.triangle_count(l)).sum();
+    let finest = visible
         .iter()
         .zip(&needed)
         .map(|((_, tile, _), &level)| tile.finest_mask_level().max(level))
         .collect();
     let errors = inputs.tile_errors(camera, visible.iter().copied());
-    let pixels_per_metre: Vec<f64> = errors.iter().map(|e| e.pixels_per_metre).collect();
-    let share = |budget: usize, caps: &[usize]| {
+    ViewPlan {
+        visible,
+        importance,
+        needed,
+        need,
+        finest,
+        errors,
+        partial,
+    }
+}
+
+impl ViewPlan<'_> {
+    /// `budget` shared among the tiles in view, none finer than `caps`.
+    fn share(&self, inputs: &FrameInputs, budget: usize, caps: &[usize]) -> Vec<TileAllocation> {
         inputs
             .allocation
-            .share(budget, &importance, inputs.masks, &errors, caps)
-    };
-    let mut allocation = share(inputs.budget, &finest);
-    let mut offered = if partial.is_some() {
-        share(inputs.budget, &needed)
+            .share(budget, &self.importance, inputs.masks, &self.errors, caps)
+    }
+
+    /// The levels `budget` offers the tiles in view had they held every level.
+    fn offer(&self, inputs: &FrameInputs, budget: usize) -> Vec<TileAllocation> {
+        let caps = if self.partial {
+            &self.needed
+        } else {
+            &self.finest
+        };
+        self.share(inputs, budget, caps)
+    }
+}
+
+/// Culls, weighs (Algorithm 2) and shares the budget, no tile finer than τ needs: the frame's
+/// plan.
+fn plan_frame<'p>(inputs: &FrameInputs<'p>, camera: &Camera, aspect: f64) -> FramePlan<'p> {
+    let view = plan_view(inputs, camera, aspect);
+    let mut allocation = view.share(inputs, inputs.budget, &view.finest);
+    let mut offered = if view.partial {
+        view.offer(inputs, inputs.budget)
     } else {
         allocation.clone()
     };
     let bound = match inputs.max_error {
-        _ if need > inputs.budget || inputs.forced_levels.is_some() => Bound::Budget,
+        _ if view.need > inputs.budget || inputs.forced_levels.is_some() => Bound::Budget,
         ErrorBound::Off => Bound::Full,
         ErrorBound::Pixels(_) => Bound::Error,
     };
     if let Some(level_of) = inputs.forced_levels {
-        for ((a, o), &(id, tile, _)) in allocation.iter_mut().zip(&mut offered).zip(&visible) {
+        for ((a, o), &(id, tile, _)) in allocation.iter_mut().zip(&mut offered).zip(&view.visible) {
             let pinned = level_of(id);
-            o.level = drawable_level(pinned, 0, partial.is_some());
-            a.level = drawable_level(pinned, tile.finest_mask_level(), partial.is_some());
+            o.level = drawable_level(pinned, 0, view.partial);
+            a.level = drawable_level(pinned, tile.finest_mask_level(), view.partial);
             a.triangles = inputs.masks.triangle_count(a.level);
         }
     }
     FramePlan {
-        visible,
-        importance: importance.values,
+        pixels_per_metre: view.errors.iter().map(|e| e.pixels_per_metre).collect(),
+        visible: view.visible,
+        importance: view.importance.values,
         allocation,
         offered,
-        pixels_per_metre,
         budget: inputs.budget,
-        need,
+        need: view.need,
         bound,
     }
 }
@@ -852,10 +902,7 @@ impl<'p> FramePlan<'p> {
                     id,
                     importance,
                     level: a.level,
-                    error_px: tile
-                        .level_errors
-                        .get(a.level)
-                        .map_or(0.0, |&e| f64::from(e) * ppm),
+                    error_px: error_px(tile, a.level, ppm),
                     capped: a.level > o.level,
                 },
             )
@@ -1078,12 +1125,19 @@ fn predicted_wants(inputs: &FrameInputs<'_>, view: &PredictedView, aspect: f64) 
 /// before the far ones. The visual importance, a share among the tiles in view that differs
 /// little between them, would fetch them in almost arbitrary order.
 fn shown_error_px(tile: &ResidentTile, pixels_per_metre: f64) -> f64 {
+    error_px(tile, tile.finest_mask_level(), pixels_per_metre)
+}
+
+/// The screen error of `tile`'s mask level `level` at `pixels_per_metre`, as the allocation
+/// counts it ([`TileErrors::pixels`]): what the report shows and what the pager ranks by agree
+/// with what shared the budget, a level without a known error included.
+fn error_px(tile: &ResidentTile, level: usize, pixels_per_metre: f64) -> f64 {
     TileErrors {
         metres: &tile.level_errors,
         pixels_per_metre,
         kept: None,
     }
-    .pixels(tile.finest_mask_level())
+    .pixels(level)
 }
 
 /// The most of the memory limit the base may take: the rest is for paging.

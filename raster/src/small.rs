@@ -10,10 +10,11 @@
 //!
 //! The values are those of the general row step: a narrow plane at a pixel is exact wherever it
 //! is evaluated from (see `AttrPlane::on_grid`), and neither sums nor products of it overflow.
-//! When every plane stays inside the range its pixel value is clamped to over the rows and
-//! columns the triangle can own here (an affine function over a rectangle is extreme at its
-//! corners), the clamps are left out; under perspective, so are the division's when the
-//! texture planes bound every quotient.
+//! When the triangle's vertices hold values far enough inside the ranges its pixel values are
+//! clamped to (`FixedTriangle::bounded`, decided once at set-up), the clamps are left out;
+//! under perspective, so are the division's when the texture planes bound every quotient over
+//! the rows and columns the triangle can own here (an affine function over a rectangle is
+//! extreme at its corners).
 
 use crate::edge::PixelRect;
 use crate::fixed_point::{ATTR_FRAC_BITS, TEXCOORD_LIMIT};
@@ -91,19 +92,8 @@ pub(crate) fn small_triangle<
     };
     // The last column and row the triangle may own here, from its first.
     let (w, h) = ((rect.x1 - rect.x0 - 1) as i64, end - y0 - 1);
-    let within = |q: &AttrPlane, v: i64, lo: i64, hi: i64| {
-        let (least, most) = extremes(q, v, w, h);
-        least >= lo && most < hi
-    };
-    let one = 1i64 << ATTR_FRAC_BITS;
-    let coord = (TEXCOORD_LIMIT << 16, (TEXCOORD_LIMIT + 1) << 16);
-    let in_range = (!D::ENABLED || within(&p.z, start.z, 0, 1 << 48))
-        && (0..channels).all(|k| within(&p.c[k], start.c[k], 0, 256 * one))
-        && (!FOG || within(&p.f, start.f, 0, 257 * one))
-        && (texes != TEX_AFFINE
-            || (within(&p.tex[0], start.tex[0], -coord.0, coord.1)
-                && within(&p.tex[1], start.tex[1], -coord.0, coord.1)))
-        && (texes != TEX_PERSPECTIVE || quotients_in_range(&p.tex, &start.tex, w, h));
+    let in_range =
+        t.bounded && (texes != TEX_PERSPECTIVE || quotients_in_range(&p.tex, &start.tex, w, h));
     // The branch on the constant `F::ENABLED` keeps the compiler from building the textured row
     // loops for untextured runs and the untextured one for textured runs, which no draw can
     // reach.

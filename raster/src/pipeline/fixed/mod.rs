@@ -144,12 +144,68 @@ pub(crate) struct FixedScreen {
     color: [i64; 3],
     /// Share of the surface colour against fog, 0..=256.
     fog: i64,
+    /// Which of its attributes lie inside their ranges by a small triangle's margin
+    /// (`Inner::of`).
+    inner: Inner,
 }
 
 impl FixedScreen {
     /// Depth, 0.32 (for the line path, which shares this projection).
     pub(crate) fn depth(&self) -> i64 {
         self.depth
+    }
+}
+
+/// A vertex's attributes that lie inside the ranges their pixel values are clamped to by more
+/// than a small triangle's planes can stray from the exact interpolation, one bit per kind:
+/// a small triangle whose three vertices have the bits its planes need draws every pixel it owns
+/// without the clamps (`FixedTriangle::bounded`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct Inner(u8);
+
+impl Inner {
+    const DEPTH: u8 = 1;
+    const COLOR: u8 = 2;
+    const FOG: u8 = 4;
+    const UV: u8 = 8;
+
+    /// Depth (0.32) this far inside `0..DEPTH_ONE`: a depth plane of a small triangle strays
+    /// by less than `2^-31` of its vertices' spread (below `2^48` with the plane's 16 fraction
+    /// bits, so below `2^17`) plus 18, and 3 units are `3 * 2^16`.
+    const DEPTH_MARGIN: i64 = 3;
+
+    /// The bits of a vertex with these values: depth at least `DEPTH_MARGIN` inside its range,
+    /// every colour channel and the fog share at least 1 (their ranges end at 255 and 256, a
+    /// whole unit above the largest value a vertex holds), both texture coordinates above
+    /// `-TEXCOORD_LIMIT` (the range ends one 16.16 unit above the largest, `TEXCOORD_LIMIT`).
+    fn of(depth: i64, color: [i64; 3], fog: i64, uv: [i64; 2]) -> Self {
+        let bit = |inside: bool, b: u8| inside as u8 * b;
+        Self(
+            bit(
+                (Self::DEPTH_MARGIN..DEPTH_ONE - Self::DEPTH_MARGIN).contains(&depth),
+                Self::DEPTH,
+            ) | bit(color.iter().all(|&c| c >= 1), Self::COLOR)
+                | bit(fog >= 1, Self::FOG)
+                | bit(uv.iter().all(|&c| c > -TEXCOORD_LIMIT), Self::UV),
+        )
+    }
+
+    /// The bits a triangle's planes need: those of the attributes its draw interpolates, the
+    /// texture coordinates when they are affine (perspective quotients are bounded per visit,
+    /// `small::quotients_in_range`).
+    fn needed(a: &Attributes, tex: TexMode) -> Self {
+        let bit = |used: bool, b: u8| used as u8 * b;
+        Self(
+            bit(a.depth, Self::DEPTH)
+                | bit(a.shade, Self::COLOR)
+                | bit(a.fog, Self::FOG)
+                | bit(tex == TexMode::Affine, Self::UV),
+        )
+    }
+
+    /// True when all three vertices have every bit of `needed`.
+    fn all(v: &[&FixedScreen; 3], needed: Self) -> bool {
+        v[0].inner.0 & v[1].inner.0 & v[2].inner.0 & needed.0 == needed.0
     }
 }
 
@@ -253,6 +309,7 @@ impl FixedScreen {
             uv: v.uv,
             color: v.color,
             fog,
+            inner: Inner::of(depth, v.color, fog, v.uv),
         }
     }
 }
@@ -558,6 +615,20 @@ pub(crate) struct FixedTriangle {
     /// triangle) and on its rectangle's pixel grid: rows start from `AttrPlane::at_pixel`
     /// (otherwise from `AttrPlane::at`).
     pub(crate) narrow: bool,
+    /// A small triangle whose planes give every pixel it owns a value inside the range the row
+    /// step clamps it to, from the values at its vertices (`Inner`), so that its rows need no
+    /// clamps (`small::small_triangle`; perspective quotients are bounded there).
+    ///
+    /// Bounds: an owned pixel centre lies in the triangle, where the exact interpolation of the
+    /// vertices' values lies between the least and the greatest of them. A small triangle's
+    /// gradient is `g (1 - e) + r` for the exact gradient `g`, one `e < 2^-31` for all its planes
+    /// (the floor of the area's reciprocal, `Geometry::inv_area` in `(2^31, 2^32]`) and the
+    /// rounding `|r| <= 1/2`; the value at an offset `o` from the origin vertex (sub-pixels,
+    /// `|o| < 2^13` on each axis inside a small triangle) rounds `(dx ox + dy oy) / 256`. So it
+    /// strays from the exact value by at most `e` times the vertices' spread, plus
+    /// `(|ox| + |oy|) / 512 + 1/2 < 17`: the margins of `Inner::of`. Planes whose gradients
+    /// leave i64 are flat at the origin vertex's value, inside the range too.
+    pub(crate) bounded: bool,
     /// The draw it belongs to.
     draw: u32,
 }
@@ -581,6 +652,7 @@ impl FixedTriangle {
             level: 0,
             grey: true,
             narrow: true,
+            bounded: false,
             draw,
         };
         if !a.interpolates() {
@@ -628,6 +700,7 @@ impl FixedTriangle {
                 t.level = a.level(texel_area(&v), area2);
             }
         }
+        t.bounded = coverage.is_small() && Inner::all(&v, Inner::needed(a, t.tex_mode));
         let mine = &mut planes[first..];
         let limit = if coverage.is_small() {
             SMALL_NARROW_GRADIENT
@@ -1191,6 +1264,222 @@ mod tests {
                 y1: (clip.1 + clip.3).min(MAX_DIMENSION as i32),
             };
             check_reach_plane(v, base, [sign(signs.0), sign(signs.1)], clip);
+        }
+    }
+
+    /// A vertex's values: depth (0.32), colour, fog share, texture coordinates (16.16).
+    type Values = (i64, [i64; 3], i64, [i64; 2]);
+
+    /// Sets up the triangle `xy` (sub-pixels) with `values` at its vertices, depth-tested,
+    /// shaded, fogged and textured without perspective. For a small triangle, returns whether
+    /// it is `bounded`, and the first of its planes' values at the pixels it owns that lies
+    /// outside the range its pixels are clamped to.
+    fn strays(xy: [[i64; 2]; 3], values: [Values; 3]) -> Option<(bool, Option<String>)> {
+        let texture = crate::Texture::from_rgba8(2, 2, vec![[9; 4]; 4]).expect("a texture");
+        let state = crate::RenderState {
+            shading: crate::Shading::Gouraud,
+            fog: Some(Fog {
+                color: [0; 3],
+                start: 0.0,
+                end: 1.0,
+            }),
+            texture: Some(crate::TextureBinding::new(
+                &texture,
+                crate::Sampler::default(),
+            )),
+            perspective: crate::Perspective::Affine,
+            ..crate::RenderState::default()
+        };
+        let a = Attributes::new(&state, true);
+        let mut v = [0, 1, 2].map(|i| {
+            let (depth, color, fog, uv) = values[i];
+            FixedScreen {
+                xy: xy[i],
+                depth,
+                color,
+                fog,
+                uv,
+                inner: Inner::of(depth, color, fog, uv),
+                ..FixedScreen::default()
+            }
+        });
+        let d = |v: &[FixedScreen; 3], i: usize| [v[i].xy[0] - v[0].xy[0], v[i].xy[1] - v[0].xy[1]];
+        let area2 = |v: &[FixedScreen; 3]| d(v, 1)[0] * d(v, 2)[1] - d(v, 2)[0] * d(v, 1)[1];
+        if area2(&v) < 0 {
+            v.swap(1, 2);
+        }
+        let cov = Coverage::new(v.map(|s| s.xy), SCREEN).filter(|c| c.is_small())?;
+        if area2(&v) == 0 {
+            return None;
+        }
+        let mut planes = Vec::new();
+        let t = FixedTriangle::new([&v[0], &v[1], &v[2]], area2(&v), cov, &a, 0, &mut planes);
+        let one = 1i64 << ATTR_FRAC_BITS;
+        let coord = TEXCOORD_LIMIT << 16;
+        let mut ranges = vec![(0, 1 << 48)];
+        ranges.extend(std::iter::repeat_n(
+            (0, 256 * one),
+            if t.grey { 1 } else { 3 },
+        ));
+        ranges.extend([(0, 257 * one), (-coord, coord + one), (-coord, coord + one)]);
+        assert_eq!(planes.len(), ranges.len());
+        let (origin, corner) = (cov.origin(), cov.corner());
+        let mut stray = None;
+        cov.for_each_span(i64::MIN, i64::MAX, |y, x0, x1| {
+            for x in x0..x1 {
+                for (p, &(lo, hi)) in planes.iter().zip(&ranges) {
+                    let value = if t.narrow {
+                        p.at_pixel(x - corner[0], y - corner[1])
+                    } else {
+                        let centre = |c: i64, o: i64| c * SUBPIXEL_ONE + SUBPIXEL_HALF - o;
+                        p.at(centre(x, origin[0]), centre(y, origin[1]))
+                    };
+                    if !(lo..hi).contains(&value) && stray.is_none() {
+                        stray = Some(format!("{value} outside {lo}..{hi} at ({x}, {y}): {p:?}"));
+                    }
+                }
+            }
+        });
+        Some((t.bounded, stray))
+    }
+
+    /// `strays`, asserting that a bounded triangle's planes stay in range; returns whether it
+    /// checked a bounded triangle.
+    fn check_bounded(xy: [[i64; 2]; 3], values: [Values; 3]) -> bool {
+        match strays(xy, values) {
+            Some((true, stray)) => {
+                assert_eq!(stray, None, "{xy:?} {values:?}");
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// Values well inside every range, and at the high end of every range.
+    const MIDDLE: Values = (1 << 31, [128; 3], 128, [0; 2]);
+    const HIGH: Values = (DEPTH_ONE - 1, [255; 3], 256, [TEXCOORD_LIMIT; 2]);
+    /// Values whose differences from the ends are no round numbers.
+    const UNEVEN: Values = (DEPTH_ONE - 12345, [201, 202, 203], 177, [5_604_617, 777]);
+
+    #[test]
+    fn vertices_at_the_low_end_of_a_range_stray_past_it_and_are_not_bounded() {
+        let l = TEXCOORD_LIMIT;
+        // One kind of attribute at the low end of its range, the others in the middle.
+        let ends: [Values; 4] = [
+            (0, MIDDLE.1, MIDDLE.2, MIDDLE.3),
+            (MIDDLE.0, [0; 3], MIDDLE.2, MIDDLE.3),
+            (MIDDLE.0, MIDDLE.1, 0, MIDDLE.3),
+            (MIDDLE.0, MIDDLE.1, MIDDLE.2, [-l; 2]),
+        ];
+        let centre = |k: i64| k * SUBPIXEL_ONE + SUBPIXEL_HALF;
+        for end in ends {
+            // Two vertices at the end, on pixel centres: the pixels on the edge between them are
+            // exactly at the end, and the planes' rounding takes some of them past it. Each pair
+            // of the vertices takes its turn (the orientation swaps two).
+            let mut strayed = 0;
+            for (ax, ay) in (0..=12).flat_map(|x| (0..=12).map(move |y| (x, y))) {
+                for (bx, by) in (-2..=14).flat_map(|x| (-2..=14).map(move |y| (x, y))) {
+                    let (a, b) = ([centre(0), centre(0)], [centre(ax), centre(ay)]);
+                    let off = [bx * 97 + 5, by * 89 + 3];
+                    for other in [HIGH, UNEVEN] {
+                        for (xy, values) in [
+                            ([a, b, off], [end, end, other]),
+                            ([off, a, b], [other, end, end]),
+                        ] {
+                            check_bounded(xy, values);
+                            strayed += matches!(strays(xy, values), Some((_, Some(_)))) as u32;
+                        }
+                    }
+                }
+            }
+            assert!(strayed > 0, "{end:?}");
+        }
+    }
+
+    #[test]
+    fn bounded_small_triangles_keep_every_owned_pixel_in_range_at_the_extremes() {
+        let m = Inner::DEPTH_MARGIN;
+        let low: Values = (m, [1; 3], 1, [-TEXCOORD_LIMIT + 1; 2]);
+        let high: Values = (DEPTH_ONE - 1 - m, [255; 3], 256, [TEXCOORD_LIMIT; 2]);
+        let mixed: Values = (m, [255, 1, 255], 256, [-TEXCOORD_LIMIT + 1, TEXCOORD_LIMIT]);
+        let (mut checked, mut at) = (0, 0);
+        for (lo, hi) in [
+            (0, 15 * SUBPIXEL_ONE),
+            (SUBPIXEL_ONE - 1, 16 * SUBPIXEL_ONE - 1),
+            (3, 2 * SUBPIXEL_ONE + 77),
+        ] {
+            let shapes = [
+                [[lo, lo], [hi, lo], [lo, hi]],
+                [[hi, hi], [lo, hi], [hi, lo]],
+                [[hi, lo], [lo, hi], [hi, hi]],
+                [[lo, lo], [hi, hi], [lo + 1, hi]],
+                [[lo, lo], [hi, lo + 1], [hi, hi]],
+            ];
+            for shape in shapes {
+                for a in [low, high, mixed] {
+                    for b in [low, high, mixed] {
+                        for c in [low, high, mixed] {
+                            at += 1;
+                            checked += check_bounded(shape, [a, b, c]) as u32;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(checked * 2 > at, "{checked} of {at}");
+    }
+
+    #[test]
+    fn a_triangle_is_bounded_when_every_vertex_has_every_bit_it_needs() {
+        let state = crate::RenderState {
+            shading: crate::Shading::Gouraud,
+            ..crate::RenderState::default()
+        };
+        let a = Attributes::new(&state, true);
+        let needed = Inner::needed(&a, TexMode::Off);
+        assert_eq!(needed, Inner(Inner::DEPTH | Inner::COLOR));
+        let vertex = |values: Values| FixedScreen {
+            inner: Inner::of(values.0, values.1, values.2, values.3),
+            ..FixedScreen::default()
+        };
+        let (inside, dark) = (vertex(MIDDLE), vertex((1 << 31, [9, 0, 9], 0, [0; 2])));
+        assert!(Inner::all(&[&inside, &inside, &inside], needed));
+        for k in 0..3 {
+            let mut v = [&inside; 3];
+            v[k] = &dark;
+            assert!(!Inner::all(&v, needed), "vertex {k}");
+        }
+        // The fog share is not needed here: a vertex at its end does not count.
+        let fogless = vertex((1 << 31, [9; 3], 0, [0; 2]));
+        assert!(Inner::all(&[&fogless, &inside, &fogless], needed));
+    }
+
+    /// Values of a vertex over their whole ranges, their ends more often than the rest.
+    fn any_values() -> impl proptest::strategy::Strategy<Value = Values> {
+        use proptest::prelude::*;
+        let ends = |lo: i64, hi: i64| prop_oneof![lo..=lo + 4, hi - 4..=hi, lo..=hi];
+        let l = TEXCOORD_LIMIT;
+        (
+            ends(0, DEPTH_ONE - 1),
+            [ends(0, 255), ends(0, 255), ends(0, 255)],
+            ends(0, 256),
+            [ends(-l, l), ends(-l, l)],
+        )
+    }
+
+    proptest::proptest! {
+        /// Where `Inner` calls a small triangle bounded, its planes stay inside the ranges at
+        /// every pixel it owns; vertices at the very ends of the ranges are not bounded.
+        #[test]
+        fn bounded_small_triangles_keep_every_owned_pixel_in_range(
+            at in (0i64..1 << 20, 0i64..1 << 20),
+            v in proptest::collection::vec(0..=EDGE, 6),
+            a in any_values(),
+            b in any_values(),
+            c in any_values(),
+        ) {
+            let xy = [0, 1, 2].map(|i| [at.0 + v[2 * i], at.1 + v[2 * i + 1]]);
+            check_bounded(xy, [a, b, c]);
         }
     }
 }

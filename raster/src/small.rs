@@ -4,9 +4,9 @@
 //! Terrain triangles own a few pixels in each of a few rows (on the handheld frame 8 pixels in
 //! 3 rows on average), so what a row costs besides its pixels decides the frame. Here a row is a
 //! mask of owned columns from the edge functions in lanes (`SmallRows`), its run is the mask's
-//! first and last bit, and every value at the run's start is the row's value plus one product:
-//! the values at the rectangle's first column step down the rows by the planes' `dy`. The pixels
-//! go to the fragment buffer by index, and its colour stage writes them by index into the tile.
+//! first and last bit, and every value at the run's start is its plane at that pixel (the base
+//! plus two products, on the rows that own pixels only). The pixels go to the fragment buffer by
+//! index, and its colour stage writes them by index into the tile.
 //!
 //! The values are those of the general row step: a narrow plane at a pixel is exact wherever it
 //! is evaluated from (see `AttrPlane::on_grid`), and neither sums nor products of it overflow.
@@ -30,14 +30,6 @@ use crate::tile_view::TileBuf;
 /// Masks an index into the fragment arrays (which never exceeds `CAPACITY + 16`): no bounds
 /// check.
 const M: usize = SLOTS - 1;
-
-/// The planes' values at the first column of the current row, stepped down the rows.
-struct RowValues {
-    z: i64,
-    c: [i64; 3],
-    f: i64,
-    tex: [i64; 3],
-}
 
 /// Draws the rows of `t` (small and narrow, with planes `p` that are `NarrowPlanes::per_pixel`)
 /// inside `tile` (and its `depth`) into `frags`, coloured by `flush` whenever the buffer fills.
@@ -73,53 +65,40 @@ pub(crate) fn small_triangle<
         _ => TEX_AFFINE,
     };
     debug_assert!(!F::ENABLED || p.tex_mode != TexMode::Off);
-    let row = y0 - rect.y0 as i64;
-    let at = |q: &AttrPlane, used: bool| if used { q.at_pixel(0, row) } else { 0 };
-    let channels = channels::<SHADE, GREY>();
-    let start = RowValues {
-        z: at(&p.z, D::ENABLED),
-        c: [
-            at(&p.c[0], channels > 0),
-            at(&p.c[1], channels > 1),
-            at(&p.c[2], channels > 2),
-        ],
-        f: at(&p.f, FOG),
-        tex: [
-            at(&p.tex[0], texes > 0),
-            at(&p.tex[1], texes > 1),
-            at(&p.tex[2], texes > 2),
-        ],
-    };
-    // The last column and row the triangle may own here, from its first.
-    let (w, h) = ((rect.x1 - rect.x0 - 1) as i64, end - y0 - 1);
-    let in_range =
-        t.bounded && (texes != TEX_PERSPECTIVE || quotients_in_range(&p.tex, &start.tex, w, h));
+    let in_range = t.bounded
+        && (texes != TEX_PERSPECTIVE || {
+            // The perspective planes at the first row here, and the last column and row the
+            // triangle may own, from there.
+            let start = p.tex.map(|q| q.at_pixel(0, y0 - rect.y0 as i64));
+            let (w, h) = ((rect.x1 - rect.x0 - 1) as i64, end - y0 - 1);
+            quotients_in_range(&p.tex, &start, w, h)
+        });
     // The branch on the constant `F::ENABLED` keeps the compiler from building the textured row
     // loops for untextured runs and the untextured one for textured runs, which no draw can
     // reach.
     if !F::ENABLED {
         return match in_range {
-            false => rows_of::<D, SHADE, GREY, FOG, TEX_OFF, true>(
-                p, t, start, tile, depth, frags, flush, test,
-            ),
+            false => {
+                rows_of::<D, SHADE, GREY, FOG, TEX_OFF, true>(p, t, tile, depth, frags, flush, test)
+            }
             true => rows_of::<D, SHADE, GREY, FOG, TEX_OFF, false>(
-                p, t, start, tile, depth, frags, flush, test,
+                p, t, tile, depth, frags, flush, test,
             ),
         };
     }
     match (texes, in_range) {
         (TEX_PERSPECTIVE, false) => rows_of::<D, SHADE, GREY, FOG, TEX_PERSPECTIVE, true>(
-            p, t, start, tile, depth, frags, flush, test,
+            p, t, tile, depth, frags, flush, test,
         ),
         (TEX_PERSPECTIVE, true) => rows_of::<D, SHADE, GREY, FOG, TEX_PERSPECTIVE, false>(
-            p, t, start, tile, depth, frags, flush, test,
+            p, t, tile, depth, frags, flush, test,
         ),
-        (_, false) => rows_of::<D, SHADE, GREY, FOG, TEX_AFFINE, true>(
-            p, t, start, tile, depth, frags, flush, test,
-        ),
-        (_, true) => rows_of::<D, SHADE, GREY, FOG, TEX_AFFINE, false>(
-            p, t, start, tile, depth, frags, flush, test,
-        ),
+        (_, false) => {
+            rows_of::<D, SHADE, GREY, FOG, TEX_AFFINE, true>(p, t, tile, depth, frags, flush, test)
+        }
+        (_, true) => {
+            rows_of::<D, SHADE, GREY, FOG, TEX_AFFINE, false>(p, t, tile, depth, frags, flush, test)
+        }
     }
 }
 
@@ -180,7 +159,6 @@ fn rows_of<
 >(
     p: &NarrowPlanes,
     t: &FixedTriangle,
-    mut row: RowValues,
     tile: PixelRect,
     mut depth: Option<&mut TileBuf<D::Value>>,
     frags: &mut Fragments,
@@ -197,7 +175,11 @@ fn rows_of<
     // which may lie left of the tile (every run starts inside it).
     let width = (tile.x1 - tile.x0) as i64;
     let mut row_at = (rows.y - tile.y0 as i64) * width + (rows.x0 - tile.x0 as i64);
+    // The planes' rows and columns count from the rectangle's first pixel (`rows.x0` is its
+    // first column).
+    let top = t.coverage.rect.y0 as i64;
     while rows.y < rows.end {
+        let row = rows.y - top;
         let owned = rows.next_mask() & inside_tile;
         if owned != 0 {
             let first = owned.trailing_zeros() as usize;
@@ -207,23 +189,22 @@ fn rows_of<
             }
             let at = (row_at + first as i64) as usize;
             let k = frags.push(at, n);
-            let off = first as i64;
-            let start = |v: i64, q: &AttrPlane| v.wrapping_add(q.dx.wrapping_mul(off));
+            let start = |q: &AttrPlane| q.at_pixel(first as i64, row);
             // Depth test, shading and fog.
-            let mut z = start(row.z, &p.z);
+            let mut z = if D::ENABLED { start(&p.z) } else { 0 };
             let mut c = [0i64; 3];
-            for ((c, &r), q) in c.iter_mut().zip(&row.c).zip(&p.c).take(channels) {
-                *c = start(r, q);
+            for (c, q) in c.iter_mut().zip(&p.c).take(channels) {
+                *c = start(q);
             }
-            let mut f = start(row.f, &p.f);
+            let mut f = if FOG { start(&p.f) } else { 0 };
             let depth: &mut [D::Value] = match &mut depth {
                 Some(d) if D::ENABLED => &mut d.pixels()[at..at + n],
                 _ => &mut [],
             };
             // Texture coordinates (or the perspective accumulators) at the run's start.
             let mut uv = [0i64; 3];
-            for ((a, &r), q) in uv.iter_mut().zip(&row.tex).zip(&p.tex).take(TEX) {
-                *a = start(r, q);
+            for (a, q) in uv.iter_mut().zip(&p.tex).take(TEX) {
+                *a = start(q);
             }
             // One iteration per owned bit: a loop whose trip count the compiler cannot see is
             // not unrolled into lanes, which would only cost runs of a few pixels.
@@ -283,18 +264,6 @@ fn rows_of<
                 }
                 j += 1;
             }
-        }
-        if D::ENABLED {
-            row.z = row.z.wrapping_add(p.z.dy);
-        }
-        for j in 0..channels {
-            row.c[j] = row.c[j].wrapping_add(p.c[j].dy);
-        }
-        if FOG {
-            row.f = row.f.wrapping_add(p.f.dy);
-        }
-        for q in 0..TEX {
-            row.tex[q] = row.tex[q].wrapping_add(p.tex[q].dy);
         }
         row_at += width;
     }

@@ -626,10 +626,11 @@ pub(crate) struct FixedTriangle {
     /// gradient is `g (1 - e) + r` for the exact gradient `g`, one `e < 2^-31` for all its planes
     /// (the floor of the area's reciprocal, `Geometry::inv_area` in `(2^31, 2^32]`) and the
     /// rounding `|r| <= 1/2`; the value at an offset `o` from the origin vertex (sub-pixels,
-    /// `|o| < 2^13` on each axis inside a small triangle) rounds `(dx ox + dy oy) / 256`. So it
-    /// strays from the exact value by at most `e` times the vertices' spread, plus
-    /// `(|ox| + |oy|) / 512 + 1/2 < 17`: the margins of `Inner::of`. Planes whose gradients
-    /// leave i64 are flat at the origin vertex's value, inside the range too.
+    /// `|o| < 17 * 256` on each axis for a pixel centre inside a small triangle, `SMALL_EDGE`)
+    /// rounds `(dx ox + dy oy) / 256`. So it strays from the exact value by at most `e` times
+    /// the vertices' spread, plus `(|ox| + |oy|) / 512 + 1/2 < 18`: the margins of
+    /// `Inner::of`. Planes whose gradients leave i64 are flat at the origin vertex's value,
+    /// inside the range too.
     pub(crate) bounded: bool,
     /// The draw it belongs to.
     draw: u32,

@@ -2,10 +2,11 @@
 //!
 //! A tile's rows are shaded in two steps. The row step (`pipeline::fixed::fragments`) walks a
 //! run pixel by pixel in scalar integers: depth test and write, and the per-pixel values that
-//! the colour needs (texture coordinates, shading, fog), which it stores here. When the buffer
-//! is full, or the draw's triangles in the tile are done, the colour step runs over everything
-//! held in lanes of 8 (texel addressing, the filter, modulation, fog, packing; only the texel
-//! reads are scalar) and writes the fragments that passed the depth test. Terrain triangles
+//! the colour needs (texture coordinates, shading, fog), which it stores here for the fragments
+//! that pass the depth test, each with its pixel. When the buffer is full, or the draw's
+//! triangles in the tile are done, the colour step runs over everything held in lanes of 8
+//! (texel addressing, the filter, modulation, fog, packing; only the texel reads are scalar)
+//! and writes each colour to its pixel. Terrain triangles
 //! own a few pixels per row, so the buffer gathers the rows of several triangles into each
 //! group of lanes.
 //!
@@ -27,34 +28,14 @@ pub(crate) const CAPACITY: usize = 64;
 pub(crate) const SLOTS: usize = 128;
 const _: () = assert!(SLOTS.is_power_of_two() && SLOTS >= CAPACITY + LANES);
 
-/// A run of held fragments: `len` pixels from index `at` of the tile's buffers.
-#[derive(Clone, Copy, Debug, Default)]
-struct Held {
-    at: usize,
-    len: usize,
-}
-
-/// The per-fragment values the colour stage needs, for one run, filled by the row step.
-pub(crate) struct Slots<'a> {
-    /// Whether the fragment passed the depth test (only those are written).
-    pub pass: &'a mut [bool],
-    /// Texture coordinates, 16.16 within `TEXCOORD_LIMIT`.
-    pub u: &'a mut [i32],
-    pub v: &'a mut [i32],
-    /// Shading colour, 0..=255 per channel (only the first with one channel).
-    pub c: [&'a mut [u16]; 3],
-    /// Share of the surface colour against fog, 0..=256.
-    pub f: &'a mut [u16],
-}
-
-/// Fragments held for the colour stage (see the module documentation). The per-fragment arrays
-/// are public for the row steps that fill them by index (`push` gives where a run starts).
+/// Fragments held for the colour stage (see the module documentation): only those that passed
+/// the depth test, in slots `0..len`. The per-fragment arrays are public for the row steps that
+/// fill them by index: from `held()` on, masked with `SLOTS - 1`, taking a slot only when the
+/// fragment passes, then handing the count back with `keep`.
 pub(crate) struct Fragments {
     len: usize,
-    runs: [Held; CAPACITY],
-    nruns: usize,
-    /// Whether the fragment passed the depth test (only those are written).
-    pub pass: [bool; SLOTS],
+    /// Index in the tile's buffers of the fragment's pixel.
+    pub at: [u32; SLOTS],
     /// Texture coordinates, 16.16 within `TEXCOORD_LIMIT`.
     pub u: [i32; SLOTS],
     pub v: [i32; SLOTS],
@@ -66,7 +47,7 @@ pub(crate) struct Fragments {
     /// one channel (grey): fragments held together share both.
     level: usize,
     grey: bool,
-    /// Fragments written so far (that passed the depth test).
+    /// Fragments written so far.
     written: u64,
 }
 
@@ -74,9 +55,7 @@ impl Fragments {
     pub fn new() -> Self {
         Self {
             len: 0,
-            runs: [Held::default(); CAPACITY],
-            nruns: 0,
-            pass: [false; SLOTS],
+            at: [0; SLOTS],
             u: [0; SLOTS],
             v: [0; SLOTS],
             c: [[0; SLOTS]; 3],
@@ -87,7 +66,7 @@ impl Fragments {
         }
     }
 
-    /// The fragments written so far: those that passed the depth test, once coloured.
+    /// The fragments written so far.
     pub fn written(&self) -> u64 {
         self.written
     }
@@ -111,35 +90,22 @@ impl Fragments {
         CAPACITY - self.len
     }
 
-    /// Holds `len <= room()` pixels from index `at` of the tile's buffers; returns the index of
-    /// their first fragment (the row step fills `len` from there).
+    /// The slot of the next fragment: a row step that checked `room()` for its run fills
+    /// slots from here (masked with `SLOTS - 1`) and returns the new count with `keep`.
     #[inline(always)]
-    pub fn push(&mut self, at: usize, len: usize) -> usize {
-        debug_assert!(len > 0 && len <= self.room());
-        let first = self.len;
-        self.runs[self.nruns & (CAPACITY - 1)] = Held { at, len };
-        self.nruns += 1;
-        self.len += len;
-        first
+    pub fn held(&self) -> usize {
+        self.len
     }
 
-    /// `push`, with the run's slots as slices.
-    #[inline]
-    pub fn push_slots(&mut self, at: usize, len: usize) -> Slots<'_> {
-        let first = self.push(at, len);
-        let r = first..first + len;
-        let [c0, c1, c2] = &mut self.c;
-        Slots {
-            pass: &mut self.pass[r.clone()],
-            u: &mut self.u[r.clone()],
-            v: &mut self.v[r.clone()],
-            c: [&mut c0[r.clone()], &mut c1[r.clone()], &mut c2[r.clone()]],
-            f: &mut self.f[r],
-        }
+    /// Holds the fragments up to slot `len`, filled by a row step since `held()`.
+    #[inline(always)]
+    pub fn keep(&mut self, len: usize) {
+        debug_assert!(self.len <= len && len <= CAPACITY);
+        self.len = len;
     }
 
-    /// Colours the held fragments and writes those that passed into `color`, in the order they
-    /// arrived; empties the buffer. `views` are the draw's texture levels.
+    /// Colours the held fragments and writes them into `color`, in the order they arrived;
+    /// empties the buffer. `views` are the draw's texture levels.
     ///
     /// Not inlined: it runs once per full buffer, and inlined at every call site it built the
     /// colour stage again in each of the row loops' specialisations.
@@ -159,24 +125,12 @@ impl Fragments {
         } else {
             self.colour::<P, F, SHADE, false, FOG>(view, a)
         };
-        // Counted in a local: a count in `self` would be stored at every fragment, since a
-        // bounds check may panic between them.
-        let (mut at, mut written) = (0, 0);
         let pixels = color.pixels();
-        for h in &self.runs[..self.nruns] {
-            let row = &mut pixels[h.at..h.at + h.len];
-            let (pass, out) = (&self.pass[at..at + h.len], &out[at..at + h.len]);
-            for ((p, &c), &pass) in row.iter_mut().zip(out).zip(pass) {
-                if pass {
-                    *p = c;
-                }
-                written += pass as u64;
-            }
-            at += h.len;
+        for (&at, &c) in self.at[..self.len].iter().zip(&out) {
+            pixels[at as usize] = c;
         }
-        self.written += written;
+        self.written += self.len as u64;
         self.len = 0;
-        self.nruns = 0;
     }
 
     /// The packed colours of the held fragments (and of the lanes past them).

@@ -401,10 +401,16 @@ fn spans_of<
                     Some(d) => d.row(y, xs, e),
                     None => &mut [],
                 };
-                let piece = RunPiece { y, x0, x1, xs };
-                let slots = frags.push_slots(tile.index(y, xs), (e - xs) as usize);
+                let piece = RunPiece {
+                    y,
+                    x0,
+                    x1,
+                    xs,
+                    xe: e,
+                    at: tile.index(y, xs),
+                };
                 fixed::run_fragments::<D, F, SHADE, GREY, FOG, NARROW>(
-                    t, planes, piece, depth, slots, test,
+                    t, planes, piece, depth, frags, test,
                 );
                 xs = e;
             }

@@ -160,11 +160,15 @@ fn rows_of<
     p: &NarrowPlanes,
     t: &FixedTriangle,
     tile: PixelRect,
-    mut depth: Option<&mut TileBuf<D::Value>>,
+    depth: Option<&mut TileBuf<D::Value>>,
     frags: &mut Fragments,
     flush: &mut dyn FnMut(&mut Fragments),
     test: DepthTest,
 ) {
+    let depth: &mut [D::Value] = match depth {
+        Some(d) if D::ENABLED => d.pixels(),
+        _ => &mut [],
+    };
     let mut rows = t.coverage.small_rows(tile.y0 as i64, tile.y1 as i64);
     let channels = channels::<SHADE, GREY>();
     // The tile's columns as bits of the rows' masks (a small triangle spans at most 16).
@@ -188,7 +192,7 @@ fn rows_of<
                 flush(frags);
             }
             let at = (row_at + first as i64) as usize;
-            let k = frags.push(at, n);
+            let mut k = frags.held();
             let start = |q: &AttrPlane| q.at_pixel(first as i64, row);
             // Depth test, shading and fog.
             let mut z = if D::ENABLED { start(&p.z) } else { 0 };
@@ -197,32 +201,34 @@ fn rows_of<
                 *c = start(q);
             }
             let mut f = if FOG { start(&p.f) } else { 0 };
-            let depth: &mut [D::Value] = match &mut depth {
-                Some(d) if D::ENABLED => &mut d.pixels()[at..at + n],
-                _ => &mut [],
-            };
             // Texture coordinates (or the perspective accumulators) at the run's start.
             let mut uv = [0i64; 3];
             for (a, q) in uv.iter_mut().zip(&p.tex).take(TEX) {
                 *a = start(q);
             }
-            // One iteration per owned bit: a loop whose trip count the compiler cannot see is
-            // not unrolled into lanes, which would only cost runs of a few pixels.
-            let (mut bits, mut j) = (owned >> first, 0);
-            while bits != 0 {
-                bits &= bits - 1;
-                let i = (k + j) & M;
-                if D::ENABLED {
+            // The run's depth values, sliced once: indexed by `j < n`, they need no check per
+            // pixel. A fragment takes its slot `k` only when it passes (`Fragments`).
+            let depth_row: &mut [D::Value] = if D::ENABLED {
+                &mut depth[at..at + n]
+            } else {
+                &mut []
+            };
+            // Indexed, not iterated: without a depth test `depth_row` is empty.
+            #[allow(clippy::needless_range_loop)]
+            for j in 0..n {
+                let i = k & M;
+                frags.at[i] = (at + j) as u32;
+                let pass = if D::ENABLED {
                     let d = if CLAMP {
                         D::from_z(z)
                     } else {
                         D::from_z_in_range(z)
                     };
-                    frags.pass[i] = test.apply::<D>(d, &mut depth[j]);
                     z = z.wrapping_add(p.z.dx);
+                    test.apply::<D>(d, &mut depth_row[j])
                 } else {
-                    frags.pass[i] = true;
-                }
+                    true
+                };
                 for ((c, out), q) in c.iter_mut().zip(&mut frags.c).zip(&p.c).take(channels) {
                     let v = *c >> ATTR_FRAC_BITS;
                     out[i] = if CLAMP { v.clamp(0, 255) } else { v } as u16;
@@ -262,8 +268,9 @@ fn rows_of<
                     }
                     _ => {}
                 }
-                j += 1;
+                k += pass as usize;
             }
+            frags.keep(k);
         }
         row_at += width;
     }

@@ -4,20 +4,23 @@
 
 use super::{AttrPlane, FixedTriangle, advance, div_small, divide};
 use crate::fixed_point::{ATTR_FRAC_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE};
-use crate::fragments::Slots;
+use crate::fragments::{Fragments, SLOTS};
 use crate::pipeline::{Attributes, TexMode};
 use crate::pixel::DepthFormat;
 use crate::sampler::{Filtering, clamp_coord};
 use crate::state::Compare;
 
 /// Where a run of fragments lies: row `y`, owned pixels `x0..x1`, of which the row step takes
-/// `xs..xs + n` (a tile's part of the run, in pieces that fit the fragment buffer).
+/// `xs..xe` (a tile's part of the run, in pieces that fit the fragment buffer), whose first
+/// pixel is index `at` of the tile's buffers.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct RunPiece {
     pub y: i64,
     pub x0: i64,
     pub x1: i64,
     pub xs: i64,
+    pub xe: i64,
+    pub at: usize,
 }
 
 /// A draw's depth test as one comparison: a fragment at depth `d` passes when
@@ -90,7 +93,8 @@ impl<const GREY: bool> Stepped<GREY> {
 }
 
 /// The row step: depth test and write of the pixels of `piece` (`depth` holds them, empty
-/// without a depth test), and the values their colour needs in `out`, one per pixel. Every value
+/// without a depth test), and the values their colour needs held in `frags` for each pixel that
+/// passes (its room checked by the caller). Every value
 /// at a pixel follows from the triangle and the run's start `x0` alone (perspective chunks are
 /// counted from `x0`), never from `xs`: a run cut by a tile edge or the buffer gives the bytes it
 /// gives whole.
@@ -110,22 +114,21 @@ pub(crate) fn run_fragments<
     planes: &[AttrPlane],
     piece: RunPiece,
     depth: &mut [D::Value],
-    out: Slots<'_>,
+    frags: &mut Fragments,
     test: DepthTest,
 ) {
     let planes = &planes[tri.planes as usize..];
     let (color_at, fog_at, tex_at) = plane_offsets::<D, SHADE, GREY, FOG>();
-    let RunPiece { y, x0, x1, xs } = piece;
-    let Slots {
-        pass,
-        u: out_u,
-        v: out_v,
-        c: [c0, c1, c2],
-        f: out_f,
-    } = out;
-    let n = pass.len();
-    let xe = xs + n as i64;
-    debug_assert!(x0 <= xs && xs < xe && xe <= x1);
+    let RunPiece {
+        y,
+        x0,
+        x1,
+        xs,
+        xe,
+        at: first,
+    } = piece;
+    let n = (xe - xs) as usize;
+    debug_assert!(x0 <= xs && xs < xe && xe <= x1 && n <= frags.room());
     let depth = &mut depth[..if D::ENABLED { n } else { 0 }];
     let origin = tri.coverage.origin();
     let corner = tri.coverage.corner();
@@ -159,26 +162,32 @@ pub(crate) fn run_fragments<
     if FOG {
         (px.f, px.df) = (at(&planes[fog_at], xs), planes[fog_at].dx);
     }
-    // Everything but the texture coordinates of pixel `k` of the piece.
-    let mut emit = |k: usize, px: &mut Stepped<GREY>| {
+    // Pixel `k` of the piece, with texture coordinates `uv`: held when it passes the test.
+    let mut kept = frags.held();
+    let mut emit = |k: usize, uv: (i32, i32), px: &mut Stepped<GREY>| {
+        let i = kept & (SLOTS - 1);
+        frags.at[i] = (first + k) as u32;
+        if T::ENABLED {
+            (frags.u[i], frags.v[i]) = uv;
+        }
         let visible = if D::ENABLED {
             test.apply::<D>(D::from_z(px.z), &mut depth[k])
         } else {
             true
         };
-        pass[k] = visible;
         if SHADE {
             let channel = |c: i64| (c >> ATTR_FRAC_BITS).clamp(0, 255) as u16;
-            c0[k] = channel(px.c[0]);
+            frags.c[0][i] = channel(px.c[0]);
             if !GREY {
-                c1[k] = channel(px.c[1]);
-                c2[k] = channel(px.c[2]);
+                frags.c[1][i] = channel(px.c[1]);
+                frags.c[2][i] = channel(px.c[2]);
             }
         }
         if FOG {
-            out_f[k] = (px.f >> ATTR_FRAC_BITS).clamp(0, 256) as u16;
+            frags.f[i] = (px.f >> ATTR_FRAC_BITS).clamp(0, 256) as u16;
         }
         px.step();
+        kept += visible as usize;
     };
     let coord = |c: i64| clamp_coord(c >> 16) as i32;
     match tri.tex_mode {
@@ -201,58 +210,56 @@ pub(crate) fn run_fragments<
                 // Exact: one division per pixel, as stepping chunks of one pixel gives.
                 for k in 0..n {
                     let (u, v) = divide(acc[0], acc[1], acc[2]);
-                    (out_u[k], out_v[k]) = (coord(u), coord(v));
-                    emit(k, &mut px);
+                    emit(k, (coord(u), coord(v)), &mut px);
                     for j in 0..3 {
                         acc[j] = acc[j].saturating_add(dacc[j]);
                     }
                 }
-                return;
-            }
-            // (u, v) in 16.32 at the chunk start `cs`, exact there, linear between.
-            let mut cs = x0 + k0 * chunk;
-            let (mut u, mut v) = divide(acc[0], acc[1], acc[2]);
-            let mut x = xs;
-            while x < xe {
-                let ce = (cs + chunk).min(x1);
-                let m = ce - cs;
-                for j in 0..3 {
-                    acc[j] = acc[j].saturating_add(dacc[j].saturating_mul(m));
+            } else {
+                // (u, v) in 16.32 at the chunk start `cs`, exact there, linear between.
+                let mut cs = x0 + k0 * chunk;
+                let (mut u, mut v) = divide(acc[0], acc[1], acc[2]);
+                let mut x = xs;
+                while x < xe {
+                    let ce = (cs + chunk).min(x1);
+                    let m = ce - cs;
+                    for j in 0..3 {
+                        acc[j] = acc[j].saturating_add(dacc[j].saturating_mul(m));
+                    }
+                    let end = divide(acc[0], acc[1], acc[2]);
+                    let (du, dv) = (div_small(end.0 - u, m), div_small(end.1 - v, m));
+                    let (mut cu, mut cv) = (
+                        u.wrapping_add(du.wrapping_mul(x - cs)),
+                        v.wrapping_add(dv.wrapping_mul(x - cs)),
+                    );
+                    let stop = ce.min(xe);
+                    for k in (x - xs) as usize..(stop - xs) as usize {
+                        emit(k, (coord(cu), coord(cv)), &mut px);
+                        cu = cu.wrapping_add(du);
+                        cv = cv.wrapping_add(dv);
+                    }
+                    (u, v) = end;
+                    cs = ce;
+                    x = stop;
                 }
-                let end = divide(acc[0], acc[1], acc[2]);
-                let (du, dv) = (div_small(end.0 - u, m), div_small(end.1 - v, m));
-                let (mut cu, mut cv) = (
-                    u.wrapping_add(du.wrapping_mul(x - cs)),
-                    v.wrapping_add(dv.wrapping_mul(x - cs)),
-                );
-                let stop = ce.min(xe);
-                for k in (x - xs) as usize..(stop - xs) as usize {
-                    (out_u[k], out_v[k]) = (coord(cu), coord(cv));
-                    emit(k, &mut px);
-                    cu = cu.wrapping_add(du);
-                    cv = cv.wrapping_add(dv);
-                }
-                (u, v) = end;
-                cs = ce;
-                x = stop;
             }
         }
         TexMode::Affine if T::ENABLED => {
             let (pu, pv) = (&planes[tex_at], &planes[tex_at + 1]);
             let (mut cu, mut cv) = (at(pu, xs), at(pv, xs));
             for k in 0..n {
-                (out_u[k], out_v[k]) = (coord(cu), coord(cv));
-                emit(k, &mut px);
+                emit(k, (coord(cu), coord(cv)), &mut px);
                 cu = cu.wrapping_add(pu.dx);
                 cv = cv.wrapping_add(pv.dx);
             }
         }
         _ => {
             for k in 0..n {
-                emit(k, &mut px);
+                emit(k, (0, 0), &mut px);
             }
         }
     }
+    frags.keep(kept);
 }
 
 /// A narrow triangle's planes for the rows of `small_run`: copies of those its draw uses.

@@ -1,14 +1,14 @@
 //! Fragments waiting for their colour, and the colour stage that finishes them 8 at a time.
 //!
-//! A tile's rows are shaded in two steps. The row step (`pipeline::fixed::fragments`) walks a
-//! run pixel by pixel in scalar integers: depth test and write, and the per-pixel values that
-//! the colour needs (texture coordinates, shading, fog), which it stores here for the fragments
-//! that pass the depth test, each with its pixel. When the buffer is full, or the draw's
-//! triangles in the tile are done, the colour step runs over everything held in lanes of 8
-//! (texel addressing, the filter, modulation, fog, packing; only the texel reads are scalar)
-//! and writes each colour to its pixel. Terrain triangles
-//! own a few pixels per row, so the buffer gathers the rows of several triangles into each
-//! group of lanes.
+//! A tile's rows are shaded in two steps. The row step (`pipeline::fixed::run_fragments`, or the
+//! small-triangle loop in `small.rs`) walks a run pixel by pixel in scalar integers: depth test
+//! and write, and the per-pixel values that the colour needs (texture coordinates, shading,
+//! fog), which it stores here for the fragments that pass the depth test, each with its pixel.
+//! When the buffer is full, or the draw's triangles in the tile are done, the colour step runs
+//! over everything held in lanes of 8 (texel addressing, the filter, modulation, fog, packing;
+//! only the texel reads are scalar) and writes each colour to its pixel. Terrain triangles own a
+//! few pixels per row, so the buffer gathers the rows of several triangles into each group of
+//! lanes.
 //!
 //! The bytes are those of shading each pixel on its own: every lane function equals its scalar
 //! twin exactly (tested), and the colour is written in the order the fragments arrived, so a
@@ -34,7 +34,8 @@ const _: () = assert!(SLOTS.is_power_of_two() && SLOTS >= CAPACITY + LANES);
 /// fragment passes, then handing the count back with `keep`.
 pub(crate) struct Fragments {
     len: usize,
-    /// Index in the tile's buffers of the fragment's pixel.
+    /// Index in the tile's buffers of the fragment's pixel (a tile holds at most
+    /// `MAX_DIMENSION^2 = 2^26` pixels).
     pub at: [u32; SLOTS],
     /// Texture coordinates, 16.16 within `TEXCOORD_LIMIT`.
     pub u: [i32; SLOTS],

@@ -169,7 +169,7 @@ impl Fragments {
             }
             let (packed, at) = (P::pack_lanes(rgb), &self.at[g..g + LANES]);
             // A full group's stores with a constant count, which the compiler unrolls (indexed:
-            // zipped iterators were 0.04M instructions a PocketPC frame dearer); only the last
+            // zipped iterators were 0.05M instructions a PocketPC frame dearer); only the last
             // group may be part-filled.
             if g + LANES <= self.len {
                 for l in 0..LANES {

@@ -94,10 +94,9 @@ impl<const GREY: bool> Stepped<GREY> {
 
 /// The row step: depth test and write of the pixels of `piece` (`depth` holds them, empty
 /// without a depth test), and the values their colour needs held in `frags` for each pixel that
-/// passes (its room checked by the caller). Every value
-/// at a pixel follows from the triangle and the run's start `x0` alone (perspective chunks are
-/// counted from `x0`), never from `xs`: a run cut by a tile edge or the buffer gives the bytes it
-/// gives whole.
+/// passes (its room checked by the caller). Every value at a pixel follows from the triangle and
+/// the run's start `x0` alone (perspective chunks are counted from `x0`), never from `xs`: a run
+/// cut by a tile edge or the buffer gives the bytes it gives whole.
 ///
 /// `GREY` steps one colour channel for all three, `NARROW` starts the row from
 /// `AttrPlane::at_pixel` (see `FixedTriangle::narrow`).

@@ -25,12 +25,12 @@ pub(crate) const CAPACITY: usize = 64;
 /// Length of the per-fragment arrays: a power of two above `CAPACITY + LANES` (a last group of
 /// lanes reads past the fragments held), so that an index masked with `SLOTS - 1` needs no
 /// bounds check.
-pub(crate) const SLOTS: usize = 128;
+const SLOTS: usize = 128;
 const _: () = assert!(SLOTS.is_power_of_two() && SLOTS >= CAPACITY + LANES);
 
 /// Fragments held for the colour stage (see the module documentation): only those that passed
 /// the depth test, in slots `0..len`. The per-fragment arrays are public for the row steps that
-/// fill them by index: from `held()` on, masked with `SLOTS - 1`, taking a slot only when the
+/// fill them by index: from `held()` on, each at its `slot`, taking a slot only when the
 /// fragment passes, then handing the count back with `keep`.
 pub(crate) struct Fragments {
     len: usize,
@@ -91,11 +91,19 @@ impl Fragments {
         CAPACITY - self.len
     }
 
-    /// The slot of the next fragment: a row step that checked `room()` for its run fills
-    /// slots from here (masked with `SLOTS - 1`) and returns the new count with `keep`.
+    /// The count of the next fragment: a row step that checked `room()` for its run fills
+    /// slots from here (`slot`) and returns the new count with `keep`.
     #[inline(always)]
     pub fn held(&self) -> usize {
         self.len
+    }
+
+    /// Where the fragment counted `k` goes in the per-fragment arrays (`k` stays below
+    /// `CAPACITY` for a row step that checked `room()`): masked, so that the index needs no
+    /// bounds check.
+    #[inline(always)]
+    pub fn slot(k: usize) -> usize {
+        k & (SLOTS - 1)
     }
 
     /// Holds the fragments up to slot `len`, filled by a row step since `held()`.

@@ -18,7 +18,7 @@
 
 use crate::edge::PixelRect;
 use crate::fixed_point::{ATTR_FRAC_BITS, TEXCOORD_LIMIT};
-use crate::fragments::{Fragments, SLOTS};
+use crate::fragments::Fragments;
 use crate::pipeline::TexMode;
 use crate::pipeline::fixed::{
     AttrPlane, DepthTest, FixedTriangle, NarrowPlanes, divide, divide_in_range,
@@ -26,10 +26,6 @@ use crate::pipeline::fixed::{
 use crate::pixel::DepthFormat;
 use crate::sampler::{Filtering, clamp_coord};
 use crate::tile_view::TileBuf;
-
-/// Masks an index into the fragment arrays (which never exceeds `CAPACITY + 16`): no bounds
-/// check.
-const M: usize = SLOTS - 1;
 
 /// Draws the rows of `t` (small and narrow, with planes `p` that are `NarrowPlanes::per_pixel`)
 /// inside `tile` (and its `depth`) into `frags`, coloured by `flush` whenever the buffer fills.
@@ -216,7 +212,7 @@ fn rows_of<
             // Indexed, not iterated: without a depth test `depth_row` is empty.
             #[allow(clippy::needless_range_loop)]
             for j in 0..n {
-                let i = k & M;
+                let i = Fragments::slot(k);
                 frags.at[i] = (at + j) as u32;
                 let pass = if D::ENABLED {
                     let d = if CLAMP {

@@ -4,7 +4,7 @@
 
 use super::{AttrPlane, FixedTriangle, advance, div_small, divide};
 use crate::fixed_point::{ATTR_FRAC_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE};
-use crate::fragments::{Fragments, SLOTS};
+use crate::fragments::Fragments;
 use crate::pipeline::{Attributes, TexMode};
 use crate::pixel::DepthFormat;
 use crate::sampler::{Filtering, clamp_coord};
@@ -164,7 +164,7 @@ pub(crate) fn run_fragments<
     // Pixel `k` of the piece, with texture coordinates `uv`: held when it passes the test.
     let mut kept = frags.held();
     let mut emit = |k: usize, uv: (i32, i32), px: &mut Stepped<GREY>| {
-        let i = kept & (SLOTS - 1);
+        let i = Fragments::slot(kept);
         frags.at[i] = (first + k) as u32;
         if T::ENABLED {
             (frags.u[i], frags.v[i]) = uv;

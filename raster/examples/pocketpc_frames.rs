@@ -8,13 +8,15 @@
 //! triangles over the same pixels, the few larger triangles of the engine's own PocketPC frames
 //! (about 2,600), which take the general row step rather than the small-triangle loop. With
 //! `--big` it draws scene B of the peer benchmark instead: 1280x720, a 470 x 470 grid (439,922
-//! triangles), far terrain as slivers.
+//! triangles), far terrain as slivers. With `--baseline` its hot loops keep to the build
+//! target's baseline instructions (`InstructionSet::Baseline`) even where the CPU has AVX2.
 //!
 //! ```sh
 //! cargo build --release -p stripmask-raster --example pocketpc_frames
 //! valgrind --tool=callgrind target/release/examples/pocketpc_frames 10
 //! valgrind --tool=callgrind target/release/examples/pocketpc_frames 10 --peers
 //! valgrind --tool=callgrind target/release/examples/pocketpc_frames 10 --grid 34
+//! valgrind --tool=callgrind target/release/examples/pocketpc_frames 10 --baseline
 //! target/release/examples/pocketpc_frames 2000
 //! valgrind --tool=callgrind target/release/examples/pocketpc_frames 4 --big
 //! ```
@@ -37,9 +39,11 @@ fn main() {
     let mut args = std::env::args().skip(1);
     let (mut peers, mut grid, mut frames) = (false, 72, 10);
     let mut size = (320, 240);
+    let mut set = InstructionSet::Detected;
     while let Some(a) = args.next() {
         match a.as_str() {
             "--peers" => peers = true,
+            "--baseline" => set = InstructionSet::Baseline,
             "--big" => (grid, size) = (470, (1280, 720)),
             "--grid" => grid = number("the grid size after --grid", args.next()).max(1),
             _ => frames = number("the frame count", Some(a)),
@@ -49,7 +53,7 @@ fn main() {
     let [peers_case, default_case] = s.both_states();
     let (_, color, depth, state) = if peers { peers_case } else { default_case };
     let mut fb = Framebuffer::new(size.0, size.1, color, depth).expect("the target is valid");
-    let mut r = Rasterizer::with_threads(1);
+    let mut r = Rasterizer::with_threads(1).with_instruction_set(set);
     let mut stats = DrawStats::default();
     let mut times = Vec::with_capacity(frames as usize);
     for _ in 0..frames {

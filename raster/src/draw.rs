@@ -9,6 +9,7 @@
 use crate::RasterError;
 use crate::batch::{PASS_TRIANGLES, Pending, SPLIT_TRIANGLES};
 use crate::framebuffer::Framebuffer;
+use crate::isa::{Cpu, InstructionSet};
 use crate::matrix::Transform;
 use crate::pipeline::Pipeline;
 use crate::pipeline::fixed::FixedPipeline;
@@ -51,6 +52,8 @@ pub struct Rasterizer {
     pub(crate) tile_size: Option<u32>,
     /// Triangles per pass of a flush, `PASS_TRIANGLES` unless set (`with_pass_triangles`).
     pub(crate) pass_triangles: usize,
+    /// The loops its flushes run (`with_instruction_set`).
+    pub(crate) cpu: Cpu,
 }
 
 /// One pipeline's scratch: transformed vertices, and the set-up chunks of two passes (the one
@@ -83,6 +86,7 @@ impl Default for Rasterizer {
             split_triangles: SPLIT_TRIANGLES,
             tile_size: None,
             pass_triangles: PASS_TRIANGLES,
+            cpu: Cpu::new(InstructionSet::Detected),
         }
     }
 }
@@ -91,6 +95,7 @@ impl std::fmt::Debug for Rasterizer {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Rasterizer")
             .field("threads", &self.threads)
+            .field("cpu", &self.cpu)
             .finish_non_exhaustive()
     }
 }
@@ -140,6 +145,17 @@ impl Rasterizer {
     pub fn with_tile_size(self, side: u32) -> Self {
         Self {
             tile_size: Some(side.clamp(8, 8192).next_power_of_two()),
+            ..self
+        }
+    }
+
+    /// Restricts the hot loops to the build target's baseline instructions
+    /// (`InstructionSet::Baseline`) or lets them use what the CPU has (`Detected`, the
+    /// default: AVX2 and its companions on x86-64 CPUs that have them, checked once here). The
+    /// picture does not depend on it.
+    pub fn with_instruction_set(self, set: InstructionSet) -> Self {
+        Self {
+            cpu: Cpu::new(set),
             ..self
         }
     }

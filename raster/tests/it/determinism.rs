@@ -110,3 +110,74 @@ fn thread_count_and_repetition_do_not_change_a_byte() {
         }
     }
 }
+
+/// A change to a render state.
+type Edit = fn(&mut RenderState);
+
+/// The hot loops' twins built for AVX2 and its companions (`InstructionSet::Detected`, where the
+/// CPU has them) give the bytes of the baseline ones, in every specialisation the PocketPC
+/// terrain reaches: both pipelines, both colour and depth formats, both filters and texel
+/// types, flat, Gouraud and grey shading, fog, every perspective mode, small and larger
+/// triangles, on one thread and two.
+#[test]
+fn instruction_sets_do_not_change_a_byte() {
+    // The scene's texture is RGB565; this one gives the RGBA8888 texel type.
+    let rgba = scene().2;
+    for grid in [72, 34] {
+        let s = crate::scene::terrain(grid, 320, 240);
+        let edits: [(&str, Edit); 6] = [
+            ("as it is", |_| {}),
+            ("nearest", |st| {
+                st.texture = st.texture.map(|b| TextureBinding {
+                    sampler: Sampler {
+                        filter: Filter::Nearest,
+                        ..b.sampler
+                    },
+                    ..b
+                })
+            }),
+            ("untextured, flat", |st| {
+                st.texture = None;
+                st.shading = Shading::Flat([200, 170, 120]);
+            }),
+            ("fogged", |st| {
+                st.fog = Some(Fog {
+                    color: [150, 180, 220],
+                    start: 40_000.0,
+                    end: 220_000.0,
+                })
+            }),
+            ("affine", |st| st.perspective = Perspective::Affine),
+            ("float", |st| st.precision = Precision::Float),
+        ];
+        for (name, color, depth, state) in s.both_states() {
+            for (edit_name, edit) in &edits {
+                for texture in [None, Some(&rgba)] {
+                    let mut state = state;
+                    if let (Some(t), Some(b)) = (texture, state.texture.as_mut()) {
+                        b.texture = t;
+                    }
+                    edit(&mut state);
+                    let draw = |threads: usize, set: InstructionSet| {
+                        let mut fb = Framebuffer::new(320, 240, color, depth).unwrap();
+                        fb.clear([150, 180, 220]);
+                        Rasterizer::with_threads(threads)
+                            .with_split_from(0)
+                            .with_instruction_set(set)
+                            .draw(&mut fb, &s.mesh(), &s.transform, &state)
+                            .unwrap();
+                        fb
+                    };
+                    let baseline = draw(1, InstructionSet::Baseline);
+                    for threads in [1, 2] {
+                        assert!(
+                            draw(threads, InstructionSet::Detected) == baseline,
+                            "grid {grid}, {name}, {edit_name}, RGBA8888 texture {}, {threads} threads",
+                            texture.is_some()
+                        );
+                    }
+                }
+            }
+        }
+    }
+}

@@ -133,7 +133,7 @@ impl Fragments {
             // SAFETY: `cpu.v3()` holds only where the CPU has every feature the twin is built for.
             return unsafe { self.finish_v3::<P, F, SHADE, FOG>(color, views, a) };
         }
-        self.finish_in::<P, F, SHADE, FOG>(color, views, a)
+        self.finish_in::<P, F, SHADE, FOG, false>(color, views, a)
     }
 
     /// `finish` built for x86-64-v3 (see `crate::isa`).
@@ -145,12 +145,18 @@ impl Fragments {
         views: &[LevelView<'_, F::Texel>],
         a: &Attributes,
     ) {
-        self.finish_in::<P, F, SHADE, FOG>(color, views, a)
+        self.finish_in::<P, F, SHADE, FOG, true>(color, views, a)
     }
 
     /// The colour stage of `finish`, built into each of its twins.
     #[inline(always)]
-    fn finish_in<P: PixelFormat, F: Filtering, const SHADE: bool, const FOG: bool>(
+    fn finish_in<
+        P: PixelFormat,
+        F: Filtering,
+        const SHADE: bool,
+        const FOG: bool,
+        const V3: bool,
+    >(
         &mut self,
         color: &mut TileBuf<P::Pixel>,
         views: &[LevelView<'_, F::Texel>],
@@ -162,9 +168,9 @@ impl Fragments {
         let view = views.get(self.level);
         let pixels = color.pixels();
         if SHADE && self.grey {
-            self.colour::<P, F, SHADE, true, FOG>(view, a, pixels)
+            self.colour::<P, F, SHADE, true, FOG, V3>(view, a, pixels)
         } else {
-            self.colour::<P, F, SHADE, false, FOG>(view, a, pixels)
+            self.colour::<P, F, SHADE, false, FOG, V3>(view, a, pixels)
         }
         self.written += self.len as u64;
         self.len = 0;
@@ -180,6 +186,7 @@ impl Fragments {
         const SHADE: bool,
         const GREY: bool,
         const FOG: bool,
+        const V3: bool,
     >(
         &self,
         view: Option<&LevelView<'_, F::Texel>>,
@@ -200,7 +207,7 @@ impl Fragments {
             };
             if F::ENABLED {
                 let view = view.expect("texture view bound with texturing on");
-                let t = F::sample_lanes(view, load_i32(&self.u, g), load_i32(&self.v, g));
+                let t = F::sample_lanes::<V3>(view, load_i32(&self.u, g), load_i32(&self.v, g));
                 rgb = crate::lanes::modulate(t, rgb);
             }
             if FOG {

@@ -25,7 +25,7 @@ impl<T: ViewOf> Filtering for Bilinear<T> {
     }
 
     #[inline(always)]
-    fn sample_lanes(view: &LevelView<'_, T>, u: i32x8, v: i32x8) -> Rgb8s {
+    fn sample_lanes<const V3: bool>(view: &LevelView<'_, T>, u: i32x8, v: i32x8) -> Rgb8s {
         // As `sample` on folded coordinates: `tu` below 2^31, so 32-bit lanes hold it.
         let (su, sv) = view.scale_lanes(u, v);
         let half = i32x8::splat(1 << 15);
@@ -37,8 +37,8 @@ impl<T: ViewOf> Filtering for Bilinear<T> {
         // 16 reads instead of 32), else each texel on its own.
         let (quad, fx) = match view.neighbour_columns_lanes(tu >> 16, fx) {
             Some((x, fx)) => {
-                let (a, b) = view.gather_pairs(view.index_lanes(x, y0));
-                let (c, d) = view.gather_pairs(view.index_lanes(x, y1));
+                let (a, b) = view.gather_pairs::<V3>(view.index_lanes(x, y0));
+                let (c, d) = view.gather_pairs::<V3>(view.index_lanes(x, y1));
                 ([a, b, c, d], fx)
             }
             None => {
@@ -55,6 +55,7 @@ impl<T: ViewOf> Filtering for Bilinear<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::isa::{Cpu, InstructionSet};
     use crate::texture::Wrap;
 
     fn view(texels: &[u16], wrap: Wrap) -> LevelView<'_, u16> {
@@ -72,8 +73,10 @@ mod tests {
     }
 
     /// `sample_lanes` at eight points against `sample` at each of them, on levels whose texels
-    /// all differ.
+    /// all differ; where the CPU runs the x86-64-v3 twins, their lanes (an AVX2 gather of the
+    /// texel pairs) against the baseline's.
     fn lanes_match_samples<T: ViewOf>(texels: &[T], w: u32, h: u32, points: &[(i32, i32)]) {
+        let v3 = Cpu::new(InstructionSet::Detected).v3();
         for wrap in [Wrap::Clamp, Wrap::Repeat] {
             let view = LevelView::new(texels, w, h, wrap);
             for group in points.chunks(8) {
@@ -82,10 +85,17 @@ mod tests {
                     *q = group[k % group.len()];
                 }
                 let (u, v) = (p.map(|q| q.0), p.map(|q| q.1));
-                let lanes = Bilinear::<T>::sample_lanes(&view, i32x8::new(u), i32x8::new(v));
+                let lanes =
+                    Bilinear::<T>::sample_lanes::<false>(&view, i32x8::new(u), i32x8::new(v));
+                let twin = v3.then(|| {
+                    Bilinear::<T>::sample_lanes::<true>(&view, i32x8::new(u), i32x8::new(v))
+                });
                 for (k, &(u, v)) in p.iter().enumerate() {
                     let one = Bilinear::<T>::sample(&view, u as i64, v as i64);
                     assert_eq!(lanes.lane(k), one, "{w}x{h} {wrap:?} at ({u}, {v})");
+                    if let Some(twin) = &twin {
+                        assert_eq!(twin.lane(k), one, "AVX2, {w}x{h} {wrap:?} at ({u}, {v})");
+                    }
                 }
             }
         }

@@ -32,6 +32,21 @@ pub(crate) trait Texel: Copy + Send + Sync + 'static {
     /// Eight pairs of neighbouring texels as the lanes of the first and of the second of each.
     fn pair_lanes(t: [[Self; 2]; LANES]) -> (Self::Lanes, Self::Lanes);
 
+    /// `LevelView::gather_pairs`' reads as one AVX2 gather, for the x86-64-v3 twins
+    /// (`crate::isa`), or `None` where this texel type has none.
+    ///
+    /// # Safety
+    ///
+    /// The CPU has AVX2, and each index and the one after it lie in `texels`.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn gather_pairs_avx2(
+        _texels: &[Self],
+        _index: i32x8,
+    ) -> Option<(Self::Lanes, Self::Lanes)> {
+        None
+    }
+
     /// The colours of eight texels, as `rgb`.
     fn rgb_lanes(t: Self::Lanes) -> Rgb8s;
 
@@ -58,6 +73,41 @@ const SPREAD: u32 = 0x07E0_F81F;
 #[inline]
 fn spread(p: u16) -> u32 {
     (p as u32 | (p as u32) << 16) & SPREAD
+}
+
+/// Eight 32-bit words as their low and high 16-bit halves (a pair of RGB565 texels read as one
+/// word: the first texel in the low half on a little-endian CPU).
+#[inline(always)]
+fn halves(w: u32x8) -> (u16x8, u16x8) {
+    (narrow_u32(w & u32x8::splat(0xFFFF)), narrow_u32(w >> 16))
+}
+
+/// The 32-bit words at `texels + index` (in texels), read by one AVX2 gather.
+///
+/// # Safety
+///
+/// The CPU has AVX2, and each index and the one after it lie in `texels`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn gather_words_avx2(texels: &[u16], index: i32x8) -> u32x8 {
+    use std::arch::x86_64::{_mm256_i32gather_epi32, _mm256_loadu_si256, _mm256_storeu_si256};
+    let index = index.to_array();
+    debug_assert!(
+        index
+            .iter()
+            .all(|&i| (0..texels.len() as i64 - 1).contains(&(i as i64)))
+    );
+    let mut words = [0u32; LANES];
+    // SAFETY: the loads and the store touch the two 32-byte arrays; the gather reads 4 bytes at
+    // `texels + 2 * i` for each lane's index `i`, texels `i` and `i + 1`, which the caller keeps
+    // inside `texels` (no alignment is needed).
+    unsafe {
+        let i = _mm256_loadu_si256(index.as_ptr().cast());
+        let w = _mm256_i32gather_epi32::<2>(texels.as_ptr().cast(), i);
+        _mm256_storeu_si256(words.as_mut_ptr().cast(), w);
+    }
+    u32x8::new(words)
 }
 
 /// The 5- or 6-bit fields of RGB565 lanes widened to 8 bits by bit replication, as
@@ -87,8 +137,17 @@ impl Texel for u16 {
     /// Each pair as one 32-bit lane (one load per pair), split into its halves in lanes.
     #[inline(always)]
     fn pair_lanes(t: [[u16; 2]; LANES]) -> (u16x8, u16x8) {
-        let w = u32x8::new(t.map(|[a, b]| a as u32 | (b as u32) << 16));
-        (narrow_u32(w & u32x8::splat(0xFFFF)), narrow_u32(w >> 16))
+        halves(u32x8::new(t.map(|[a, b]| a as u32 | (b as u32) << 16)))
+    }
+
+    /// The eight pairs as one `vpgatherdd` of 32-bit words at `texels + 2 * index`: the
+    /// compiler's scalar reads of the twin took some 24 instructions a group of pairs (each
+    /// index taken out of its lane, widened, read and put back), 0.3M a PocketPC frame.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn gather_pairs_avx2(texels: &[u16], index: i32x8) -> Option<(u16x8, u16x8)> {
+        // SAFETY: the caller's contract: AVX2 is present and each pair lies in `texels`.
+        Some(halves(unsafe { gather_words_avx2(texels, index) }))
     }
 
     #[inline(always)]
@@ -363,8 +422,18 @@ impl<'a, T: Texel> LevelView<'a, T> {
     /// The texels at eight indices and the texels after them: `(gather(index), gather(index +
     /// 1))`, each pair read at once. Each index and the one after it must lie in
     /// `0..width * height`.
+    /// `V3`: called from an x86-64-v3 twin (`crate::isa`), where the texel type's AVX2 gather
+    /// serves, if it has one.
     #[inline(always)]
-    pub fn gather_pairs(&self, index: i32x8) -> (T::Lanes, T::Lanes) {
+    pub fn gather_pairs<const V3: bool>(&self, index: i32x8) -> (T::Lanes, T::Lanes) {
+        #[cfg(target_arch = "x86_64")]
+        if V3 {
+            // SAFETY: only the x86-64-v3 twins pass `V3`, and they run where `isa::Cpu` found
+            // AVX2; the indices are those of the reads below (see there).
+            if let Some(pairs) = unsafe { T::gather_pairs_avx2(self.texels, index) } {
+                return pairs;
+            }
+        }
         T::pair_lanes(index.to_array().map(|i| {
             debug_assert!((0..self.texels.len() as i64 - 1).contains(&(i as i64)));
             // SAFETY: every index comes from `index_lanes` of a row in `0..height` (`pair_lanes`)
@@ -469,8 +538,10 @@ pub(crate) trait Filtering: Send + Sync + 'static {
     const ENABLED: bool;
     type Texel: ViewOf;
     fn sample(view: &LevelView<'_, Self::Texel>, u: i64, v: i64) -> [u8; 3];
-    /// `sample` at eight points, each coordinate 16.16 within `TEXCOORD_LIMIT`.
-    fn sample_lanes(view: &LevelView<'_, Self::Texel>, u: i32x8, v: i32x8) -> Rgb8s;
+    /// `sample` at eight points, each coordinate 16.16 within `TEXCOORD_LIMIT`; `V3` when
+    /// called from an x86-64-v3 twin (`crate::isa`).
+    fn sample_lanes<const V3: bool>(view: &LevelView<'_, Self::Texel>, u: i32x8, v: i32x8)
+    -> Rgb8s;
 }
 
 /// Texturing off.
@@ -484,7 +555,7 @@ impl Filtering for NoTexture {
         [255; 3]
     }
     #[inline]
-    fn sample_lanes(_: &LevelView<'_, u16>, _: i32x8, _: i32x8) -> Rgb8s {
+    fn sample_lanes<const V3: bool>(_: &LevelView<'_, u16>, _: i32x8, _: i32x8) -> Rgb8s {
         Rgb8s::splat([255; 3])
     }
 }

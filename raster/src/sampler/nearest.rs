@@ -20,7 +20,7 @@ impl<T: ViewOf> Filtering for Nearest<T> {
     }
 
     #[inline(always)]
-    fn sample_lanes(view: &LevelView<'_, T>, u: i32x8, v: i32x8) -> Rgb8s {
+    fn sample_lanes<const V3: bool>(view: &LevelView<'_, T>, u: i32x8, v: i32x8) -> Rgb8s {
         // Folded coordinates give columns and rows inside the level with no wrap left to do.
         let (su, sv) = view.scale_lanes(u, v);
         T::rgb_lanes(view.gather(view.index_lanes(su >> 16, sv >> 16)))

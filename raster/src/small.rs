@@ -130,6 +130,9 @@ const TEX_OFF: usize = 0;
 const TEX_AFFINE: usize = 2;
 const TEX_PERSPECTIVE: usize = 3;
 
+/// Values a run steps at most: depth, three colour channels, fog, three perspective planes.
+const VALUES: usize = 8;
+
 /// Colour planes stepped: none without shading, one for grey vertices, else three.
 #[inline(always)]
 const fn channels<const SHADE: bool, const GREY: bool>() -> usize {
@@ -190,17 +193,27 @@ fn rows_of<
             let at = (row_at + first as i64) as usize;
             let mut k = frags.held();
             let start = |q: &AttrPlane| q.at_pixel(first as i64, row);
-            // Depth test, shading and fog.
-            let mut z = if D::ENABLED { start(&p.z) } else { 0 };
-            let mut c = [0i64; 3];
-            for (c, q) in c.iter_mut().zip(&p.c).take(channels) {
-                *c = start(q);
+            // Every value the run steps, in one array: depth, the colour channels, fog, the
+            // texture's (or the perspective accumulators).
+            let mut acc = [0i64; VALUES];
+            let mut step = [0i64; VALUES];
+            let mut put = |at: usize, q: &AttrPlane| {
+                acc[at] = start(q);
+                step[at] = q.dx;
+            };
+            if D::ENABLED {
+                put(0, &p.z);
             }
-            let mut f = if FOG { start(&p.f) } else { 0 };
-            // Texture coordinates (or the perspective accumulators) at the run's start.
-            let mut uv = [0i64; 3];
-            for (a, q) in uv.iter_mut().zip(&p.tex).take(TEX) {
-                *a = start(q);
+            for (ch, q) in p.c.iter().enumerate().take(channels) {
+                put(1 + ch, q);
+            }
+            let fog_at = 1 + channels;
+            if FOG {
+                put(fog_at, &p.f);
+            }
+            let tex_at = fog_at + FOG as usize;
+            for (k, q) in p.tex.iter().enumerate().take(TEX) {
+                put(tex_at + k, q);
             }
             // The run's depth values, sliced once: indexed by `j < n`, they need no check per
             // pixel. A fragment takes its slot `k` only when it passes (`Fragments`).
@@ -215,25 +228,23 @@ fn rows_of<
                 let i = Fragments::slot(k);
                 frags.at[i] = (at + j) as u32;
                 let pass = if D::ENABLED {
+                    let z = acc[0];
                     let d = if CLAMP {
                         D::from_z(z)
                     } else {
                         D::from_z_in_range(z)
                     };
-                    z = z.wrapping_add(p.z.dx);
                     test.apply::<D>(d, &mut depth_row[j])
                 } else {
                     true
                 };
-                for ((c, out), q) in c.iter_mut().zip(&mut frags.c).zip(&p.c).take(channels) {
-                    let v = *c >> ATTR_FRAC_BITS;
-                    out[i] = if CLAMP { v.clamp(0, 255) } else { v } as u16;
-                    *c = c.wrapping_add(q.dx);
+                for ch in 0..channels {
+                    let v = acc[1 + ch] >> ATTR_FRAC_BITS;
+                    frags.c[ch][i] = if CLAMP { v.clamp(0, 255) } else { v } as u16;
                 }
                 if FOG {
-                    let v = f >> ATTR_FRAC_BITS;
+                    let v = acc[fog_at] >> ATTR_FRAC_BITS;
                     frags.f[i] = if CLAMP { v.clamp(0, 256) } else { v } as u16;
-                    f = f.wrapping_add(p.f.dx);
                 }
                 match TEX {
                     TEX_AFFINE => {
@@ -244,25 +255,24 @@ fn rows_of<
                                 (c >> 16) as i32
                             }
                         };
-                        (frags.u[i], frags.v[i]) = (coord(uv[0]), coord(uv[1]));
-                        uv[0] = uv[0].wrapping_add(p.tex[0].dx);
-                        uv[1] = uv[1].wrapping_add(p.tex[1].dx);
+                        (frags.u[i], frags.v[i]) = (coord(acc[tex_at]), coord(acc[tex_at + 1]));
                     }
                     TEX_PERSPECTIVE => {
+                        let (s, t, q) = (acc[tex_at], acc[tex_at + 1], acc[tex_at + 2]);
                         // `divide` clamps to the coordinate range: `clamp_coord` would change
                         // nothing.
                         let (u, v) = if CLAMP {
-                            divide(uv[0], uv[1], uv[2])
+                            divide(s, t, q)
                         } else {
-                            divide_in_range(uv[0], uv[1], uv[2])
+                            divide_in_range(s, t, q)
                         };
                         debug_assert_eq!(clamp_coord(u >> 16), u >> 16);
                         (frags.u[i], frags.v[i]) = ((u >> 16) as i32, (v >> 16) as i32);
-                        for (a, q) in uv.iter_mut().zip(&p.tex) {
-                            *a = a.wrapping_add(q.dx);
-                        }
                     }
                     _ => {}
+                }
+                for (a, d) in acc.iter_mut().zip(&step) {
+                    *a = a.wrapping_add(*d);
                 }
                 k += pass as usize;
             }

@@ -478,7 +478,7 @@ fn next_pass<'a>(
 }
 
 /// The vertex stage of `vertices` (of one draw, its constants `c`) into `outs`. Runs the
-/// x86-64-v3 twin where `cpu` allows (0.30M instructions less per PocketPC frame: its 128-bit
+/// x86-64-v3 twin where `cpu` allows (0.16M instructions less per PocketPC frame: its 128-bit
 /// products and shifts take BMI2's forms).
 fn transform<P: Pipeline>(
     c: &P::Consts,

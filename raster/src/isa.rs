@@ -4,7 +4,10 @@
 //! every CPU of the target. Where the CPU running it also has AVX2, BMI1, BMI2, LZCNT, POPCNT
 //! and FMA (x86-64-v3: x86 CPUs since 2013-2015), three loops run in a twin of themselves built
 //! for those features (`#[target_feature]`): the vertex stage, a tile's triangles, and the
-//! colour stage. The twins are the same source over integers (the float pipeline's vertex
+//! colour stage. `wide`, the lanes' crate, chooses its AVX2 forms at compile time, so inside a
+//! twin its lanes keep their SSE2 forms; where that cost most, the bilinear RGB565 texel pairs,
+//! the colour stage's twin reads them with one AVX2 gather (`sampler::gather_words_avx2`). The
+//! twins are the same source over integers (the float pipeline's vertex
 //! stage too: Rust does not fuse a multiplication and an addition into FMA on its own), so they
 //! give the same bytes as the baseline (`tests/it/determinism.rs`); `pocketpc_frames --baseline`
 //! counts what they save. Each rasterizer checks the CPU once; on other targets the twins are

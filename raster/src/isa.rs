@@ -6,11 +6,11 @@
 //! for those features (`#[target_feature]`): the vertex stage, a tile's triangles, and the
 //! colour stage. `wide`, the lanes' crate, chooses its AVX2 forms at compile time, so inside a
 //! twin its lanes keep their SSE2 forms; where that cost most, the bilinear RGB565 texel pairs,
-//! the colour stage's twin reads them with one AVX2 gather (`sampler::gather_words_avx2`). The
-//! twins are the same source over integers (the float pipeline's vertex
-//! stage too: Rust does not fuse a multiplication and an addition into FMA on its own), so they
-//! give the same bytes as the baseline (`tests/it/determinism.rs`); `pocketpc_frames --baseline`
-//! counts what they save. Each rasterizer checks the CPU once; on other targets the twins are
+//! the colour stage's twin reads them with one AVX2 gather (`sampler::gather_words_avx2`).
+//! Apart from that read the twins are the same source, over integers (the float pipeline's
+//! vertex stage too: Rust does not fuse a multiplication and an addition into FMA on its own),
+//! and they give the same bytes as the baseline (`tests/it/determinism.rs`; the sampler's lane
+//! test checks the gather); `pocketpc_frames --baseline` counts what they save. Each rasterizer checks the CPU once; on other targets the twins are
 //! not built.
 
 /// Which instructions a rasterizer's hot loops may use beyond its build target's baseline.

@@ -21,7 +21,7 @@ use crate::fixed_point::{ATTR_FRAC_BITS, TEXCOORD_LIMIT};
 use crate::fragments::Fragments;
 use crate::pipeline::TexMode;
 use crate::pipeline::fixed::{
-    AttrPlane, DepthTest, FixedTriangle, NarrowPlanes, divide, divide_in_range,
+    AttrPlane, DepthTest, FixedTriangle, NarrowPlanes, divide, divide_in_range, plane_offsets,
 };
 use crate::pixel::DepthFormat;
 use crate::sampler::{Filtering, clamp_coord};
@@ -133,16 +133,6 @@ const TEX_PERSPECTIVE: usize = 3;
 /// Values a run steps at most: depth, three colour channels, fog, three perspective planes.
 const VALUES: usize = 8;
 
-/// Colour planes stepped: none without shading, one for grey vertices, else three.
-#[inline(always)]
-const fn channels<const SHADE: bool, const GREY: bool>() -> usize {
-    match (SHADE, GREY) {
-        (false, _) => 0,
-        (true, true) => 1,
-        (true, false) => 3,
-    }
-}
-
 /// The row loop of `small_triangle`: `TEX` texture planes (`TEX_OFF`, `TEX_AFFINE` or
 /// `TEX_PERSPECTIVE`); `CLAMP` false when every value, and every quotient of the perspective
 /// division, is known to be in range.
@@ -169,7 +159,9 @@ fn rows_of<
         _ => &mut [],
     };
     let mut rows = t.coverage.small_rows(tile.y0 as i64, tile.y1 as i64);
-    let channels = channels::<SHADE, GREY>();
+    // Where each kind of value sits among the run's stepped values: the planes' own order.
+    let (color_at, fog_at, tex_at) = plane_offsets::<D, SHADE, GREY, FOG>();
+    let channels = fog_at - color_at;
     // The tile's columns as bits of the rows' masks (a small triangle spans at most 16).
     let lo = (tile.x0 as i64 - rows.x0).clamp(0, 32);
     let hi = (tile.x1 as i64 - rows.x0).clamp(0, 32);
@@ -197,23 +189,21 @@ fn rows_of<
             // texture's (or the perspective accumulators).
             let mut acc = [0i64; VALUES];
             let mut step = [0i64; VALUES];
-            let mut put = |at: usize, q: &AttrPlane| {
-                acc[at] = start(q);
-                step[at] = q.dx;
+            let mut put = |index: usize, q: &AttrPlane| {
+                acc[index] = start(q);
+                step[index] = q.dx;
             };
             if D::ENABLED {
                 put(0, &p.z);
             }
             for (ch, q) in p.c.iter().enumerate().take(channels) {
-                put(1 + ch, q);
+                put(color_at + ch, q);
             }
-            let fog_at = 1 + channels;
             if FOG {
                 put(fog_at, &p.f);
             }
-            let tex_at = fog_at + FOG as usize;
-            for (k, q) in p.tex.iter().enumerate().take(TEX) {
-                put(tex_at + k, q);
+            for (plane, q) in p.tex.iter().enumerate().take(TEX) {
+                put(tex_at + plane, q);
             }
             // The run's depth values, sliced once: indexed by `j < n`, they need no check per
             // pixel. A fragment takes its slot `k` only when it passes (`Fragments`).
@@ -239,7 +229,7 @@ fn rows_of<
                     true
                 };
                 for ch in 0..channels {
-                    let v = acc[1 + ch] >> ATTR_FRAC_BITS;
+                    let v = acc[color_at + ch] >> ATTR_FRAC_BITS;
                     frags.c[ch][i] = if CLAMP { v.clamp(0, 255) } else { v } as u16;
                 }
                 if FOG {

@@ -807,7 +807,7 @@ pub(crate) struct Span<'a, P: PixelFormat, D: DepthFormat> {
 pub(crate) mod reference;
 mod rows;
 
-pub(crate) use rows::{DepthTest, NarrowPlanes, RunPiece, run_fragments};
+pub(crate) use rows::{DepthTest, NarrowPlanes, RunPiece, plane_offsets, run_fragments};
 
 #[cfg(test)]
 mod tests {

@@ -58,8 +58,12 @@ impl DepthTest {
 /// Where a triangle's planes of each kind start among its planes, which come in this order:
 /// depth (if tested), colour (one plane when `GREY`, none without shading), fog, texture.
 #[inline(always)]
-fn plane_offsets<D: DepthFormat, const SHADE: bool, const GREY: bool, const FOG: bool>()
--> (usize, usize, usize) {
+pub(crate) fn plane_offsets<
+    D: DepthFormat,
+    const SHADE: bool,
+    const GREY: bool,
+    const FOG: bool,
+>() -> (usize, usize, usize) {
     let color_at = D::ENABLED as usize;
     let colors = match (SHADE, GREY) {
         (false, _) => 0,

@@ -20,7 +20,7 @@ use crate::bin::{TileGrid, tile_size};
 use crate::clip::ClipVertex;
 use crate::draw::{DrawStats, Rasterizer, Stages};
 use crate::framebuffer::{ColorBuffer, DepthBuffer, Framebuffer};
-use crate::isa::Cpu;
+use crate::isa::{Cpu, v3_twin};
 use crate::lines::{LineState, LineStats};
 use crate::matrix::Transform;
 use crate::pipeline::fixed::FixedPipeline;
@@ -494,11 +494,11 @@ fn transform<P: Pipeline>(
     transform_in::<P>(c, outs, vertices)
 }
 
-/// `transform` built for x86-64-v3 (see `crate::isa`).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt,fma")]
-fn transform_v3<P: Pipeline>(c: &P::Consts, outs: &mut [Transformed<P>], vertices: &[Vertex]) {
-    transform_in::<P>(c, outs, vertices)
+v3_twin! {
+    /// `transform` built for x86-64-v3 (see `crate::isa`).
+    fn transform_v3<P: Pipeline>(c: &P::Consts, outs: &mut [Transformed<P>], vertices: &[Vertex]) {
+        transform_in::<P>(c, outs, vertices)
+    }
 }
 
 /// The loop of `transform`, built into each of its twins.

@@ -14,7 +14,7 @@
 //! twin exactly (tested), and the colour is written in the order the fragments arrived, so a
 //! later triangle's pixel still lands over an earlier one's.
 
-use crate::isa::Cpu;
+use crate::isa::{Cpu, v3_twin};
 use crate::lanes::{LANES, Rgb8s, load_i32, load_u16};
 use crate::pipeline::Attributes;
 use crate::pixel::PixelFormat;
@@ -136,16 +136,16 @@ impl Fragments {
         self.finish_in::<P, F, SHADE, FOG, false>(color, views, a)
     }
 
-    /// `finish` built for x86-64-v3 (see `crate::isa`).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt,fma")]
-    fn finish_v3<P: PixelFormat, F: Filtering, const SHADE: bool, const FOG: bool>(
-        &mut self,
-        color: &mut TileBuf<P::Pixel>,
-        views: &[LevelView<'_, F::Texel>],
-        a: &Attributes,
-    ) {
-        self.finish_in::<P, F, SHADE, FOG, true>(color, views, a)
+    v3_twin! {
+        /// `finish` built for x86-64-v3 (see `crate::isa`).
+        fn finish_v3<P: PixelFormat, F: Filtering, const SHADE: bool, const FOG: bool>(
+            &mut self,
+            color: &mut TileBuf<P::Pixel>,
+            views: &[LevelView<'_, F::Texel>],
+            a: &Attributes,
+        ) {
+            self.finish_in::<P, F, SHADE, FOG, true>(color, views, a)
+        }
     }
 
     /// The colour stage of `finish`, built into each of its twins.

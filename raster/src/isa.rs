@@ -10,8 +10,8 @@
 //! Apart from that read the twins are the same source, over integers (the float pipeline's
 //! vertex stage too: Rust does not fuse a multiplication and an addition into FMA on its own),
 //! and they give the same bytes as the baseline (`tests/it/determinism.rs`; the sampler's lane
-//! test checks the gather); `pocketpc_frames --baseline` counts what they save. Each rasterizer checks the CPU once; on other targets the twins are
-//! not built.
+//! test checks the gather); `pocketpc_frames --baseline` counts what they save. Each
+//! rasterizer checks the CPU once; on other targets the twins are not built.
 
 /// Which instructions a rasterizer's hot loops may use beyond its build target's baseline.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -48,9 +48,20 @@ impl Cpu {
     }
 }
 
-/// Every feature the twins' `#[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt,fma")]`
-/// names, present on this CPU (and enabled by its operating system, which `avx2`'s check
-/// includes).
+/// Builds a function as an x86-64-v3 twin: for x86-64 only, with the features `has_v3` checks
+/// (one list for both), so that a `Cpu` whose `v3()` holds is the safety argument for calling
+/// it.
+macro_rules! v3_twin {
+    ($($item:tt)*) => {
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt,fma")]
+        $($item)*
+    };
+}
+pub(crate) use v3_twin;
+
+/// Every feature `v3_twin` builds for, present on this CPU (and enabled by its operating
+/// system, which `avx2`'s check includes).
 #[cfg(target_arch = "x86_64")]
 fn has_v3() -> bool {
     use std::arch::is_x86_feature_detected as has;

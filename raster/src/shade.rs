@@ -4,7 +4,7 @@
 
 use crate::edge::PixelRect;
 use crate::fragments::Fragments;
-use crate::isa::Cpu;
+use crate::isa::{Cpu, v3_twin};
 use crate::pipeline::fixed::{
     self, AttrPlane, FixedPipeline, FixedTriangle, NarrowPlanes, RunPiece, Span,
 };
@@ -326,15 +326,15 @@ fn triangles<D: DepthFormat, F: Filtering, const SHADE: bool, const FOG: bool>(
     triangles_in::<D, F, SHADE, FOG>(args, frags, flush)
 }
 
-/// `triangles` built for x86-64-v3 (see `crate::isa`).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt,fma")]
-fn triangles_v3<D: DepthFormat, F: Filtering, const SHADE: bool, const FOG: bool>(
-    args: TrianglesArgs<'_, '_, D>,
-    frags: &mut Fragments,
-    flush: &mut dyn FnMut(&mut Fragments),
-) {
-    triangles_in::<D, F, SHADE, FOG>(args, frags, flush)
+v3_twin! {
+    /// `triangles` built for x86-64-v3 (see `crate::isa`).
+    fn triangles_v3<D: DepthFormat, F: Filtering, const SHADE: bool, const FOG: bool>(
+        args: TrianglesArgs<'_, '_, D>,
+        frags: &mut Fragments,
+        flush: &mut dyn FnMut(&mut Fragments),
+    ) {
+        triangles_in::<D, F, SHADE, FOG>(args, frags, flush)
+    }
 }
 
 /// The triangle loop of `triangles`, built into each of its twins.

@@ -37,7 +37,8 @@ pub(crate) trait Texel: Copy + Send + Sync + 'static {
     ///
     /// # Safety
     ///
-    /// The CPU has AVX2, and each index and the one after it lie in `texels`.
+    /// The CPU has the x86-64-v3 twins' features (`isa::Cpu::v3`), and each index and the one
+    /// after it lie in `texels`.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     unsafe fn gather_pairs_avx2(
@@ -82,32 +83,35 @@ fn halves(w: u32x8) -> (u16x8, u16x8) {
     (narrow_u32(w & u32x8::splat(0xFFFF)), narrow_u32(w >> 16))
 }
 
-/// The 32-bit words at `texels + index` (in texels), read by one AVX2 gather.
-///
-/// # Safety
-///
-/// The CPU has AVX2, and each index and the one after it lie in `texels`.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline]
-unsafe fn gather_words_avx2(texels: &[u16], index: i32x8) -> u32x8 {
-    use std::arch::x86_64::{_mm256_i32gather_epi32, _mm256_loadu_si256, _mm256_storeu_si256};
-    let index = index.to_array();
-    debug_assert!(
-        index
-            .iter()
-            .all(|&i| (0..texels.len() as i64 - 1).contains(&(i as i64)))
-    );
-    let mut words = [0u32; LANES];
-    // SAFETY: the loads and the store touch the two 32-byte arrays; the gather reads 4 bytes at
-    // `texels + 2 * i` for each lane's index `i`, texels `i` and `i + 1`, which the caller keeps
-    // inside `texels` (no alignment is needed).
-    unsafe {
-        let i = _mm256_loadu_si256(index.as_ptr().cast());
-        let w = _mm256_i32gather_epi32::<2>(texels.as_ptr().cast(), i);
-        _mm256_storeu_si256(words.as_mut_ptr().cast(), w);
+crate::isa::v3_twin! {
+    /// The 32-bit words at `texels + index` (in texels), read by one AVX2 gather.
+    ///
+    /// # Safety
+    ///
+    /// The CPU has the x86-64-v3 twins' features (`isa::Cpu::v3`), and each index and the one
+    /// after it lie in `texels`.
+    #[inline]
+    unsafe fn gather_words_avx2(texels: &[u16], index: i32x8) -> u32x8 {
+        use std::arch::x86_64::{
+            _mm256_i32gather_epi32, _mm256_loadu_si256, _mm256_storeu_si256,
+        };
+        let index = index.to_array();
+        debug_assert!(
+            index
+                .iter()
+                .all(|&i| (0..texels.len() as i64 - 1).contains(&(i as i64)))
+        );
+        let mut words = [0u32; LANES];
+        // SAFETY: the loads and the store touch the two 32-byte arrays; the gather reads 4
+        // bytes at `texels + 2 * i` for each lane's index `i`, texels `i` and `i + 1`, which
+        // the caller keeps inside `texels` (no alignment is needed).
+        unsafe {
+            let i = _mm256_loadu_si256(index.as_ptr().cast());
+            let w = _mm256_i32gather_epi32::<2>(texels.as_ptr().cast(), i);
+            _mm256_storeu_si256(words.as_mut_ptr().cast(), w);
+        }
+        u32x8::new(words)
     }
-    u32x8::new(words)
 }
 
 /// The 5- or 6-bit fields of RGB565 lanes widened to 8 bits by bit replication, as
@@ -146,7 +150,8 @@ impl Texel for u16 {
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     unsafe fn gather_pairs_avx2(texels: &[u16], index: i32x8) -> Option<(u16x8, u16x8)> {
-        // SAFETY: the caller's contract: AVX2 is present and each pair lies in `texels`.
+        // SAFETY: the caller's contract: the twins' features are present and each pair lies in
+        // `texels`.
         Some(halves(unsafe { gather_words_avx2(texels, index) }))
     }
 
@@ -429,7 +434,7 @@ impl<'a, T: Texel> LevelView<'a, T> {
         #[cfg(target_arch = "x86_64")]
         if V3 {
             // SAFETY: only the x86-64-v3 twins pass `V3`, and they run where `isa::Cpu` found
-            // AVX2; the indices are those of the reads below (see there).
+            // their features; the indices are those of the reads below (see there).
             if let Some(pairs) = unsafe { T::gather_pairs_avx2(self.texels, index) } {
                 return pairs;
             }

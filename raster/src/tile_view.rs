@@ -80,6 +80,18 @@ pub(crate) struct TileBuf<T> {
 }
 
 impl<T> TileBuf<T> {
+    /// A tile of `rect` holding `pixels`, row after row, for tests of what draws into tiles.
+    #[cfg(test)]
+    pub fn new(rect: PixelRect, pixels: Vec<T>) -> Self {
+        let width = (rect.x1 - rect.x0) as usize;
+        assert_eq!(pixels.len(), width * (rect.y1 - rect.y0) as usize);
+        Self {
+            pixels,
+            rect,
+            width,
+        }
+    }
+
     /// The tile's pixels, as `rect` of the screen, `width` to a row.
     #[inline(always)]
     pub fn rect(&self) -> PixelRect {

@@ -420,7 +420,7 @@ impl SmallRows {
 
 /// Triangles whose bounding box spans fewer than this many pixels each way are walked by edge
 /// functions instead of DDAs.
-const SMALL: i64 = 16;
+pub(crate) const SMALL: i64 = 16;
 
 #[cfg(test)]
 mod tests {

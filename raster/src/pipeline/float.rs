@@ -253,7 +253,7 @@ impl FloatTriangle {
         };
         let pick = |f: fn(&FloatScreen) -> f32| plane([f(v[0]), f(v[1]), f(v[2])]);
         let empty = FloatPlane::default();
-        let tex_mode = a.tex_mode_for([v[0].xy, v[1].xy, v[2].xy]);
+        let tex_mode = a.tex_mode_for([v[0].xy, v[1].xy, v[2].xy], coverage.is_small());
         let (tex, level) = match tex_mode {
             TexMode::Off => ([empty; 3], 0),
             TexMode::Affine => (

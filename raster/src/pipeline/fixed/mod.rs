@@ -680,7 +680,7 @@ impl FixedTriangle {
         if a.fog {
             planes.push(pick(|s| s.fog));
         }
-        t.tex_mode = a.tex_mode_for([v[0].xy, v[1].xy, v[2].xy]);
+        t.tex_mode = a.tex_mode_for([v[0].xy, v[1].xy, v[2].xy], coverage.is_small());
         match t.tex_mode {
             TexMode::Off => {}
             TexMode::Affine => {

@@ -119,7 +119,7 @@ impl Fragments {
     ///
     /// Not inlined: it runs once per full buffer, and inlined at every call site it built the
     /// colour stage again in each of the row loops' specialisations. Runs the x86-64-v3 twin
-    /// where `cpu` allows (on the PocketPC frame 1.88M instructions instead of 3.00M).
+    /// where `cpu` allows (on the PocketPC frame 1.81M instructions instead of 3.00M).
     #[inline(never)]
     pub fn finish<P: PixelFormat, F: Filtering, const SHADE: bool, const FOG: bool>(
         &mut self,
@@ -194,11 +194,11 @@ impl Fragments {
         pixels: &mut [P::Pixel],
     ) {
         // In the x86-64-v3 twin, every slot's pixel is checked against the tile once per
-        // buffer (8 maxima in lanes), not at each store below: slots past the held fragments
-        // keep earlier ones' pixels of the same tile, or 0. The row steps index the tile they
-        // walk, so this never fails. Elsewhere, without a maximum of unsigned lanes (SSE2),
-        // each store is checked: that cost less.
-        let checked = V3 && {
+        // buffer (the 64 slots' maximum, in lanes), not at each store below: slots past the
+        // held fragments keep earlier ones' pixels of the same tile, or 0. The row steps index
+        // the tile they walk, so this never fails. Elsewhere, without a maximum of unsigned
+        // lanes (SSE2), each store is checked: that cost less.
+        let in_tile = V3 && {
             let most = self.at[..CAPACITY].iter().fold(0, |m, &at| m.max(at));
             assert!(
                 (most as usize) < pixels.len(),
@@ -207,7 +207,7 @@ impl Fragments {
             true
         };
         let mut store = |at: u32, packed: P::Pixel| {
-            if checked {
+            if in_tile {
                 // SAFETY: `at` is a slot's pixel, below `pixels.len()` (checked above).
                 unsafe { *pixels.get_unchecked_mut(at as usize) = packed };
             } else {
@@ -255,7 +255,7 @@ impl Fragments {
 mod tests {
     use super::*;
     use crate::edge::PixelRect;
-    use crate::isa::{Cpu, InstructionSet};
+    use crate::isa::InstructionSet;
     use crate::pixel::Rgba8888;
     use crate::sampler::NoTexture;
     use crate::state::RenderState;

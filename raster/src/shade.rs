@@ -309,7 +309,7 @@ type TrianglesArgs<'r, 't, D> = (
 /// the colour stage, the only part that depends on the colour format. Behind that call, these
 /// loops are built once for both colour formats (compile time and code size: `cargo llvm-lines
 /// -p stripmask-raster`); the call runs once per full buffer. Runs the x86-64-v3 twin where
-/// `cpu` allows (on the PocketPC frame 6.12M instructions instead of 6.28M, the colour stage
+/// `cpu` allows (on the PocketPC frame 6.03M instructions instead of 6.19M, the colour stage
 /// left out).
 #[inline(never)]
 fn triangles<D: DepthFormat, F: Filtering, const SHADE: bool, const FOG: bool>(

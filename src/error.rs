@@ -29,13 +29,13 @@ pub enum Error {
     },
     /// A tile's progressive chunk does not match the checksum in the index, after all retries.
     #[error(
-        "{name}: tile {tile} level {level} failed its checksum (expected crc32 {expected:08x}, got {actual:08x}) after {attempts} attempt(s)"
+        "{name}: {tile} level {level} failed its checksum (expected crc32 {expected:08x}, got {actual:08x}) after {attempts} attempt(s)"
     )]
     Checksum {
         /// The archive file or URL.
         name: String,
-        /// The tile's index in the archive.
-        tile: usize,
+        /// The tile, as `tile (x, y)` or `tile (x, y) of level k`.
+        tile: String,
         /// The progressive level whose chunk failed (the first that did).
         level: usize,
         /// The crc32 stored in the index.
@@ -103,15 +103,13 @@ pub enum Error {
     },
     /// A tile's relief does not fit 65535 height quanta: the build needs a larger quantum.
     #[error(
-        "{name}: tile ({tile_x}, {tile_y}) spans {relief} m, more than 65535 quanta of {quantum} m: choose a larger height quantum"
+        "{name}: {what} spans {relief} m, more than 65535 quanta of {quantum} m: choose a larger height quantum"
     )]
     HeightRange {
         /// The DEM file.
         name: String,
-        /// The tile's column.
-        tile_x: usize,
-        /// The tile's row.
-        tile_y: usize,
+        /// What spans too much: a tile, or the model, which the pyramid's root covers.
+        what: String,
         /// Its highest minus its lowest height, metres.
         relief: f32,
         /// The quantum that was too fine, metres.
@@ -128,7 +126,7 @@ pub enum Error {
         name: String,
         /// Frames flown.
         frames: u64,
-        /// Failed fetches, of tiles and of the coarse base.
+        /// Failed fetches, of tiles and of the top.
         errors: u64,
         /// The messages of the first failures, each naming its tile.
         first: Vec<String>,

@@ -63,7 +63,7 @@ pub(super) struct BuildArgs {
     /// How tile payloads are stored (deflate: smaller, slower to decode).
     #[arg(long, value_parser = named::<Codec>(), default_value = BuildOptions::default().codec.name())]
     codec: Codec,
-    /// Metres per height quantum, shared by all tiles; a tile's relief must fit 65535 quanta
+    /// Metres per height quantum, shared by all tiles; the model's relief must fit 65535 quanta
     /// (default: 1/16 m, or the smallest power of two that fits, with a note).
     #[arg(long)]
     height_quantum: Option<f32>,
@@ -106,7 +106,6 @@ impl BuildArgs {
             texture_image: self.texture.clone(),
             codec: self.codec,
             height_quantum: self.height_quantum,
-            ..BuildOptions::default()
         }
     }
 }
@@ -148,16 +147,21 @@ pub(super) fn run(a: BuildArgs) -> Result<()> {
 /// The text summary of a build: the archive, then the numbers a user should check.
 fn summary(output: &std::path::Path, report: &BuildReport) -> String {
     let h = &report.header;
+    let tiles = h.pyramid().tile_count();
+    let stored = report.stored_tiles.max(1);
     let mut lines = vec![
         format!(
-            "{}: {} x {} tiles of {} samples, {} bytes ({:.1} KiB per tile stored, {:.1} KiB raw) in {:.2} s",
+            "{}: {} x {} tiles of {} samples and {} levels above them ({} tiles in all), {} \
+             bytes ({:.1} KiB per tile stored, {:.1} KiB raw) in {:.2} s",
             output.display(),
             h.tiles_x,
             h.tiles_y,
             h.tile_size,
+            h.pyramid_levels() - 1,
+            tiles,
             report.archive_bytes,
-            report.stored_payload_bytes as f64 / h.tile_count() as f64 / 1024.0,
-            report.raw_payload_bytes as f64 / h.tile_count() as f64 / 1024.0,
+            report.stored_payload_bytes as f64 / stored as f64 / 1024.0,
+            report.raw_payload_bytes as f64 / stored as f64 / 1024.0,
             report.seconds
         ),
         format!(
@@ -172,6 +176,9 @@ fn summary(output: &std::path::Path, report: &BuildReport) -> String {
     lines.extend(report.notes.iter().map(|n| format!("note        {n}")));
     if h.nodata_filled + h.nodata_flattened > 0 {
         lines.push(super::info::nodata_line(h));
+    }
+    if h.absent_tiles > 0 {
+        lines.push(super::info::absent_line(h));
     }
     lines.iter().map(|l| format!("{l}\n")).collect()
 }

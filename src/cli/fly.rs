@@ -105,6 +105,15 @@ pub(super) fn run(a: FlyArgs) -> Result<()> {
         a.out.join("stats.csv").display(),
         s.holes
     );
+    let pixels = f64::from(scene.size.0) * f64::from(scene.size.1);
+    say!(
+        "drawn: {:.1} tiles and {:.2} triangles per pixel a frame on average; host: median \
+         {:.3} ms of bookkeeping and {:.3} ms of drawing a frame",
+        s.mean_tiles,
+        s.mean_triangles / pixels,
+        s.host_bookkeeping_ms,
+        s.host_draw_ms
+    );
     if s.holes.first_frame_s.is_none() && (s.errors > 0 || s.in_flight > 0) {
         return Err(Error::NothingLoaded {
             name: a.source.clone(),

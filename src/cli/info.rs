@@ -2,7 +2,7 @@
 
 use clap::Args;
 use serde::Serialize;
-use stripmask::db::archive::{ArchiveReader, CheckReport, HEADER_LEN, Header, VERSION};
+use stripmask::db::archive::{ArchiveReader, CheckReport, Header, IndexEntry, VERSION};
 use stripmask::db::source;
 use stripmask::error::Result;
 
@@ -25,16 +25,20 @@ struct InfoReport {
     name: String,
     version: u32,
     header: Header,
-    tile_count: usize,
+    tile_count: u64,
+    /// Tiles across and down every level of the pyramid, level 0 first.
+    pyramid: Vec<(u32, u32)>,
     file_bytes: u64,
-    main_bytes: u64,
+    /// Bytes an open reads: the header and the directory.
+    opening_bytes: u64,
+    top_tiles: usize,
     raw_tile_bytes: usize,
-    stored_tile_bytes_min: u64,
-    stored_tile_bytes_mean: f64,
-    stored_tile_bytes_max: u64,
-    stored_tile_bytes: Vec<u64>,
     raw_level_bytes: Vec<usize>,
+    /// Stored bytes per progressive level, mean over the tiles measured: the top's, or every
+    /// tile's with `--check`.
     stored_level_bytes_mean: Vec<f64>,
+    /// Which tiles the means are over.
+    measured: &'static str,
     check: Option<CheckReport>,
 }
 
@@ -53,34 +57,49 @@ pub(super) fn run(a: InfoArgs) -> Result<()> {
 }
 
 impl InfoReport {
-    /// What the archive `name` (a file or URL) holds; with `check`, every tile verified too.
+    /// What the archive `name` (a file or URL) holds, read from its header and directory; with
+    /// `check`, every tile verified too.
     fn read(name: &str, check: bool) -> Result<InfoReport> {
         let source = source::open(name)?;
         let file_bytes = source.size()?;
         let reader = ArchiveReader::open(source)?;
         let h = reader.header().clone();
-        let lengths: Vec<u64> = reader.index().iter().map(|e| e.stored_len()).collect();
-        let tiles = lengths.len().max(1) as f64;
-        let stored_level_bytes_mean = (0..h.levels())
-            .map(|g| {
-                let sum: u64 = reader.index().iter().map(|e| e.range(g..g + 1).1).sum();
-                sum as f64 / tiles
-            })
+        let pyramid = reader.pyramid();
+        let top: Vec<&IndexEntry> = reader
+            .directory()
+            .top
+            .iter()
+            .map(|(_, e)| e)
+            .filter(|e| !e.is_absent())
             .collect();
+        let tiles = top.len().max(1) as f64;
+        let mut stored_level_bytes_mean: Vec<f64> = (0..h.levels())
+            .map(|g| top.iter().map(|e| e.range(g..g + 1).1).sum::<u64>() as f64 / tiles)
+            .collect();
+        let check = if check { Some(reader.check()?) } else { None };
+        let mut measured = "the top's tiles";
+        if let Some(c) = &check {
+            stored_level_bytes_mean = c.stored_level_bytes_mean.clone();
+            measured = "every tile";
+        }
         Ok(InfoReport {
             name: name.to_string(),
             version: VERSION,
             tile_count: h.tile_count(),
+            pyramid: (0..pyramid.levels())
+                .map(|k| {
+                    let g = pyramid.grid(k as u8);
+                    (g.tiles_x(), g.tiles_y())
+                })
+                .collect(),
             file_bytes,
-            main_bytes: (HEADER_LEN + h.index_len()) as u64,
+            opening_bytes: reader.opening_bytes(),
+            top_tiles: reader.directory().top.len(),
             raw_tile_bytes: h.payload_size(),
-            stored_tile_bytes_min: lengths.iter().copied().min().unwrap_or(0),
-            stored_tile_bytes_mean: lengths.iter().map(|&l| l as f64).sum::<f64>() / tiles,
-            stored_tile_bytes_max: lengths.iter().copied().max().unwrap_or(0),
-            stored_tile_bytes: lengths,
             raw_level_bytes: (0..h.levels()).map(|g| h.level_payload_size(g)).collect(),
             stored_level_bytes_mean,
-            check: if check { Some(reader.check()?) } else { None },
+            measured,
+            check,
             header: h,
         })
     }
@@ -128,29 +147,55 @@ impl InfoReport {
                 h.texture_size, h.codec
             ),
             format!(
-                "bytes       {} in all; header + index {}; per tile {} raw, stored {} / {:.0} / {} \
-                 (min / mean / max)",
+                "pyramid     {} levels: {}",
+                self.pyramid.len(),
+                self.pyramid
+                    .iter()
+                    .map(|(x, y)| format!("{x} x {y}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            absent_line(h),
+            format!(
+                "bytes       {} in all; an open reads {}; the top holds {} tiles of levels {} .. \
+                 {} in {} bytes; a whole tile is {} raw",
                 self.file_bytes,
-                self.main_bytes,
+                self.opening_bytes,
+                self.top_tiles,
+                h.top_level,
+                self.pyramid.len() - 1,
+                h.top_len,
                 self.raw_tile_bytes,
-                self.stored_tile_bytes_min,
-                self.stored_tile_bytes_mean,
-                self.stored_tile_bytes_max
             ),
             format!(
-                "levels      {} progressive, bytes per tile raw -> stored (mean), coarse first: {}",
+                "levels      {} progressive, bytes per tile raw -> stored (mean over {}), coarse \
+                 first: {}",
                 levels.len(),
+                self.measured,
                 levels.join(", ")
             ),
         ];
         if let Some(c) = &self.check {
             lines.push(format!(
-                "check       {} tiles verified and decoded in {:.3} s: {:.1} tiles/s, {:.2} MiB/s",
-                c.tiles, c.seconds, c.tiles_per_second, c.mebibytes_per_second
+                "check       {} tiles of every level verified and decoded ({} absent) in {:.3} s: \
+                 {:.1} tiles/s, {:.2} MiB/s",
+                c.tiles, c.absent, c.seconds, c.tiles_per_second, c.mebibytes_per_second
             ));
         }
         lines.iter().map(|l| format!("{l}\n")).collect()
     }
+}
+
+/// The level-0 tiles stored as absent: `build` and `info` print it.
+pub(super) fn absent_line(h: &Header) -> String {
+    if h.absent_tiles == 0 {
+        return "absent      none: every tile holds data".into();
+    }
+    format!(
+        "absent      {} of {} level-0 tiles are all nodata: stored as nothing, drawn as nothing",
+        h.absent_tiles,
+        h.tile_count()
+    )
 }
 
 /// What the build made up where the source had no data: `build` and `info` print it.

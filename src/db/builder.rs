@@ -1,11 +1,15 @@
-//! `stripmask build`: stream a DEM band by band, encode each tile, write the archive.
+//! `stripmask build`: stream a DEM band by band, encode each tile of every level of the
+//! pyramid, write the archive.
 //!
-//! Memory held at once: three bands of `s` rows of the padded width (f32) — the band being
-//! encoded and its neighbours north and south, which the tiles' aprons
-//! ([`crate::db::tile::Apron`]) are read from — one input row, the
-//! reader's own strip or tile row, the nodata fill's window of rows
-//! ([`crate::db::dem::NodataFill`]), the encoded tiles of one band (they are encoded in
-//! parallel, then written in order), and the texture image when one is given.
+//! Memory held at once, per level of the pyramid (each half as wide as the one below): three
+//! bands of `s` rows of the padded width (f32) — the band being encoded and its neighbours
+//! north and south, which the tiles' aprons ([`crate::db::tile::Apron`]) are read from — and
+//! the band being put together from the level below ([`crate::db::pyramid::Assembly`]), with
+//! what the level below's tiles left for their parents; for level 0 also which samples were
+//! nodata, one input row, the reader's own strip or tile row, the nodata fill's window of rows
+//! ([`crate::db::dem::NodataFill`]); the encoded tiles of one band (they are encoded in
+//! parallel, then written in order); the writer's index pages and the coarsest levels
+//! ([`ArchiveWriter`]); and the texture image when one is given.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -13,11 +17,17 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::db::archive::{ArchiveWriter, Codec, Header, MAX_SPACING, compress, partial};
+use std::collections::HashMap;
+
+use crate::db::archive::{
+    ArchiveWriter, Codec, Header, MAX_SPACING, compress, partial, pyramid_levels,
+};
 use crate::db::dem::{self, DemInfo, DemReader, EastWest, NodataFill, OpenOptions};
+use crate::db::grid::TileId;
+use crate::db::pyramid::{Assembly, ChildInfo, combined_errors, level_tilings, parent_texture};
 use crate::db::texture_gen::{ImageTexture, shaded};
-use crate::db::tile::{Tile, progressive_levels};
-use crate::db::tiling::{BandReader, BandWindow, Tiling};
+use crate::db::tile::Tile;
+use crate::db::tiling::{Band, BandReader, BandWindow, Tiling};
 use crate::error::{Error, Result};
 
 /// What `build` makes of a DEM.
@@ -38,13 +48,10 @@ pub struct BuildOptions {
     /// How tile payloads are stored.
     pub codec: Codec,
     /// Metres per height quantum, shared by all tiles so that neighbours agree on their shared
-    /// samples; a tile's relief must fit 65535 quanta (4096 m at the default 1/16 m). `None`:
-    /// [`DEFAULT_HEIGHT_QUANTUM`], which [`build_file`] coarsens to a power of two that fits
-    /// when a tile's relief needs it.
+    /// samples; the model's relief must fit 65535 quanta (4096 m at the default 1/16 m), as the
+    /// pyramid's root holds all of it. `None`: [`DEFAULT_HEIGHT_QUANTUM`], which [`build_file`]
+    /// coarsens to a power of two that fits when the relief needs it.
     pub height_quantum: Option<f32>,
-    /// Progressive levels of every tile stored again as the archive's base, the coarse copy of
-    /// the whole terrain a client fetches first (0: none).
-    pub base_levels: usize,
 }
 
 /// The default height quantum: 1/16 m, finer than the vertical accuracy of any common DEM and a
@@ -62,7 +69,6 @@ impl Default for BuildOptions {
             texture_image: None,
             codec: Codec::Lz4,
             height_quantum: None,
-            base_levels: 1,
         }
     }
 }
@@ -78,6 +84,8 @@ pub struct BuildReport {
     pub raw_payload_bytes: u64,
     /// Sum of the stored tile payloads.
     pub stored_payload_bytes: u64,
+    /// Tiles stored, of every level (absent ones are not).
+    pub stored_tiles: u64,
     /// What the build assumed or chose that the user should know: the reader's reading of the
     /// file (geographic grid, degree cells, 8-bit samples), a coarser height quantum.
     pub notes: Vec<String>,
@@ -133,49 +141,61 @@ pub fn build<R: DemReader>(
             stale.display()
         ));
     }
-    let mut writer = ArchiveWriter::create(out, header.clone())?;
+    let writer = ArchiveWriter::create(out, header.clone())?;
     let mut bands = BandReader::new(reader, grid, options.vertical_scale as f32, columns);
-    let mut totals = Totals::default();
-    let mut done = 0;
-    let (mut north, mut next) = (None, bands.next_band()?.cloned());
-    while let Some(current) = next.take() {
-        next = bands.next_band()?.cloned();
-        let window = BandWindow {
-            north: north.as_ref(),
-            current: &current,
-            south: next.as_ref(),
-        };
-        let encoded = encode_band(&window, &header, image.as_ref(), options, &info.name)?;
-        for (tx, tile) in encoded.into_iter().enumerate() {
-            writer.write_tile(current.tile_row * grid.tiles_x + tx, &tile.chunks)?;
-            totals.add(&tile);
-        }
-        done += grid.tiles_x;
-        progress(done, grid.tile_count());
-        north = Some(current);
-    }
-    let nodata = bands.fill_stats();
-    let archive_bytes = writer.finish(totals.min, totals.max, nodata)?;
-    Ok(BuildReport {
-        header: Header {
-            min_height: totals.min,
-            max_height: totals.max,
-            nodata_filled: nodata.filled,
-            nodata_flattened: nodata.flattened,
-            ..header
+    let mut pyramid = Pipeline::new(
+        level_tilings(grid),
+        writer,
+        Encoding {
+            header: &header,
+            image: image.as_ref(),
+            options,
+            name: &info.name,
         },
-        archive_bytes,
+        progress,
+    );
+    let automatic = options.height_quantum.is_none();
+    while let Some(band) = bands.next_band()? {
+        let band = band.clone();
+        if automatic {
+            check_relief(bands.height_range(), &header, &info.name)?;
+        }
+        pyramid.push(0, band)?;
+    }
+    pyramid.flush(0)?;
+    let nodata = bands.fill_stats();
+    let Pipeline { writer, totals, .. } = pyramid;
+    let (min, max) = (totals.min, totals.max);
+    let header = writer.finish(min, max, nodata)?;
+    Ok(BuildReport {
+        archive_bytes: header.archive_len,
+        header,
         raw_payload_bytes: totals.raw_bytes,
         stored_payload_bytes: totals.stored_bytes,
+        stored_tiles: totals.tiles,
         notes,
         seconds: started.elapsed().as_secs_f64(),
     })
 }
 
-/// Opens the DEM `path` as `open` says and builds `out` from it ([`build`]). When the height
-/// quantum is left to the build and a tile's relief does not fit 65535 quanta of the default,
-/// it builds again with the smallest power-of-two quantum that fits, and says so in the
-/// report's notes.
+/// Fails with [`Error::HeightRange`] once the heights read so far span more than 65535 quanta
+/// of `header`'s quantum: the pyramid's root, which covers the whole model, could not hold
+/// them. Raised as soon as it is known, so that [`build_file`] starts again early with a
+/// coarser quantum.
+fn check_relief((lo, hi): (f32, f32), header: &Header, name: &str) -> Result<()> {
+    let quantum = header.height_quantum;
+    if f64::from(hi - lo) / f64::from(quantum) > f64::from(u16::MAX) - 1.0 {
+        return Err(Error::HeightRange {
+            name: name.to_string(),
+            what: "the model (which the pyramid's root holds whole)".into(),
+            relief: hi - lo,
+            quantum,
+        });
+    }
+    Ok(())
+}
+
+/// Opens the DEM `path` as `open` says and builds `out` from it ([`build_opening`]).
 pub fn build_file(
     path: &Path,
     open: &OpenOptions,
@@ -183,10 +203,23 @@ pub fn build_file(
     options: &BuildOptions,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<BuildReport> {
+    build_opening(|| dem::open(path, open), out, options, progress)
+}
+
+/// Builds `out` from the DEM `open` opens ([`build`]). When the height quantum is left to the
+/// build and the model's relief does not fit 65535 quanta of the default, it opens the DEM
+/// again and builds with the smallest power-of-two quantum that fits, and says so in the
+/// report's notes; the build stops as soon as the relief read so far does not fit.
+pub fn build_opening<R: DemReader>(
+    mut open: impl FnMut() -> Result<NodataFill<R>>,
+    out: &Path,
+    options: &BuildOptions,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<BuildReport> {
     let mut options = options.clone();
     let automatic = options.height_quantum.is_none();
     loop {
-        match build(dem::open(path, open)?, out, &options, progress) {
+        match build(open()?, out, &options, progress) {
             Err(Error::HeightRange {
                 relief, quantum, ..
             }) if automatic => {
@@ -200,9 +233,9 @@ pub fn build_file(
                 let q = report.header.height_quantum;
                 if automatic && q != DEFAULT_HEIGHT_QUANTUM {
                     report.notes.push(format!(
-                        "height quantum {q} m: the relief of some tiles does not fit 65535 \
-                         quanta of the default {DEFAULT_HEIGHT_QUANTUM} m (heights are within \
-                         {} m of the source; --height-quantum sets it)",
+                        "height quantum {q} m: the model's relief does not fit 65535 quanta of \
+                         the default {DEFAULT_HEIGHT_QUANTUM} m (heights are within {} m of the \
+                         source; --height-quantum sets it)",
                         q / 2.0
                     ));
                 }
@@ -276,9 +309,11 @@ fn header(info: &DemInfo, grid: &Tiling, options: &BuildOptions) -> Result<Heade
         )
     };
     let (origin_x, origin_y) = options.origin.or(info.origin_hint).unwrap_or((0.0, 0.0));
+    let tiles_x = u32::try_from(grid.tiles_x).map_err(|_| too_wide("the tile count"))?;
+    let tiles_y = u32::try_from(grid.tiles_y).map_err(|_| too_wide("the tile count"))?;
     let header = Header {
-        tiles_x: u32::try_from(grid.tiles_x).map_err(|_| too_wide("the tile count"))?,
-        tiles_y: u32::try_from(grid.tiles_y).map_err(|_| too_wide("the tile count"))?,
+        tiles_x,
+        tiles_y,
         tile_size: grid.tile_size as u32,
         texture_size: ((grid.tile_size - 1) * f) as u32,
         codec: options.codec,
@@ -291,9 +326,13 @@ fn header(info: &DemInfo, grid: &Tiling, options: &BuildOptions) -> Result<Heade
         min_height: 0.0,
         max_height: 0.0,
         height_quantum: options.height_quantum.unwrap_or(DEFAULT_HEIGHT_QUANTUM),
-        base_levels: options.base_levels.min(progressive_levels(grid.tile_size)) as u32,
         nodata_filled: 0,
         nodata_flattened: 0,
+        absent_tiles: 0,
+        top_level: pyramid_levels(tiles_x, tiles_y) as u32 - 1,
+        top_offset: 0,
+        top_len: 0,
+        archive_len: 0,
     };
     // Everything else a reader checks (tile counts, index size, extent), before anything is
     // read or written.
@@ -301,38 +340,216 @@ fn header(info: &DemInfo, grid: &Tiling, options: &BuildOptions) -> Result<Heade
     Ok(header)
 }
 
-/// One tile ready to write: its compressed progressive chunks, coarse first.
+/// What encoding a tile reads besides its band: the archive's header, the texture image,
+/// the options, and the DEM's name for errors.
+#[derive(Clone, Copy)]
+struct Encoding<'a> {
+    header: &'a Header,
+    image: Option<&'a ImageTexture>,
+    options: &'a BuildOptions,
+    name: &'a str,
+}
+
+/// One tile ready to write: its compressed progressive chunks, coarse first (none when it is
+/// absent), and what it leaves for its parent.
 struct EncodedTile {
-    chunks: Vec<Vec<u8>>,
+    chunks: Option<Vec<Vec<u8>>>,
     /// Uncompressed bytes of the chunks.
     raw_len: usize,
     min: f32,
     max: f32,
+    child: ChildInfo,
 }
 
-/// Encodes the tiles of the window's current band, in parallel, in column order: heights
-/// quantised, the apron read from the neighbouring samples, the texture cut from `image` or
-/// shaded from the heights, each level compressed on its own. `name` (the DEM's) labels errors.
+/// One level of the pyramid as the build goes: the bands around the one being encoded, the
+/// band of the level above being put together from this one's, and what this level's tiles
+/// left for their parents.
+struct Level {
+    tiling: Tiling,
+    north: Option<Band>,
+    current: Option<Band>,
+    up: Option<Assembly>,
+    children: HashMap<(usize, usize), ChildInfo>,
+}
+
+/// The pyramid's levels, the writer, and what the tiles written add up to.
+struct Pipeline<'a> {
+    levels: Vec<Level>,
+    writer: ArchiveWriter,
+    encoding: Encoding<'a>,
+    totals: Totals,
+    done: usize,
+    total: usize,
+    progress: &'a (dyn Fn(usize, usize) + Sync),
+}
+
+impl<'a> Pipeline<'a> {
+    fn new(
+        tilings: Vec<Tiling>,
+        writer: ArchiveWriter,
+        encoding: Encoding<'a>,
+        progress: &'a (dyn Fn(usize, usize) + Sync),
+    ) -> Self {
+        let total = tilings.iter().map(Tiling::tile_count).sum();
+        let levels = tilings
+            .iter()
+            .enumerate()
+            .map(|(k, &tiling)| Level {
+                tiling,
+                north: None,
+                current: None,
+                up: tilings.get(k + 1).map(|&t| Assembly::new(t)),
+                children: HashMap::new(),
+            })
+            .collect();
+        Pipeline {
+            levels,
+            writer,
+            encoding,
+            totals: Totals::default(),
+            done: 0,
+            total,
+            progress,
+        }
+    }
+
+    /// Takes in level `k`'s next band: encodes the band before it (whose southern neighbour
+    /// it is), then adds it to the level above, which may complete a band there.
+    fn push(&mut self, k: usize, band: Band) -> Result<()> {
+        if let Some(current) = self.levels[k].current.take() {
+            let north = self.levels[k].north.take();
+            self.encode(k, north.as_ref(), &current, Some(&band))?;
+            self.levels[k].north = Some(current);
+        }
+        let above = self.levels[k].up.as_mut().and_then(|up| up.add(&band));
+        self.levels[k].current = Some(band);
+        match above {
+            Some(above) => self.push(k + 1, above),
+            None => Ok(()),
+        }
+    }
+
+    /// Encodes level `k`'s last band, hands the level above its last (half) band, and flushes
+    /// it in turn.
+    fn flush(&mut self, k: usize) -> Result<()> {
+        if let Some(current) = self.levels[k].current.take() {
+            let north = self.levels[k].north.take();
+            self.encode(k, north.as_ref(), &current, None)?;
+        }
+        if k + 1 < self.levels.len() {
+            if let Some(last) = self.levels[k].up.as_mut().and_then(Assembly::finish) {
+                self.push(k + 1, last)?;
+            }
+            self.flush(k + 1)?;
+        }
+        Ok(())
+    }
+
+    /// Encodes and writes the tiles of level `k`'s band `current`, keeping what they leave for
+    /// their parents.
+    fn encode(
+        &mut self,
+        k: usize,
+        north: Option<&Band>,
+        current: &Band,
+        south: Option<&Band>,
+    ) -> Result<()> {
+        let window = BandWindow {
+            north,
+            current,
+            south,
+        };
+        let ty = current.tile_row;
+        let children = (k > 0).then(|| {
+            let below = &self.levels[k - 1];
+            let (cols, rows) = (below.tiling.tiles_x, below.tiling.tiles_y);
+            (0..self.levels[k].tiling.tiles_x)
+                .map(|tx| {
+                    [(0, 0), (1, 0), (0, 1), (1, 1)].map(|(dx, dy)| {
+                        let (x, y) = (2 * tx + dx, 2 * ty + dy);
+                        (x < cols && y < rows).then(|| {
+                            below
+                                .children
+                                .get(&(x, y))
+                                .expect("a level's tiles are encoded before their parents")
+                        })
+                    })
+                })
+                .collect::<Vec<_>>()
+        });
+        let encoded = encode_band(&window, k, children.as_deref(), self.encoding)?;
+        if k > 0 {
+            let below = &mut self.levels[k - 1];
+            below.children.retain(|&(_, y), _| y / 2 != ty);
+        }
+        let keep = k + 1 < self.levels.len();
+        for (tx, tile) in encoded.into_iter().enumerate() {
+            let id = TileId::at(k as u8, tx as u32, ty as u32);
+            match tile.chunks {
+                Some(chunks) => {
+                    self.totals
+                        .add(k, tile.raw_len, &chunks, tile.min, tile.max);
+                    self.writer.write_tile(id, chunks)?;
+                }
+                None => self.writer.write_absent(id)?,
+            }
+            if keep {
+                self.levels[k].children.insert((tx, ty), tile.child);
+            }
+        }
+        self.done += self.levels[k].tiling.tiles_x;
+        (self.progress)(self.done, self.total);
+        Ok(())
+    }
+}
+
+/// Encodes the tiles of the window's current band of level `level`, in parallel, in column
+/// order: heights quantised, the apron read from the neighbouring samples, the texture cut
+/// from the image or shaded from the heights (level 0) or put together from the children's
+/// (`children`, per column: north-west, north-east, south-west, south-east), the errors
+/// against full resolution, each level compressed on its own. A level-0 tile whose every
+/// sample was nodata, and a tile above whose children are all absent, is absent.
 fn encode_band(
     window: &BandWindow<'_>,
-    header: &Header,
-    image: Option<&ImageTexture>,
-    options: &BuildOptions,
-    name: &str,
+    level: usize,
+    children: Option<&[[Option<&ChildInfo>; 4]]>,
+    encoding: Encoding<'_>,
 ) -> Result<Vec<EncodedTile>> {
+    let Encoding {
+        header,
+        image,
+        options,
+        name,
+    } = encoding;
     let (s, texture_size) = (header.tile_size as usize, header.texture_size as usize);
     let (f, ty, band) = (
         options.texture_factor,
         window.current.tile_row,
         window.current,
     );
-    (0..header.tiles_x as usize)
+    let spacing = (header.spacing * f64::from(1u32 << level)) as f32;
+    (0..band.grid().tiles_x)
         .into_par_iter()
         .map(|tx| {
             let heights = band.tile_heights(tx);
-            let texture = match image {
-                Some(img) => img.cut(tx, ty, s, f),
-                None => shaded(s, header.spacing as f32, f, |x, y| {
+            let below = children.map(|c| c[tx]);
+            let absent = match below {
+                None => band.tile_is_nodata(tx),
+                Some(c) => c.iter().flatten().all(|c| c.absent),
+            };
+            if absent {
+                return Ok(EncodedTile {
+                    chunks: None,
+                    raw_len: 0,
+                    min: f32::INFINITY,
+                    max: f32::NEG_INFINITY,
+                    child: ChildInfo::absent(&heights, s, texture_size),
+                });
+            }
+            let texture = match (below, image) {
+                (Some(c), _) => parent_texture(c, texture_size),
+                (None, Some(img)) => img.cut(tx, ty, s, f),
+                (None, None) => shaded(s, spacing, f, |x, y| {
                     match (usize::try_from(x), usize::try_from(y)) {
                         (Ok(i), Ok(j)) if i < s && j < s => Some(heights[j * s + i]),
                         _ => window.around(tx, x, y),
@@ -340,8 +557,9 @@ fn encode_band(
                 }),
             };
             let quantum = header.height_quantum;
-            let tile = Tile::new(&heights, s, quantum, &texture, texture_size)
+            let mut tile = Tile::new(&heights, s, quantum, &texture, texture_size)
                 .map_err(|problem| {
+                    let what = TileId::at(level as u8, tx as u32, ty as u32);
                     let (lo, hi) = heights
                         .iter()
                         .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &h| {
@@ -350,16 +568,19 @@ fn encode_band(
                     if f64::from(hi - lo) / f64::from(quantum) > f64::from(u16::MAX) - 1.0 {
                         Error::HeightRange {
                             name: name.to_string(),
-                            tile_x: tx,
-                            tile_y: ty,
+                            what: what.to_string(),
                             relief: hi - lo,
                             quantum,
                         }
                     } else {
-                        Error::invalid(name, format!("tile ({tx}, {ty}): {problem}"))
+                        Error::invalid(name, format!("{what}: {problem}"))
                     }
                 })?
                 .with_apron(|x, y| window.around(tx, x, y));
+            if let Some(c) = below {
+                let present: Vec<&ChildInfo> = c.iter().flatten().copied().collect();
+                tile.level_errors = combined_errors(&heights, s, &present);
+            }
             let (mut chunks, mut raw_len) = (Vec::with_capacity(tile.levels), 0);
             for g in 0..tile.levels {
                 let raw = tile.encode_level(g);
@@ -367,10 +588,11 @@ fn encode_band(
                 chunks.push(compress(&raw, options.codec));
             }
             Ok(EncodedTile {
-                chunks,
+                chunks: Some(chunks),
                 raw_len,
                 min: tile.min,
                 max: tile.max,
+                child: ChildInfo::present(tile.level_errors, &texture, texture_size),
             })
         })
         .collect()
@@ -378,10 +600,12 @@ fn encode_band(
 
 /// What the tiles written so far add up to.
 struct Totals {
+    /// The lowest and highest height of level 0's present tiles.
     min: f32,
     max: f32,
     raw_bytes: u64,
     stored_bytes: u64,
+    tiles: u64,
 }
 
 impl Default for Totals {
@@ -391,15 +615,19 @@ impl Default for Totals {
             max: f32::NEG_INFINITY,
             raw_bytes: 0,
             stored_bytes: 0,
+            tiles: 0,
         }
     }
 }
 
 impl Totals {
-    fn add(&mut self, tile: &EncodedTile) {
-        self.raw_bytes += tile.raw_len as u64;
-        self.stored_bytes += tile.chunks.iter().map(|c| c.len() as u64).sum::<u64>();
-        self.min = self.min.min(tile.min);
-        self.max = self.max.max(tile.max);
+    fn add(&mut self, level: usize, raw_len: usize, chunks: &[Vec<u8>], min: f32, max: f32) {
+        self.raw_bytes += raw_len as u64;
+        self.stored_bytes += chunks.iter().map(|c| c.len() as u64).sum::<u64>();
+        self.tiles += 1;
+        if level == 0 {
+            self.min = self.min.min(min);
+            self.max = self.max.max(max);
+        }
     }
 }

@@ -24,34 +24,39 @@ pub fn mip_chain(rgb: &[[u8; 3]], size: usize) -> Vec<Vec<u16>> {
     let mut chain = vec![rgb.to_vec()];
     let mut side = size;
     while side > 1 {
-        let finer = chain.last().expect("level 0 is there");
-        let next = side / 2;
-        // The finer texels along one axis that texel `x` of the next level averages.
-        let span = |x: usize| match x {
-            _ if next == 1 => 0..side,
-            0 => 0..1,
-            _ if x == next - 1 => side - 1..side,
-            _ => 2 * x..2 * x + 2,
-        };
-        let level = (0..next * next)
-            .map(|k| {
-                let (xs, ys) = (span(k % next), span(k / next));
-                let n = (xs.len() * ys.len()) as u32;
-                let mut sum = [0u32; 3];
-                for y in ys {
-                    for c in &finer[y * side + xs.start..y * side + xs.end] {
-                        (0..3).for_each(|i| sum[i] += u32::from(c[i]));
-                    }
-                }
-                sum.map(|s| ((s + n / 2) / n) as u8)
-            })
-            .collect();
-        chain.push(level);
-        side = next;
+        let next = next_mip(chain.last().expect("level 0 is there"), side);
+        chain.push(next);
+        side /= 2;
     }
     chain
         .into_iter()
         .map(|level| level.into_iter().map(rgb_to_rgb565).collect())
+        .collect()
+}
+
+/// The next mip (side `side / 2`) of one level of side `side` of a tile's chain, in 8-bit RGB,
+/// filtered as [`mip_chain`] says: edge texels stay on the tile's borders.
+pub fn next_mip(finer: &[[u8; 3]], side: usize) -> Vec<[u8; 3]> {
+    let next = side / 2;
+    // The finer texels along one axis that texel `x` of the next level averages.
+    let span = |x: usize| match x {
+        _ if next == 1 => 0..side,
+        0 => 0..1,
+        _ if x == next - 1 => side - 1..side,
+        _ => 2 * x..2 * x + 2,
+    };
+    (0..next * next)
+        .map(|k| {
+            let (xs, ys) = (span(k % next), span(k / next));
+            let n = (xs.len() * ys.len()) as u32;
+            let mut sum = [0u32; 3];
+            for y in ys {
+                for c in &finer[y * side + xs.start..y * side + xs.end] {
+                    (0..3).for_each(|i| sum[i] += u32::from(c[i]));
+                }
+            }
+            sum.map(|s| ((s + n / 2) / n) as u8)
+        })
         .collect()
 }
 

@@ -47,6 +47,13 @@ pub fn ramp(h: f32) -> [u8; 3] {
     RAMP[RAMP.len() - 1].1
 }
 
+/// The colour [`shaded`] gives flat ground at height `h` metres: what stands for a tile whose
+/// samples are all nodata in the texture of the tiles above it.
+pub fn flat(h: f32) -> [u8; 3] {
+    let shade = AMBIENT + (1.0 - AMBIENT) * LIGHT[2];
+    ramp(h).map(|c| (f32::from(c) * shade).round().min(255.0) as u8)
+}
+
 /// Where texel `u` of a `texture_size` texture lies across a tile of `s` samples: the cell
 /// (counted from the tile's first sample; `s - 1` is the cell beyond the last border) and the
 /// fraction `0 <= f < 1` across it.

@@ -64,16 +64,42 @@ impl Tiling {
     }
 }
 
-/// One row of tiles: `s` rows of the padded grid, in metres.
+/// One row of tiles: `s` rows of the padded grid, in metres, and for level 0 which samples
+/// were nodata in the file.
 #[derive(Clone)]
 pub struct Band {
     /// Which tile row this is.
     pub tile_row: usize,
     grid: Tiling,
     samples: Vec<f32>,
+    /// Per sample, whether it was nodata before the fill (empty when not known: the pyramid's
+    /// levels above 0 know absence from their children).
+    nodata: Vec<bool>,
 }
 
 impl Band {
+    /// Band `tile_row` of `grid` with `samples` (`s` rows of the padded width), no nodata known.
+    pub fn new(tile_row: usize, grid: Tiling, samples: Vec<f32>) -> Band {
+        debug_assert_eq!(samples.len(), grid.padded_width() * grid.tile_size);
+        Band {
+            tile_row,
+            grid,
+            samples,
+            nodata: Vec::new(),
+        }
+    }
+
+    /// The tiling this band is a row of.
+    pub fn grid(&self) -> Tiling {
+        self.grid
+    }
+
+    /// Row `j` (`0 ..= s - 1`) of the band, the padded width.
+    pub fn row(&self, j: usize) -> &[f32] {
+        let w = self.grid.padded_width();
+        &self.samples[j * w..(j + 1) * w]
+    }
+
     /// The `s * s` heights of tile column `tx` in this band, row-major.
     pub fn tile_heights(&self, tx: usize) -> Vec<f32> {
         let s = self.grid.tile_size;
@@ -84,6 +110,17 @@ impl Band {
             out.extend_from_slice(&self.samples[j * w + x0..j * w + x0 + s]);
         }
         out
+    }
+
+    /// Whether every sample of tile column `tx` was nodata in the file (false when unknown).
+    pub fn tile_is_nodata(&self, tx: usize) -> bool {
+        if self.nodata.is_empty() {
+            return false;
+        }
+        let s = self.grid.tile_size;
+        let w = self.grid.padded_width();
+        let x0 = tx * (s - 1);
+        (0..s).all(|j| self.nodata[j * w + x0..j * w + x0 + s].iter().all(|&n| n))
     }
 
     /// The height of padded-grid column `x`, row `y` of this band, or `None` beyond the grid.
@@ -134,6 +171,11 @@ pub struct BandReader<R> {
     /// One row as read, and resampled when `columns` says.
     row: Vec<f32>,
     resampled: Vec<f32>,
+    /// Per sample of `row`, whether it was nodata in the file, and resampled.
+    row_nodata: Vec<bool>,
+    resampled_nodata: Vec<bool>,
+    /// The lowest and highest height read so far, metres.
+    range: (f32, f32),
 }
 
 impl<R: DemReader> BandReader<R> {
@@ -145,12 +187,15 @@ impl<R: DemReader> BandReader<R> {
         vertical_scale: f32,
         columns: Option<EastWest>,
     ) -> Self {
+        let w = grid.padded_width() * grid.tile_size;
         let band = Band {
             tile_row: 0,
             grid,
-            samples: vec![0.0; grid.padded_width() * grid.tile_size],
+            samples: vec![0.0; w],
+            nodata: vec![false; w],
         };
-        let row = vec![0.0; reader.info().width];
+        let width = reader.info().width;
+        let resampled = if columns.is_some() { grid.width } else { 0 };
         BandReader {
             reader,
             grid,
@@ -158,14 +203,22 @@ impl<R: DemReader> BandReader<R> {
             columns,
             band,
             rows_read: 0,
-            row,
-            resampled: vec![0.0; if columns.is_some() { grid.width } else { 0 }],
+            row: vec![0.0; width],
+            resampled: vec![0.0; resampled],
+            row_nodata: vec![false; width],
+            resampled_nodata: vec![false; resampled],
+            range: (f32::INFINITY, f32::NEG_INFINITY),
         }
     }
 
     /// What the nodata fill did to the rows read so far.
     pub fn fill_stats(&self) -> FillStats {
         self.reader.stats()
+    }
+
+    /// The lowest and highest height read so far, metres (infinite before the first row).
+    pub fn height_range(&self) -> (f32, f32) {
+        self.range
     }
 
     /// The next band, or `None` after the last tile row.
@@ -181,29 +234,38 @@ impl<R: DemReader> BandReader<R> {
             self.band.tile_row += 1;
             // The last row of the previous band is the first row of this one.
             self.band.samples.copy_within((s - 1) * w..s * w, 0);
+            self.band.nodata.copy_within((s - 1) * w..s * w, 0);
             1
         };
         for j in first..s {
             let dst = j * w;
             if self.rows_read < self.grid.height {
-                self.reader.read_row(&mut self.row)?;
+                self.reader
+                    .read_row_marking(&mut self.row, Some(&mut self.row_nodata))?;
                 self.rows_read += 1;
-                let row = match &self.columns {
+                let (row, nodata) = match &self.columns {
                     Some(c) => {
                         c.apply(&self.row, &mut self.resampled);
-                        &self.resampled
+                        c.apply_nodata(&self.row_nodata, &mut self.resampled_nodata);
+                        (&self.resampled, &self.resampled_nodata)
                     }
-                    None => &self.row,
+                    None => (&self.row, &self.row_nodata),
                 };
                 let out = &mut self.band.samples[dst..dst + w];
                 for (o, v) in out.iter_mut().zip(row) {
                     *o = v * self.vertical_scale;
+                    self.range = (self.range.0.min(*o), self.range.1.max(*o));
                 }
                 let last = out[self.grid.width - 1];
                 out[self.grid.width..].fill(last);
+                let marks = &mut self.band.nodata[dst..dst + w];
+                marks[..self.grid.width].copy_from_slice(&nodata[..self.grid.width]);
+                let last = marks[self.grid.width - 1];
+                marks[self.grid.width..].fill(last);
             } else {
                 // South padding: repeat the previous row.
                 self.band.samples.copy_within(dst - w..dst, dst);
+                self.band.nodata.copy_within(dst - w..dst, dst);
             }
         }
         Ok(Some(&self.band))

@@ -1,13 +1,14 @@
-//! One frame of the paper's client, end to end: page belts in, cull, weigh tiles by visual
-//! importance, share the triangle budget, pick a strip mask per tile, draw.
+//! One frame of the paper's client, end to end: page belts in, cut through the pyramid to the
+//! tiles in view, weigh them by visual importance, share the triangle budget, pick a strip mask
+//! per tile, draw.
 //!
 //! ```text
-//! camera ──> frustum cull ──> importance ──> budget ──> mask per tile ──> draw list ──> raster
+//! camera ──> cut (frustum, τ) ──> importance ──> budget ──> mask per tile ──> draw list ──> raster
 //!               ^
-//!        pager (belts) <── tile source
+//!        pager (top, belts, far field | levels) <── tile source
 //! ```
 
-use std::collections::HashMap;
+use std::collections::{BinaryHeap, HashMap};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -15,7 +16,7 @@ use glam::DVec3;
 use stripmask_raster::{DrawStats, DrawTarget, Framebuffer, LineStats, RasterTarget, Rasterizer};
 
 use crate::db::archive::ArchiveReader;
-use crate::db::grid::{Grid, TileId};
+use crate::db::grid::{Pyramid, TileId};
 use crate::db::source::TileSource;
 use crate::db::tile::{PartialGrid, finest_mask_for_levels, levels_for_mask, progressive_levels};
 use crate::engine::allocation::{Allocation, TileErrors};
@@ -23,7 +24,10 @@ use crate::engine::budget::{
     BudgetController, BudgetSettings, FrameCost, TileAllocation, drawable_level,
 };
 use crate::engine::camera::Camera;
-use crate::engine::cracks::{CrackMode, TileIndices, neighbours::neighbour_levels};
+use crate::engine::cracks::CrackMode;
+use crate::engine::cracks::TileIndices;
+use crate::engine::cracks::neighbours::{conform, neighbour_levels, pyramid_borders};
+use crate::engine::cut::{Cut, CutSettings, cut};
 use crate::engine::error_bound::{Bound, ErrorBound};
 use crate::engine::frustum::{Aabb, Frustum};
 use crate::engine::geomorph::{Geomorph, Morpher, SUBDIVISION};
@@ -33,12 +37,13 @@ use crate::engine::paging::stream::{
     LevelLoader, PredictedView, Predictor, StreamPager, StreamSettings, Streaming, Want,
 };
 use crate::engine::paging::{
-    ArchiveLoader, BeltPager, PagerConfig, PagerMode, PagerStats, Paging, Residency,
+    ArchiveLoader, BeltPager, FAR_SHARE, PagerConfig, PagerMode, PagerStats, Paging, Residency,
     ResidentLoader, StreamStats, TileLoader, TransferClock,
 };
 use crate::engine::partial_meshes::PartialMeshes;
 use crate::engine::render::{RenderSettings, TileDraw, TileMeshes, draw_tiles};
-use crate::engine::resident::{Light, ResidentTile};
+use crate::engine::resident::Light;
+use crate::engine::resident::ResidentTile;
 use crate::engine::terrain::TerrainFrame;
 use crate::error::{Error, Result};
 
@@ -79,9 +84,10 @@ pub struct EngineSettings {
     pub threads: usize,
     /// Whole tiles in belts (the paper) or progressive levels as the view needs them.
     pub streaming: Streaming,
-    /// Keep the archive's coarse base (every tile's first levels) resident, fetched first and
-    /// drawn wherever no finer copy of a tile is held, so that no view of the terrain is empty.
-    pub coarse_base: bool,
+    /// Keep the archive's top (the pyramid's root and the levels stored with it) resident,
+    /// fetched first and drawn wherever no finer tile is held, so that no view of the terrain
+    /// is empty, whatever the model's size.
+    pub keep_top: bool,
 }
 
 impl Default for EngineSettings {
@@ -104,7 +110,7 @@ impl Default for EngineSettings {
             clearance: 20.0,
             threads: 0,
             streaming: Streaming::Belts,
-            coarse_base: true,
+            keep_top: true,
         }
     }
 }
@@ -129,8 +135,9 @@ pub struct FrameReport {
     pub max_error_px: f64,
     /// The drawn tiles with their visual importance and mask level.
     pub rendered: Vec<RenderedTile>,
-    /// Holes: tiles of the terrain the view meets (their boxes at the archive's height range
-    /// meet the frustum) with nothing to draw, neither a paged copy nor the base's.
+    /// Holes: parts of the terrain the view meets with nothing to draw — tiles of the pyramid
+    /// in view with no resident copy and nothing resident over or under them (none once the
+    /// top is resident).
     pub holes: usize,
     /// What the rasterizer did.
     pub draw: DrawStats,
@@ -159,13 +166,16 @@ pub struct RenderedTile {
     pub error_px: f64,
     /// Whether it drew coarser than the budget offered because it holds too few levels.
     pub capped: bool,
+    /// Whether it drew finer than the budget and τ gave it, to stitch to a tile of another
+    /// level of the pyramid ([`conform`]).
+    pub conformed: bool,
 }
 
 /// The engine: an archive, its pager, the shared strip masks and the budget controller.
 pub struct Engine {
     terrain: TerrainFrame,
     pager: Box<dyn Paging>,
-    grid: Grid,
+    pyramid: Pyramid,
     /// The viewpoint predictor when streaming progressively: it extrapolates the view to
     /// where requests arrive and, with prediction, a second ahead.
     predictor: Option<Predictor>,
@@ -194,30 +204,37 @@ impl Engine {
     ) -> Result<Self> {
         // The pager retries failed fetches, backing off: the reader tries each once.
         let reader = ArchiveReader::open(source)?.with_fetch_attempts(1);
+        reader.set_index_cache_limit(index_allowance(settings.memory_limit_bytes));
         let header = reader.header().clone();
         let terrain = TerrainFrame::new(&header);
+        let pyramid = reader.pyramid().clone();
         check_morph_range(&settings, &terrain, reader.name())?;
         let focal_px = f64::from(height) / (2.0 * (settings.fov_y / 2.0).tan());
         let mut loader = ArchiveLoader::new(reader, settings.light, focal_px, settings.cracks);
         if let Some(budget) = settings.texture_budget_bytes {
             loader.fit_texture_budget(settings.memory_limit_bytes, budget);
         }
-        if settings.coarse_base {
-            choose_base(&mut loader, &settings);
+        if settings.keep_top {
+            choose_top(&mut loader, &settings, &pyramid);
         }
         check_memory_holds_something(&loader, &settings)?;
-        let grid = Grid::new(header.tiles_x, header.tiles_y)?;
         let mut config = PagerConfig::new(settings.memory_limit_bytes, settings.pager_mode);
         config.nearest_when_off = settings.nearest_when_off;
+        if pyramid.levels() > 1 {
+            config.far_share = FAR_SHARE;
+        }
         let (pager, predictor): (Box<dyn Paging>, _) = match settings.streaming {
-            Streaming::Belts => (Box::new(BeltPager::new(loader, grid, config)?), None),
+            Streaming::Belts => (
+                Box::new(BeltPager::new(loader, pyramid.clone(), config)?),
+                None,
+            ),
             Streaming::Progressive(stream) => {
                 check_progressive(&settings)?;
                 // Partial tiles draw powers-of-two masks only (see `plan_frame`): every frame
                 // does, so a view does not change set when its last tile completes.
                 settings.level_set = LevelSet::PowerOfTwo;
                 (
-                    Box::new(StreamPager::new(loader, grid, config, stream)?),
+                    Box::new(StreamPager::new(loader, pyramid.clone(), config, stream)?),
                     Some(Predictor::new(stream.prediction.unwrap_or_default())),
                 )
             }
@@ -230,7 +247,7 @@ impl Engine {
         Ok(Engine {
             terrain,
             pager,
-            grid,
+            pyramid,
             predictor,
             masks: MaskSet::new(header.tile_size as usize, settings.level_set),
             cracks: TileIndices::new(settings.cracks, header.tile_size as usize),
@@ -298,14 +315,15 @@ impl Engine {
     }
 
     /// Whether the view of `camera` on a `screen` of (width, height) pixels has everything it
-    /// should draw with any of `budgets` triangles: every tile within `radius` belts of the
-    /// current one whose box (at the archive's height range) meets the view is held, with at
-    /// least the progressive levels of the coarsest mask level any of the budgets gives it if
-    /// every tile in view held all its levels and that budget were shared among them (by the
-    /// engine's allocation, no finer than τ needs, without the bonus of freshly fetched
-    /// levels). It depends on the camera, the archive and `budgets` only, not on the budgets
-    /// the frames were drawn by, so paging strategies can be compared by it
-    /// (`stream-compare`'s first complete view). Without budgets, the tiles need only be held.
+    /// should draw with any of `budgets` triangles within `radius` level-0 tiles of the current
+    /// one: its cut lacks no tile there (no tile it would refine misses a child), and every
+    /// tile of the cut there holds at least the progressive levels of the coarsest mask level
+    /// any of the budgets gives it if every tile in view held all its levels and that budget
+    /// were shared among them (by the engine's allocation, no finer than τ needs, without the
+    /// bonus of freshly fetched levels). It depends on the camera, the archive, what is
+    /// resident and `budgets` only, not on the budgets the frames were drawn by, so paging
+    /// strategies can be compared by it (`stream-compare`'s first complete view). Without
+    /// budgets, the cut need only lack nothing.
     pub fn holds_view(
         &self,
         camera: &Camera,
@@ -318,19 +336,19 @@ impl Engine {
         let Some(center) = resident.current_tile() else {
             return false;
         };
-        let reach: Vec<TileId> =
-            view_tiles(self.grid, &self.terrain, center, radius, camera, aspect).collect();
-        if reach.iter().any(|&id| resident.get(id).is_none()) {
-            return false;
-        }
-        if budgets.is_empty() {
-            return true;
-        }
+        let near = |id: TileId| {
+            let span = id.span();
+            let gap = |c: u32, t: u32| {
+                let (lo, hi) = (t * span, t * span + span - 1);
+                lo.saturating_sub(c).max(c.saturating_sub(hi))
+            };
+            gap(center.x, id.x).max(gap(center.y, id.y)) <= radius
+        };
         let no_kept = HashMap::new();
-        let levels = progressive_levels(self.terrain.tile_size);
         let inputs = FrameInputs {
             pager: &*self.pager,
             terrain: &self.terrain,
+            pyramid: &self.pyramid,
             masks: &self.masks,
             weights: self.settings.weights,
             // The view's plan does not depend on the budget: each of `budgets` is shared below.
@@ -338,17 +356,25 @@ impl Engine {
             forced_levels: None,
             max_error: self.settings.max_error,
             allocation: self.settings.allocation,
+            cracks: self.settings.cracks,
             height: screen.1,
             clearance: self.settings.clearance,
             kept: &no_kept,
         };
         let view = plan_view(&inputs, camera, aspect);
+        if view.cut.missing.iter().any(|&(id, _)| near(id)) {
+            return false;
+        }
+        if budgets.is_empty() {
+            return true;
+        }
+        let levels = progressive_levels(self.terrain.tile_size);
         // Per tile in reach, the fewest levels any of the budgets would have it draw: the
         // levels each budget offers the tiles in view had they held them all.
         let mut needed: HashMap<TileId, usize> = HashMap::new();
         for &budget in budgets {
-            for (&(id, _, _), o) in view.visible.iter().zip(view.offer(&inputs, budget)) {
-                if reach.contains(&id) {
+            for (&(id, _, _), o) in view.cut.tiles.iter().zip(view.offer(&inputs, budget)) {
+                if near(id) {
                     let l = levels_for_mask(o.level, levels);
                     needed
                         .entry(id)
@@ -367,15 +393,19 @@ impl Engine {
         self.terrain.heights.0 + self.terrain.origin.y
     }
 
-    /// The ground height under `position` if its tile is loaded.
+    /// The ground height under `position` in the finest resident tile that holds it.
     pub fn ground(&self, position: DVec3) -> Option<f64> {
         let (px, py) = self.terrain.tile_position(position);
-        if px < 0.0 || py < 0.0 {
+        if !(px >= 0.0 && py >= 0.0) {
             return None;
         }
-        let id = TileId::new(px as u32, py as u32);
-        let tile = self.pager.resident().get(id)?;
-        self.terrain.ground_in(tile, id.x, id.y, position)
+        let resident = self.pager.resident();
+        (0..self.pyramid.levels() as u8).find_map(|level| {
+            let span = f64::from(1u32 << level);
+            let id = TileId::at(level, (px / span) as u32, (py / span) as u32);
+            let tile = resident.get(id)?;
+            self.terrain.ground_in(tile, id, position)
+        })
     }
 
     /// A camera for an eye and gaze in terrain-frame metres. With `above_ground`, heights count
@@ -436,40 +466,31 @@ impl Engine {
         let inputs = FrameInputs {
             pager: &*self.pager,
             terrain: &self.terrain,
+            pyramid: &self.pyramid,
             masks: &self.masks,
             weights: self.settings.weights,
             budget: self.budget.budget(),
             forced_levels: self.forced_levels.as_deref(),
             max_error: self.settings.max_error,
             allocation: self.settings.allocation,
+            cracks: self.settings.cracks,
             height,
             clearance: self.settings.clearance,
             kept: &kept,
         };
         let plan = plan_frame(&inputs, &camera, aspect);
-        let wants = match self.settings.streaming {
-            Streaming::Belts => Vec::new(),
-            Streaming::Progressive(_) => streaming_wants(
-                &inputs,
-                self.grid,
-                &plan,
-                &camera,
-                Ahead {
-                    arrival: arrival.as_ref(),
-                    predicted: predicted.as_ref(),
-                },
-                aspect,
-            ),
-        };
-        let rendered = plan.rendered();
-        let holes = holes(
-            inputs.pager.resident(),
-            self.grid,
-            &self.terrain,
-            &camera,
+        let wants = frame_wants(
+            &inputs,
+            &plan,
+            Ahead {
+                arrival: arrival.as_ref(),
+                predicted: predicted.as_ref(),
+            },
             aspect,
         );
-        let mut draws = plan.draws();
+        let rendered = plan.rendered();
+        let holes = plan.holes;
+        let mut draws = plan.draws(self.terrain.tile_size);
         let bookkeeping_seconds = started.elapsed().as_secs_f64();
 
         let drawing = Instant::now();
@@ -645,27 +666,23 @@ impl Engine {
     }
 
     /// Near plane from the height above the ground (depth precision where it matters), far
-    /// plane at the farthest drawable tile (nothing beyond it can be drawn). The near plane stays
-    /// below the eye's height, or the ground under the lower screen edge would be clipped away
-    /// (down to a millimetre: an eye a centimetre above the ground still sees the ground).
+    /// plane at the farthest point of the terrain (nothing beyond it can be drawn). The near
+    /// plane stays below the eye's height, or the ground under the lower screen edge would be
+    /// clipped away (down to a millimetre: an eye a centimetre above the ground still sees the
+    /// ground).
     fn fit_depth_range(&self, camera: &mut Camera) {
         let ground = self.ground(camera.position).unwrap_or(self.lowest_height());
         let height = (camera.position.y - ground).max(0.0);
         camera.near = (0.25 * height).clamp(1e-3, 1000.0);
-        let far = self
-            .pager
-            .resident()
-            .drawable()
-            .map(|(id, tile)| {
-                let (lo, hi) =
-                    self.terrain
-                        .tile_box(id.x, id.y, f64::from(tile.min), f64::from(tile.max));
-                let d = (lo - camera.position)
-                    .abs()
-                    .max((hi - camera.position).abs());
-                d.length()
-            })
-            .fold(0.0f64, f64::max);
+        let (lo, hi) = self.terrain.tile_box(
+            self.pyramid.root(),
+            self.terrain.heights.0,
+            self.terrain.heights.1,
+        );
+        let far = (lo - camera.position)
+            .abs()
+            .max((hi - camera.position).abs())
+            .length();
         camera.far = far.max(camera.near * 4.0);
     }
 }
@@ -674,6 +691,7 @@ impl Engine {
 struct FrameInputs<'e> {
     pager: &'e dyn Paging,
     terrain: &'e TerrainFrame,
+    pyramid: &'e Pyramid,
     masks: &'e MaskSet,
     weights: Weights,
     /// This frame's triangle budget: the frame draws by it, and streaming wishes by it.
@@ -684,6 +702,8 @@ struct FrameInputs<'e> {
     max_error: ErrorBound,
     /// How the tiles share the budget.
     allocation: Allocation,
+    /// How cracks are hidden: stitching asks tiles of two levels of the pyramid to meet.
+    cracks: CrackMode,
     /// The screen's height, pixels.
     height: u32,
     /// No tile is seen from nearer than this (the eye's clearance), metres.
@@ -730,13 +750,41 @@ impl FrameInputs<'_> {
             })
             .collect()
     }
+
+    /// What decides how deep the cut of a view goes: τ (none when it is off) and the screen.
+    fn cut_settings(&self) -> CutSettings {
+        CutSettings {
+            max_error_px: match self.max_error {
+                ErrorBound::Off => None,
+                ErrorBound::Pixels(_) => Some(self.max_error.pixels()),
+            },
+            height: self.height,
+            clearance: self.clearance,
+        }
+    }
+
+    /// The cut of the view of `camera` at `aspect` through the resident tiles.
+    fn cut<'p>(&self, camera: &Camera, aspect: f64) -> Cut<'p>
+    where
+        Self: 'p,
+    {
+        cut(
+            self.pager.resident(),
+            self.terrain,
+            self.pyramid,
+            camera,
+            aspect,
+            &self.cut_settings(),
+        )
+    }
 }
 
-/// One frame's plan: the resident tiles in view, their importance, and the mask level each
-/// draws and would draw if it held every level.
+/// One frame's plan: the tiles of the cut, their importance, and the mask level each draws and
+/// would draw if it held every level.
 struct FramePlan<'p> {
-    /// In view: the tile, its resident copy and its box's distance from the eye.
-    visible: Vec<(TileId, &'p ResidentTile, f64)>,
+    /// The cut: the tiles drawn (each with its resident copy and its box's distance from the
+    /// eye), what the view lacks, the tiles gone through.
+    cut: Cut<'p>,
     importance: Vec<f64>,
     /// The levels drawn.
     allocation: Vec<TileAllocation>,
@@ -750,19 +798,23 @@ struct FramePlan<'p> {
     need: usize,
     /// What capped the detail.
     bound: Bound,
+    /// Parts of the view with nothing to draw.
+    holes: usize,
+    /// Per tile, whether stitching to another pyramid level made its level finer.
+    conformed: Vec<bool>,
 }
 
-/// What a frame's plan takes from the view alone, whatever its budget: the resident tiles in
-/// view, their importance, the levels τ needs and each tile's errors.
+/// What a frame's plan takes from the view alone, whatever its budget: the cut, the tiles'
+/// importance, the levels τ needs and each tile's errors.
 struct ViewPlan<'p> {
-    /// In view: the tile, its resident copy and its box's distance from the eye.
-    visible: Vec<(TileId, &'p ResidentTile, f64)>,
+    /// The cut: the tiles in view to draw, what the view lacks, the tiles gone through.
+    cut: Cut<'p>,
     importance: Importance,
-    /// Per visible tile, the coarsest level whose error is within τ.
+    /// Per tile drawn, the coarsest level whose error is within τ.
     needed: Vec<usize>,
     /// Triangles the needed levels take.
     need: usize,
-    /// Per visible tile, the finest level it can draw: its held levels' finest, no finer than
+    /// Per tile drawn, the finest level it can draw: its held levels' finest, no finer than
     /// it needs.
     finest: Vec<usize>,
     errors: Vec<TileErrors<'p>>,
@@ -770,32 +822,42 @@ struct ViewPlan<'p> {
     partial: bool,
 }
 
-/// Culls and weighs the view (Algorithm 2), with the levels τ needs: the part of the frame's
-/// plan its budget does not change (see [`ViewPlan`]).
+/// Cuts through the pyramid and weighs the tiles in view (Algorithm 2), with the levels τ
+/// needs: the part of the frame's plan its budget does not change (see [`ViewPlan`]).
 fn plan_view<'p>(inputs: &FrameInputs<'p>, camera: &Camera, aspect: f64) -> ViewPlan<'p> {
-    let (visible, measures) = cull(inputs.pager.resident(), inputs.terrain, camera, aspect);
+    let cut = inputs.cut(camera, aspect);
+    let measures: Vec<TileMeasure> = cut
+        .tiles
+        .iter()
+        .map(|&(_, tile, distance)| TileMeasure {
+            distance,
+            height: f64::from(tile.max - tile.min),
+        })
+        .collect();
     let importance = visual_importance(&measures, inputs.weights);
-    let partial = visible.iter().any(|(_, tile, _)| !tile.is_complete());
+    let partial = cut.tiles.iter().any(|(_, tile, _)| !tile.is_complete());
     // Partial tiles holding more than their corners draw powers-of-two levels only, which the
-    // engine's masks are whenever such tiles are resident (see `choose_base`): a level whose
+    // engine's masks are whenever such tiles are resident (see `Engine::new`): a level whose
     // `l + 1` is not a multiple of a drawn neighbour's stride needs border samples that
     // neighbour lacks.
     debug_assert!(
         inputs.masks.level_set() == LevelSet::PowerOfTwo
-            || visible
+            || cut
+                .tiles
                 .iter()
                 .all(|(_, t, _)| t.is_complete() || t.levels == 1)
     );
-    let needed = inputs.needed_levels(camera, visible.iter().map(|&(_, t, d)| (t, d)));
+    let needed = inputs.needed_levels(camera, cut.tiles.iter().map(|&(_, t, d)| (t, d)));
     let need = needed.iter().map(|&l| inputs.masks.triangle_count(l)).sum();
-    let finest = visible
+    let finest = cut
+        .tiles
         .iter()
         .zip(&needed)
         .map(|((_, tile, _), &level)| tile.finest_mask_level().max(level))
         .collect();
-    let errors = inputs.tile_errors(camera, visible.iter().copied());
+    let errors = inputs.tile_errors(camera, cut.tiles.iter().copied());
     ViewPlan {
-        visible,
+        cut,
         importance,
         needed,
         need,
@@ -824,32 +886,71 @@ impl ViewPlan<'_> {
     }
 }
 
-/// Culls, weighs (Algorithm 2) and shares the budget, no tile finer than τ needs: the frame's
-/// plan.
-fn plan_frame<'p>(inputs: &FrameInputs<'p>, camera: &Camera, aspect: f64) -> FramePlan<'p> {
-    let view = plan_view(inputs, camera, aspect);
-    let mut allocation = view.share(inputs, inputs.budget, &view.finest);
+/// The levels a share of the budget gives the tiles drawn, the levels it offers them, and which
+/// tiles conforming made finer.
+type Levels = (Vec<TileAllocation>, Vec<TileAllocation>, Vec<bool>);
+
+/// The levels `budget` gives the tiles of `view` — forced when the engine pins them — and the
+/// levels it offers them, conformed at the borders between pyramid levels when stitching; and
+/// which tiles conforming made finer.
+fn levels(inputs: &FrameInputs, view: &ViewPlan, budget: usize) -> Levels {
+    let mut allocation = view.share(inputs, budget, &view.finest);
     let mut offered = if view.partial {
-        view.offer(inputs, inputs.budget)
+        view.offer(inputs, budget)
     } else {
         allocation.clone()
     };
-    let bound = match inputs.max_error {
-        _ if view.need > inputs.budget || inputs.forced_levels.is_some() => Bound::Budget,
-        ErrorBound::Off => Bound::Full,
-        ErrorBound::Pixels(_) => Bound::Error,
-    };
     if let Some(level_of) = inputs.forced_levels {
-        for ((a, o), &(id, tile, _)) in allocation.iter_mut().zip(&mut offered).zip(&view.visible) {
+        for ((a, o), &(id, tile, _)) in allocation.iter_mut().zip(&mut offered).zip(&view.cut.tiles)
+        {
             let pinned = level_of(id);
             o.level = drawable_level(pinned, 0, view.partial);
             a.level = drawable_level(pinned, tile.finest_mask_level(), view.partial);
             a.triangles = inputs.masks.triangle_count(a.level);
         }
     }
+    let conformed = if inputs.cracks == CrackMode::Stitch {
+        conform_levels(inputs, &view.cut, &mut allocation, &mut offered)
+    } else {
+        vec![false; allocation.len()]
+    };
+    (allocation, offered, conformed)
+}
+
+/// Cuts, weighs (Algorithm 2) and shares the budget, no tile finer than τ needs, the levels of
+/// tiles meeting a tile of another pyramid level conformed when stitching: the frame's plan.
+/// What conforming adds is taken from the budget the others share.
+fn plan_frame<'p>(inputs: &FrameInputs<'p>, camera: &Camera, aspect: f64) -> FramePlan<'p> {
+    let view = plan_view(inputs, camera, aspect);
+    let bound = match inputs.max_error {
+        _ if view.need > inputs.budget || inputs.forced_levels.is_some() => Bound::Budget,
+        ErrorBound::Off => Bound::Full,
+        ErrorBound::Pixels(_) => Bound::Error,
+    };
+    let mut plan = levels(inputs, &view, inputs.budget);
+    let drawn = |plan: &Levels| plan.0.iter().map(|a| a.triangles).sum::<usize>();
+    if drawn(&plan) > inputs.budget && inputs.forced_levels.is_none() {
+        // The largest share whose conformed levels fit the budget, within a few percent.
+        let (mut fits, mut over) = (0, inputs.budget);
+        let mut best = levels(inputs, &view, 0);
+        while over - fits > (inputs.budget / 128).max(1) {
+            let mid = fits + (over - fits) / 2;
+            let tried = levels(inputs, &view, mid);
+            if drawn(&tried) <= inputs.budget {
+                (fits, best) = (mid, tried);
+            } else {
+                over = mid;
+            }
+        }
+        plan = best;
+        top_up(inputs, &view, &mut plan, inputs.budget);
+    }
+    let (allocation, offered, conformed) = plan;
     FramePlan {
+        conformed,
         pixels_per_metre: view.errors.iter().map(|e| e.pixels_per_metre).collect(),
-        visible: view.visible,
+        holes: view.cut.holes.len(),
+        cut: view.cut,
         importance: view.importance.values,
         allocation,
         offered,
@@ -859,6 +960,117 @@ fn plan_frame<'p>(inputs: &FrameInputs<'p>, camera: &Camera, aspect: f64) -> Fra
     }
 }
 
+/// Spends what conforming left of `budget` on the tiles away from the borders between pyramid
+/// levels, whose levels stitching does not tie: a level finer at a time, the tile showing the
+/// largest error first, none finer than its cap.
+fn top_up(inputs: &FrameInputs, view: &ViewPlan, plan: &mut Levels, budget: usize) {
+    let (allocation, offered, _) = plan;
+    let levels: Vec<(TileId, usize)> = view
+        .cut
+        .tiles
+        .iter()
+        .zip(allocation.iter())
+        .map(|(&(id, _, _), a)| (id, a.level))
+        .collect();
+    let border = pyramid_borders(&levels);
+    let mut left = budget.saturating_sub(allocation.iter().map(|a| a.triangles).sum());
+    let finer = |level: usize| {
+        inputs
+            .masks
+            .levels()
+            .iter()
+            .rev()
+            .find(|&&l| l < level)
+            .copied()
+    };
+    let mut heap: BinaryHeap<(OrderedError, usize)> = (0..allocation.len())
+        .filter(|&k| !border[k] && allocation[k].level > view.finest[k])
+        .map(|k| (OrderedError(view.errors[k].pixels(allocation[k].level)), k))
+        .collect();
+    while let Some((_, k)) = heap.pop() {
+        let a = &mut allocation[k];
+        let Some(next) = finer(a.level).filter(|&l| l >= view.finest[k]) else {
+            continue;
+        };
+        let cost = inputs
+            .masks
+            .triangle_count(next)
+            .saturating_sub(a.triangles);
+        if cost > left {
+            continue;
+        }
+        left -= cost;
+        a.level = next;
+        a.triangles += cost;
+        offered[k].level = offered[k].level.min(next);
+        if next > view.finest[k] {
+            heap.push((OrderedError(view.errors[k].pixels(next)), k));
+        }
+    }
+}
+
+/// A screen error ordered as a number (never NaN: errors are finite or infinite).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct OrderedError(f64);
+
+impl Eq for OrderedError {}
+
+impl PartialOrd for OrderedError {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl Ord for OrderedError {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        self.0.total_cmp(&other.0)
+    }
+}
+
+/// Makes the levels of tiles that meet a tile of another pyramid level stitch ([`conform`]):
+/// finer where needed, the offers with them (a tile holding too few levels for its conformed
+/// mask is then asked for them). Returns which tiles changed.
+fn conform_levels(
+    inputs: &FrameInputs,
+    cut: &Cut,
+    allocation: &mut [TileAllocation],
+    offered: &mut [TileAllocation],
+) -> Vec<bool> {
+    let mut levels: Vec<(TileId, usize)> = cut
+        .tiles
+        .iter()
+        .zip(allocation.iter())
+        .map(|(&(id, _, _), a)| (id, a.level))
+        .collect();
+    let finest: Vec<usize> = cut
+        .tiles
+        .iter()
+        .map(|(_, t, _)| t.finest_mask_level())
+        .collect();
+    let error = |k: usize, level: usize| {
+        let metres = cut.tiles[k].1.level_errors.get(level).copied();
+        metres.map_or(f64::INFINITY, f64::from)
+    };
+    let mut changed = vec![false; levels.len()];
+    if !conform(&mut levels, inputs.terrain.tile_size, |k| finest[k], error) {
+        return changed;
+    }
+    for (((a, o), (_, level)), c) in allocation
+        .iter_mut()
+        .zip(offered.iter_mut())
+        .zip(levels)
+        .zip(&mut changed)
+    {
+        if level != a.level {
+            *c = true;
+            a.level = level;
+            a.triangles = inputs.masks.triangle_count(level);
+        }
+        o.level = o.level.min(level);
+    }
+    changed
+}
+
 impl<'p> FramePlan<'p> {
     /// Triangles the chosen masks hold.
     fn triangles(&self) -> usize {
@@ -866,21 +1078,22 @@ impl<'p> FramePlan<'p> {
     }
 
     /// The draw list: each tile with its level and its neighbours' levels (for crack hiding).
-    fn draws(&self) -> Vec<TileDraw<'p>> {
+    fn draws(&self, tile_size: usize) -> Vec<TileDraw<'p>> {
         let levels: Vec<(TileId, usize)> = self
-            .visible
+            .cut
+            .tiles
             .iter()
             .zip(&self.allocation)
             .map(|(&(id, _, _), a)| (id, a.level))
             .collect();
-        self.visible
+        self.cut
+            .tiles
             .iter()
-            .zip(neighbour_levels(&levels))
+            .zip(neighbour_levels(&levels, tile_size))
             .zip(&levels)
             .map(
                 |((&(id, tile, distance), neighbours), &(_, level))| TileDraw {
-                    x: id.x,
-                    y: id.y,
+                    id,
                     tile,
                     level,
                     neighbours,
@@ -893,17 +1106,20 @@ impl<'p> FramePlan<'p> {
     /// The report's drawn tiles, with each level's geometric error on screen
     /// ([`FrameInputs::pixels_per_metre`]).
     fn rendered(&self) -> Vec<RenderedTile> {
-        self.visible
+        self.cut
+            .tiles
             .iter()
             .zip(self.allocation.iter().zip(&self.offered))
             .zip(self.importance.iter().zip(&self.pixels_per_metre))
+            .zip(&self.conformed)
             .map(
-                |((&(id, tile, _), (a, o)), (&importance, &ppm))| RenderedTile {
+                |(((&(id, tile, _), (a, o)), (&importance, &ppm)), &conformed)| RenderedTile {
                     id,
                     importance,
                     level: a.level,
                     error_px: error_px(tile, a.level, ppm),
                     capped: a.level > o.level,
+                    conformed,
                 },
             )
             .collect()
@@ -920,19 +1136,18 @@ struct Ahead<'a> {
     predicted: Option<&'a PredictedView>,
 }
 
-/// What a progressive pager should fetch for this frame: the levels the frame's budget offers
-/// each tile in view (no more than it holds for a tile that will have
-/// left the view when they arrive), the coarsest level of absent tiles the view meets, and the
-/// same for the predicted view at half weight.
-fn streaming_wants(
+/// What the pager should fetch for this frame: the levels the frame's budget offers each tile
+/// drawn (no more than it holds for a tile that will have left the view when they arrive), the
+/// tiles its cut lacks (the coarsest level; over a hole above everything) and the tiles it went
+/// through (their coarsest level, which keeps the drawn tiles reachable); and the same for the
+/// predicted view at half weight. The belt pager takes from them the tiles of the pyramid's
+/// levels above 0; a progressive pager, all.
+fn frame_wants(
     inputs: &FrameInputs<'_>,
-    grid: Grid,
     plan: &FramePlan<'_>,
-    camera: &Camera,
     ahead: Ahead<'_>,
     aspect: f64,
 ) -> Vec<Want> {
-    let resident = inputs.pager.resident();
     let levels = progressive_levels(inputs.terrain.tile_size);
     let arrival = ahead.arrival.map(|c| {
         (
@@ -941,7 +1156,8 @@ fn streaming_wants(
         )
     });
     let mut wants: Vec<Want> = plan
-        .visible
+        .cut
+        .tiles
         .iter()
         .zip(&plan.offered)
         .zip(&plan.pixels_per_metre)
@@ -962,127 +1178,43 @@ fn streaming_wants(
             }
         })
         .collect();
-    wants.extend(absent_wants(
-        resident,
-        grid,
-        inputs.terrain,
-        camera,
-        aspect,
-        false,
-    ));
+    wants.extend(cut_wants(&plan.cut, false));
     if let Some(view) = ahead.predicted {
-        wants.extend(absent_wants(
-            resident,
-            grid,
-            inputs.terrain,
-            &view.cull,
-            aspect,
-            true,
-        ));
         wants.extend(predicted_wants(inputs, view, aspect));
     }
     wants
 }
 
-/// The box of resident tile `id` between its lowest and highest held heights, relative to `eye`.
-fn held_box(terrain: &TerrainFrame, id: TileId, tile: &ResidentTile, eye: DVec3) -> Aabb {
-    let (lo, hi) = terrain.tile_box(id.x, id.y, f64::from(tile.min), f64::from(tile.max));
-    Aabb::new(lo - eye, hi - eye)
-}
-
-/// The resident tiles whose boxes meet the view of `camera` at `aspect`, each with its
-/// distance from the eye, and their importance measures.
-fn cull<'p>(
-    resident: &'p Residency<ResidentTile>,
-    terrain: &TerrainFrame,
-    camera: &Camera,
-    aspect: f64,
-) -> (Vec<(TileId, &'p ResidentTile, f64)>, Vec<TileMeasure>) {
-    let frustum = Frustum::from_view_projection(&camera.view_projection(aspect));
-    let mut visible = Vec::new();
-    let mut measures = Vec::new();
-    for (id, tile) in resident.drawable() {
-        let aabb = held_box(terrain, id, tile, camera.position);
-        if frustum.intersects(&aabb) {
-            let distance = aabb.distance(DVec3::ZERO);
-            visible.push((id, tile, distance));
-            measures.push(TileMeasure {
-                distance,
-                height: f64::from(tile.max - tile.min),
-            });
-        }
-    }
-    (visible, measures)
-}
-
-/// Wishes for the coarsest level of the tiles a view needs but nobody holds: those of the belts
-/// up to the one being filled whose boxes, at the archive's height range, meet the frustum.
-fn absent_wants(
-    resident: &Residency<ResidentTile>,
-    grid: Grid,
-    terrain: &TerrainFrame,
-    camera: &Camera,
-    aspect: f64,
-    predicted: bool,
-) -> Vec<Want> {
-    let Some(center) = resident.current_tile() else {
-        return Vec::new();
-    };
-    let reach = resident.stats().complete_belts.map_or(0, |d| d + 1);
-    view_tiles(grid, terrain, center, reach, camera, aspect)
-        .filter(|&id| resident.get(id).is_none())
-        .map(|id| Want {
+/// The wishes a cut makes beyond its drawn tiles: the coarsest level of each tile it lacks and
+/// of each tile it went through, with their priorities (halved for the predicted view's).
+fn cut_wants(cut: &Cut<'_>, predicted: bool) -> Vec<Want> {
+    let weight = if predicted { 0.5 } else { 1.0 };
+    cut.missing
+        .iter()
+        .chain(&cut.passed)
+        .map(|&(id, priority)| Want {
             id,
             levels: 1,
-            priority: 1.0,
+            priority: weight * priority,
             predicted,
         })
         .collect()
 }
 
-/// The tiles within `radius` belts of `center` whose boxes, at the archive's height range, meet
-/// the view of `camera` at `aspect`: the tiles a view may need, held or not.
-fn view_tiles<'a>(
-    grid: Grid,
-    terrain: &'a TerrainFrame,
-    center: TileId,
-    radius: u32,
-    camera: &'a Camera,
-    aspect: f64,
-) -> impl Iterator<Item = TileId> + 'a {
-    let frustum = Frustum::from_view_projection(&camera.view_projection(aspect));
-    let (lo_h, hi_h) = terrain.heights;
-    (0..=radius.min(grid.max_ring(center)))
-        .flat_map(move |d| grid.belt(center, d))
-        .filter(move |id| {
-            let (lo, hi) = terrain.tile_box(id.x, id.y, lo_h, hi_h);
-            frustum.intersects(&Aabb::new(lo - camera.position, hi - camera.position))
-        })
+/// The box of resident tile `id` between its lowest and highest held heights, relative to `eye`.
+fn held_box(terrain: &TerrainFrame, id: TileId, tile: &ResidentTile, eye: DVec3) -> Aabb {
+    let (lo, hi) = terrain.tile_box(id, f64::from(tile.min), f64::from(tile.max));
+    Aabb::new(lo - eye, hi - eye)
 }
 
-/// The tiles of the terrain the view of `camera` meets that have nothing to draw.
-fn holes(
-    resident: &Residency<ResidentTile>,
-    grid: Grid,
-    terrain: &TerrainFrame,
-    camera: &Camera,
-    aspect: f64,
-) -> usize {
-    let Some(center) = grid.locate(terrain.tile_position(camera.position), true) else {
-        return 0;
-    };
-    view_tiles(grid, terrain, center, grid.max_ring(center), camera, aspect)
-        .filter(|&id| resident.get(id).is_none())
-        .count()
-}
-
-/// The predicted view's wishes: the resident tiles its (pulled-back) frustum meets, weighed
-/// from the predicted eye, given the levels this frame's budget would buy them there, at half
-/// the error they would show there (a guess counts less than what is on screen).
+/// The predicted view's wishes: the tiles of its (pulled-back) cut, weighed from the predicted
+/// eye, given the levels this frame's budget would buy them there, at half the error they would
+/// show there (a guess counts less than what is on screen), and what that cut lacks.
 fn predicted_wants(inputs: &FrameInputs<'_>, view: &PredictedView, aspect: f64) -> Vec<Want> {
     let terrain = inputs.terrain;
-    let (seen, _) = cull(inputs.pager.resident(), terrain, &view.cull, aspect);
+    let seen = inputs.cut(&view.cull, aspect);
     let measures: Vec<TileMeasure> = seen
+        .tiles
         .iter()
         .map(|&(id, tile, _)| TileMeasure {
             distance: held_box(terrain, id, tile, view.camera.position).distance(DVec3::ZERO),
@@ -1092,13 +1224,17 @@ fn predicted_wants(inputs: &FrameInputs<'_>, view: &PredictedView, aspect: f64) 
     let importance = visual_importance(&measures, inputs.weights);
     let needed = inputs.needed_levels(
         &view.camera,
-        seen.iter().zip(&measures).map(|(s, m)| (s.1, m.distance)),
+        seen.tiles
+            .iter()
+            .zip(&measures)
+            .map(|(s, m)| (s.1, m.distance)),
     );
     // The predicted view shares the budget the way the frame does, so that what it asks for
     // ahead is what the frame will draw when the eye gets there.
     let errors = inputs.tile_errors(
         &view.camera,
-        seen.iter()
+        seen.tiles
+            .iter()
             .zip(&measures)
             .map(|(s, m)| (s.0, s.1, m.distance)),
     );
@@ -1107,7 +1243,9 @@ fn predicted_wants(inputs: &FrameInputs<'_>, view: &PredictedView, aspect: f64) 
             .allocation
             .share(inputs.budget, &importance, inputs.masks, &errors, &needed);
     let levels = progressive_levels(terrain.tile_size);
-    seen.iter()
+    let mut wants: Vec<Want> = seen
+        .tiles
+        .iter()
         .zip(&offered)
         .zip(&errors)
         .map(|((&(id, tile, _), o), e)| Want {
@@ -1116,7 +1254,9 @@ fn predicted_wants(inputs: &FrameInputs<'_>, view: &PredictedView, aspect: f64) 
             priority: 0.5 * shown_error_px(tile, e.pixels_per_metre),
             predicted: true,
         })
-        .collect()
+        .collect();
+    wants.extend(cut_wants(&seen, true));
+    wants
 }
 
 /// The screen error `tile` shows at the finest mask its held levels draw, in pixels at
@@ -1140,34 +1280,50 @@ fn error_px(tile: &ResidentTile, level: usize, pixels_per_metre: f64) -> f64 {
     .pixels(level)
 }
 
-/// The most of the memory limit the base may take: the rest is for paging.
-const BASE_SHARE: usize = 2;
+/// The most of the memory limit the top may take: the rest is for paging.
+const TOP_SHARE: usize = 4;
 
-/// How many levels of the archive's base the engine keeps: all of them when partial tiles draw
-/// powers-of-two masks (progressive streaming, `--pow2-masks`), else one level (a base tile
-/// holding only its corners is the coarsest level of every mask set, so it stitches to any
-/// neighbour); fewer while the base would take more than half the memory limit, none when even
-/// one level would.
-fn choose_base(loader: &mut ArchiveLoader, settings: &EngineSettings) {
-    let progressive = matches!(settings.streaming, Streaming::Progressive(_))
-        || settings.level_set == LevelSet::PowerOfTwo;
-    let levels = if progressive { usize::MAX } else { 1 };
-    let mut kept = loader.use_base(levels);
-    while kept > 0 && loader.base_bytes() > settings.memory_limit_bytes / BASE_SHARE {
-        kept = loader.use_base(kept - 1);
+/// The most of the memory limit set aside for the archive's index pages, and at most
+/// [`MAX_INDEX_BYTES`]: a view's pages, a few kilobytes each.
+const INDEX_SHARE: usize = 16;
+
+/// The most bytes set aside for the archive's index pages: a few hundred pages.
+const MAX_INDEX_BYTES: usize = 1 << 20;
+
+/// The bytes the engine sets aside for the archive's index pages under a memory limit of
+/// `limit` bytes.
+pub fn index_allowance(limit: usize) -> usize {
+    (limit / INDEX_SHARE).min(MAX_INDEX_BYTES)
+}
+
+/// Which levels of the archive's top the engine keeps: all of them, fewer (the root and the
+/// levels just below it) while they would take more than a quarter of the memory limit, none
+/// when even the root would.
+fn choose_top(loader: &mut ArchiveLoader, settings: &EngineSettings, pyramid: &Pyramid) {
+    let root = pyramid.root().level;
+    let mut level = loader.use_top(Some(0));
+    while let Some(l) = level {
+        if loader.top_bytes() <= settings.memory_limit_bytes / TOP_SHARE {
+            return;
+        }
+        level = if l < root {
+            loader.use_top(Some(l + 1))
+        } else {
+            loader.use_top(None)
+        };
     }
 }
 
-/// Refuses a memory limit under which nothing could ever be drawn: no coarse base fits it, nor
-/// the smallest copy of one tile the pager loads (a whole tile beside the viewer, or one level).
+/// Refuses a memory limit under which nothing could ever be drawn: no top fits it, nor the
+/// smallest copy of one tile the pager loads (a whole tile beside the viewer, or one level).
 fn check_memory_holds_something(loader: &ArchiveLoader, settings: &EngineSettings) -> Result<()> {
-    if loader.base_bytes() > 0 {
+    if loader.top_bytes() > 0 {
         return Ok(());
     }
     let smallest = match settings.streaming {
         Streaming::Progressive(_) => LevelLoader::predicted_bytes(loader, 1),
         Streaming::Belts => TileLoader::predicted_bytes(loader, TileId::new(0, 0), 0),
-    };
+    } + loader.index_bytes();
     if settings.memory_limit_bytes >= smallest {
         return Ok(());
     }
@@ -1175,8 +1331,8 @@ fn check_memory_holds_something(loader: &ArchiveLoader, settings: &EngineSetting
         "memory limit (bytes)",
         settings.memory_limit_bytes,
         format!(
-            "at least {smallest} bytes: the smallest copy of one tile of {} (the coarse base \
-             does not fit either), or nothing is ever drawn",
+            "at least {smallest} bytes: the smallest copy of one tile of {} and its index \
+             pages (the top of its pyramid does not fit either), or nothing is ever drawn",
             loader.reader().name()
         ),
     ))

@@ -48,6 +48,7 @@ use std::sync::OnceLock;
 use glam::DVec3;
 use stripmask_raster::Vertex;
 
+use crate::db::grid::TileId;
 use crate::db::mask_level::keeps_index;
 use crate::engine::camera::Camera;
 use crate::engine::partial_meshes::compact_level;
@@ -400,17 +401,19 @@ impl MorphView {
         &self,
         tree: &MorphTree,
         vertices: &[Vertex],
-        (x, y): (u32, u32),
+        id: TileId,
         (level, stride): (usize, usize),
         out: &mut Vec<Vertex>,
     ) {
         let s = tree.tile_size();
         let needed = tree.needed(level);
         let heights = tree.scale(vertices, Some(&needed.bits), out);
+        let span = id.span() as usize;
         let (gx0, gz0) = (
-            i64::from(x) * self.tile_cells,
-            i64::from(y) * self.tile_cells,
+            i64::from(id.x) * i64::from(id.span()) * self.tile_cells,
+            i64::from(id.y) * i64::from(id.span()) * self.tile_cells,
         );
+        let stride = stride * span;
         let (near, far) = self.reach((gx0, gz0), (s - 1) * stride, heights);
         for (step, splits) in tree.groups(needed) {
             let step = step * stride;
@@ -498,7 +501,7 @@ impl Morpher {
         &mut self,
         view: &MorphView,
         vertices: &[Vertex],
-        at: (u32, u32),
+        at: TileId,
         level: usize,
         stride: usize,
     ) -> &[Vertex] {
@@ -527,6 +530,7 @@ impl Morpher {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::db::grid::TileId;
     use crate::db::mask_level::keeps_index;
 
     fn grid(s: usize, height: impl Fn(usize, usize) -> i32) -> Vec<Vertex> {
@@ -807,7 +811,9 @@ mod tests {
             // A level the held grid draws, and a scratch buffer that held another tile.
             let level = (level / stride + 1) * stride - 1;
             morpher.scratch = vec![Vertex::default(); s * s];
-            let out = morpher.tile(&view, &held, (x, y), level, stride).to_vec();
+            let out = morpher
+                .tile(&view, &held, TileId::new(x, y), level, stride)
+                .to_vec();
             for j in (0..s).filter(|&j| keeps_index(s, level, j)) {
                 for i in (0..s).filter(|&i| keeps_index(s, level, i)) {
                     let k = (j / stride) * side + i / stride;

@@ -1,11 +1,12 @@
-//! The client: pages tiles in belts under a memory limit and draws each frame with a strip mask
-//! per tile under a triangle budget.
+//! The client: pages tiles in belts under a memory limit, cuts each frame's view through the
+//! pyramid of tiles and draws it with a strip mask per tile under a triangle budget.
 
 pub mod allocation;
 pub mod budget;
 pub mod camera;
 mod client;
 pub mod cracks;
+pub mod cut;
 pub mod error_bound;
 pub mod frustum;
 pub mod geomorph;

@@ -14,6 +14,7 @@ use stripmask_raster::{
     TextureBinding, Topology, Transform, Vertex,
 };
 
+use crate::db::grid::TileId;
 use crate::db::tile::PartialGrid;
 use crate::engine::camera::Camera;
 use crate::engine::cracks::{CrackMode, TileIndices, shadow};
@@ -114,16 +115,16 @@ impl Default for RenderSettings {
 /// One tile in the draw list.
 #[derive(Clone, Copy, Debug)]
 pub struct TileDraw<'a> {
-    /// Grid column.
-    pub x: u32,
-    /// Grid row.
-    pub y: u32,
+    /// Which tile of the pyramid.
+    pub id: TileId,
     /// Its resident data.
     pub tile: &'a ResidentTile,
     /// The strip-mask level chosen for it, a whole-tile level (see [`crate::engine::partial_meshes`] for
     /// how a partial tile draws it; `level + 1` must then be a multiple of its stride).
     pub level: usize,
-    /// The whole-tile levels of its neighbours this frame (`crate::engine::cracks::Side::ALL` order).
+    /// The whole-tile levels of its neighbours this frame (`crate::engine::cracks::Side::ALL`
+    /// order), counted in its own samples
+    /// ([`neighbour_levels`](crate::engine::cracks::neighbours::neighbour_levels)).
     pub neighbours: [usize; 4],
     /// Eye distance to its bounding box, metres: the draw order key.
     pub distance: f64,
@@ -159,7 +160,7 @@ impl FrameTransform {
         let (px, py) = terrain.tile_position(camera.position);
         let clamp = |v: f64, n: u32| (v.floor().max(0.0) as i64).min(i64::from(n) - 1);
         let anchor = (clamp(px, terrain.tiles_x), clamp(py, terrain.tiles_y));
-        let origin = terrain.tile_origin(anchor.0 as u32, anchor.1 as u32);
+        let origin = terrain.tile_origin(TileId::new(anchor.0 as u32, anchor.1 as u32));
         let model = DMat4::from_translation(origin - camera.position)
             * DMat4::from_scale(
                 DVec3::new(terrain.spacing, terrain.quantum, terrain.spacing) * unit,
@@ -171,13 +172,16 @@ impl FrameTransform {
         })
     }
 
-    /// Tile `(x, y)`'s transform: the shared matrix with the tile's integer grid offset.
-    pub fn tile(&self, x: u32, y: u32) -> Result<Transform, RasterError> {
+    /// Tile `id`'s transform: the shared matrix with the integer offset of the tile's
+    /// north-west sample (a tile of level `k` starts at level-0 tile `2^k` times its column and
+    /// row).
+    pub fn tile(&self, id: TileId) -> Result<Transform, RasterError> {
+        let span = i64::from(id.span());
         let offset = |t: u32, a: i64| {
-            ((i64::from(t) - a) * self.cells).clamp(i32::MIN.into(), i32::MAX.into()) as i32
+            ((i64::from(t) * span - a) * self.cells).clamp(i32::MIN.into(), i32::MAX.into()) as i32
         };
         self.base
-            .with_origin([offset(x, self.anchor.0), 0, offset(y, self.anchor.1)])
+            .with_origin([offset(id.x, self.anchor.0), 0, offset(id.y, self.anchor.1)])
     }
 }
 
@@ -263,10 +267,8 @@ pub fn draw_tiles<T: DrawTarget>(
             };
             let lit = t.tile.lit_vertices(t.level, &mut relit);
             let (vertices, tile_transform) = match &mut morph {
-                Some((view, fine, morpher)) => {
-                    (morphed(morpher, view, t, lit), fine.tile(t.x, t.y)?)
-                }
-                None => (lit, transform.tile(t.x, t.y)?),
+                Some((view, fine, morpher)) => (morphed(morpher, view, t, lit), fine.tile(t.id)?),
+                None => (lit, transform.tile(t.id)?),
             };
             let mesh = Mesh {
                 vertices,
@@ -313,7 +315,7 @@ fn morphed<'m>(
     t: &TileDraw<'_>,
     vertices: &[Vertex],
 ) -> &'m [Vertex] {
-    morpher.tile(view, vertices, (t.x, t.y), t.level, t.tile.stride())
+    morpher.tile(view, vertices, t.id, t.level, t.tile.stride())
 }
 
 /// The strip indices of partial tile `t` (levels held at a stride above one): its levels and
@@ -345,12 +347,12 @@ fn draw_shadows<'t, E: From<RasterError>>(
     let mut stats = DrawStats::default();
     let mut relit = Vec::new();
     for t in tiles {
-        let origin = terrain.tile_origin(t.x, t.y);
+        let origin = terrain.tile_origin(t.id);
         let eye = (camera.position - origin)
             / DVec3::new(terrain.spacing, terrain.quantum, terrain.spacing);
         let (Some(mut vertices), Ok(transform)) = (
             shadow::quad(&t.tile.vertices, t.tile.side(), eye),
-            fine.tile(t.x, t.y),
+            fine.tile(t.id),
         ) else {
             continue;
         };
@@ -369,14 +371,15 @@ fn draw_shadows<'t, E: From<RasterError>>(
     Ok(stats)
 }
 
-/// The render state of a tile's draws, its texture detail capped by its mask level.
+/// The render state of a tile's draws. Its texture's mip is chosen per triangle by its size on
+/// screen, whatever the tile's mask level, so that two tiles drawn at different levels (or of
+/// different levels of the pyramid) show the same texels where they meet.
 fn tile_state<'t>(
     settings: &RenderSettings,
     fog: Option<Fog>,
     draw: &TileDraw<'t>,
 ) -> RenderState<'t> {
     let tile = draw.tile;
-    let finest_level = tile.finest_texture_level(draw.level);
     RenderState {
         precision: settings.precision,
         cull: CullMode::Back,
@@ -391,10 +394,9 @@ fn tile_state<'t>(
         } else {
             Shading::Flat([255; 3])
         },
-        texture: settings.sampler.map(|sampler| TextureBinding {
-            finest_level,
-            ..TextureBinding::new(&tile.texture, sampler)
-        }),
+        texture: settings
+            .sampler
+            .map(|sampler| TextureBinding::new(&tile.texture, sampler)),
         perspective: settings.perspective,
         fog,
         ..RenderState::default()

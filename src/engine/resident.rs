@@ -1,9 +1,11 @@
 //! A tile as the renderer holds it in memory: vertices ready for the rasterizer, the normals they
 //! were lit with, and the part of the texture chain its distance needs.
 //!
-//! Vertices are tile-local integers: `(i, base + q, j)`, grid column, archive-wide height in
-//! quanta, grid row. The renderer places a tile with an integer model origin on one shared
-//! eye-relative matrix, so the border vertices two tiles share land on the same screen positions
+//! Vertices are tile-local integers: `(x, base + q, z)`, east and south from the tile's
+//! north-west sample in level-0 samples (a tile of pyramid level `k` spans `2^k` times as
+//! many), archive-wide height in quanta. The renderer places a tile with an integer model
+//! origin on one shared eye-relative matrix, so the border vertices two tiles share — of the
+//! same level or of two — land on the same screen positions
 //! (see `stripmask_raster::Transform::with_origin`). Lighting is computed once, when the tile is
 //! loaded, for every progressive level it holds: each level's normals are central differences
 //! over that level's grid, the border included (the level's apron, the samples just outside
@@ -19,7 +21,7 @@ use stripmask_raster::{Texels, Texture, Vertex};
 use crate::db::rgb565::mip_count;
 use crate::db::tile::{
     Apron, PartialGrid, Tile, level_mips, level_side, levels_for_mask, progressive_levels,
-    texture_coordinate,
+    texture_coordinate, texture_coordinate_at,
 };
 use crate::engine::cracks::{CrackMode, skirts};
 
@@ -78,14 +80,21 @@ pub struct ResidentTile {
     pub base: i32,
     /// Metres per height quantum.
     pub quantum: f32,
-    /// Metres between whole-tile samples: what the normals were computed with.
+    /// Metres between level-0 samples (the normals were computed with `scale` times that).
     pub spacing: f64,
+    /// Level-0 samples between two whole-tile samples of this tile: `2^level` for a tile of
+    /// pyramid level `level`.
+    pub scale: u32,
+    /// Every sample of the tile was nodata: nothing is stored and nothing is drawn (no vertex,
+    /// no texel).
+    pub absent: bool,
     /// The light the vertex colours were lit with.
     pub light: Light,
     /// The samples just outside the borders of each held level: kept so that the tile can be
     /// given back ([`ResidentTile::to_tile`]) and refined or truncated.
     pub apron: Apron,
-    /// The last sample index east and south that belongs to the model
+    /// The last position east and south, in level-0 samples from the tile's north-west
+    /// sample, that belongs to the model
     /// ([`TerrainFrame::tile_extent`](crate::engine::terrain::TerrainFrame::tile_extent)):
     /// vertices beyond it, on the padding that makes the tile whole, lie on it instead.
     pub extent: [i32; 2],
@@ -113,8 +122,24 @@ impl ResidentTile {
         light: &Light,
         cracks: CrackMode,
     ) -> ResidentTile {
+        ResidentTile::of_level(tile, 0, texture_base, spacing, light, cracks)
+    }
+
+    /// [`ResidentTile::new`] for a tile of pyramid level `level`, whose samples are `2^level`
+    /// level-0 samples of `spacing` metres apart.
+    pub fn of_level(
+        tile: &Tile,
+        level: u8,
+        texture_base: usize,
+        spacing: f64,
+        light: &Light,
+        cracks: CrackMode,
+    ) -> ResidentTile {
+        let scale = 1u32 << level;
         let (side, stride) = (tile.side(), tile.stride());
-        let level_spacing = |g: usize| spacing * ((tile.tile_size - 1) >> g) as f64;
+        let step = stride * scale as usize;
+        let level_spacing =
+            |g: usize| spacing * f64::from(scale) * ((tile.tile_size - 1) >> g) as f64;
         let normals = normals(tile, tile.levels - 1, level_spacing(tile.levels - 1));
         let coarse_shades = (0..tile.levels - 1)
             .map(|g| {
@@ -128,7 +153,7 @@ impl ResidentTile {
                 let (i, j) = (k % side, k / side);
                 let uv = [at(i), at(j)];
                 Vertex::new(
-                    [(i * stride) as i32, tile.quanta(i, j), (j * stride) as i32],
+                    [(i * step) as i32, tile.quanta(i, j), (j * step) as i32],
                     uv,
                     [shade(normals[k], light); 3],
                 )
@@ -154,9 +179,38 @@ impl ResidentTile {
             base: tile.base,
             quantum: tile.quantum,
             spacing,
+            scale,
+            absent: false,
             light: *light,
             apron: tile.apron.clone(),
-            extent: [tile.tile_size as i32 - 1; 2],
+            extent: [(tile.tile_size as i32 - 1) * scale as i32; 2],
+        }
+    }
+
+    /// The resident form of an absent tile of `tile_size` samples of pyramid level `level`:
+    /// nothing to draw, a few bytes to account.
+    pub fn absent(tile_size: usize, level: u8, spacing: f64, light: &Light) -> ResidentTile {
+        let scale = 1u32 << level;
+        ResidentTile {
+            vertices: Vec::new(),
+            normals: Vec::new(),
+            coarse_shades: Vec::new(),
+            texture: Texture::from_levels(vec![(1, 1, Texels::Rgb565(vec![0]))])
+                .expect("a 1 x 1 texture is a chain"),
+            texture_base: mip_count(tile_size.max(2) - 1) - 1,
+            min: 0.0,
+            max: 0.0,
+            level_errors: Vec::new(),
+            tile_size,
+            levels: progressive_levels(tile_size),
+            base: 0,
+            quantum: 1.0,
+            spacing,
+            scale,
+            absent: true,
+            light: *light,
+            apron: Apron::default(),
+            extent: [(tile_size as i32 - 1) * scale as i32; 2],
         }
     }
 
@@ -169,7 +223,8 @@ impl ResidentTile {
     pub fn clipped(mut self, extent: [i32; 2]) -> ResidentTile {
         self.extent = extent;
         let (s, t) = (self.tile_size, self.texture_size());
-        let at = |x: i32| texture_coordinate(x as usize, s, t);
+        let scale = f64::from(self.scale);
+        let at = |x: i32| texture_coordinate_at(f64::from(x) / scale, s, t);
         for v in &mut self.vertices {
             let [x, y, z] = v.position;
             let (cx, cz) = (x.min(extent[0]), z.min(extent[1]));
@@ -217,15 +272,16 @@ impl ResidentTile {
     /// geometry and texture, exactly as a tile loaded with those levels: what the pager does to
     /// a far tile under memory pressure before it drops whole tiles. Returns the bytes held now.
     pub fn drop_levels(&mut self, levels: usize) -> usize {
-        if levels < self.levels {
+        if levels < self.levels && !self.absent {
             let cracks = if self.vertices.len() > self.normals.len() {
                 CrackMode::Skirts
             } else {
                 CrackMode::None
             };
             let coarse = self.to_tile().truncated(levels);
-            *self = ResidentTile::new(
+            *self = ResidentTile::of_level(
                 &coarse,
+                self.scale.trailing_zeros() as u8,
                 self.texture_base,
                 self.spacing,
                 &self.light,
@@ -301,6 +357,9 @@ impl ResidentTile {
     /// in archive quanta of `quantum` metres), exactly as if it had been loaded in that mode:
     /// switching modes needs no fetch. Returns the bytes the tile holds now.
     pub fn set_cracks(&mut self, cracks: CrackMode, quantum: f32) -> usize {
+        if self.absent {
+            return self.bytes();
+        }
         let grid = self.normals.len();
         let s = self.side();
         if self.vertices.len() != grid + cracks.extra_vertices(s) {

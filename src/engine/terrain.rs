@@ -3,6 +3,7 @@
 use glam::DVec3;
 
 use crate::db::archive::Header;
+use crate::db::grid::{Pyramid, TileId};
 use crate::db::tile::PartialGrid;
 use crate::engine::resident::ResidentTile;
 
@@ -54,17 +55,24 @@ impl TerrainFrame {
         )
     }
 
-    /// The last sample index, east and south, of tile `(tx, ty)` that belongs to the model
-    /// (`tile_size - 1` for a tile without padding): what [`ResidentTile::clipped`] cuts at.
-    pub fn tile_extent(&self, tx: u32, ty: u32) -> [i32; 2] {
-        let cells = self.tile_size as i64 - 1;
+    /// The last position east and south of tile `id`, in level-0 samples from its north-west
+    /// sample, that belongs to the model (`(tile_size - 1) 2^level` for a tile without
+    /// padding): what [`ResidentTile::clipped`] cuts at.
+    pub fn tile_extent(&self, id: TileId) -> [i32; 2] {
+        let span = i64::from(id.span());
+        let cells = (self.tile_size as i64 - 1) * span;
         let last = |t: u32, samples: u32| {
             (i64::from(samples) - 1 - i64::from(t) * cells).clamp(0, cells) as i32
         };
         [
-            last(tx, self.source_samples.0),
-            last(ty, self.source_samples.1),
+            last(id.x, self.source_samples.0),
+            last(id.y, self.source_samples.1),
         ]
+    }
+
+    /// The pyramid over the grid of level-0 tiles.
+    pub fn pyramid(&self) -> Pyramid {
+        Pyramid::new(self.tiles_x, self.tiles_y).expect("an archive's grid has tiles")
     }
 
     /// Metres along one tile side.
@@ -87,35 +95,37 @@ impl TerrainFrame {
         (rel.x / self.tile_metres(), rel.z / self.tile_metres())
     }
 
-    /// World position of tile `(tx, ty)`'s north-west sample at height 0.
-    pub fn tile_origin(&self, tx: u32, ty: u32) -> DVec3 {
-        self.origin
-            + DVec3::new(
-                f64::from(tx) * self.tile_metres(),
-                0.0,
-                f64::from(ty) * self.tile_metres(),
-            )
+    /// Metres along one side of a tile of pyramid level `level`.
+    pub fn level_metres(&self, level: u8) -> f64 {
+        self.tile_metres() * f64::from(1u32 << level)
     }
 
-    /// The world bounding box of tile `(tx, ty)` with heights `min ..= max` metres.
-    pub fn tile_box(&self, tx: u32, ty: u32, min: f64, max: f64) -> (DVec3, DVec3) {
-        let o = self.tile_origin(tx, ty);
-        let side = self.tile_metres();
+    /// World position of tile `id`'s north-west sample at height 0.
+    pub fn tile_origin(&self, id: TileId) -> DVec3 {
+        let side = self.level_metres(id.level);
+        self.origin + DVec3::new(f64::from(id.x) * side, 0.0, f64::from(id.y) * side)
+    }
+
+    /// The world bounding box of tile `id` with heights `min ..= max` metres.
+    pub fn tile_box(&self, id: TileId, min: f64, max: f64) -> (DVec3, DVec3) {
+        let o = self.tile_origin(id);
+        let side = self.level_metres(id.level);
         (
             o + DVec3::new(0.0, min, 0.0),
             o + DVec3::new(side, max, side),
         )
     }
 
-    /// The terrain height under world position `(x, z)` in a tile's samples, bilinear over the
-    /// grid it holds (a partial tile's coarser grid), or `None` when the point is not over that
-    /// tile.
-    pub fn ground_in(&self, tile: &ResidentTile, tx: u32, ty: u32, world: DVec3) -> Option<f64> {
-        let o = self.tile_origin(tx, ty);
-        let (u, v) = (
-            (world.x - o.x) / self.spacing,
-            (world.z - o.z) / self.spacing,
-        );
+    /// The terrain height under world position `(x, z)` in the samples of tile `id`, bilinear
+    /// over the grid it holds (a partial tile's coarser grid), or `None` when the point is not
+    /// over that tile or the tile is absent.
+    pub fn ground_in(&self, tile: &ResidentTile, id: TileId, world: DVec3) -> Option<f64> {
+        if tile.absent {
+            return None;
+        }
+        let o = self.tile_origin(id);
+        let spacing = self.spacing * f64::from(id.span());
+        let (u, v) = ((world.x - o.x) / spacing, (world.z - o.z) / spacing);
         let last = (self.tile_size - 1) as f64;
         if !(0.0..=last).contains(&u) || !(0.0..=last).contains(&v) {
             return None;
@@ -159,7 +169,7 @@ mod tests {
             let tile = whole.truncated(levels);
             let r = ResidentTile::new(&tile, 0, 5.0, &Light::default(), CrackMode::Skirts);
             let step = 5.0 * tile.stride() as f64;
-            let o = frame.tile_origin(2, 1);
+            let o = frame.tile_origin(TileId::new(2, 1));
             for (x, z) in [
                 (0.0, 0.0),
                 (13.0, 27.5),
@@ -176,7 +186,7 @@ mod tests {
                     + (h(i, j) * (1.0 - fu) + h(i + 1, j) * fu) * (1.0 - fv)
                     + (h(i, j + 1) * (1.0 - fu) + h(i + 1, j + 1) * fu) * fv;
                 let got = frame
-                    .ground_in(&r, 2, 1, o + DVec3::new(x, 0.0, z))
+                    .ground_in(&r, TileId::new(2, 1), o + DVec3::new(x, 0.0, z))
                     .unwrap();
                 assert!(
                     (got - expected).abs() < 1e-9,
@@ -185,7 +195,7 @@ mod tests {
             }
             assert!(
                 frame
-                    .ground_in(&r, 2, 1, o + DVec3::new(40.5, 0.0, 3.0))
+                    .ground_in(&r, TileId::new(2, 1), o + DVec3::new(40.5, 0.0, 3.0))
                     .is_none()
             );
         }

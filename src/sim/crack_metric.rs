@@ -20,6 +20,7 @@ use crate::db::grid::TileId;
 use crate::db::source;
 use crate::engine::camera::Camera;
 use crate::engine::cracks::CrackMode;
+use crate::engine::error_bound::ErrorBound;
 use crate::engine::paging::PagerMode;
 use crate::engine::{Engine, EngineSettings};
 use crate::error::Result;
@@ -72,7 +73,7 @@ pub fn pairs_in_view(
                     .then(|| (TileId::new(x, y + 1), DVec3::new(side / 2.0, 0.0, side))),
             ];
             for (there, offset) in neighbours.into_iter().flatten() {
-                let mut mid = terrain.tile_origin(x, y) + offset;
+                let mut mid = terrain.tile_origin(here) + offset;
                 let Some(ground) = engine.ground(mid) else {
                     continue;
                 };
@@ -179,7 +180,8 @@ impl CrackScene {
 
     /// The engine settings of a measurement in `mode`: fixed point, RGB565-friendly background,
     /// no fog, a 40 degree field of view, one rasterizer thread, every tile of the scene
-    /// resident.
+    /// resident, and the cut at full resolution (τ off), so that every view draws level-0 tiles
+    /// alone and the levels met are mask levels.
     pub fn settings(mode: CrackMode) -> EngineSettings {
         let mut settings = EngineSettings {
             cracks: mode,
@@ -189,6 +191,7 @@ impl CrackScene {
             },
             threads: 1,
             fov_y: 40f64.to_radians(),
+            max_error: ErrorBound::Off,
             ..EngineSettings::default()
         };
         settings.render.sky = BACKGROUND;
@@ -208,11 +211,21 @@ impl CrackScene {
         let mut engine = Engine::new(source, settings, size.1)?;
         engine.force_levels(Some(Box::new(pair_pattern(TILE_SIZE - 1))));
         let mut fb = Framebuffer::new(size.0, size.1, ColorFormat::Rgb565, DepthFormat::D16)?;
-        let (eye, target) = self.views[0];
-        for _ in 0..4 {
-            let camera = engine.camera(eye, target, false);
+        // The whole scene from high above at full resolution: the cut asks for every tile of
+        // every level, which come a level a frame.
+        let tile = (TILE_SIZE - 1) as f64 * SPACING;
+        let centre = DVec3::new(
+            TILES_X as f64 * tile / 2.0,
+            0.0,
+            TILES_Y as f64 * tile / 2.0,
+        );
+        let bound = engine.settings().max_error;
+        engine.set_max_error(ErrorBound::Off);
+        for _ in 0..8 {
+            let camera = engine.camera(centre + DVec3::new(0.0, 20_000.0, 1.0), centre, false);
             engine.render(&camera, &mut fb)?;
         }
+        engine.set_max_error(bound);
         Ok(engine)
     }
 

@@ -12,7 +12,7 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 use crate::db::archive::ArchiveReader;
-use crate::db::builder::{BuildOptions, build};
+use crate::db::builder::{BuildOptions, build_opening};
 use crate::db::dem::{self, DemReader, NodataFill, OpenOptions};
 use crate::db::source::{self, file::FileSource};
 use crate::engine::EngineSettings;
@@ -176,7 +176,7 @@ pub fn run_live(o: &DemoOptions, live: Option<LiveView<'_>>) -> Result<DemoSumma
     let built_from = if intact(&archive) {
         None
     } else {
-        let dem = match &o.dem {
+        let open = || match &o.dem {
             Some(path) => dem::open(
                 path,
                 &OpenOptions {
@@ -184,11 +184,11 @@ pub fn run_live(o: &DemoOptions, live: Option<LiveView<'_>>) -> Result<DemoSumma
                     raw: None,
                     nodata: None,
                 },
-            )?,
-            None => dem::open_png_bytes(DEM_NAME, DEM_PNG)?,
+            ),
+            None => dem::open_png_bytes(DEM_NAME, DEM_PNG),
         };
-        let model = dem.info().name.clone();
-        build_archive(dem, &archive)?;
+        let model = open()?.info().name.clone();
+        build_archive(open, &archive)?;
         Some(model)
     };
     let archive_name = archive.display().to_string();
@@ -236,7 +236,10 @@ pub fn run_live(o: &DemoOptions, live: Option<LiveView<'_>>) -> Result<DemoSumma
 
 /// Builds the demo's archive from `dem` into `archive` (through a temporary file, so that an
 /// interrupted build never leaves a half-written archive behind).
-fn build_archive(reader: NodataFill<Box<dyn DemReader>>, archive: &Path) -> Result<()> {
+fn build_archive(
+    open: impl FnMut() -> Result<NodataFill<Box<dyn DemReader>>>,
+    archive: &Path,
+) -> Result<()> {
     let options = BuildOptions {
         tile_size: TILE_SIZE,
         spacing: Some(SPACING),
@@ -244,7 +247,7 @@ fn build_archive(reader: NodataFill<Box<dyn DemReader>>, archive: &Path) -> Resu
         ..BuildOptions::default()
     };
     let partial = archive.with_extension("smdb.partial");
-    build(reader, &partial, &options, &|_, _| {})?;
+    build_opening(open, &partial, &options, &|_, _| {})?;
     std::fs::rename(&partial, archive).map_err(|e| Error::io(archive.display().to_string(), e))
 }
 

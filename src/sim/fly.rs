@@ -119,8 +119,28 @@ pub struct FlySummary {
     /// The messages of the first failures, each naming its tile (at most
     /// [`crate::engine::paging::FIRST_ERRORS`]).
     pub first_errors: Vec<String>,
-    /// Fetches (tiles and the base) still on their way when the flight ended, abandoned.
+    /// Fetches (tiles and the top) still on their way when the flight ended, abandoned.
     pub in_flight: usize,
+    /// Median host time of a frame's bookkeeping (cut, importance, budget, masks), milliseconds
+    /// measured on this machine whatever the clock: not part of `stats.csv`, which repeats
+    /// byte for byte.
+    pub host_bookkeeping_ms: f64,
+    /// Median host time of a frame's drawing, milliseconds, measured likewise.
+    pub host_draw_ms: f64,
+    /// Mean tiles drawn per frame.
+    pub mean_tiles: f64,
+}
+
+impl FlySummary {
+    /// The summary without the host's timings, which vary from run to run: what repeats byte
+    /// for byte on the simulated clock.
+    pub fn repeatable(&self) -> FlySummary {
+        FlySummary {
+            host_bookkeeping_ms: 0.0,
+            host_draw_ms: 0.0,
+            ..self.clone()
+        }
+    }
 }
 
 /// What a flight's requests get beyond its length on the wall clock before its deadline.
@@ -253,7 +273,7 @@ fn frame_record(
         complete_belts: report.pager.complete_belts.map_or(0, |d| u64::from(d) + 1),
         fetching: report.pager.fetching as u64,
         holes: report.holes as u64,
-        base_bytes: report.pager.base_bytes as u64,
+        top_bytes: report.pager.top_bytes as u64,
         tau_px,
         error_px: report.max_error_px,
         budget_binds: u64::from(report.bound == Bound::Budget),
@@ -275,6 +295,9 @@ struct Tally {
     error_px: f64,
     budget_frames: u64,
     last_stats: Option<PagerStats>,
+    bookkeeping_ms: Vec<f64>,
+    draw_ms: Vec<f64>,
+    tiles: u64,
 }
 
 impl Tally {
@@ -296,12 +319,21 @@ impl Tally {
         self.error_px += record.error_px;
         self.budget_frames += record.budget_binds;
         self.last_stats = Some(report.pager);
+        self.bookkeeping_ms.push(report.bookkeeping_seconds * 1e3);
+        self.draw_ms.push(report.draw_seconds * 1e3);
+        self.tiles += report.rendered_tiles as u64;
         self.t += seconds;
         self.frames += 1;
     }
 
     /// The summary of the flight `engine` flew.
     fn summary(mut self, engine: &Engine) -> FlySummary {
+        let median = |v: &mut Vec<f64>| {
+            v.sort_by(f64::total_cmp);
+            v.get(v.len() / 2).copied().unwrap_or(0.0)
+        };
+        let host_bookkeeping_ms = median(&mut self.bookkeeping_ms);
+        let host_draw_ms = median(&mut self.draw_ms);
         self.fps.sort_by(f64::total_cmp);
         let stats = self.last_stats.unwrap_or_else(|| engine.pager().stats());
         let frames = self.frames.max(1) as f64;
@@ -321,14 +353,17 @@ impl Tally {
             errors: stats.errors,
             first_errors: engine.pager().first_errors().to_vec(),
             in_flight: in_flight(&stats),
+            host_bookkeeping_ms,
+            host_draw_ms,
+            mean_tiles: self.tiles as f64 / frames,
         }
     }
 }
 
-/// Fetches `stats` says are on their way: tiles, and the base while its bytes are reserved
-/// and none of its tiles has arrived.
+/// Fetches `stats` says are on their way: tiles, and the top while its bytes are reserved and
+/// none of its tiles has arrived.
 fn in_flight(stats: &PagerStats) -> usize {
-    stats.fetching + usize::from(stats.base_bytes > 0 && stats.base_tiles == 0)
+    stats.fetching + usize::from(stats.top_bytes > 0 && stats.top_tiles == 0)
 }
 
 fn progress_bar(show: bool, length: Length) -> ProgressBar {

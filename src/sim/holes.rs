@@ -1,12 +1,12 @@
 //! Frames where terrain in view was not drawn, and why: what `fly`, the demo and
-//! `stream-compare` report of a flight's holes, its first frames and its coarse base.
+//! `stream-compare` report of a flight's holes, its first frames and the top of the pyramid.
 
 use std::fmt;
 
 use crate::engine::FrameReport;
 
 /// A flight's holes so far: frames where the view met the terrain and some of it (or all of it)
-/// had nothing to draw, sorted by what the coarse base was doing at the time.
+/// had nothing to draw, sorted by what the top of the pyramid was doing at the time.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct HoleTally {
     /// Frames counted.
@@ -15,31 +15,31 @@ pub struct HoleTally {
     pub hole_frames: u64,
     /// Frames that met terrain and drew none of it: only sky.
     pub empty_frames: u64,
-    /// Hole frames while the base was on its way.
-    pub waiting_for_base: u64,
-    /// Hole frames with no base: the archive has none, it does not fit the memory limit, or
-    /// every attempt to fetch it failed.
-    pub without_base: u64,
-    /// Hole frames with the base resident (none is expected: the base covers every tile).
-    pub after_base: u64,
+    /// Hole frames while the top was on its way.
+    pub waiting_for_top: u64,
+    /// Hole frames with no top: it does not fit the memory limit, or every attempt to fetch it
+    /// failed.
+    pub without_top: u64,
+    /// Hole frames with the top resident (none is expected: the top covers the terrain).
+    pub after_top: u64,
     /// Flight time of the first frame that drew terrain, seconds.
     pub first_frame_s: Option<f64>,
     /// Flight time of the first frame that drew terrain and had no hole, seconds.
     pub first_full_frame_s: Option<f64>,
-    /// Flight time of the first frame with the base resident, seconds.
-    pub base_arrived_s: Option<f64>,
-    /// Bytes the base holds once resident.
-    pub base_bytes: usize,
+    /// Flight time of the first frame with the top resident, seconds.
+    pub top_arrived_s: Option<f64>,
+    /// Bytes the top holds once resident.
+    pub top_bytes: usize,
 }
 
 impl HoleTally {
     /// Counts the frame of `report`, drawn at flight time `t`.
     pub fn add(&mut self, t: f64, report: &FrameReport) {
         let pager = &report.pager;
-        let base_resident = pager.base_tiles > 0;
-        if base_resident && self.base_arrived_s.is_none() {
-            self.base_arrived_s = Some(t);
-            self.base_bytes = pager.base_bytes;
+        let top_resident = pager.top_tiles > 0;
+        if top_resident && self.top_arrived_s.is_none() {
+            self.top_arrived_s = Some(t);
+            self.top_bytes = pager.top_bytes;
         }
         let drew = report.rendered_tiles > 0;
         if drew {
@@ -54,12 +54,12 @@ impl HoleTally {
             if !drew {
                 self.empty_frames += 1;
             }
-            if base_resident {
-                self.after_base += 1;
-            } else if pager.base_bytes > 0 {
-                self.waiting_for_base += 1;
+            if top_resident {
+                self.after_top += 1;
+            } else if pager.top_bytes > 0 {
+                self.waiting_for_top += 1;
             } else {
-                self.without_base += 1;
+                self.without_top += 1;
             }
         }
         self.frames += 1;
@@ -76,28 +76,25 @@ impl fmt::Display for HoleTally {
             self.hole_frames, self.frames, self.empty_frames
         )?;
         let causes = [
+            (self.waiting_for_top, "while the top was on its way"),
             (
-                self.waiting_for_base,
-                "while the coarse base was on its way",
+                self.without_top,
+                "with no top (over the memory limit, or its fetch failed)",
             ),
-            (
-                self.without_base,
-                "with no coarse base (none in the archive, over the memory limit, or its fetch failed)",
-            ),
-            (self.after_base, "with the coarse base resident"),
+            (self.after_top, "with the top resident"),
         ];
         let mut first = true;
         for (n, cause) in causes.iter().filter(|(n, _)| *n > 0) {
             write!(f, "{} {n} {cause}", if first { ":" } else { ";" })?;
             first = false;
         }
-        match self.base_arrived_s {
+        match self.top_arrived_s {
             Some(t) => write!(
                 f,
-                "; base of {:.2} MB resident at {t:.2} s",
-                self.base_bytes as f64 / 1e6
+                "; top of {:.2} MB resident at {t:.2} s",
+                self.top_bytes as f64 / 1e6
             )?,
-            None => write!(f, "; no base resident")?,
+            None => write!(f, "; no top resident")?,
         }
         write!(
             f,

@@ -40,12 +40,21 @@ pub fn hud_info(engine: &Engine, report: &FrameReport, fps: f64) -> HudInfo {
             });
         }
     }
+    // A drawn tile of pyramid level k covers 2^k x 2^k cells of the map, each shown with its
+    // importance.
     for r in &report.rendered {
-        let (x, y) = (r.id.x.wrapping_sub(x0), r.id.y.wrapping_sub(y0));
-        if x < mw && y < mh {
-            let k = (y * mw + x) as usize;
-            cells[k] = MinimapCell::Rendered;
-            importance[k] = r.importance as f32;
+        let span = u64::from(r.id.span());
+        let clip = |t: u32, start: u32, cells: u32| {
+            let (lo, hi) = (u64::from(t) * span, (u64::from(t) + 1) * span);
+            let (a, b) = (u64::from(start), u64::from(start + cells));
+            (lo.max(a)..hi.min(b)).map(move |c| (c - a) as u32)
+        };
+        for y in clip(r.id.y, y0, mh) {
+            for x in clip(r.id.x, x0, mw) {
+                let k = (y * mw + x) as usize;
+                cells[k] = MinimapCell::Rendered;
+                importance[k] = r.importance as f32;
+            }
         }
     }
     HudInfo {

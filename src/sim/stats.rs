@@ -40,10 +40,12 @@ pub struct FrameRecord {
     pub complete_belts: u64,
     /// Tiles being fetched.
     pub fetching: u64,
-    /// Holes: tiles the view meets with nothing to draw, neither detail nor the coarse base.
+    /// Holes: parts of the terrain the view meets with nothing to draw (see
+    /// [`crate::engine::FrameReport::holes`]).
     pub holes: u64,
-    /// Bytes of the coarse base, resident or reserved while on its way (part of `memory_bytes`).
-    pub base_bytes: u64,
+    /// Bytes of the top of the pyramid, resident or reserved while on its way (part of
+    /// `memory_bytes`).
+    pub top_bytes: u64,
     /// The pixel-error bound τ, pixels (0: off).
     pub tau_px: f64,
     /// The largest geometric error of a drawn tile on screen, pixels.
@@ -55,7 +57,7 @@ pub struct FrameRecord {
 }
 
 /// The CSV header, matching [`FrameRecord`]'s fields.
-pub const CSV_HEADER: &str = "frame,time_s,frame_ms,fps,target_fps,budget,triangles,fragments,rendered_tiles,loaded_tiles,memory_bytes,memory_limit_bytes,downloaded_bytes,downloads,complete_belts,fetching,holes,base_bytes,tau_px,error_px,budget_binds,by_error";
+pub const CSV_HEADER: &str = "frame,time_s,frame_ms,fps,target_fps,budget,triangles,fragments,rendered_tiles,loaded_tiles,memory_bytes,memory_limit_bytes,downloaded_bytes,downloads,complete_belts,fetching,holes,top_bytes,tau_px,error_px,budget_binds,by_error";
 
 impl FrameRecord {
     /// The record as one CSV line, without the newline.
@@ -79,7 +81,7 @@ impl FrameRecord {
             self.complete_belts,
             self.fetching,
             self.holes,
-            self.base_bytes,
+            self.top_bytes,
             self.tau_px,
             self.error_px,
             self.budget_binds,

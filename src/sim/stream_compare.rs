@@ -161,7 +161,7 @@ pub struct RunResult {
     pub frames: u64,
     /// Bytes downloaded.
     pub downloaded_bytes: u64,
-    /// Frames with holes and why, the first frame, the first without a hole, the base.
+    /// Frames with holes and why, the first frame, the first without a hole, the top.
     pub holes: HoleTally,
     /// Flight time of the first complete view.
     pub first_complete_s: Option<f64>,
@@ -343,7 +343,7 @@ pub fn write(out: &Path, results: &[RunResult], options: &CompareOptions) -> Res
     let csv_path = out.join("stream-compare.csv");
     let mut csv = String::from(
         "flight,link,strategy,frames,downloaded_bytes,first_frame_s,first_full_frame_s,\
-         hole_frames,empty_frames,base_bytes,first_complete_s,full_budget_share,mean_error_px,rendered_share,view_rendered_share,belt_bytes,\
+         hole_frames,empty_frames,top_bytes,first_complete_s,full_budget_share,mean_error_px,rendered_share,view_rendered_share,belt_bytes,\
          hit_rate,requests,cancelled,peak_memory_bytes\n",
     );
     let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.4}"));
@@ -360,7 +360,7 @@ pub fn write(out: &Path, results: &[RunResult], options: &CompareOptions) -> Res
             opt(r.holes.first_full_frame_s),
             r.holes.hole_frames,
             r.holes.empty_frames,
-            r.holes.base_bytes,
+            r.holes.top_bytes,
             opt(r.first_complete_s),
             r.full_budget_share,
             r.mean_error_px,
@@ -391,7 +391,7 @@ fn markdown(results: &[RunResult], o: &CompareOptions) -> String {
         let _ = write!(
             md,
             "\n**{flight:?}**\n\n| link | tiles | downloaded | first frame | first without a hole | \
-             frames with holes (only sky) | base | first complete view | frames at full budget | mean screen error | drawn within 1 s: all bytes (asked by the view) | \
+             frames with holes (only sky) | top | first complete view | frames at full budget | mean screen error | drawn within 1 s: all bytes (asked by the view) | \
              belt fill | prediction hits | requests (cancelled) | peak memory |\n\
              | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n"
         );
@@ -406,7 +406,7 @@ fn markdown(results: &[RunResult], o: &CompareOptions) -> String {
                 secs(r.holes.first_full_frame_s),
                 r.holes.hole_frames,
                 r.holes.empty_frames,
-                r.holes.base_bytes as f64 / 1e6,
+                r.holes.top_bytes as f64 / 1e6,
                 secs(r.first_complete_s),
                 100.0 * r.full_budget_share,
                 r.mean_error_px,

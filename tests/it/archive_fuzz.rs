@@ -1,16 +1,21 @@
-//! Property-based fuzzing of the archive reader: random and mutated headers, indexes and
-//! progressive tile chunks must give `Err` naming the file, never a panic.
-//! `PROPTEST_CASES=100000` runs a long campaign.
+//! Property-based fuzzing of the archive reader: random and mutated headers, directories, page
+//! tables, index pages, the top and progressive tile chunks must give `Err` naming the file,
+//! never a panic. `PROPTEST_CASES=100000` runs a long campaign.
 
 use std::path::PathBuf;
 use std::sync::OnceLock;
 
 use proptest::prelude::*;
-use stripmask::db::archive::{ArchiveReader, HEADER_LEN, Header, decompress, parse_index};
+use stripmask::db::archive::{
+    ArchiveReader, Directory, HEADER_LEN, Header, TABLE_CHUNK_ENTRIES, decompress, page_count,
+    page_tiles, parse_page, parse_table_chunk, table_chunk,
+};
 use stripmask::db::builder::{BuildOptions, build};
 use stripmask::db::dem::{MemoryReader, NodataFill};
+use stripmask::db::grid::TileId;
+use stripmask::db::source::CancelToken;
 use stripmask::db::source::file::FileSource;
-use stripmask::db::tile::{Tile, progressive_levels};
+use stripmask::db::tile::Tile;
 use stripmask::engine::terrain::TerrainFrame;
 use stripmask::sim::flight::{Builtin, Flight};
 use stripmask::{Error, Named};
@@ -22,12 +27,13 @@ fn cases() -> u32 {
         .unwrap_or(64)
 }
 
-/// A valid 4 x 2-tile archive, built once.
+/// A valid archive of 16 x 8 tiles of 9 samples at level 0 (whose index pages lie outside the
+/// top) and four levels above, built once.
 fn valid() -> &'static (tempfile::TempDir, PathBuf, Vec<u8>) {
     static VALID: OnceLock<(tempfile::TempDir, PathBuf, Vec<u8>)> = OnceLock::new();
     VALID.get_or_init(|| {
         let dir = tempfile::tempdir().unwrap();
-        let (w, h) = (33, 17);
+        let (w, h) = (129, 65);
         let samples = (0..w * h).map(|k| ((k * 37) % 101) as f32).collect();
         let reader = MemoryReader::new("fuzz", w, h, samples).unwrap();
         let out = dir.path().join("fuzz.smdb");
@@ -61,50 +67,86 @@ fn mutate(bytes: &[u8], edits: &[(f64, u8)], cut: Option<f64>) -> Vec<u8> {
     b
 }
 
-/// Restores the header and index checksums after an edit, so the edit reaches the validation
-/// behind them.
+/// Restores every checksum after an edit — the header's, the directory's, each page table
+/// chunk's and each index page's, as far as the edited archive still says where they are — so
+/// that the edit reaches the validation behind them.
 fn fix_checksums(b: &mut [u8]) {
     if b.len() < HEADER_LEN {
         return;
     }
     let crc = crc32fast::hash(&b[..HEADER_LEN - 4]);
     b[HEADER_LEN - 4..HEADER_LEN].copy_from_slice(&crc.to_le_bytes());
-    let field = |k: usize| u32::from_le_bytes(b[k..k + 4].try_into().unwrap()) as usize;
-    let tiles = field(16) * field(20);
-    let entry_len = 8 + 8 * progressive_levels(field(24).min(1 << 20));
-    let end = HEADER_LEN + tiles.min(1 << 20) * entry_len;
-    if end + 4 <= b.len() {
-        let crc = crc32fast::hash(&b[HEADER_LEN..end]);
-        b[end..end + 4].copy_from_slice(&crc.to_le_bytes());
+    let Ok(header) = Header::parse(&b[..HEADER_LEN], "fix") else {
+        return;
+    };
+    let end = HEADER_LEN + header.directory_len();
+    if end > b.len() {
+        return;
+    }
+    let crc = crc32fast::hash(&b[HEADER_LEN..end - 4]);
+    b[end - 4..end].copy_from_slice(&crc.to_le_bytes());
+    let Ok(directory) = Directory::parse(&b[HEADER_LEN..end], &header, "fix") else {
+        return;
+    };
+    let pyramid = header.pyramid();
+    for (k, &table) in directory.tables.iter().enumerate() {
+        let pages = page_count(pyramid.grid(k as u8)).min(1 << 12);
+        for chunk in 0..pages.div_ceil(TABLE_CHUNK_ENTRIES as u64) {
+            let (offset, len, entries) = table_chunk(table, pages, chunk);
+            let (at, refs) = (offset as usize, entries * 16);
+            if at + len as usize > b.len() {
+                return;
+            }
+            for r in 0..entries {
+                let e = at + r * 16;
+                let page = u64::from_le_bytes(b[e..e + 8].try_into().unwrap()) as usize;
+                let plen = u32::from_le_bytes(b[e + 8..e + 12].try_into().unwrap()) as usize;
+                if page > 0 && page.saturating_add(plen) <= b.len() {
+                    let crc = crc32fast::hash(&b[page..page + plen]);
+                    b[e + 12..e + 16].copy_from_slice(&crc.to_le_bytes());
+                }
+            }
+            let crc = crc32fast::hash(&b[at..at + refs]);
+            b[at + refs..at + refs + 4].copy_from_slice(&crc.to_le_bytes());
+        }
     }
 }
 
+/// Opens `bytes` as an archive and reads what it can: the top, and every tile (at most a few
+/// hundred of each level) whole, its first level and its finer levels.
 fn read_everything(bytes: &[u8]) {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("m.smdb");
     std::fs::write(&path, bytes).unwrap();
     if let Ok(reader) = ArchiveReader::open_with_attempts(FileSource::open(&path).unwrap(), 1) {
         let h = reader.header().clone();
-        for ty in 0..h.tiles_y as usize {
-            for tx in 0..h.tiles_x as usize {
-                let _ = reader.tile(tx, ty);
-                let _ = reader.tile_levels(tx, ty, 1);
-                let _ = reader.read_levels(tx, ty, 1..h.levels());
+        let _ = reader.top();
+        let pyramid = reader.pyramid().clone();
+        for k in 0..pyramid.levels().min(8) as u8 {
+            let grid = pyramid.grid(k);
+            for ty in 0..grid.tiles_y().min(16) {
+                for tx in 0..grid.tiles_x().min(16) {
+                    let id = TileId::at(k, tx, ty);
+                    let _ = reader.tile(id);
+                    let _ = reader.tile_levels(id, 1);
+                    let _ = reader.read_levels(id, 1..h.levels());
+                }
             }
         }
+        let _ = reader.check();
     }
 }
 
 /// The header's numbers: (offset, width in bytes) of spacing, vertical scale, origin x and y
 /// (f64), min and max height and the height quantum (f32).
 const NUMBERS: [(usize, usize); 7] = [
-    (48, 8),
     (56, 8),
     (64, 8),
     (72, 8),
-    (80, 4),
-    (84, 4),
+    (80, 8),
     (88, 4),
+    (92, 4),
+    (96, 4),
 ];
 
 /// Numbers no terrain has, and ordinary ones: non-finite, huge, tiny, negative.
@@ -194,8 +236,8 @@ proptest! {
     ) {
         let (_, _, good) = valid();
         let mut bytes = good[..HEADER_LEN].to_vec();
-        bytes[92..100].copy_from_slice(&filled.to_le_bytes());
-        bytes[100..108].copy_from_slice(&flattened.to_le_bytes());
+        bytes[104..112].copy_from_slice(&filled.to_le_bytes());
+        bytes[112..120].copy_from_slice(&flattened.to_le_bytes());
         let crc = crc32fast::hash(&bytes[..HEADER_LEN - 4]);
         bytes[HEADER_LEN - 4..].copy_from_slice(&crc.to_le_bytes());
         match Header::parse(&bytes, "nodata") {
@@ -207,7 +249,7 @@ proptest! {
             Err(e) => {
                 let text = e.to_string();
                 prop_assert!(text.contains("nodata") && text.contains(&filled.to_string()), "{}", text);
-                prop_assert!(u128::from(filled) + u128::from(flattened) > 33 * 17);
+                prop_assert!(u128::from(filled) + u128::from(flattened) > 129 * 65);
             }
         }
     }
@@ -229,14 +271,32 @@ proptest! {
     }
 
     #[test]
-    fn mutated_headers_and_indexes_parse_or_fail_cleanly((edits, cut) in mutations()) {
-        let (_, _, good) = valid();
-        // 9-sample tiles: 4 levels, 40-byte entries.
-        let header_and_index = &good[..HEADER_LEN + 8 * 40 + 4];
-        let mut bytes = mutate(header_and_index, &edits, cut);
-        fix_checksums(&mut bytes);
-        if let Ok(h) = Header::parse(&bytes, "m") {
-            let _ = parse_index(&bytes[HEADER_LEN.min(bytes.len())..], &h, Some(good.len() as u64), "m");
+    fn mutated_directories_tables_and_pages_parse_or_fail_cleanly(
+        (edits, cut) in mutations(),
+        page in 0u64..2,
+    ) {
+        let (_, path, good) = valid();
+        let reader = ArchiveReader::open(FileSource::open(path).unwrap()).unwrap();
+        let h = reader.header().clone();
+        let grid = reader.pyramid().grid(0);
+        let directory = &good[HEADER_LEN..HEADER_LEN + h.directory_len()];
+        let _ = Directory::parse(&mutate(directory, &edits, cut), &h, "m");
+        let pages = page_count(grid);
+        let (offset, len, entries) = table_chunk(reader.directory().tables[0], pages, 0);
+        let chunk = &good[offset as usize..(offset + len) as usize];
+        let mut bytes = mutate(chunk, &edits, cut);
+        let refs = entries * 16;
+        if bytes.len() == refs + 4 {
+            let crc = crc32fast::hash(&bytes[..refs]);
+            bytes[refs..].copy_from_slice(&crc.to_le_bytes());
+        }
+        let _ = parse_table_chunk(&bytes, &h, grid, 0, entries, "m");
+        let refs = parse_table_chunk(chunk, &h, grid, 0, entries, "m").unwrap();
+        let r = refs[page as usize];
+        let stored = &good[r.offset as usize..(r.offset + u64::from(r.len)) as usize];
+        prop_assert_eq!(page_tiles(grid, page).len() * h.index_entry_len(), stored.len());
+        if let Err(e) = parse_page(&mutate(stored, &edits, cut), &h, grid, page, "m.smdb page") {
+            prop_assert!(e.to_string().starts_with("m.smdb page"), "{}", e);
         }
     }
 
@@ -250,12 +310,13 @@ proptest! {
         let reader = ArchiveReader::open(FileSource::open(path).unwrap()).unwrap();
         let h = reader.header().clone();
         let (s, t) = (h.tile_size as usize, h.texture_size as usize);
-        let (x, y) = (index % h.tiles_x as usize, index / h.tiles_x as usize);
-        let good = reader.read_levels(x, y, 0..h.levels()).unwrap().chunks;
+        let id = TileId::new(index as u32 % h.tiles_x, index as u32 / h.tiles_x);
+        let good = reader.read_levels(id, 0..h.levels()).unwrap().chunks;
         // Stored bytes mutated, then decompressed.
-        let stored = reader.tile_bytes(index).unwrap();
-        let (offset, len) = reader.level_range(x, y, level..level + 1);
-        let at = (offset - reader.level_range(x, y, 0..0).0) as usize;
+        let (entry, _) = reader.entry(id, &CancelToken::new()).unwrap();
+        let (offset, len) = entry.range(level..level + 1);
+        let stored = std::fs::read(path).unwrap();
+        let at = offset as usize;
         let chunk = mutate(&stored[at..at + len as usize], &edits, cut);
         if let Ok(raw) = decompress(&chunk, h.codec, h.level_payload_size(level), "m") {
             check_decodes(&good, level, &raw, s, t);

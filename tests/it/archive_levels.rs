@@ -1,5 +1,6 @@
 //! Progressive levels through the archive: any range of a tile's levels reads back in one source
-//! read, decodes to exactly the coarser tile, and is located in O(1) by the index.
+//! read once its index page is held, decodes to exactly the coarser tile, and is located in
+//! O(1) by the index.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -9,8 +10,9 @@ use stripmask::Result;
 use stripmask::db::archive::{ArchiveReader, Codec};
 use stripmask::db::builder::{BuildOptions, build};
 use stripmask::db::dem::{MemoryReader, NodataFill};
-use stripmask::db::source::TileSource;
+use stripmask::db::grid::TileId;
 use stripmask::db::source::file::FileSource;
+use stripmask::db::source::{CancelToken, TileSource};
 use stripmask::db::tile::Tile;
 
 /// A source that counts its range reads and the bytes they return.
@@ -76,29 +78,32 @@ fn every_level_range_reads_back_in_one_request_and_decodes_to_the_coarser_tile()
         let h = reader.header().clone();
         let (s, t, levels) = (h.tile_size as usize, h.texture_size as usize, h.levels());
         assert_eq!(levels, 5);
-        for y in 0..h.tiles_y as usize {
-            for x in 0..h.tiles_x as usize {
-                let full = reader.tile(x, y).unwrap();
-                let all = reader.read_levels(x, y, 0..levels).unwrap().chunks;
+        for y in 0..h.tiles_y {
+            for x in 0..h.tiles_x {
+                let id = TileId::new(x, y);
+                let (entry, _) = reader.entry(id, &CancelToken::new()).unwrap();
+                let full = reader.tile(id).unwrap().unwrap();
+                let all = reader.read_levels(id, 0..levels).unwrap().chunks;
                 for a in 0..=levels {
                     for b in a..=levels {
                         let before = count();
-                        let got = reader.read_levels(x, y, a..b).unwrap();
+                        let got = reader.read_levels(id, a..b).unwrap();
                         let after = count();
                         assert_eq!(after.0 - before.0, 1, "one read for {a}..{b}");
-                        let (offset, length) = reader.level_range(x, y, a..b);
+                        let (offset, length) = entry.range(a..b);
                         assert_eq!(after.1 - before.1, length as usize);
                         assert_eq!(got.stored_bytes, length);
                         assert_eq!(got.chunks[..], all[a..b], "{codec:?} ({x}, {y}) {a}..{b}");
                         // Neighbouring ranges abut: the index is one contiguous run per tile.
-                        let (before, len) = reader.level_range(x, y, 0..a);
+                        let (before, len) = entry.range(0..a);
                         assert_eq!(before + len, offset);
                     }
                 }
                 for k in 1..=levels {
-                    let (tile, stored) = reader.tile_levels(x, y, k).unwrap();
+                    let (tile, stored) = reader.tile_levels(id, k).unwrap();
+                    let tile = tile.unwrap();
                     assert_eq!(tile, full.truncated(k), "{codec:?} ({x}, {y}) {k} levels");
-                    assert_eq!(stored, reader.level_range(x, y, 0..k).1);
+                    assert_eq!(stored, entry.range(0..k).1);
                     // Refining a prefix with the next chunk gives the next prefix.
                     if let Some(next) = all.get(k) {
                         let mut refined = tile.clone();
@@ -119,13 +124,30 @@ fn bad_level_requests_are_named_errors() {
     let path = archive(dir.path(), Codec::Lz4, 1);
     let (reader, _, _) = open(&path);
     let name = path.display().to_string();
-    let e = reader.read_levels(0, 0, 2..6).unwrap_err().to_string();
+    let e = reader
+        .read_levels(TileId::new(0, 0), 2..6)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains(&name) && e.contains("outside 0..5"), "{e}");
-    let e = reader.read_levels(3, 0, 0..1).unwrap_err().to_string();
+    let e = reader
+        .read_levels(TileId::new(3, 0), 0..1)
+        .unwrap_err()
+        .to_string();
     assert!(
-        e.contains(&name) && e.contains("outside the 3 x 2 grid"),
+        e.contains(&name) && e.contains("outside level 0's 3 x 2 grid"),
         "{e}"
     );
-    let e = reader.tile_levels(0, 0, 0).unwrap_err().to_string();
+    let e = reader
+        .read_levels(TileId::at(5, 0, 0), 0..1)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains(&name) && e.contains("level 5 does not exist"),
+        "{e}"
+    );
+    let e = reader
+        .tile_levels(TileId::new(0, 0), 0)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains(&name) && e.contains("no levels"), "{e}");
 }

@@ -82,7 +82,7 @@ fn two_builds_to_one_path_at_once_leave_one_whole_archive() {
     assert!(a.is_ok() && b.is_ok(), "{a:?} {b:?}");
     let reader = ArchiveReader::open(FileSource::open(&out).unwrap()).unwrap();
     let report = reader.check().unwrap();
-    assert_eq!(report.tiles, reader.index().len());
+    assert_eq!(report.tiles, reader.pyramid().tile_count());
     let low = reader.header().min_height;
     assert!(
         !(-40.0..=900.0).contains(&low),
@@ -144,26 +144,20 @@ fn numbers_no_reader_accepts_are_refused_before_writing() {
 }
 
 #[test]
-fn tile_counts_and_index_sizes_over_the_readers_limits_are_refused_unread() {
+fn tile_counts_over_the_formats_limits_are_refused_unread() {
     static ROWS: AtomicUsize = AtomicUsize::new(0);
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("big.smdb");
-    // 3500 x 3500 tiles: under the tile limit, but an index larger than a reader takes.
+    // 2^26 samples across in 3-sample tiles: 2^25 tiles, more than a level may have across.
     let three = BuildOptions {
         tile_size: 3,
         ..BuildOptions::default()
     };
-    let e = build(claim(7001, 7001, &ROWS), &out, &three, &|_, _| {}).unwrap_err();
-    assert!(e.to_string().contains("index"), "{e}");
-    // 2^20 x 2^20 samples in 129-sample tiles: 67 million tiles.
-    let e = build(
-        claim(1 << 20, 1 << 20, &ROWS),
-        &out,
-        &BuildOptions::default(),
-        &|_, _| {},
-    )
-    .unwrap_err();
-    assert!(e.to_string().contains("tiles"), "{e}");
+    let e = build(claim(1 << 26, 3, &ROWS), &out, &three, &|_, _| {}).unwrap_err();
+    assert!(
+        e.to_string().contains("tiles") && e.to_string().contains("16777216"),
+        "{e}"
+    );
     assert_eq!(ROWS.load(Ordering::Relaxed), 0);
     assert!(!out.exists() && leftovers(dir.path()).is_empty());
 }

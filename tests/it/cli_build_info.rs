@@ -46,12 +46,22 @@ fn build_puget_sound_then_info_json_describes_the_grid() {
     assert_eq!(v["header"]["tile_size"], 129);
     assert_eq!(v["header"]["texture_size"], 128);
     assert_eq!(v["tile_count"], 64);
-    assert_eq!(v["stored_tile_bytes"].as_array().unwrap().len(), 64);
+    assert_eq!(
+        v["pyramid"],
+        serde_json::json!([[8, 8], [4, 4], [2, 2], [1, 1]])
+    );
+    let levels = v["stored_level_bytes_mean"].as_array().unwrap();
+    assert_eq!(levels.len(), 8);
+    assert_eq!(v["measured"], "every tile");
     assert_eq!(v["header"]["min_height"], 0.0);
     // The highest sample is 43798 raw units (Mount Rainier, 4379.8 m at 0.1 m per unit).
     let max = v["header"]["max_height"].as_f64().unwrap();
     assert!((max - 4379.8).abs() < 0.01, "{max}");
-    assert_eq!(v["check"]["tiles"], 64);
+    assert_eq!(v["check"]["tiles"], 64 + 16 + 4 + 1);
+    assert_eq!(v["check"]["absent"], 0);
+    // An open reads the header and the directory: a few hundred bytes for this model.
+    let opening = v["opening_bytes"].as_u64().unwrap();
+    assert!((160..4096).contains(&opening), "{opening}");
 
     let text = stripmask().arg("info").arg(&out).output().unwrap();
     let text = String::from_utf8(text.stdout).unwrap();

@@ -51,7 +51,8 @@ fn serve_then_info_over_http() {
     let v: serde_json::Value = serde_json::from_slice(&result.stdout).unwrap();
     assert_eq!(v["name"], url.as_str());
     assert_eq!(v["tile_count"], 6);
-    assert_eq!(v["check"]["tiles"], 6);
+    // 3 x 2 tiles, 2 x 1 above them, and the root.
+    assert_eq!(v["check"]["tiles"], 9);
     assert_eq!(v["header"]["spacing"], 30.0);
 }
 

@@ -1,6 +1,7 @@
 //! Every DEM reader against fixtures written by GDAL, and a build/read round trip per format.
 
 use std::path::{Path, PathBuf};
+use stripmask::db::grid::TileId;
 
 use stripmask::db::archive::ArchiveReader;
 use stripmask::db::builder::{BuildOptions, build};
@@ -95,7 +96,10 @@ fn check(path: &Path, opts: &OpenOptions, holes: bool) {
     assert_eq!((h.tiles_x, h.tiles_y), (3, 2));
     for ty in 0..2 {
         for tx in 0..3 {
-            let tile = archive.tile(tx, ty).unwrap();
+            let tile = archive
+                .tile(TileId::new(tx as u32, ty as u32))
+                .unwrap()
+                .unwrap();
             for j in 0..17 {
                 for i in 0..17 {
                     let (gi, gj) = ((tx * 16 + i).min(W - 1), (ty * 16 + j).min(H - 1));

@@ -5,6 +5,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+use stripmask::db::grid::TileId;
 
 use stripmask::ArchiveReader;
 use stripmask::db::source::file::FileSource;
@@ -46,7 +47,10 @@ fn archive(path: &Path) -> ArchiveReader<FileSource> {
 /// The height the archive holds at sample column `i` of row 0.
 fn height_at(a: &ArchiveReader<FileSource>, i: usize) -> f32 {
     let s = a.header().tile_size as usize - 1;
-    a.tile(i / s, 0).unwrap().height(i % s, 0)
+    a.tile(TileId::new((i / s) as u32, 0))
+        .unwrap()
+        .unwrap()
+        .height(i % s, 0)
 }
 
 /// Metres east-west per source column in the archive of a ramp rising `rise` raw units per

@@ -5,6 +5,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 use std::process::Command;
+use stripmask::db::grid::TileId;
 
 fn stripmask() -> Command {
     Command::new(env!("CARGO_BIN_EXE_stripmask"))
@@ -78,10 +79,22 @@ fn a_large_nodata_area_is_flat_at_the_lowest_height_around_it() {
         stripmask::db::source::file::FileSource::open(&out).unwrap(),
     )
     .unwrap();
+    // The tiles of samples 64 ..= 96 are all nodata: absent at level 0 and level 1, they cost
+    // nothing; the level-2 tile over them holds the fill of the nodata it covers.
+    assert!(reader.tile(TileId::new(4, 4)).unwrap().is_none());
+    assert!(reader.tile(TileId::at(1, 2, 2)).unwrap().is_none());
+    assert!(
+        info["header"]["absent_tiles"].as_u64().unwrap() >= 16,
+        "{text}"
+    );
     // Sample (64, 64) is 50 samples from the nearest valid one, and no valid sample lies within
     // 32 columns of it in the rows within 32 of it: it takes the lowest valid height of those
     // rows (row 32, column 0), not 0 m and not the value of one arbitrary edge.
-    let centre = reader.tile(4, 4).unwrap().height(0, 0);
+    let centre = reader
+        .tile(TileId::at(2, 1, 1))
+        .unwrap()
+        .unwrap()
+        .height(0, 0);
     let lowest_around = 500.0 + 3.0 * 32.0;
     assert!(
         (centre - lowest_around).abs() < 0.1,

@@ -16,7 +16,7 @@ use crate::support::hills;
 
 const HEIGHT: u32 = 120;
 
-/// An engine over the hills archive with every tile loaded.
+/// An engine over the hills archive with every tile of every level loaded.
 pub(crate) fn loaded(dir: &std::path::Path, max_error: ErrorBound) -> (Engine, Framebuffer) {
     let path = hills::archive(dir, 33);
     let settings = EngineSettings {
@@ -35,10 +35,19 @@ pub(crate) fn loaded(dir: &std::path::Path, max_error: ErrorBound) -> (Engine, F
     )
     .unwrap();
     let mut fb = Framebuffer::new(160, HEIGHT, ColorFormat::Rgb565, DepthFormat::D16).unwrap();
-    let camera = engine.camera(DVec3::new(3840.0, 2000.0, 3840.0), DVec3::ZERO, false);
-    engine.render(&camera, &mut fb).unwrap();
-    let all = engine.terrain().tiles_x as usize * engine.terrain().tiles_y as usize;
-    assert_eq!(engine.pager().stats().loaded_tiles, all);
+    // The whole terrain from high above, at full resolution: the cut asks for every tile of
+    // every level, which come a level a frame.
+    let bound = engine.settings().max_error;
+    engine.set_max_error(ErrorBound::Off);
+    let above = DVec3::new(3840.0, 40_000.0, 3841.0);
+    let camera = engine.camera(above, DVec3::new(3840.0, 0.0, 3840.0), false);
+    for _ in 0..6 {
+        engine.render(&camera, &mut fb).unwrap();
+    }
+    engine.set_max_error(bound);
+    let pager = engine.pager();
+    let all = engine.terrain().pyramid().tile_count() as usize;
+    assert_eq!(pager.stats().loaded_tiles + pager.stats().top_tiles, all);
     (engine, fb)
 }
 
@@ -48,7 +57,7 @@ fn pixels_per_metre(engine: &Engine, report: &FrameReport, id: stripmask::db::gr
     let tile = engine.pager().get(id).unwrap();
     let (lo, hi) = engine
         .terrain()
-        .tile_box(id.x, id.y, f64::from(tile.min), f64::from(tile.max));
+        .tile_box(id, f64::from(tile.min), f64::from(tile.max));
     let eye = report.camera.position;
     let distance = Aabb::new(lo - eye, hi - eye).distance(DVec3::ZERO);
     let clearance = engine.settings().clearance;
@@ -82,7 +91,11 @@ fn with_budget_to_spare_every_tile_is_the_coarsest_within_tau() {
             for r in &report.rendered {
                 prop_assert!(r.error_px <= tau + 1e-9, "{:?} over τ = {}", r, tau);
                 worst = worst.max(r.error_px);
-                // The next coarser level would exceed τ: the tile is no finer than it needs.
+                // The next coarser level would exceed τ: the tile is no finer than it needs
+                // (unless it stitches to a tile of another pyramid level).
+                if r.conformed {
+                    continue;
+                }
                 let ppm = pixels_per_metre(engine, &report, r.id);
                 let errors = &engine.pager().get(r.id).unwrap().level_errors;
                 let coarser = engine.masks().levels().iter().filter(|&&l| l > r.level);

@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 
 use stripmask::db::archive::ArchiveReader;
 use stripmask::db::builder::BuildOptions;
-use stripmask::db::grid::{Grid, TileId};
+use stripmask::db::grid::{Pyramid, TileId};
 use stripmask::db::source::http::FINISH_BELOW;
 use stripmask::db::source::{self, CancelToken, TileSource};
 use stripmask::engine::cracks::CrackMode;
@@ -151,7 +151,10 @@ fn a_large_range_the_pager_gives_up_stops_downloading_and_the_tile_can_come_agai
         .unwrap()
         .with_fetch_attempts(1);
     let levels = reader.header().levels();
-    let (offset, len) = reader.level_range(0, 0, 1..levels);
+    let (entry, _) = reader
+        .entry(TileId::new(0, 0), &CancelToken::new())
+        .unwrap();
+    let (offset, len) = entry.range(1..levels);
     assert!(len > 4 * FINISH_BELOW, "levels 1.. take {len} bytes");
     let loader = ArchiveLoader::new(reader, Light::default(), 200.0, CrackMode::Stitch);
     let config = PagerConfig::new(64 << 20, PagerMode::Threaded { queue_depth: 2 });
@@ -159,7 +162,7 @@ fn a_large_range_the_pager_gives_up_stops_downloading_and_the_tile_can_come_agai
         prediction: None,
         ..StreamSettings::default()
     };
-    let mut p = StreamPager::new(loader, Grid::new(1, 1).unwrap(), config, settings).unwrap();
+    let mut p = StreamPager::new(loader, Pyramid::new(1, 1).unwrap(), config, settings).unwrap();
     let tile = TileId::new(0, 0);
     frames_until(&mut p, 1, |p| p.held_levels(tile) == 1);
     let coarse = p.resident().stats().memory_bytes;

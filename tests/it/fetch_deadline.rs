@@ -217,14 +217,14 @@ fn a_failing_fetch_is_tried_as_often_as_the_pager_says_not_times_the_readers_att
         engine.render(&camera, &mut fb).unwrap();
     }
     let stats = engine.pager().stats();
-    let fetched = (header.tile_count() + 1) * retry.max_attempts as usize;
+    let fetched = (header.pyramid().tile_count() as usize + 1) * retry.max_attempts as usize;
     assert!(stats.errors > 0);
     assert!(
         reads.load(Ordering::SeqCst) <= fetched,
-        "{} reads for {} tiles and the base, {} attempts each",
+        "{} reads for {} tiles and the top, {} attempts each",
         reads.load(Ordering::SeqCst),
-        header.tile_count(),
+        header.pyramid().tile_count(),
         retry.max_attempts
     );
-    assert_eq!(stats.base_tiles, 0);
+    assert_eq!(stats.top_tiles, 0);
 }

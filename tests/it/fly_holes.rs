@@ -1,7 +1,8 @@
 //! What `fly` reports of holes and how it paces frames: on the wall clock no frame is shorter
 //! than one at twice the target rate, however empty; the summary and `stats.csv` say which
 //! frames had holes and why; with the PocketPC profile over a model larger than the belts
-//! reach, no frame has a hole once the coarse base arrived, in both streaming modes; a flight
+//! reach, no frame has a hole once the top of the pyramid arrived, in both streaming modes; a
+//! flight
 //! whose every fetch fails ends with an error naming the failed tiles, and a memory limit that
 //! can hold nothing is refused.
 
@@ -105,13 +106,13 @@ fn on_the_wall_clock_frames_waiting_for_tiles_are_paced_and_reported_as_holes() 
     assert_eq!(h.frames, frames);
     assert!(h.hole_frames > 0, "{h}");
     assert_eq!(
-        (h.empty_frames, h.waiting_for_base, h.after_base),
+        (h.empty_frames, h.waiting_for_top, h.after_top),
         (h.hole_frames, h.hole_frames, 0)
     );
-    assert_eq!((h.first_frame_s, h.base_arrived_s), (None, None));
+    assert_eq!((h.first_frame_s, h.top_arrived_s), (None, None));
     let text = h.to_string();
     assert!(
-        text.contains("drew only sky") && text.contains("while the coarse base was on its way"),
+        text.contains("drew only sky") && text.contains("while the top was on its way"),
         "{text}"
     );
     let table = StatsTable::read(&dir.path().join("out").join("stats.csv")).unwrap();
@@ -121,14 +122,14 @@ fn on_the_wall_clock_frames_waiting_for_tiles_are_paced_and_reported_as_holes() 
         holes.iter().filter(|&&n| n > 0.0).count() as u64,
         h.hole_frames
     );
-    assert!(table.column("base_bytes").unwrap().iter().all(|&b| b > 0.0));
+    assert!(table.column("top_bytes").unwrap().iter().all(|&b| b > 0.0));
 }
 
 /// The PocketPC (20 MB, 1 Mbit/s) over 3,969 tiles of 65 x 65 samples, 40 m apart (a model
-/// 102 km across): whole-tile belts reach a few tiles, the view kilometres; once the base is
+/// 102 km across): whole-tile belts reach a few tiles, the view kilometres; once the top is
 /// resident no frame has a hole, with either streaming mode.
 #[test]
-fn a_pocketpc_flight_over_a_large_model_has_no_hole_once_the_base_arrived() {
+fn a_pocketpc_flight_over_a_large_model_has_no_hole_once_the_top_arrived() {
     let dir = tempfile::tempdir().unwrap();
     let path = ridges(dir.path(), 2049);
     let p = DeviceProfile::pocketpc();
@@ -146,10 +147,10 @@ fn a_pocketpc_flight_over_a_large_model_has_no_hole_once_the_base_arrived() {
         let out = dir.path().join(name);
         let s = fly_as(&p, &path, &out, Length::Seconds(30.0), clock, streaming);
         let h = s.holes;
-        let arrived = h.base_arrived_s.unwrap_or_else(|| panic!("{name}: {h}"));
-        assert_eq!(h.after_base, 0, "{name}: {h}");
-        assert_eq!(h.hole_frames, h.waiting_for_base, "{name}: {h}");
-        assert!(h.base_bytes > 0 && h.base_bytes <= s.memory_limit_bytes);
+        let arrived = h.top_arrived_s.unwrap_or_else(|| panic!("{name}: {h}"));
+        assert_eq!(h.after_top, 0, "{name}: {h}");
+        assert_eq!(h.hole_frames, h.waiting_for_top, "{name}: {h}");
+        assert!(h.top_bytes > 0 && h.top_bytes <= s.memory_limit_bytes);
         assert!(
             h.first_full_frame_s.is_some_and(|t| t >= arrived),
             "{name}: {h}"
@@ -175,8 +176,8 @@ fn a_flight_whose_every_fetch_fails_says_which_tiles_failed_and_exits_non_zero()
         let reader = ArchiveReader::open(source::open(archive.to_str().unwrap()).unwrap()).unwrap();
         reader.header().payload_start() as usize
     };
-    // Header and index intact, every payload byte (tiles and the base) flipped: every fetch
-    // fails its checksum.
+    // Header and directory intact, every byte after them (tiles, index pages, the top) flipped:
+    // every fetch fails its checksum.
     let mut bytes = std::fs::read(&archive).unwrap();
     bytes[payload_start..].iter_mut().for_each(|b| *b ^= 0x5a);
     std::fs::write(&archive, bytes).unwrap();
@@ -206,7 +207,7 @@ fn a_flight_whose_every_fetch_fails_says_which_tiles_failed_and_exits_non_zero()
 }
 
 #[test]
-fn a_memory_limit_that_holds_neither_the_base_nor_one_tile_is_refused() {
+fn a_memory_limit_that_holds_neither_the_top_nor_one_tile_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let archive = dir.path().join("plain.smdb");
     plain_archive(&archive);

@@ -106,7 +106,8 @@ fn an_archive_served_by_nginx_checks_and_flies() {
         String::from_utf8_lossy(&info.stderr)
     );
     let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
-    assert_eq!(v["check"]["tiles"], 6);
+    // 3 x 2 tiles, 2 x 1 above them, and the root.
+    assert_eq!(v["check"]["tiles"], 9);
 
     let out = dir.path().join("fly");
     let fly = stripmask()

@@ -6,8 +6,9 @@ use std::time::{Duration, Instant};
 
 use stripmask::db::archive::{ArchiveReader, Codec};
 use stripmask::db::builder::BuildOptions;
-use stripmask::db::grid::Grid;
 use stripmask::db::grid::TileId;
+use stripmask::db::grid::{Grid, Pyramid};
+use stripmask::db::source::CancelToken;
 use stripmask::db::source::file::FileSource;
 use stripmask::db::tile::Tile;
 use stripmask::engine::paging::{
@@ -66,10 +67,10 @@ impl TileLoader for ArchiveLoader {
     }
 
     fn load(&self, id: TileId, ring: u32) -> stripmask::Result<(Tile, u64)> {
-        let mut tile = self.reader.tile(id.x as usize, id.y as usize)?;
+        let (tile, stored) = self.reader.tile_levels(id, self.reader.header().levels())?;
+        let mut tile = tile.expect("no tile of this archive is absent");
         tile.texture_mips.drain(..self.first_mip(ring));
-        let i = (id.y * self.reader.header().tiles_x + id.x) as usize;
-        Ok((tile, self.reader.index()[i].stored_len()))
+        Ok((tile, stored))
     }
 
     fn shrink(&self, tile: &mut Tile, ring: u32) -> usize {
@@ -85,9 +86,8 @@ fn open(path: &Path) -> ArchiveLoader {
     }
 }
 
-fn grid_of(loader: &ArchiveLoader) -> Grid {
-    let h = loader.reader.header();
-    Grid::new(h.tiles_x, h.tiles_y).unwrap()
+fn grid_of(loader: &ArchiveLoader) -> Pyramid {
+    loader.reader.pyramid().clone()
 }
 
 #[test]
@@ -138,15 +138,19 @@ fn a_stepped_pager_fills_the_largest_square_that_fits_from_an_archive() {
             pager.loader().loaded_bytes(tile),
             pager.loader().predicted_bytes(id, ring)
         );
-        let truth = check.reader.tile(id.x as usize, id.y as usize).unwrap();
+        let truth = check.reader.tile(id).unwrap().unwrap();
         assert_eq!(tile.heights, truth.heights, "{id}");
         assert_eq!(
             tile.texture_mips[..],
             truth.texture_mips[ring.saturating_sub(1) as usize..]
         );
-        downloaded += check.reader.index()[(id.y * 8 + id.x) as usize].stored_len();
+        let (entry, _) = check.reader.entry(id, &CancelToken::new()).unwrap();
+        downloaded += entry.stored_len();
     }
-    assert_eq!(s.downloaded_bytes, downloaded);
+    // The tiles' bytes, and the index pages read to find them (none for the tiles of the top,
+    // which the directory lists).
+    let index = pager.loader().reader.index_bytes_read();
+    assert_eq!(s.downloaded_bytes, downloaded + index);
     // One tile west: belt 2 around (2, 3) misses the column x = 0; tiles leaving belt 1 shrink.
     for _ in 0..20 {
         pager.update((2.5, 3.5));

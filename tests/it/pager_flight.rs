@@ -8,8 +8,8 @@ use std::time::{Duration, Instant};
 
 use proptest::prelude::*;
 use stripmask::Error;
-use stripmask::db::grid::Grid;
 use stripmask::db::grid::TileId;
+use stripmask::db::grid::{Grid, Pyramid};
 use stripmask::engine::paging::{
     BeltPager, PagerConfig, PagerMode, ResidentLoader, TileLoader, TileState,
 };
@@ -108,7 +108,7 @@ fn stepped(n: usize) -> PagerMode {
 fn pager(fake: Fake, w: u32, h: u32, limit: usize, mode: PagerMode) -> BeltPager<Fake> {
     BeltPager::new(
         fake,
-        Grid::new(w, h).unwrap(),
+        Pyramid::new(w, h).unwrap(),
         PagerConfig::new(limit, mode),
     )
     .unwrap()
@@ -303,7 +303,7 @@ fn off_the_terrain_without_nearest_nothing_new_is_fetched_and_the_tiles_stay_as_
     let fake = Fake::new(|_, _| 10);
     let mut config = PagerConfig::new(usize::MAX, stepped(100));
     config.nearest_when_off = false;
-    let mut p = BeltPager::new(fake, Grid::new(8, 6).unwrap(), config).unwrap();
+    let mut p = BeltPager::new(fake, Pyramid::new(8, 6).unwrap(), config).unwrap();
     for _ in 0..5 {
         p.update((-3.0, 2.5));
     }
@@ -418,7 +418,7 @@ fn failed_fetches_are_retried_then_given_up_and_the_pager_carries_on() {
         delay_updates: 2,
         ..RetryPolicy::default()
     };
-    let mut p = BeltPager::new(fake, Grid::new(5, 5).unwrap(), config).unwrap();
+    let mut p = BeltPager::new(fake, Pyramid::new(5, 5).unwrap(), config).unwrap();
     p.update(center_of(TileId::new(2, 2)));
     check(&p);
     assert_eq!(p.resident().state(TileId::new(2, 2)), TileState::Failed);
@@ -561,7 +561,8 @@ proptest! {
         let grid = Grid::new(w, h).unwrap();
         let mut config = PagerConfig::new(limit, stepped(fetches));
         config.nearest_when_off = nearest;
-        let mut p = BeltPager::new(Fake::new(cost.clone()), grid, config).unwrap();
+        let pyramid = Pyramid::new(w, h).unwrap();
+        let mut p = BeltPager::new(Fake::new(cost.clone()), pyramid, config).unwrap();
         let mut at = start;
         let mut before: Option<(Option<TileId>, Vec<TileId>)> = None;
         for s in &steps {

@@ -5,8 +5,8 @@
 
 use std::sync::{Arc, Mutex};
 
-use stripmask::db::grid::Grid;
 use stripmask::db::grid::TileId;
+use stripmask::db::grid::{Grid, Pyramid};
 use stripmask::engine::paging::{
     BeltPager, PagerConfig, PagerMode, ResidentLoader, TileLoader, TransferClock,
 };
@@ -73,7 +73,7 @@ fn rig(grid: (u32, u32), limit: usize, queue_depth: usize, seconds: f64) -> Rig 
         log: Arc::clone(&log),
     };
     let config = PagerConfig::new(limit, PagerMode::Simulated { queue_depth });
-    let mut pager = BeltPager::new(loader, Grid::new(grid.0, grid.1).unwrap(), config).unwrap();
+    let mut pager = BeltPager::new(loader, Pyramid::new(grid.0, grid.1).unwrap(), config).unwrap();
     pager.set_transfer_clock(meter);
     Rig { pager, log }
 }

@@ -16,6 +16,7 @@ use glam::{DVec3, DVec4};
 use stripmask::db::archive::{ArchiveReader, ArchiveWriter, compress};
 use stripmask::db::builder::{BuildOptions, build};
 use stripmask::db::dem::{self, FillStats, OpenOptions};
+use stripmask::db::grid::TileId;
 use stripmask::db::rgb565::mip_chain;
 use stripmask::db::source;
 use stripmask::db::source::file::FileSource;
@@ -79,6 +80,7 @@ fn puget(dir: &Path) -> Model {
         tile_size: 65,
         spacing: Some(160.0),
         vertical_scale: 0.1,
+        height_quantum: Some(0.125),
         ..BuildOptions::default()
     };
     build(
@@ -124,29 +126,33 @@ fn swells(dir: &Path) -> Model {
 
 /// `model` with every tile's texture hill-shaded from the tile's own samples alone: one-sided
 /// gradients at its borders, so that the two tiles sharing a border hold different texels on
-/// it. Everything else (heights, aprons, the base) is as built.
+/// it, at every level of the pyramid. Everything else (heights, aprons, errors) is as built.
 fn seamed(model: Model, dir: &Path) -> Model {
     let archive = ArchiveReader::open(FileSource::open(&model.path).unwrap()).unwrap();
     let header = archive.header().clone();
     let (s, t) = (header.tile_size as usize, header.texture_size as usize);
     let path = dir.join("seamed.smdb");
     let mut writer = ArchiveWriter::create(&path, header.clone()).unwrap();
-    for ty in 0..header.tiles_y as usize {
-        for tx in 0..header.tiles_x as usize {
-            let mut tile = archive.tile(tx, ty).unwrap();
-            let own = shaded(s, header.spacing as f32, t / (s - 1), |i, j| {
-                match (usize::try_from(i), usize::try_from(j)) {
-                    (Ok(i), Ok(j)) if i < s && j < s => Some(tile.height(i, j)),
-                    _ => None,
-                }
-            });
-            tile.texture_mips = mip_chain(&own, t);
-            let chunks: Vec<Vec<u8>> = (0..tile.levels)
-                .map(|g| compress(&tile.encode_level(g), header.codec))
-                .collect();
-            writer
-                .write_tile(ty * header.tiles_x as usize + tx, &chunks)
-                .unwrap();
+    let pyramid = archive.pyramid().clone();
+    for k in 0..pyramid.levels() as u8 {
+        let grid = pyramid.grid(k);
+        let spacing = header.spacing as f32 * f32::from(1u16 << k);
+        for ty in 0..grid.tiles_y() {
+            for tx in 0..grid.tiles_x() {
+                let id = TileId::at(k, tx, ty);
+                let mut tile = archive.tile(id).unwrap().unwrap();
+                let own = shaded(s, spacing, t / (s - 1), |i, j| {
+                    match (usize::try_from(i), usize::try_from(j)) {
+                        (Ok(i), Ok(j)) if i < s && j < s => Some(tile.height(i, j)),
+                        _ => None,
+                    }
+                });
+                tile.texture_mips = mip_chain(&own, t);
+                let chunks: Vec<Vec<u8>> = (0..tile.levels)
+                    .map(|g| compress(&tile.encode_level(g), header.codec))
+                    .collect();
+                writer.write_tile(id, chunks).unwrap();
+            }
         }
     }
     let nodata = FillStats {
@@ -400,7 +406,10 @@ fn texels_show_as_much_detail_on_a_border_as_inside_a_tile() {
         archive.header().tiles_y as usize,
     );
     let tiles: Vec<Tile> = (0..nx * ny)
-        .map(|k| archive.tile(k % nx, k / nx).unwrap())
+        .map(|k| {
+            let id = TileId::new((k % nx) as u32, (k / nx) as u32);
+            archive.tile(id).unwrap().unwrap()
+        })
         .collect();
     let t = tiles[0].texture_size;
     // The two tiles sharing a border hold the same texels on it, at every mip but the last
@@ -463,7 +472,11 @@ fn neighbours_holding_the_same_level_light_their_shared_border_alike() {
     let model = puget(dir.path());
     let archive = ArchiveReader::open(FileSource::open(&model.path).unwrap()).unwrap();
     let resident = |tx, ty, levels| {
-        let tile = archive.tile(tx, ty).unwrap().truncated(levels);
+        let tile = archive
+            .tile(TileId::new(tx, ty))
+            .unwrap()
+            .unwrap()
+            .truncated(levels);
         ResidentTile::new(&tile, 0, 160.0, &Light::default(), CrackMode::None)
     };
     for levels in 1..=7 {

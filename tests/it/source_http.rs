@@ -8,7 +8,9 @@ use stripmask::Error;
 use stripmask::db::archive::ArchiveReader;
 use stripmask::db::builder::{BuildOptions, build};
 use stripmask::db::dem::{MemoryReader, NodataFill};
+use stripmask::db::grid::TileId;
 use stripmask::db::server::Server;
+use stripmask::db::source::CancelToken;
 use stripmask::db::source::TileSource;
 use stripmask::db::source::file::FileSource;
 use stripmask::db::source::http::HttpSource;
@@ -51,11 +53,20 @@ fn http_source_reads_the_same_tiles_as_the_file_source() {
     let http = ArchiveReader::open(HttpSource::new(server.url())).unwrap();
     let file = ArchiveReader::open(FileSource::open(&path).unwrap()).unwrap();
     assert_eq!(http.header(), file.header());
-    assert_eq!(http.index(), file.index());
-    for i in 0..file.index().len() {
-        assert_eq!(http.tile_bytes(i).unwrap(), file.tile_bytes(i).unwrap());
+    assert_eq!(http.directory(), file.directory());
+    let all = file.header().levels();
+    for id in file.pyramid().tiles() {
+        let cancel = CancelToken::new();
+        assert_eq!(
+            http.entry(id, &cancel).unwrap().0,
+            file.entry(id, &cancel).unwrap().0
+        );
+        assert_eq!(
+            http.read_levels(id, 0..all).unwrap(),
+            file.read_levels(id, 0..all).unwrap()
+        );
     }
-    assert_eq!(http.tile(3, 2).unwrap(), file.tile(3, 2).unwrap());
+    assert_eq!(http.top().unwrap(), file.top().unwrap());
 }
 
 #[test]
@@ -139,8 +150,8 @@ fn a_lossy_link_is_survived_by_retries_and_a_dead_one_gives_a_clear_error() {
     let server = Server::start(&path, loopback(), lossy).unwrap();
     let reader = ArchiveReader::open_with_attempts(HttpSource::new(server.url()), 12).unwrap();
     let file = ArchiveReader::open(FileSource::open(&path).unwrap()).unwrap();
-    for i in 0..file.index().len() {
-        assert_eq!(reader.tile_bytes(i).unwrap(), file.tile_bytes(i).unwrap());
+    for id in file.pyramid().tiles() {
+        assert_eq!(reader.tile(id).unwrap(), file.tile(id).unwrap());
     }
     drop(server);
 
@@ -160,25 +171,29 @@ fn a_lossy_link_is_survived_by_retries_and_a_dead_one_gives_a_clear_error() {
 fn a_corrupt_tile_on_the_server_fails_its_checksum_by_url() {
     let dir = tempfile::tempdir().unwrap();
     let path = archive(dir.path());
-    let entry = ArchiveReader::open(FileSource::open(&path).unwrap())
+    let id = TileId::new(2, 0);
+    let (entry, _) = ArchiveReader::open(FileSource::open(&path).unwrap())
         .unwrap()
-        .index()[2]
-        .clone();
+        .entry(id, &CancelToken::new())
+        .unwrap();
     let mut bytes = std::fs::read(&path).unwrap();
     bytes[entry.offset as usize] ^= 0x55;
     std::fs::write(&path, bytes).unwrap();
     let server = Server::start(&path, loopback(), LinkProfile::default()).unwrap();
     let reader = ArchiveReader::open_with_attempts(HttpSource::new(server.url()), 2).unwrap();
-    match reader.tile_bytes(2) {
+    match reader.tile(id) {
         Err(Error::Checksum {
             name,
-            tile: 2,
+            tile,
             attempts: 2,
             ..
-        }) => assert_eq!(name, server.url()),
+        }) => assert_eq!(
+            (name.as_str(), tile.as_str()),
+            (server.url(), "tile (2, 0)")
+        ),
         other => panic!("{other:?}"),
     }
-    reader.tile_bytes(1).unwrap();
+    reader.tile(TileId::new(1, 0)).unwrap();
 }
 
 #[test]
@@ -240,7 +255,7 @@ fn large_answers_keep_their_content_length() {
         .unwrap();
     assert_eq!(r.headers()["content-length"].to_str().unwrap(), "50000");
     let reader = ArchiveReader::open(source).unwrap();
-    reader.tile(0, 0).unwrap();
+    reader.tile(TileId::new(0, 0)).unwrap();
 }
 
 #[test]
@@ -260,5 +275,5 @@ fn simulated_link_without_a_network_drops_and_delays_deterministically() {
     let replay: Vec<bool> = (0..20).map(|_| again.read_range(0, 4).is_ok()).collect();
     assert_eq!(outcomes, replay);
     let reader = ArchiveReader::open_with_attempts(link, 16).unwrap();
-    reader.tile(0, 0).unwrap();
+    reader.tile(TileId::new(0, 0)).unwrap();
 }

@@ -8,7 +8,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
 use proptest::prelude::*;
-use stripmask::db::grid::Grid;
+use stripmask::db::grid::Pyramid;
 use stripmask::db::grid::TileId;
 use stripmask::db::source::CancelToken;
 use stripmask::engine::paging::stream::{
@@ -88,12 +88,16 @@ impl LevelLoader for Synthetic {
         tile.levels = tile.levels.min(levels.max(1));
         bytes_at(tile.levels)
     }
+
+    fn is_absent(&self, _: &Held) -> bool {
+        false
+    }
 }
 
 fn pager(limit: usize, tiles: u32, fetches_per_update: usize) -> StreamPager<Synthetic> {
     StreamPager::new(
         Synthetic::default(),
-        Grid::new(tiles, tiles).unwrap(),
+        Pyramid::new(tiles, tiles).unwrap(),
         PagerConfig::new(limit, PagerMode::Stepped { fetches_per_update }),
         StreamSettings::default(),
     )
@@ -255,7 +259,7 @@ fn a_broken_tile_is_retried_then_given_up_without_stopping_the_square() {
     loader.broken.lock().unwrap().push(TileId::new(1, 0));
     let mut p = StreamPager::new(
         loader,
-        Grid::new(3, 3).unwrap(),
+        Pyramid::new(3, 3).unwrap(),
         PagerConfig::new(
             1 << 20,
             PagerMode::Stepped {
@@ -350,7 +354,8 @@ fn link_of(
     let loader = Synthetic::default();
     let clock = PerFetch(Arc::clone(&loader.fetched), seconds);
     let config = PagerConfig::new(1 << 20, PagerMode::Simulated { queue_depth });
-    let mut p = StreamPager::new(loader, Grid::new(tiles, 1).unwrap(), config, settings).unwrap();
+    let mut p =
+        StreamPager::new(loader, Pyramid::new(tiles, 1).unwrap(), config, settings).unwrap();
     p.set_transfer_clock(Arc::new(clock));
     p
 }
@@ -462,7 +467,7 @@ proptest! {
         let config = PagerConfig::new(limit, PagerMode::Stepped { fetches_per_update: 2 });
         let settings = StreamSettings { queue_capacity: capacity, ..StreamSettings::default() };
         let mut p =
-            StreamPager::new(Synthetic::default(), Grid::new(6, 6).unwrap(), config, settings)
+            StreamPager::new(Synthetic::default(), Pyramid::new(6, 6).unwrap(), config, settings)
                 .unwrap();
         for (k, &viewer) in path.iter().enumerate() {
             p.set_time(0.25 * k as f64);

@@ -1,24 +1,29 @@
-//! The `.smdb` archive: one file with a header, an index and the tile payloads.
+//! The `.smdb` archive: one file with a header, a small directory, the tile payloads of every
+//! level of the pyramid, the index pages that locate them, and the top of the pyramid.
 //!
 //! All integers and floats are little-endian. The byte-level description, enough for another
 //! implementation, is in `docs/archive-format.md`; in short:
 //!
-//! * header, [`HEADER_LEN`] bytes: magic, version, grid (tiles across/down, tile size, texture
-//!   size), payload codec, source dimensions, spacing, vertical scale, origin, height range of the
-//!   valid samples, the nodata samples the build filled and flattened, crc32;
-//! * index, one entry per tile in row-major tile order: offset u64, then per progressive level
-//!   the end u32 of its chunk (stored bytes from the tile's offset) and the crc32 u32 of the
-//!   chunk's stored bytes; then the crc32 of the index;
-//! * the payloads: each tile's progressive chunks ([`crate::db::tile`]), coarse first, each
-//!   compressed on its own as the header's codec says, so any one range decodes alone;
-//! * the base: the first [`Header::base_levels`] chunks of every tile again, in tile order, so
-//!   that a client gets a coarse copy of the whole terrain with one more request.
+//! * header, [`HEADER_LEN`] bytes: magic, version, the level-0 grid (tiles across/down, tile
+//!   size, texture size), payload codec, source dimensions, the top's place, spacing, vertical
+//!   scale, origin, height range of the valid samples, the nodata the build filled, the absent
+//!   tiles, the archive's length, crc32;
+//! * the directory: per pyramid level the offset of its page table, then the index entries of
+//!   the top's tiles, then a crc32 ([`index::Directory`]);
+//! * the payloads: each present tile's progressive chunks ([`crate::db::tile`]), coarse first,
+//!   each compressed on its own as the header's codec says, so any one range decodes alone;
+//! * index pages: the entries of a block of [`PAGE_SIDE`]² tiles of one level, found through
+//!   the level's page table (chunks of entries, each with its crc32);
+//! * the top: the payloads of the root and the levels below it that fit a small allowance,
+//!   contiguous, so that a client holds a coarse copy of the whole terrain after one request.
 //!
-//! A client reads the header and the index (the paper's "main file") in two range requests, the
-//! base in one, then any range of levels of any tile in one more: tile `(tx, ty)` is entry
-//! `ty * tiles_x + tx`.
+//! Opening an archive reads the header and the directory: a few kilobytes, whatever the model's
+//! size. Everything else is read by region: a tile's entry comes with its index page (one table
+//! chunk and one page, each cached), its levels with one more range request.
 
 mod check;
+mod index;
+mod index_cache;
 pub mod partial;
 mod reader;
 mod writer;
@@ -27,19 +32,24 @@ use std::ops::Range;
 
 use serde::Serialize;
 
+use crate::db::grid::Pyramid;
 use crate::db::tile::{MAX_TEXTURE_SIZE, level_payload_size, progressive_levels};
 use crate::db::tiling::is_valid_tile_size;
 use crate::error::{Error, Result};
 use crate::named::named_enum;
 
 pub use check::CheckReport;
+pub use index::{
+    Directory, IndexEntry, LevelEntry, PageRef, PageSlot, TABLE_CHUNK_ENTRIES, page_count, page_of,
+    page_tiles, parse_page, parse_table_chunk, table_chunk,
+};
 pub use reader::{ArchiveReader, DEFAULT_ATTEMPTS, LevelBytes, RETRY_BACKOFF};
 pub use writer::ArchiveWriter;
 
 /// The first 8 bytes of every archive.
 pub const MAGIC: [u8; 8] = *b"SMDB\r\n\x1a\n";
 /// The format version this crate writes and reads (older archives are refused with what to do).
-pub const VERSION: u32 = 6;
+pub const VERSION: u32 = 7;
 
 /// What an archive of an older `version` lacks, when it is one this crate knows.
 fn older_version(version: u32) -> Option<&'static str> {
@@ -47,15 +57,25 @@ fn older_version(version: u32) -> Option<&'static str> {
         2 => Some("stores whole-tile payloads"),
         3 | 4 => Some("has no apron, so tile borders would be lit from one side"),
         5 => Some("does not record the nodata its build filled"),
+        6 => Some(
+            "has no pyramid of overview tiles and an index read whole, so its cost grows with \
+             its size",
+        ),
         _ => None,
     }
 }
 /// Bytes in the header.
-pub const HEADER_LEN: usize = 112;
-/// The most tiles an archive may hold.
-pub const MAX_TILES: usize = 1 << 24;
-/// The largest index a reader accepts (bounds what it allocates: 256 MiB).
-pub const MAX_INDEX_LEN: usize = 1 << 28;
+pub const HEADER_LEN: usize = 156;
+/// Tiles per side of the block one index page holds.
+pub const PAGE_SIDE: u32 = 8;
+/// The most tiles the top may hold: the root and three levels below it.
+pub const TOP_MAX_TILES: usize = 1 + 4 + 16 + 64;
+/// The stored bytes the top may take beyond the root: the root and every level below it whose
+/// tiles fit this allowance together are fetched with one request before anything else.
+pub const TOP_BYTES: u64 = 96 << 10;
+/// The most tiles across or down level 0 may have (the Earth at 30 m in tiles of 65 is about
+/// 20,000 x 10,000).
+pub const MAX_TILES_PER_SIDE: u32 = 1 << 24;
 /// The widest spacing between samples an archive may have, metres.
 pub const MAX_SPACING: f64 = 1e5;
 /// The narrowest spacing between samples an archive may have, metres (a millimetre): below it,
@@ -109,11 +129,11 @@ impl Codec {
 /// The archive header: the grid description.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Header {
-    /// Tiles across (west to east).
+    /// Level-0 tiles across (west to east).
     pub tiles_x: u32,
-    /// Tiles down (north to south).
+    /// Level-0 tiles down (north to south).
     pub tiles_y: u32,
-    /// Samples per tile side, `2^n + 1`.
+    /// Samples per tile side, `2^n + 1`, the same at every pyramid level.
     pub tile_size: u32,
     /// Texels per tile texture side (finest mip), a power of two.
     pub texture_size: u32,
@@ -123,7 +143,7 @@ pub struct Header {
     pub source_width: u32,
     /// Rows of the source DEM (before padding).
     pub source_height: u32,
-    /// Metres between neighbouring samples.
+    /// Metres between neighbouring samples of level 0.
     pub spacing: f64,
     /// Metres per raw height unit that the build applied.
     pub vertical_scale: f64,
@@ -137,21 +157,38 @@ pub struct Header {
     pub max_height: f32,
     /// Metres per height quantum, the same in every tile (see [`crate::db::tile`]).
     pub height_quantum: f32,
-    /// Progressive levels of every tile stored again after the payloads, as the base (0: no
-    /// base).
-    pub base_levels: u32,
     /// Nodata samples of the source that the build filled from their nearest valid neighbours,
     /// so that `info` can say how much of the terrain was made up.
     pub nodata_filled: u64,
     /// Nodata samples in large nodata areas, far from any valid one, that the build drew flat
     /// at the lowest valid height around them.
     pub nodata_flattened: u64,
+    /// Level-0 tiles whose every sample is nodata, stored as absent: no payload, nothing drawn.
+    pub absent_tiles: u64,
+    /// The finest pyramid level of the top: levels `top_level ..` up to the root.
+    pub top_level: u32,
+    /// Offset of the top's payloads, contiguous.
+    pub top_offset: u64,
+    /// Stored bytes of the top's payloads.
+    pub top_len: u64,
+    /// Bytes of the whole archive: a file of another length is truncated or grown.
+    pub archive_len: u64,
 }
 
 impl Header {
-    /// Number of tiles.
-    pub fn tile_count(&self) -> usize {
-        self.tiles_x as usize * self.tiles_y as usize
+    /// The pyramid over the level-0 grid (validated headers only: the grid is not empty).
+    pub fn pyramid(&self) -> Pyramid {
+        Pyramid::new(self.tiles_x, self.tiles_y).expect("a validated header has tiles")
+    }
+
+    /// Pyramid levels, the root's included.
+    pub fn pyramid_levels(&self) -> usize {
+        pyramid_levels(self.tiles_x, self.tiles_y)
+    }
+
+    /// Level-0 tiles.
+    pub fn tile_count(&self) -> u64 {
+        u64::from(self.tiles_x) * u64::from(self.tiles_y)
     }
 
     /// Progressive levels (payload chunks) of every tile.
@@ -164,14 +201,23 @@ impl Header {
         8 + 8 * self.levels()
     }
 
-    /// Bytes of the index including its trailing crc32.
-    pub fn index_len(&self) -> usize {
-        self.tile_count() * self.index_entry_len() + 4
+    /// Tiles of the top: every tile of levels `top_level ..= root`.
+    pub fn top_tiles(&self) -> usize {
+        let pyramid = self.pyramid();
+        (self.top_level as usize..pyramid.levels())
+            .map(|k| pyramid.grid(k as u8).tile_count() as usize)
+            .sum()
     }
 
-    /// Offset of the first payload byte.
+    /// Bytes of the directory: the page tables' offsets, the top's entries and a crc32.
+    pub fn directory_len(&self) -> usize {
+        8 * self.pyramid_levels() + self.top_tiles() * self.index_entry_len() + 4
+    }
+
+    /// Offset of the first payload byte: after the header and the room the directory may
+    /// take (a top of [`TOP_MAX_TILES`] tiles).
     pub fn payload_start(&self) -> u64 {
-        (HEADER_LEN + self.index_len()) as u64
+        (HEADER_LEN + 8 * self.pyramid_levels() + TOP_MAX_TILES * self.index_entry_len() + 4) as u64
     }
 
     /// Uncompressed bytes of progressive chunk `level` of every tile.
@@ -198,7 +244,9 @@ impl Header {
             self.codec.id(),
             self.source_width,
             self.source_height,
-            self.base_levels,
+            self.top_level,
+            self.top_tiles() as u32,
+            PAGE_SIDE,
         ] {
             b.extend_from_slice(&v.to_le_bytes());
         }
@@ -213,15 +261,24 @@ impl Header {
         b.extend_from_slice(&self.min_height.to_le_bytes());
         b.extend_from_slice(&self.max_height.to_le_bytes());
         b.extend_from_slice(&self.height_quantum.to_le_bytes());
-        b.extend_from_slice(&self.nodata_filled.to_le_bytes());
-        b.extend_from_slice(&self.nodata_flattened.to_le_bytes());
+        b.extend_from_slice(&(self.directory_len() as u32).to_le_bytes());
+        for v in [
+            self.nodata_filled,
+            self.nodata_flattened,
+            self.absent_tiles,
+            self.top_offset,
+            self.top_len,
+            self.archive_len,
+        ] {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
         let crc = crc32fast::hash(&b);
         b.extend_from_slice(&crc.to_le_bytes());
         b.try_into().expect("header is HEADER_LEN bytes")
     }
 
     /// Checks every number of the header against what a reader (and the engine after it) can
-    /// work with: tile counts, index size, levels, texture size, and finite, bounded spacing,
+    /// work with: tile counts, levels, texture size, the top, and finite, bounded spacing,
     /// extent, origin and heights. The reader calls it on every header it parses, and `build`
     /// before it writes anything, so a build never writes what a reader would refuse.
     pub fn validate(&self, name: &str) -> Result<()> {
@@ -230,33 +287,9 @@ impl Header {
             .map_err(|problem| Error::invalid(name, problem))
     }
 
-    /// Tile counts, sizes, the index and the base: what the reader allocates by.
+    /// Tile counts, sizes and the top: what the reader allocates by.
     fn check_layout(&self) -> std::result::Result<(), String> {
-        let count = self.tiles_x as usize * self.tiles_y as usize;
-        if count == 0 || count > MAX_TILES {
-            return Err(format!(
-                "{} x {} tiles is outside 1 ..= {MAX_TILES}",
-                self.tiles_x, self.tiles_y
-            ));
-        }
-        if !is_valid_tile_size(self.tile_size as usize) {
-            return Err(format!("tile size {} is not 2^n + 1", self.tile_size));
-        }
-        if self.index_len() > MAX_INDEX_LEN {
-            return Err(format!(
-                "the index of {} x {} tiles would take {} bytes, more than {MAX_INDEX_LEN}",
-                self.tiles_x,
-                self.tiles_y,
-                self.index_len()
-            ));
-        }
-        if self.base_levels as usize > self.levels() {
-            return Err(format!(
-                "a base of {} levels, but tiles have {}",
-                self.base_levels,
-                self.levels()
-            ));
-        }
+        self.check_layout_grid()?;
         let t = self.texture_size as usize;
         if !t.is_power_of_two() || t > MAX_TEXTURE_SIZE {
             return Err(format!(
@@ -270,6 +303,22 @@ impl Header {
                 "{} nodata samples filled and {} flattened, more than the {samples} samples \
                  of the {} x {} model",
                 self.nodata_filled, self.nodata_flattened, self.source_width, self.source_height
+            ));
+        }
+        if self.absent_tiles > self.tile_count() {
+            return Err(format!(
+                "{} absent tiles of {}",
+                self.absent_tiles,
+                self.tile_count()
+            ));
+        }
+        let top_end = self.top_offset.checked_add(self.top_len);
+        if top_end.is_none_or(|end| end > self.archive_len)
+            || (self.top_len > 0 && self.top_offset < self.payload_start())
+        {
+            return Err(format!(
+                "the top ({} bytes at offset {}) lies outside the {}-byte archive's payloads",
+                self.top_len, self.top_offset, self.archive_len
             ));
         }
         Ok(())
@@ -308,11 +357,9 @@ impl Header {
                 self.height_quantum
             ));
         }
-        let side = f64::from(
-            self.source_width
-                .max(self.source_height)
-                .max(self.tile_size),
-        );
+        let cells = (self.tile_size - 1) as f64;
+        let side = (f64::from(self.tiles_x.max(self.tiles_y)) * cells)
+            .max(f64::from(self.source_width.max(self.source_height)));
         let extent = self.spacing * side;
         if extent > MAX_EXTENT
             || self.origin_x.abs() > MAX_EXTENT
@@ -352,28 +399,30 @@ impl Header {
         if bytes[..n] != MAGIC[..n] {
             return Err(bad("bad magic: not a stripmask archive (.smdb)".into()));
         }
+        let u = |k: usize| u32::from_le_bytes(bytes[k..k + 4].try_into().expect("4 bytes"));
+        if bytes.len() >= 12 {
+            let version = u(8);
+            if let Some(why) = older_version(version) {
+                return Err(bad(format!(
+                    "archive version {version} {why}; this build reads version {VERSION}: \
+                     rebuild it with `stripmask build`"
+                )));
+            }
+            if version != VERSION {
+                return Err(bad(format!(
+                    "archive version {version}, this build reads version {VERSION}"
+                )));
+            }
+        }
         if bytes.len() < HEADER_LEN {
             return Err(bad(format!(
                 "truncated header: {} of {HEADER_LEN} bytes",
                 bytes.len()
             )));
         }
-        let u = |k: usize| u32::from_le_bytes(bytes[k..k + 4].try_into().expect("4 bytes"));
         let f = |k: usize| f64::from_le_bytes(bytes[k..k + 8].try_into().expect("8 bytes"));
         let g = |k: usize| f32::from_le_bytes(bytes[k..k + 4].try_into().expect("4 bytes"));
         let l = |k: usize| u64::from_le_bytes(bytes[k..k + 8].try_into().expect("8 bytes"));
-        let version = u(8);
-        if let Some(why) = older_version(version) {
-            return Err(bad(format!(
-                "archive version {version} {why}; this build reads version {VERSION}: rebuild \
-                 it with `stripmask build`"
-            )));
-        }
-        if version != VERSION {
-            return Err(bad(format!(
-                "archive version {version}, this build reads version {VERSION}"
-            )));
-        }
         if u(12) as usize != HEADER_LEN {
             return Err(bad(format!("header length {} is not {HEADER_LEN}", u(12))));
         }
@@ -383,6 +432,12 @@ impl Header {
         }
         let codec =
             Codec::from_id(u(32)).ok_or_else(|| bad(format!("unknown payload codec {}", u(32))))?;
+        if u(52) != PAGE_SIDE {
+            return Err(bad(format!(
+                "index pages of {} tiles a side, this build reads {PAGE_SIDE}",
+                u(52)
+            )));
+        }
         let h = Header {
             tiles_x: u(16),
             tiles_y: u(20),
@@ -391,198 +446,73 @@ impl Header {
             codec,
             source_width: u(36),
             source_height: u(40),
-            spacing: f(48),
-            vertical_scale: f(56),
-            origin_x: f(64),
-            origin_y: f(72),
-            min_height: g(80),
-            max_height: g(84),
-            height_quantum: g(88),
-            base_levels: u(44),
-            nodata_filled: l(92),
-            nodata_flattened: l(100),
+            top_level: u(44),
+            spacing: f(56),
+            vertical_scale: f(64),
+            origin_x: f(72),
+            origin_y: f(80),
+            min_height: g(88),
+            max_height: g(92),
+            height_quantum: g(96),
+            nodata_filled: l(104),
+            nodata_flattened: l(112),
+            absent_tiles: l(120),
+            top_offset: l(128),
+            top_len: l(136),
+            archive_len: l(144),
         };
+        // The grid first: the top's size below is computed from it.
+        h.check_layout_grid().map_err(&bad)?;
+        if u(48) as usize != h.top_tiles() || u(100) as usize != h.directory_len() {
+            return Err(bad(format!(
+                "a top of {} tiles and a directory of {} bytes, where levels {} .. of a {} x {} \
+                 grid make {} tiles and {} bytes",
+                u(48),
+                u(100),
+                h.top_level,
+                h.tiles_x,
+                h.tiles_y,
+                h.top_tiles(),
+                h.directory_len()
+            )));
+        }
         h.validate(name)?;
         Ok(h)
     }
-}
 
-/// Where one tile's stored chunks are: chunk `g` is bytes `[end(g - 1), end(g))` after the
-/// tile's offset, so the bytes of any range of levels are one contiguous range.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
-pub struct IndexEntry {
-    /// Offset of chunk 0 from the start of the file.
-    pub offset: u64,
-    /// One entry per progressive level, coarse first.
-    pub levels: Vec<LevelEntry>,
-}
-
-/// Where one progressive chunk of a tile ends, and its checksum.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-pub struct LevelEntry {
-    /// Stored bytes from the tile's offset through this chunk.
-    pub end: u32,
-    /// crc32 (IEEE) of this chunk's stored bytes.
-    pub crc32: u32,
-}
-
-impl IndexEntry {
-    /// Stored bytes of the first `levels` chunks (what the base holds of this tile).
-    pub fn prefix_len(&self, levels: usize) -> u64 {
-        self.start_of(levels)
-    }
-
-    /// Stored bytes of the whole tile.
-    pub fn stored_len(&self) -> u64 {
-        self.levels.last().map_or(0, |l| u64::from(l.end))
-    }
-
-    /// The byte range (file offset, length) of the chunks of `levels`. Panics unless `levels`
-    /// lies within the tile's levels.
-    pub fn range(&self, levels: Range<usize>) -> (u64, u64) {
-        let start = self.start_of(levels.start);
-        let end = self.start_of(levels.end);
-        assert!(start <= end, "level range {levels:?} is reversed");
-        (self.offset + start, end - start)
-    }
-
-    /// Stored bytes before chunk `level` (`level` may be one past the last).
-    fn start_of(&self, level: usize) -> u64 {
-        match level {
-            0 => 0,
-            g => u64::from(self.levels[g - 1].end),
-        }
-    }
-}
-
-/// Where the base lies, given the index: right after the last payload, each tile's first
-/// `base_levels` chunks in tile order. Returns (file offset, length).
-pub fn base_range(index: &[IndexEntry], base_levels: usize) -> (u64, u64) {
-    let end = index
-        .iter()
-        .map(|e| e.offset + e.stored_len())
-        .max()
-        .unwrap_or(0);
-    let len = index.iter().map(|e| e.prefix_len(base_levels)).sum();
-    (end, len)
-}
-
-/// Serialises the index with its trailing crc32.
-pub fn index_to_bytes(entries: &[IndexEntry]) -> Vec<u8> {
-    let mut b = Vec::new();
-    for e in entries {
-        b.extend_from_slice(&e.offset.to_le_bytes());
-        for l in &e.levels {
-            b.extend_from_slice(&l.end.to_le_bytes());
-            b.extend_from_slice(&l.crc32.to_le_bytes());
-        }
-    }
-    let crc = crc32fast::hash(&b);
-    b.extend_from_slice(&crc.to_le_bytes());
-    b
-}
-
-/// Parses and validates the index of `header`; `file_len`, when known, bounds the entries.
-pub fn parse_index(
-    bytes: &[u8],
-    header: &Header,
-    file_len: Option<u64>,
-    name: &str,
-) -> Result<Vec<IndexEntry>> {
-    let (n, entry_len) = (header.tile_count(), header.index_entry_len());
-    if bytes.len() < header.index_len() {
-        return Err(Error::invalid(
-            name,
-            format!(
-                "truncated index: {} of {} bytes",
-                bytes.len(),
-                header.index_len()
-            ),
-        ));
-    }
-    let body = &bytes[..n * entry_len];
-    let stored = u32::from_le_bytes(bytes[n * entry_len..][..4].try_into().expect("4"));
-    if crc32fast::hash(body) != stored {
-        return Err(Error::invalid(
-            name,
-            "index checksum mismatch (corrupt index)",
-        ));
-    }
-    let bounds: Vec<u64> = (0..header.levels())
-        .map(|g| stored_bound(header.codec, header.level_payload_size(g)) as u64)
-        .collect();
-    let u32_at = |e: &[u8], k: usize| u32::from_le_bytes(e[k..k + 4].try_into().expect("4"));
-    body.chunks_exact(entry_len)
-        .enumerate()
-        .map(|(i, e)| {
-            let entry = IndexEntry {
-                offset: u64::from_le_bytes(e[..8].try_into().expect("8")),
-                levels: (0..header.levels())
-                    .map(|g| LevelEntry {
-                        end: u32_at(e, 8 + 8 * g),
-                        crc32: u32_at(e, 12 + 8 * g),
-                    })
-                    .collect(),
-            };
-            let outside = |problem: String| {
-                Error::invalid(
-                    name,
-                    format!(
-                        "index entry {i} (offset {}) points outside the payloads: {problem}",
-                        entry.offset
-                    ),
-                )
-            };
-            if entry.offset < header.payload_start() {
-                return Err(outside("it starts inside the index".into()));
-            }
-            let mut start = 0u64;
-            for (g, level) in entry.levels.iter().enumerate() {
-                let end = u64::from(level.end);
-                if end <= start || end - start > bounds[g] {
-                    return Err(outside(format!(
-                        "level {g} ends at {end} after starting at {start}, more than the \
-                         codec's {} bytes or nothing",
-                        bounds[g]
-                    )));
-                }
-                start = end;
-            }
-            let end = entry.offset.checked_add(entry.stored_len());
-            match (end, file_len) {
-                (Some(end), Some(len)) if end > len => Err(outside(format!(
-                    "it ends at byte {end} of a {len}-byte file"
-                ))),
-                (None, _) => Err(outside("its end overflows".into())),
-                _ => Ok(entry),
-            }
-        })
-        .collect::<Result<Vec<_>>>()
-        .and_then(|entries| disjoint(entries, name))
-}
-
-/// `entries` if no two of them share a byte: an index whose entries overlap (or repeat) would
-/// make readers decode one payload many times over, a decompression bomb of the index.
-fn disjoint(entries: Vec<IndexEntry>, name: &str) -> Result<Vec<IndexEntry>> {
-    let mut spans: Vec<(u64, u64, usize)> = entries
-        .iter()
-        .enumerate()
-        .map(|(i, e)| (e.offset, e.offset + e.stored_len(), i))
-        .collect();
-    spans.sort_unstable();
-    for pair in spans.windows(2) {
-        let ((start_a, end_a, a), (start_b, end_b, b)) = (pair[0], pair[1]);
-        if start_b < end_a {
-            return Err(Error::invalid(
-                name,
-                format!(
-                    "index entries {a} and {b} overlap: bytes {start_a}..{end_a} and \
-                     {start_b}..{end_b} (an index must give every tile its own bytes)"
-                ),
+    /// The part of [`Header::check_layout`] that the top's size depends on.
+    fn check_layout_grid(&self) -> std::result::Result<(), String> {
+        let per_side = 1..=MAX_TILES_PER_SIDE;
+        if !per_side.contains(&self.tiles_x) || !per_side.contains(&self.tiles_y) {
+            return Err(format!(
+                "{} x {} tiles: each must be within 1 ..= {MAX_TILES_PER_SIDE}",
+                self.tiles_x, self.tiles_y
             ));
         }
+        if !is_valid_tile_size(self.tile_size as usize) {
+            return Err(format!("tile size {} is not 2^n + 1", self.tile_size));
+        }
+        if self.top_level as usize >= self.pyramid_levels() {
+            return Err(format!(
+                "the top starts at level {}, beyond the root at level {}",
+                self.top_level,
+                self.pyramid_levels() - 1
+            ));
+        }
+        if self.top_tiles() > TOP_MAX_TILES {
+            return Err(format!(
+                "a top of {} tiles, more than {TOP_MAX_TILES}",
+                self.top_tiles()
+            ));
+        }
+        Ok(())
     }
-    Ok(entries)
+}
+
+/// Pyramid levels over `tiles_x x tiles_y` level-0 tiles (both at least 1), the root's included.
+pub fn pyramid_levels(tiles_x: u32, tiles_y: u32) -> usize {
+    let widest = tiles_x.max(tiles_y).max(1);
+    (widest.next_power_of_two().ilog2() + 1) as usize
 }
 
 /// The most bytes a stored chunk of `raw` bytes may take (the codec's worst case).
@@ -629,4 +559,15 @@ pub fn decompress(stored: &[u8], codec: Codec, size: usize, name: &str) -> Resul
             Err(e) => Err(Error::invalid(name, format!("corrupt DEFLATE chunk: {e}"))),
         },
     }
+}
+
+/// The level range `levels` of a tile with `all` progressive levels, or an error naming it.
+fn check_levels(levels: &Range<usize>, all: usize, what: &str, name: &str) -> Result<()> {
+    if levels.start > levels.end || levels.end > all {
+        return Err(Error::invalid(
+            name,
+            format!("levels {levels:?} of {what} are outside 0..{all}"),
+        ));
+    }
+    Ok(())
 }

@@ -1,17 +1,29 @@
-//! Reading an archive through any [`TileSource`], with checksums and retries.
+//! Reading an archive through any [`TileSource`], by region, with checksums and retries.
 
+use std::collections::HashMap;
 use std::ops::Range;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use super::{HEADER_LEN, Header, IndexEntry, base_range, decompress, parse_index};
+use super::index::{
+    Directory, level_grid, page_count, page_of, parse_page, parse_table_chunk, table_chunk,
+};
+use super::index_cache::{Held, IndexCache, Piece};
+use super::{
+    HEADER_LEN, Header, IndexEntry, PageRef, TABLE_CHUNK_ENTRIES, check_levels, decompress,
+};
 use crate::db::backoff::Backoff;
+use crate::db::grid::{Pyramid, TileId};
 use crate::db::source::{CancelToken, TileSource};
 use crate::db::tile::Tile;
 use crate::error::{Error, Result};
 
-/// Reads an archive through a [`TileSource`]: header and index once, then ranges of tile levels
-/// on demand, each in one source read, every chunk checked against its crc32 and the range
-/// fetched again (up to `attempts` times) when one fails.
+/// Reads an archive through a [`TileSource`]: the header and the directory when opened, then
+/// index pages and ranges of tile levels on demand, each in one source read, every piece
+/// checked against its crc32 and fetched again (up to `attempts` times) when it fails.
+///
+/// The index pages read are cached up to a byte limit ([`ArchiveReader::set_index_cache_limit`]),
+/// so a reader's memory depends on what it was asked for, not on the archive's size.
 ///
 /// A remote source's retries wait as [`RETRY_BACKOFF`] says; a request that timed out is not
 /// asked again at once (the server already had its whole timeout): the error goes back to the
@@ -19,15 +31,23 @@ use crate::error::{Error, Result};
 pub struct ArchiveReader<S> {
     source: S,
     header: Header,
-    index: Vec<IndexEntry>,
-    /// Attempts at a tile's levels or the base.
+    pyramid: Pyramid,
+    directory: Directory,
+    /// The top's tiles: their place in the directory's list.
+    top: HashMap<TileId, usize>,
+    cache: Mutex<IndexCache>,
+    /// Attempts at a tile's levels, an index page or the top.
     attempts: u32,
-    /// The source's size in bytes, for [`ArchiveReader::check`]'s end-of-archive test.
+    /// The source's size in bytes.
     file_len: u64,
 }
 
-/// How many times a reader fetches a piece (header, index, tile levels) before giving up.
+/// How many times a reader fetches a piece (header, directory, index page, tile levels) before
+/// giving up.
 pub const DEFAULT_ATTEMPTS: u32 = 4;
+
+/// The index bytes a reader caches unless told otherwise: a few hundred pages.
+pub const DEFAULT_INDEX_CACHE: usize = 1 << 20;
 
 /// The waits between a reader's attempts at a piece of a remote archive, seconds: 0.1 doubling
 /// up to 2, with jitter (three retries wait 0.35 to 0.7 s in all).
@@ -37,17 +57,24 @@ pub const RETRY_BACKOFF: Backoff = Backoff {
     seed: 0x5d_b0ff,
 };
 
+/// The top's tiles, each decoded or `None` when absent, in the directory's order.
+pub type TopTiles = Vec<(TileId, Option<Tile>)>;
+
 /// The decompressed chunks of a range of one tile's progressive levels.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LevelBytes {
-    /// The raw chunks, coarse first, one per level of the range.
+    /// The raw chunks, coarse first, one per level of the range; none for an absent tile.
     pub chunks: Vec<Vec<u8>>,
-    /// Stored (compressed) bytes read from the source for them.
+    /// Stored bytes read from the source for them: the chunks, and the index pages read to
+    /// find them.
     pub stored_bytes: u64,
+    /// Whether the tile is absent (every sample nodata): nothing is stored for it.
+    pub absent: bool,
 }
 
 impl<S: TileSource> ArchiveReader<S> {
-    /// Fetches and validates the header and the index.
+    /// Fetches and validates the header and the directory: a few kilobytes, whatever the
+    /// archive's size.
     pub fn open(source: S) -> Result<Self> {
         Self::open_with_attempts(source, DEFAULT_ATTEMPTS)
     }
@@ -62,44 +89,40 @@ impl<S: TileSource> ArchiveReader<S> {
             let bytes = source.read_range(0, file_len.min(HEADER_LEN as u64))?;
             Header::parse(&bytes, &name)
         })?;
-        if file_len < header.payload_start() {
+        if file_len < header.archive_len {
             return Err(Error::invalid(
                 &name,
                 format!(
-                    "truncated index: the file is {file_len} bytes, the index ends at {}",
-                    header.payload_start()
+                    "truncated archive: the file is {file_len} bytes, the archive {}",
+                    header.archive_len
                 ),
             ));
         }
-        let index = retry(attempts, remote, HEADER_LEN as u64, |_| {
-            let bytes = source.read_range(HEADER_LEN as u64, header.index_len() as u64)?;
-            parse_index(&bytes, &header, Some(file_len), &name)
+        let directory = retry(attempts, remote, HEADER_LEN as u64, |_| {
+            let bytes = source.read_range(HEADER_LEN as u64, header.directory_len() as u64)?;
+            Directory::parse(&bytes, &header, &name)
         })?;
-        let (base_offset, base_len) = base_range(&index, header.base_levels as usize);
-        if base_offset
-            .checked_add(base_len)
-            .is_none_or(|end| end > file_len)
-        {
-            return Err(Error::invalid(
-                &name,
-                format!(
-                    "truncated base: {base_len} bytes at offset {base_offset} of a \
-                     {file_len}-byte file"
-                ),
-            ));
-        }
+        let top = directory
+            .top
+            .iter()
+            .enumerate()
+            .map(|(k, (id, _))| (*id, k))
+            .collect();
         Ok(ArchiveReader {
             source,
+            pyramid: header.pyramid(),
             header,
-            index,
+            directory,
+            top,
+            cache: Mutex::new(IndexCache::new(DEFAULT_INDEX_CACHE)),
             attempts,
             file_len,
         })
     }
 
-    /// From now on, fetches a tile's levels or the base `attempts` times at most (at least 1).
-    /// The engine's pager sets 1: it tries a failed fetch again itself, later and backing off,
-    /// and retries in both places would multiply.
+    /// From now on, fetches a tile's levels, an index page or the top `attempts` times at
+    /// most (at least 1). The engine's pager sets 1: it tries a failed fetch again itself,
+    /// later and backing off, and retries in both places would multiply.
     pub fn with_fetch_attempts(mut self, attempts: u32) -> Self {
         self.attempts = attempts.max(1);
         self
@@ -110,9 +133,19 @@ impl<S: TileSource> ArchiveReader<S> {
         &self.header
     }
 
-    /// The index, one entry per tile in row-major order.
-    pub fn index(&self) -> &[IndexEntry] {
-        &self.index
+    /// The pyramid of tiles.
+    pub fn pyramid(&self) -> &Pyramid {
+        &self.pyramid
+    }
+
+    /// The directory: the page tables' places and the top's entries.
+    pub fn directory(&self) -> &Directory {
+        &self.directory
+    }
+
+    /// Bytes an open reads: the header and the directory.
+    pub fn opening_bytes(&self) -> u64 {
+        (HEADER_LEN + self.header.directory_len()) as u64
     }
 
     /// The source's size in bytes.
@@ -125,34 +158,116 @@ impl<S: TileSource> ArchiveReader<S> {
         self.source.name()
     }
 
-    /// The byte range (file offset, length) holding `levels` of tile `(x, y)`: what one HTTP
-    /// Range request for them asks, found in O(1). Panics when the tile is outside the grid or
-    /// the levels outside `0..header().levels()`.
-    pub fn level_range(&self, x: usize, y: usize, levels: Range<usize>) -> (u64, u64) {
-        let (tiles_x, tiles_y) = (self.header.tiles_x as usize, self.header.tiles_y as usize);
-        assert!(
-            x < tiles_x && y < tiles_y,
-            "tile ({x}, {y}) is outside the {tiles_x} x {tiles_y} grid"
-        );
-        self.index[y * tiles_x + x].range(levels)
+    /// Caches at most `bytes` of index pages from now on (the least recently used go first).
+    pub fn set_index_cache_limit(&self, bytes: usize) {
+        self.cache().set_limit(bytes);
     }
 
-    /// The stored bytes of tile `i` (row-major), every chunk verified against its checksum.
-    pub fn tile_bytes(&self, i: usize) -> Result<Vec<u8>> {
-        let name = self.source.name();
-        if i >= self.index.len() {
+    /// The most bytes of index pages kept.
+    pub fn index_cache_limit(&self) -> usize {
+        self.cache().limit()
+    }
+
+    /// Bytes of index pages and page tables held now.
+    pub fn index_cache_bytes(&self) -> usize {
+        self.cache().bytes()
+    }
+
+    /// Stored bytes of index pages and page tables read so far.
+    pub fn index_bytes_read(&self) -> u64 {
+        self.cache().read()
+    }
+
+    fn cache(&self) -> std::sync::MutexGuard<'_, IndexCache> {
+        // A panic while the lock was held leaves a cache that is still consistent.
+        self.cache.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// The index entry of tile `id` and the stored bytes read to find it (0 when its page was
+    /// cached or it is in the top): from the directory for the top's tiles, else from its
+    /// level's index page, found through the page table.
+    pub fn entry(&self, id: TileId, cancel: &CancelToken) -> Result<(IndexEntry, u64)> {
+        let name = self.name();
+        let grid = level_grid(&self.pyramid, id.level, name)?;
+        if !grid.contains(id) {
             return Err(Error::invalid(
                 name,
-                format!("tile {i} does not exist ({} tiles)", self.index.len()),
+                format!(
+                    "{id} is outside level {}'s {} x {} grid",
+                    id.level,
+                    grid.tiles_x(),
+                    grid.tiles_y()
+                ),
             ));
         }
-        self.fetch(i, 0..self.header.levels(), &CancelToken::new())
+        if let Some(&k) = self.top.get(&id) {
+            return Ok((self.directory.top[k].1.clone(), 0));
+        }
+        let slot = page_of(grid, id);
+        let (page, mut read) = self.page_ref(id.level, slot.page, cancel)?;
+        if page.is_absent() {
+            return Ok((IndexEntry::absent(self.header.levels()), read));
+        }
+        let piece = Piece::Page {
+            level: id.level,
+            page: slot.page,
+        };
+        let cached = self.cache().get(piece);
+        let entries = match cached {
+            Some(Held::Page(entries)) => entries,
+            _ => {
+                let label = format!("{name}: index page {} of level {}", slot.page, id.level);
+                let entries: Arc<[IndexEntry]> =
+                    retry(self.attempts, self.source.is_remote(), page.offset, |_| {
+                        let bytes =
+                            self.read_whole(&label, page.offset, page.len.into(), cancel)?;
+                        if crc32fast::hash(&bytes) != page.crc32 {
+                            return Err(Error::invalid(
+                                &label,
+                                "checksum mismatch (corrupt index page)",
+                            ));
+                        }
+                        parse_page(&bytes, &self.header, grid, slot.page, &label)
+                    })?
+                    .into();
+                read += u64::from(page.len);
+                self.cache()
+                    .put(piece, Held::Page(Arc::clone(&entries)), page.len.into());
+                entries
+            }
+        };
+        Ok((entries[slot.slot].clone(), read))
     }
 
-    /// The raw chunks of `levels` of tile `(x, y)`, fetched with one source read (one HTTP
-    /// Range request), each chunk checked against its crc32 and decompressed on its own.
-    pub fn read_levels(&self, x: usize, y: usize, levels: Range<usize>) -> Result<LevelBytes> {
-        self.read_levels_cancellable(x, y, levels, &CancelToken::new())
+    /// Where page `page` of level `level` is, from the cached chunk of its page table or a
+    /// fetch of it; and the bytes read.
+    fn page_ref(&self, level: u8, page: u64, cancel: &CancelToken) -> Result<(PageRef, u64)> {
+        let per = TABLE_CHUNK_ENTRIES as u64;
+        let chunk = page / per;
+        let piece = Piece::Table { level, chunk };
+        let cached = self.cache().get(piece);
+        if let Some(Held::Table(refs)) = cached {
+            return Ok((refs[(page % per) as usize], 0));
+        }
+        let grid = self.pyramid.grid(level);
+        let pages = page_count(grid);
+        let (offset, len, entries) =
+            table_chunk(self.directory.tables[usize::from(level)], pages, chunk);
+        let label = format!("{}: page table chunk {chunk} of level {level}", self.name());
+        let refs: Arc<[PageRef]> = retry(self.attempts, self.source.is_remote(), offset, |_| {
+            let bytes = self.read_whole(&label, offset, len, cancel)?;
+            parse_table_chunk(&bytes, &self.header, grid, chunk * per, entries, &label)
+        })?
+        .into();
+        self.cache().put(piece, Held::Table(Arc::clone(&refs)), len);
+        Ok((refs[(page % per) as usize], len))
+    }
+
+    /// The raw chunks of `levels` of tile `id`, fetched with one source read (one HTTP Range
+    /// request) after its index page, each chunk checked against its crc32 and decompressed on
+    /// its own.
+    pub fn read_levels(&self, id: TileId, levels: Range<usize>) -> Result<LevelBytes> {
+        self.read_levels_cancellable(id, levels, &CancelToken::new())
     }
 
     /// [`ArchiveReader::read_levels`] that stops with [`Error::Cancelled`] once `cancel` is
@@ -160,61 +275,67 @@ impl<S: TileSource> ArchiveReader<S> {
     /// ([`TileSource::read_range_cancellable`]); a cancelled read is not tried again.
     pub fn read_levels_cancellable(
         &self,
-        x: usize,
-        y: usize,
+        id: TileId,
         levels: Range<usize>,
         cancel: &CancelToken,
     ) -> Result<LevelBytes> {
-        let i = self.tile_number(x, y)?;
-        let all = self.header.levels();
-        if levels.start > levels.end || levels.end > all {
-            return Err(Error::invalid(
-                self.name(),
-                format!("levels {levels:?} of tile ({x}, {y}) are outside 0..{all}"),
-            ));
+        check_levels(&levels, self.header.levels(), &id.to_string(), self.name())?;
+        let (entry, index_read) = self.entry(id, cancel)?;
+        if entry.is_absent() {
+            return Ok(LevelBytes {
+                chunks: Vec::new(),
+                stored_bytes: index_read,
+                absent: true,
+            });
         }
-        let stored = self.fetch(i, levels.clone(), cancel)?;
-        let entry = &self.index[i];
+        let stored = self.fetch(id, &entry, levels.clone(), cancel)?;
         let base = entry.range(levels.start..levels.start).0;
         let chunks = levels
             .map(|g| {
                 let (offset, len) = entry.range(g..g + 1);
                 let at = (offset - base) as usize;
-                let label = format!("{} tile {i} level {g}", self.name());
-                let size = self.header.level_payload_size(g);
+                let label = format!("{} {id} level {g}", self.name());
                 decompress(
                     &stored[at..at + len as usize],
                     self.header.codec,
-                    size,
+                    self.header.level_payload_size(g),
                     &label,
                 )
             })
             .collect::<Result<_>>()?;
         Ok(LevelBytes {
             chunks,
-            stored_bytes: stored.len() as u64,
+            stored_bytes: stored.len() as u64 + index_read,
+            absent: false,
         })
     }
 
-    /// The coarser tile made of the first `levels` progressive levels of tile `(x, y)` (the
-    /// whole tile for `header().levels()`), and the stored bytes read for it.
-    pub fn tile_levels(&self, x: usize, y: usize, levels: usize) -> Result<(Tile, u64)> {
-        let i = self.tile_number(x, y)?;
+    /// The coarser tile made of the first `levels` progressive levels of tile `id` (the whole
+    /// tile for `header().levels()`), `None` for an absent tile, and the stored bytes read.
+    pub fn tile_levels(&self, id: TileId, levels: usize) -> Result<(Option<Tile>, u64)> {
         if levels == 0 {
             return Err(Error::invalid(
                 self.name(),
-                format!("tile ({x}, {y}) asked for with no levels"),
+                format!("{id} asked for with no levels"),
             ));
         }
-        let read = self.read_levels(x, y, 0..levels)?;
-        let label = format!("{} tile {i}", self.name());
+        let read = self.read_levels(id, 0..levels)?;
+        if read.absent {
+            return Ok((None, read.stored_bytes));
+        }
+        let label = format!("{} {id}", self.name());
         let chunks: Vec<&[u8]> = read.chunks.iter().map(Vec::as_slice).collect();
-        Ok((self.decode(&chunks, &label)?, read.stored_bytes))
+        Ok((Some(self.decode(&chunks, &label)?), read.stored_bytes))
+    }
+
+    /// Tile `id` whole, `None` when it is absent.
+    pub fn tile(&self, id: TileId) -> Result<Option<Tile>> {
+        Ok(self.tile_levels(id, self.header.levels())?.0)
     }
 
     /// The tile that `chunks` (raw, coarse first from level 0) make, in the archive's height
     /// quantum; `label` names it in errors.
-    fn decode(&self, chunks: &[&[u8]], label: &str) -> Result<Tile> {
+    pub fn decode(&self, chunks: &[&[u8]], label: &str) -> Result<Tile> {
         let tile = Tile::from_levels(
             chunks,
             self.header.tile_size as usize,
@@ -233,77 +354,47 @@ impl<S: TileSource> ArchiveReader<S> {
         Ok(tile)
     }
 
-    /// The base: the first [`Header::base_levels`] levels of every tile, row-major, fetched
+    /// The top: the root and the levels below it that the build put there, whole, fetched
     /// with one source read (one HTTP Range request), every chunk checked against its crc32 in
-    /// the index, and the stored bytes read. Empty when the archive has no base.
-    pub fn base(&self) -> Result<(Vec<Tile>, u64)> {
-        let levels = self.header.base_levels as usize;
-        if levels == 0 {
-            return Ok((Vec::new(), 0));
-        }
-        let (offset, length) = base_range(&self.index, levels);
+    /// the directory; `None` for an absent tile. And the stored bytes read.
+    pub fn top(&self) -> Result<(TopTiles, u64)> {
+        let (offset, length) = (self.header.top_offset, self.header.top_len);
         let name = self.name();
         let stored = retry(self.attempts, self.source.is_remote(), offset, |_| {
-            let bytes = self.read_whole("base", offset, length, &CancelToken::new())?;
-            let mut at = 0usize;
-            for (i, entry) in self.index.iter().enumerate() {
-                for g in 0..levels {
-                    let len = entry.range(g..g + 1).1 as usize;
-                    let actual = crc32fast::hash(&bytes[at..at + len]);
-                    let expected = entry.levels[g].crc32;
-                    if actual != expected {
-                        return Err(Error::Checksum {
-                            name: name.to_string(),
-                            tile: i,
-                            level: g,
-                            expected,
-                            actual,
-                            attempts: 1,
-                        });
-                    }
-                    at += len;
-                }
+            let bytes = self.read_whole("the top", offset, length, &CancelToken::new())?;
+            for (id, entry) in self.directory.top.iter().filter(|(_, e)| !e.is_absent()) {
+                verify(name, *id, entry, 0..self.header.levels(), &bytes, offset, 1)?;
             }
             Ok(bytes)
         })?;
-        let mut at = 0usize;
-        let mut tiles = Vec::with_capacity(self.index.len());
-        for (i, entry) in self.index.iter().enumerate() {
-            let label = format!("{name} base tile {i}");
-            let chunks = (0..levels)
-                .map(|g| {
-                    let len = entry.range(g..g + 1).1 as usize;
-                    let raw = decompress(
-                        &stored[at..at + len],
-                        self.header.codec,
-                        self.header.level_payload_size(g),
-                        &label,
-                    );
-                    at += len;
-                    raw
-                })
-                .collect::<Result<Vec<_>>>()?;
-            let chunks: Vec<&[u8]> = chunks.iter().map(Vec::as_slice).collect();
-            tiles.push(self.decode(&chunks, &label)?);
-        }
+        let all = 0..self.header.levels();
+        let tiles = self
+            .directory
+            .top
+            .iter()
+            .map(|(id, entry)| {
+                if entry.is_absent() {
+                    return Ok((*id, None));
+                }
+                let label = format!("{name} top {id}");
+                let chunks = all
+                    .clone()
+                    .map(|g| {
+                        let (at, len) = entry.range(g..g + 1);
+                        let at = (at - offset) as usize;
+                        decompress(
+                            &stored[at..at + len as usize],
+                            self.header.codec,
+                            self.header.level_payload_size(g),
+                            &label,
+                        )
+                    })
+                    .collect::<Result<Vec<_>>>()?;
+                let chunks: Vec<&[u8]> = chunks.iter().map(Vec::as_slice).collect();
+                Ok((*id, Some(self.decode(&chunks, &label)?)))
+            })
+            .collect::<Result<Vec<_>>>()?;
         Ok((tiles, length))
-    }
-
-    /// Tile `(x, y)` whole, fetched in one source read, verified and decoded.
-    pub fn tile(&self, x: usize, y: usize) -> Result<Tile> {
-        Ok(self.tile_levels(x, y, self.header.levels())?.0)
-    }
-
-    /// The row-major number of tile `(x, y)`, or an error naming the grid.
-    fn tile_number(&self, x: usize, y: usize) -> Result<usize> {
-        let (tiles_x, tiles_y) = (self.header.tiles_x as usize, self.header.tiles_y as usize);
-        if x >= tiles_x || y >= tiles_y {
-            return Err(Error::invalid(
-                self.name(),
-                format!("tile ({x}, {y}) is outside the {tiles_x} x {tiles_y} grid"),
-            ));
-        }
-        Ok(y * tiles_x + x)
     }
 
     /// Bytes `offset .. offset + length`, all of them, unless `cancel` stops the read: a short
@@ -328,34 +419,53 @@ impl<S: TileSource> ArchiveReader<S> {
         Ok(bytes)
     }
 
-    /// The stored bytes of `levels` of tile `i` in one source read per attempt, returned once
-    /// every chunk matches its crc32.
-    fn fetch(&self, i: usize, levels: Range<usize>, cancel: &CancelToken) -> Result<Vec<u8>> {
+    /// The stored bytes of `levels` of tile `id` (at `entry`) in one source read per attempt,
+    /// returned once every chunk matches its crc32.
+    fn fetch(
+        &self,
+        id: TileId,
+        entry: &IndexEntry,
+        levels: Range<usize>,
+        cancel: &CancelToken,
+    ) -> Result<Vec<u8>> {
         let name = self.source.name();
-        let entry = &self.index[i];
         let (offset, length) = entry.range(levels.clone());
         retry(self.attempts, self.source.is_remote(), offset, |attempt| {
-            let bytes = self.read_whole(&format!("tile {i}"), offset, length, cancel)?;
-            let failed = levels.clone().find_map(|g| {
-                let (at, len) = entry.range(g..g + 1);
-                let at = (at - offset) as usize;
-                let actual = crc32fast::hash(&bytes[at..at + len as usize]);
-                let expected = entry.levels[g].crc32;
-                (actual != expected).then_some((g, expected, actual))
-            });
-            match failed {
-                None => Ok(bytes),
-                Some((level, expected, actual)) => Err(Error::Checksum {
-                    name: name.to_string(),
-                    tile: i,
-                    level,
-                    expected,
-                    actual,
-                    attempts: attempt,
-                }),
-            }
+            let bytes = self.read_whole(&id.to_string(), offset, length, cancel)?;
+            verify(name, id, entry, levels.clone(), &bytes, offset, attempt)?;
+            Ok(bytes)
         })
     }
+}
+
+/// Checks the chunks of `levels` of tile `id` (at `entry`) in `bytes`, which start at file
+/// offset `start`, against their crc32s.
+fn verify(
+    name: &str,
+    id: TileId,
+    entry: &IndexEntry,
+    levels: Range<usize>,
+    bytes: &[u8],
+    start: u64,
+    attempts: u32,
+) -> Result<()> {
+    for g in levels {
+        let (at, len) = entry.range(g..g + 1);
+        let at = (at - start) as usize;
+        let actual = crc32fast::hash(&bytes[at..at + len as usize]);
+        let expected = entry.levels[g].crc32;
+        if actual != expected {
+            return Err(Error::Checksum {
+                name: name.to_string(),
+                tile: id.to_string(),
+                level: g,
+                expected,
+                actual,
+                attempts,
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Runs `f` (given the attempt's number, from 1) up to `attempts` times until it succeeds and

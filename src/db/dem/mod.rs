@@ -327,6 +327,12 @@ impl<R: DemReader> NodataFill<R> {
 
     /// Reads the next row with every nodata sample filled.
     pub fn read_row(&mut self, out: &mut [f32]) -> Result<()> {
+        self.read_row_marking(out, None)
+    }
+
+    /// [`NodataFill::read_row`], also setting `nodata[i]` to whether sample `i` was nodata in
+    /// the file (before the fill).
+    pub fn read_row_marking(&mut self, out: &mut [f32], nodata: Option<&mut [bool]>) -> Result<()> {
         let (j, height) = (self.next_out, self.info().height);
         while self.rows_read < height.min(j + FILL_RADIUS + 1) {
             self.read_raw()?;
@@ -340,6 +346,12 @@ impl<R: DemReader> NodataFill<R> {
                 &self.info().name,
                 "every sample of the DEM is nodata",
             ));
+        }
+        if let Some(marks) = nodata {
+            match &self.held[j - self.first] {
+                Some((row, _)) => marks.iter_mut().zip(row).for_each(|(m, v)| *m = v.is_nan()),
+                None => marks.fill(true),
+            }
         }
         match &self.held[j - self.first] {
             Some((row, _)) if !row.iter().any(|v| v.is_nan()) => out.copy_from_slice(row),

@@ -47,6 +47,17 @@ impl EastWest {
             *o = a + (b - a) * t;
         }
     }
+
+    /// Writes which samples of a resampled row come from nodata alone: an output sample is
+    /// nodata when both source samples it interpolates between were.
+    pub fn apply_nodata(&self, source: &[bool], out: &mut [bool]) {
+        let last = self.source_width - 1;
+        for (k, o) in out.iter_mut().enumerate() {
+            let x = (k as f64 * self.step).min(last as f64);
+            let i = (x.floor() as usize).min(last.saturating_sub(1));
+            *o = source[i] && source[(i + 1).min(last)];
+        }
+    }
 }
 
 #[cfg(test)]

@@ -70,8 +70,14 @@ pub fn level_mips(level: usize, tile_size: usize, texture_size: usize) -> Range<
 /// border, so the border falls on the centre of the edge texel, which both tiles sharing the
 /// border hold alike: bilinear sampling is as continuous across the border as inside the tile.
 pub fn texture_coordinate(x: usize, tile_size: usize, texture_size: usize) -> f32 {
+    texture_coordinate_at(x as f64, tile_size, texture_size)
+}
+
+/// [`texture_coordinate`] of a point `x` samples from the border that may lie between samples
+/// (a vertex of an overview tile moved onto the model's last sample).
+pub fn texture_coordinate_at(x: f64, tile_size: usize, texture_size: usize) -> f32 {
     let span = (texture_size.max(2) - 1) as f64 / (tile_size - 1) as f64;
-    ((0.5 + x as f64 * span) / texture_size as f64) as f32
+    ((0.5 + x * span) / texture_size as f64) as f32
 }
 
 /// What a tile holding a prefix of its progressive levels knows of the grid it holds: shared by

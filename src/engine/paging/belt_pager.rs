@@ -16,10 +16,12 @@ use std::marker::PhantomData;
 use std::sync::Arc;
 
 use super::belts::{self, Plan};
+use super::far::FarField;
 use super::ledger::Fetch;
+use super::stream::Want;
 use super::worker::Job;
 use super::{Pager, PagerConfig, PagerMode, ResidentLoader, Strategy};
-use crate::db::grid::{Grid, TileId};
+use crate::db::grid::{Pyramid, TileId};
 use crate::db::source::CancelToken;
 use crate::error::Result;
 
@@ -43,9 +45,13 @@ pub trait TileLoader: ResidentLoader {
     }
 }
 
-/// The paper's strategy: whole tiles, Algorithm 1 choosing the next fetches. It keeps no state
-/// of its own: the ledger says everything Algorithm 1 needs.
-pub struct Belts<L>(PhantomData<fn() -> L>);
+/// The paper's strategy: whole tiles, Algorithm 1 choosing the next level-0 fetches (the
+/// ledger says everything it needs), and the far field the tiles of the levels above that the
+/// frame's cut asks for.
+pub struct Belts<L> {
+    far: FarField,
+    loader: PhantomData<fn() -> L>,
+}
 
 /// Pages whole tiles in belts around the viewpoint under a memory limit (see the module doc).
 pub type BeltPager<L> = Pager<Belts<L>>;
@@ -60,7 +66,7 @@ impl<L: TileLoader> Strategy for Belts<L> {
         Arc::new(move |fetch: Fetch, _: &CancelToken| loader.load(fetch.id, fetch.ring))
     }
 
-    fn refit_base(loader: &L, tile: &mut L::Loaded) -> usize {
+    fn refit_top(loader: &L, tile: &mut L::Loaded) -> usize {
         loader.refit(tile, 0)
     }
 
@@ -72,14 +78,18 @@ impl<L: TileLoader> Strategy for Belts<L> {
             pager.integrate(fetch, result);
         }
         pager.shrink();
-        if pager.base_pending() {
-            // The base comes first.
+        if pager.top_pending() {
+            // The top comes first.
         } else if let PagerMode::Stepped { fetches_per_update } = pager.mode {
             // One fetch at a time, re-planning after each arrival: a run is reproducible.
             for _ in 0..fetches_per_update {
                 let plan = pager.plan(1);
-                let Some(&fetch) = plan.fetch.first() else {
-                    break;
+                let fetch = match plan.fetch.first() {
+                    Some(&fetch) => fetch,
+                    None => match pager.plan_far(1).first() {
+                        Some(&fetch) => fetch,
+                        None => break,
+                    },
                 };
                 pager.fetch(fetch);
             }
@@ -88,12 +98,22 @@ impl<L: TileLoader> Strategy for Belts<L> {
             for &fetch in &plan.fetch {
                 pager.fetch(fetch);
             }
+            let room = pager.mode.room(pager.resident.ledger.fetching());
+            for fetch in pager.plan_far(room) {
+                pager.fetch(fetch);
+            }
         }
         let loader = &*pager.loader;
         let r = &mut pager.resident;
         r.complete = r.center.and_then(|c| {
             belts::complete_belts(&r.ledger, c, |id, ring| loader.predicted_bytes(id, ring))
         });
+    }
+
+    /// Hears which tiles of the levels above 0 the frame's cut asks for.
+    fn request(pager: &mut BeltPager<L>, wants: &[Want]) {
+        let now = pager.resident.now;
+        pager.strategy.far.hear(wants, now);
     }
 
     /// Refits every loaded tile ([`TileLoader::refit`]) and accounts what it holds now,
@@ -114,9 +134,7 @@ impl<L: TileLoader> Strategy for Belts<L> {
                 .expect("a resident tile is loaded");
             resized.push((id, loaded.bytes, pager.loader.refit(tile, loaded.ring)));
         }
-        let center = r.center;
-        resized
-            .sort_by_key(|&(id, _, _)| std::cmp::Reverse(center.map_or(0, |c| Grid::ring(c, id))));
+        resized.sort_by_key(|&(id, _, _)| std::cmp::Reverse(r.ring(id)));
         let grown: usize = resized
             .iter()
             .map(|&(_, old, new)| new.saturating_sub(old))
@@ -151,18 +169,27 @@ impl<L: TileLoader> Strategy for Belts<L> {
 }
 
 impl<L: TileLoader> BeltPager<L> {
-    /// A pager for `grid` with nothing loaded; starts the fetch thread in threaded mode.
-    pub fn new(loader: L, grid: Grid, config: PagerConfig) -> Result<Self> {
-        Pager::with_strategy(loader, grid, config, Belts(PhantomData))
+    /// A pager for the tiles of `pyramid` with nothing loaded; starts the fetch thread in
+    /// threaded mode.
+    pub fn new(loader: L, pyramid: Pyramid, config: PagerConfig) -> Result<Self> {
+        let strategy = Belts {
+            far: FarField::new(config.far_share),
+            loader: PhantomData,
+        };
+        Pager::with_strategy(loader, pyramid, config, strategy)
     }
 
-    /// Algorithm 1's next step for at most `max_fetches` fetches; evicts what it says.
+    /// Algorithm 1's next step for at most `max_fetches` fetches, leaving the far field its
+    /// share; evicts what it says.
     fn plan(&mut self, max_fetches: usize) -> Plan {
         let loader = &*self.loader;
+        let share = self.strategy.far.share(self.resident.ledger.limit());
+        let reserved = share.saturating_sub(FarField::bytes(&self.resident));
         let plan = belts::plan(
             &self.resident.ledger,
             self.resident.center,
             max_fetches,
+            reserved,
             |id, ring| loader.predicted_bytes(id, ring),
         );
         self.resident.memory_bound = plan.full;
@@ -170,6 +197,16 @@ impl<L: TileLoader> BeltPager<L> {
             self.resident.evict(id);
         }
         plan
+    }
+
+    /// The far field's next at most `max_fetches` fetches (it evicts what it makes room with).
+    fn plan_far(&mut self, max_fetches: usize) -> Vec<Fetch> {
+        let loader = &*self.loader;
+        self.strategy
+            .far
+            .plan(&mut self.resident, max_fetches, |id, ring| {
+                loader.predicted_bytes(id, ring)
+            })
     }
 
     /// Reserves a planned fetch and starts it.
@@ -197,17 +234,18 @@ impl<L: TileLoader> BeltPager<L> {
         }
     }
 
-    /// Shrinks every loaded tile that is now in a farther belt than the one it holds detail for.
+    /// Shrinks every loaded tile that is now in a farther belt (of its level) than the one it
+    /// holds detail for.
     fn shrink(&mut self) {
         let r = &mut self.resident;
-        let Some(center) = r.center else {
+        if r.center.is_none() {
             return;
-        };
+        }
         let farther: Vec<(TileId, u32)> = r
             .ledger
             .records()
             .filter_map(|(id, rec)| {
-                let ring = Grid::ring(center, id);
+                let ring = r.ring(id);
                 rec.loaded.filter(|l| ring > l.ring).map(|_| (id, ring))
             })
             .collect();

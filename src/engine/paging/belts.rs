@@ -93,12 +93,15 @@ pub struct Plan {
 
 /// Algorithm 1 for one step: the next at most `max_fetches` missing tiles of belt `d_c + 1`
 /// around `center`, and the cache to evict first so that the accounted memory stays within the
-/// limit once they are reserved. `predicted(id, ring)` is the loader's cost of a tile at a ring.
-/// Without a center (a viewpoint off the terrain) nothing is fetched or evicted.
+/// limit, less `reserved` bytes kept free for others, once they are reserved.
+/// `predicted(id, ring)` is the loader's cost of a tile at a ring. Without a center (a
+/// viewpoint off the terrain) nothing is fetched or evicted. Only level-0 tiles take part:
+/// tiles of the pyramid's other levels are neither belts nor cache here.
 pub fn plan(
     ledger: &Ledger,
     center: Option<TileId>,
     max_fetches: usize,
+    reserved: usize,
     predicted: impl Fn(TileId, u32) -> usize,
 ) -> Plan {
     let Some(center) = center.filter(|&c| ledger.grid().contains(c)) else {
@@ -132,7 +135,10 @@ pub fn plan(
         }
     }
     let evictable = evictable(ledger, center, next, &predicted);
-    let mut free = ledger.limit().saturating_sub(ledger.memory());
+    let mut free = ledger
+        .limit()
+        .saturating_sub(ledger.memory())
+        .saturating_sub(reserved);
     let reclaimable: usize = evictable.iter().map(|&(_, bytes)| bytes).sum();
     if outstanding > free.saturating_add(reclaimable) {
         return Plan {
@@ -173,7 +179,7 @@ fn evictable(
 ) -> Vec<(TileId, usize)> {
     let mut candidates: Vec<_> = ledger
         .records()
-        .filter(|(_, r)| r.fetch.is_none())
+        .filter(|(id, r)| id.level == 0 && r.fetch.is_none())
         .filter_map(|(id, r)| {
             let held = r.loaded?;
             let ring = Grid::ring(center, id);
@@ -199,6 +205,7 @@ fn evictable(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::db::grid::Pyramid;
     use crate::engine::paging::RetryPolicy;
 
     const NOW: u64 = 0;
@@ -212,7 +219,7 @@ mod tests {
     }
 
     fn ledger(w: u32, h: u32, limit: usize) -> Ledger {
-        Ledger::new(Grid::new(w, h).unwrap(), limit, RetryPolicy::default())
+        Ledger::new(Pyramid::new(w, h).unwrap(), limit, RetryPolicy::default())
     }
 
     /// Applies one plan with every fetch arriving at once, holding its prediction.
@@ -239,7 +246,7 @@ mod tests {
         let mut plans = Vec::new();
         loop {
             assert!(plans.len() < 1000, "no steady state after 1000 plans");
-            let plan = plan(ledger, Some(center), max_fetches, cost);
+            let plan = plan(ledger, Some(center), max_fetches, 0, cost);
             if plan.fetch.is_empty() {
                 plans.push(plan);
                 return plans;
@@ -337,20 +344,20 @@ mod tests {
         assert_eq!(plans[4].complete, Some(3));
         // While a fetch of belt 1 is in flight, nothing of belt 2 is planned.
         let mut l = ledger(7, 7, usize::MAX);
-        let first = plan(&l, Some(c), 100, uniform(1));
+        let first = plan(&l, Some(c), 100, 0, uniform(1));
         apply(&mut l, &first);
-        let belt1 = plan(&l, Some(c), 3, uniform(1));
+        let belt1 = plan(&l, Some(c), 3, 0, uniform(1));
         assert_eq!(belt1.fetch.len(), 3);
         for &f in &belt1.fetch {
             l.reserve(f).unwrap();
         }
-        let rest = plan(&l, Some(c), 100, uniform(1));
+        let rest = plan(&l, Some(c), 100, 0, uniform(1));
         let ids: Vec<TileId> = rest.fetch.iter().map(|f| f.id).collect();
         assert_eq!(ids, grid.belt(c, 1)[3..]);
         for &f in &rest.fetch {
             l.reserve(f).unwrap();
         }
-        assert!(plan(&l, Some(c), 100, uniform(1)).fetch.is_empty());
+        assert!(plan(&l, Some(c), 100, 0, uniform(1)).fetch.is_empty());
     }
 
     #[test]
@@ -431,7 +438,7 @@ mod tests {
         // 9 + 5 + 3 + 3 = 20 bytes held; belt 2 misses 11 tiles.
         let l = partial_belts(20 + 11 - 2);
         assert_eq!(complete_belts(&l, c, uniform(1)), Some(1));
-        let p = plan(&l, Some(c), 100, uniform(1));
+        let p = plan(&l, Some(c), 100, 0, uniform(1));
         let ids: Vec<TileId> = p.fetch.iter().map(|f| f.id).collect();
         assert_eq!(ids.len(), 11);
         assert!(ids.iter().all(|&t| Grid::ring(c, t) == 2));
@@ -440,13 +447,13 @@ mod tests {
         assert!(p.evict.iter().all(|&t| Grid::ring(c, t) == 4));
         // Six bytes short: all of ring 4, then all of ring 3.
         let l = partial_belts(20 + 11 - 6);
-        let p = plan(&l, Some(c), 100, uniform(1));
+        let p = plan(&l, Some(c), 100, 0, uniform(1));
         let rings: Vec<u32> = p.evict.iter().map(|&t| Grid::ring(c, t)).collect();
         assert_eq!(rings, [4, 4, 4, 3, 3, 3]);
         assert_eq!(p.fetch.len(), 11);
         // Fetching part of the belt evicts only what that part needs.
         let l = partial_belts(25);
-        let p = plan(&l, Some(c), 6, uniform(1));
+        let p = plan(&l, Some(c), 6, 0, uniform(1));
         assert_eq!((p.fetch.len(), p.evict.len()), (6, 1));
         assert_eq!(Grid::ring(c, p.evict[0]), 4);
     }
@@ -456,7 +463,7 @@ mod tests {
         let c = id(4, 4);
         // Without all its cache the ledger still holds 14 bytes; belt 2 needs 11 more.
         let l = partial_belts(14 + 11 - 1);
-        let p = plan(&l, Some(c), 100, uniform(1));
+        let p = plan(&l, Some(c), 100, 0, uniform(1));
         assert!(p.full);
         assert!(p.evict.is_empty() && p.fetch.is_empty());
         assert_eq!(p.complete, Some(1));
@@ -465,7 +472,7 @@ mod tests {
         let mut l = partial_belts(22);
         for center in [id(4, 4), id(5, 4), id(5, 5), id(3, 4), id(8, 8)] {
             for _ in 0..30 {
-                let p = plan(&l, Some(center), 1, uniform(1));
+                let p = plan(&l, Some(center), 1, 0, uniform(1));
                 if let Some(d) = p.complete {
                     assert!(p.evict.iter().all(|&t| Grid::ring(center, t) > d + 1));
                 }
@@ -480,7 +487,7 @@ mod tests {
         settle(&mut l, id(3, 3), 4, &uniform(1));
         assert_eq!(complete_belts(&l, id(3, 3), uniform(1)), Some(2));
         let far = id(28, 28);
-        let p = plan(&l, Some(far), 1, uniform(1));
+        let p = plan(&l, Some(far), 1, 0, uniform(1));
         assert_eq!(p.complete, None);
         assert_eq!(p.fetch[0].id, far);
         assert_eq!(p.evict, vec![id(1, 1)]);
@@ -503,7 +510,7 @@ mod tests {
         assert_eq!(complete_belts(&l, east, cost), Some(0));
         assert!(!is_complete(&l.record(id(6, 4)), id(6, 4), 1, cost));
         assert!(is_complete(&l.record(id(4, 4)), id(4, 4), 1, cost));
-        let p = plan(&l, Some(east), 1, cost);
+        let p = plan(&l, Some(east), 1, 0, cost);
         assert_eq!(
             p.fetch,
             vec![Fetch {
@@ -543,7 +550,7 @@ mod tests {
             load(t, 2, 100);
         }
         load(id(2, 2), 2, 100);
-        let p = plan(&l, Some(c), 8, cost);
+        let p = plan(&l, Some(c), 8, 0, cost);
         assert_eq!(p.fetch.len(), 8);
         assert_eq!(p.evict.len(), 9);
         assert_eq!(p.evict[0], id(2, 2));
@@ -555,7 +562,11 @@ mod tests {
         let mut l = ledger(9, 9, usize::MAX);
         settle(&mut l, id(4, 4), 3, &uniform(100));
         assert_eq!(complete_belts(&l, id(5, 4), uniform(100)), Some(5));
-        assert!(plan(&l, Some(id(5, 4)), 9, uniform(100)).fetch.is_empty());
+        assert!(
+            plan(&l, Some(id(5, 4)), 9, 0, uniform(100))
+                .fetch
+                .is_empty()
+        );
     }
 
     #[test]
@@ -602,7 +613,7 @@ mod tests {
             delay_updates: 1,
             ..RetryPolicy::default()
         };
-        let mut l = Ledger::new(Grid::new(3, 1).unwrap(), 100, retry);
+        let mut l = Ledger::new(Pyramid::new(3, 1).unwrap(), 100, retry);
         let t = id(0, 0);
         l.reserve(Fetch {
             id: t,
@@ -639,11 +650,11 @@ mod tests {
             delay_updates: 3,
             ..RetryPolicy::default()
         };
-        let mut l = Ledger::new(Grid::new(3, 3).unwrap(), usize::MAX, retry);
+        let mut l = Ledger::new(Pyramid::new(3, 3).unwrap(), usize::MAX, retry);
         let c = id(1, 1);
-        let center = plan(&l, Some(c), 9, uniform(1));
+        let center = plan(&l, Some(c), 9, 0, uniform(1));
         apply(&mut l, &center);
-        let belt = plan(&l, Some(c), 9, uniform(1));
+        let belt = plan(&l, Some(c), 9, 0, uniform(1));
         for &f in &belt.fetch {
             l.reserve(f).unwrap();
         }
@@ -653,26 +664,26 @@ mod tests {
             l.arrive(f.id, 1, 10).unwrap();
         }
         assert_eq!(l.memory(), 8);
-        assert!(plan(&l, Some(c), 9, uniform(1)).fetch.is_empty());
+        assert!(plan(&l, Some(c), 9, 0, uniform(1)).fetch.is_empty());
         let wait = retry.tile_delay(bad, 1);
         assert!((2..=3).contains(&wait), "{wait}");
         l.tick(10 + wait - 1);
-        assert!(plan(&l, Some(c), 9, uniform(1)).fetch.is_empty());
+        assert!(plan(&l, Some(c), 9, 0, uniform(1)).fetch.is_empty());
         l.tick(10 + wait);
-        let again = plan(&l, Some(c), 9, uniform(1));
+        let again = plan(&l, Some(c), 9, 0, uniform(1));
         assert_eq!(again.fetch.len(), 1);
         l.reserve(again.fetch[0]).unwrap();
         l.fail(bad, 13);
         assert_eq!(l.record(bad).failure, Some(Failure::GaveUp));
         assert_eq!(complete_belts(&l, c, uniform(1)), Some(1));
         l.tick(1000);
-        assert!(plan(&l, Some(c), 9, uniform(1)).fetch.is_empty());
+        assert!(plan(&l, Some(c), 9, 0, uniform(1)).fetch.is_empty());
     }
 
     #[test]
     fn without_a_center_nothing_is_planned() {
         let l = partial_belts(100);
-        assert_eq!(plan(&l, None, 10, uniform(1)), Plan::default());
-        assert_eq!(plan(&l, Some(id(9, 0)), 10, uniform(1)), Plan::default());
+        assert_eq!(plan(&l, None, 10, 0, uniform(1)), Plan::default());
+        assert_eq!(plan(&l, Some(id(9, 0)), 10, 0, uniform(1)), Plan::default());
     }
 }

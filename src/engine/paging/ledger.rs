@@ -6,7 +6,7 @@
 use std::collections::BTreeMap;
 
 use crate::db::backoff::Backoff;
-use crate::db::grid::{Grid, TileId};
+use crate::db::grid::{Grid, Pyramid, TileId};
 use crate::error::{Error, Result};
 
 /// A resident copy of a tile: the bytes it holds and the ring its detail serves.
@@ -61,7 +61,7 @@ impl Record {
     }
 }
 
-/// How often a failed tile (or the base) is tried again: the one place that retries a fetch,
+/// How often a failed tile (or the top) is tried again: the one place that retries a fetch,
 /// in updates of the pager, backing off exponentially with jitter ([`Backoff`]). The jitter is
 /// drawn from the seed and the tile, so the deterministic modes stay deterministic.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -102,70 +102,97 @@ impl RetryPolicy {
 
     /// [`RetryPolicy::delay`] for tile `id`.
     pub fn tile_delay(&self, id: TileId, failures: u32) -> u64 {
-        self.delay((u64::from(id.x) << 32) | u64::from(id.y), failures)
+        let key = (u64::from(id.x) << 32) | u64::from(id.y);
+        self.delay(key ^ (u64::from(id.level) << 58), failures)
     }
 }
 
 /// The accounting of Algorithm 1: every tile that holds or will hold memory, the accounted bytes
-/// (the base, held copies and reservations of fetches in flight) and their peak, under a fixed
-/// limit.
+/// (the top, the index pages, held copies and reservations of fetches in flight) and their
+/// peak, under a fixed limit.
 #[derive(Clone, Debug)]
 pub struct Ledger {
-    grid: Grid,
+    pyramid: Pyramid,
     limit: usize,
     retry: RetryPolicy,
     records: BTreeMap<TileId, Record>,
-    /// Bytes of the base (the coarse copy of every tile), or of its fetch in flight.
-    base: usize,
+    /// Bytes of the top (the pyramid's coarsest levels), or of its fetch in flight.
+    top: usize,
+    /// Bytes set aside for the archive's index pages.
+    index: usize,
     memory: usize,
     peak: usize,
 }
 
 impl Ledger {
-    /// An empty ledger for `grid` under `limit` accounted bytes.
-    pub fn new(grid: Grid, limit: usize, retry: RetryPolicy) -> Self {
+    /// An empty ledger for the tiles of `pyramid` under `limit` accounted bytes.
+    pub fn new(pyramid: Pyramid, limit: usize, retry: RetryPolicy) -> Self {
         Ledger {
-            grid,
+            pyramid,
             limit,
             retry,
             records: BTreeMap::new(),
-            base: 0,
+            top: 0,
+            index: 0,
             memory: 0,
             peak: 0,
         }
     }
 
-    /// Bytes accounted for the base.
-    pub fn base(&self) -> usize {
-        self.base
+    /// Bytes accounted for the top.
+    pub fn top(&self) -> usize {
+        self.top
     }
 
-    /// Accounts `bytes` for the base instead of what it had: a reservation before it is
+    /// Bytes set aside for the index pages.
+    pub fn index(&self) -> usize {
+        self.index
+    }
+
+    /// Accounts `bytes` for the top instead of what it had: a reservation before it is
     /// fetched, what it holds once it arrived or was refit, 0 when it is dropped. Fails (and
     /// changes nothing) when that would take the accounted bytes over the limit.
-    pub fn set_base(&mut self, bytes: usize) -> Result<()> {
-        let memory = (self.memory - self.base)
+    pub fn set_top(&mut self, bytes: usize) -> Result<()> {
+        self.top = self.set_fixed(self.top, bytes, "the top")?;
+        Ok(())
+    }
+
+    /// Sets `bytes` aside for the archive's index pages instead of what was set aside. Fails
+    /// (and changes nothing) when that would take the accounted bytes over the limit.
+    pub fn set_index(&mut self, bytes: usize) -> Result<()> {
+        self.index = self.set_fixed(self.index, bytes, "the index pages")?;
+        Ok(())
+    }
+
+    /// Accounts `bytes` instead of `old` for `what`, one of the fixed reservations; returns
+    /// `bytes`, or fails when they do not fit.
+    fn set_fixed(&mut self, old: usize, bytes: usize, what: &str) -> Result<usize> {
+        let memory = (self.memory - old)
             .checked_add(bytes)
             .filter(|&m| m <= self.limit)
             .ok_or_else(|| {
                 Error::invalid(
-                    "the base",
+                    what,
                     format!(
-                        "{bytes} bytes do not fit: {} of {} bytes are accounted without it",
-                        self.memory - self.base,
+                        "{bytes} bytes do not fit: {} of {} bytes are accounted without them",
+                        self.memory - old,
                         self.limit
                     ),
                 )
             })?;
-        self.base = bytes;
         self.memory = memory;
         self.peak = self.peak.max(memory);
-        Ok(())
+        Ok(bytes)
     }
 
-    /// The grid.
+    /// The grid of level-0 tiles, where Algorithm 1's belts lie.
     pub fn grid(&self) -> Grid {
-        self.grid
+        self.pyramid.grid(0)
+    }
+
+    /// The pyramid of tiles.
+    pub fn pyramid(&self) -> &Pyramid {
+        &self.pyramid
     }
 
     /// The memory limit in bytes.
@@ -173,7 +200,8 @@ impl Ledger {
         self.limit
     }
 
-    /// Accounted bytes: the base, held copies and reservations of fetches in flight.
+    /// Accounted bytes: the top, the index pages, held copies and reservations of fetches in
+    /// flight.
     pub fn memory(&self) -> usize {
         self.memory
     }

@@ -42,8 +42,10 @@ pub struct ArchiveLoader {
     bias: AtomicUsize,
     /// The memory limit and texture budget the bias was fitted to, if any.
     texture_fit: Option<(usize, usize)>,
-    /// Levels of the archive's base every tile keeps resident (0: no base).
-    base_levels: usize,
+    /// The finest pyramid level of the archive's top kept resident; `None`: no top.
+    top_level: Option<u8>,
+    /// Where the archive's tiles lie.
+    terrain: TerrainFrame,
 }
 
 impl ArchiveLoader {
@@ -56,6 +58,7 @@ impl ArchiveLoader {
         focal_px: f64,
         cracks: CrackMode,
     ) -> Self {
+        let terrain = TerrainFrame::new(reader.header());
         ArchiveLoader {
             reader,
             light,
@@ -63,15 +66,22 @@ impl ArchiveLoader {
             cracks: AtomicU8::new(mode_index(cracks)),
             bias: AtomicUsize::new(0),
             texture_fit: None,
-            base_levels: 0,
+            top_level: None,
+            terrain,
         }
     }
 
-    /// Keeps the first `levels` levels of the archive's base resident (at most what it stores;
-    /// 0: no base). Returns the levels kept.
-    pub fn use_base(&mut self, levels: usize) -> usize {
-        self.base_levels = levels.min(self.reader.header().base_levels as usize);
-        self.base_levels
+    /// Keeps the archive's top resident from pyramid level `level` up (no finer than the top
+    /// the archive stores; `None`: no top). Returns the finest level kept.
+    pub fn use_top(&mut self, level: Option<u8>) -> Option<u8> {
+        let stored = self.reader.header().top_level as u8;
+        self.top_level = level.map(|l| l.max(stored));
+        self.top_level
+    }
+
+    /// The finest pyramid level of the top kept resident, if any.
+    pub fn top_level(&self) -> Option<u8> {
+        self.top_level
     }
 
     /// Coarsens textures until those of the largest square of belts that fits `memory_limit`
@@ -90,9 +100,28 @@ impl ArchiveLoader {
         CrackMode::ALL[usize::from(self.cracks.load(Ordering::Relaxed))]
     }
 
-    /// Where tile `id` is cut: the last of its samples east and south that belong to the model.
+    /// Where tile `id` is cut: the last of its positions east and south that belong to the
+    /// model.
     fn extent(&self, id: TileId) -> [i32; 2] {
-        TerrainFrame::new(self.reader.header()).tile_extent(id.x, id.y)
+        self.terrain.tile_extent(id)
+    }
+
+    /// The resident form of tile `id` made of `tile` (`None`: absent) with textures from mip
+    /// `texture_base`.
+    fn resident(&self, id: TileId, tile: Option<&Tile>, texture_base: usize) -> ResidentTile {
+        let h = self.reader.header();
+        match tile {
+            Some(tile) => ResidentTile::of_level(
+                tile,
+                id.level,
+                texture_base,
+                h.spacing,
+                &self.light,
+                self.cracks(),
+            )
+            .clipped(self.extent(id)),
+            None => ResidentTile::absent(h.tile_size as usize, id.level, h.spacing, &self.light),
+        }
     }
 
     /// Loads tiles for crack mode `cracks` from now on (and refits the texture bias to the
@@ -163,7 +192,7 @@ fn mode_index(cracks: CrackMode) -> u8 {
         .expect("ALL lists every mode") as u8
 }
 
-/// Both strategies hold the same resident tiles and share the base.
+/// Both strategies hold the same resident tiles and share the top.
 impl ResidentLoader for ArchiveLoader {
     type Loaded = ResidentTile;
 
@@ -171,35 +200,38 @@ impl ResidentLoader for ArchiveLoader {
         tile.bytes()
     }
 
-    /// Every tile at the base's levels.
-    fn base_bytes(&self) -> usize {
-        match self.base_levels {
-            0 => 0,
-            levels => {
-                self.reader.header().tile_count() * LevelLoader::predicted_bytes(self, levels)
-            }
-        }
+    /// Every tile of the kept top, whole.
+    fn top_bytes(&self) -> usize {
+        let Some(level) = self.top_level else {
+            return 0;
+        };
+        let h = self.reader.header();
+        let whole = LevelLoader::predicted_bytes(self, h.levels());
+        let absent = ResidentTile::absent(h.tile_size as usize, 0, h.spacing, &self.light).bytes();
+        self.reader
+            .directory()
+            .top
+            .iter()
+            .filter(|(id, _)| id.level >= level)
+            .map(|(_, e)| if e.is_absent() { absent } else { whole })
+            .sum()
     }
 
-    fn load_base(&self) -> Result<(Vec<(TileId, ResidentTile)>, u64)> {
-        if self.base_levels == 0 {
+    fn load_top(&self) -> Result<(Vec<(TileId, ResidentTile)>, u64)> {
+        let Some(level) = self.top_level else {
             return Ok((Vec::new(), 0));
-        }
-        let h = self.reader.header();
-        let (tiles, stored) = self.reader.base()?;
-        let tiles_x = h.tiles_x as usize;
+        };
+        let (tiles, stored) = self.reader.top()?;
         let resident = tiles
             .into_iter()
-            .enumerate()
-            .map(|(i, tile)| {
-                let id = TileId::new((i % tiles_x) as u32, (i / tiles_x) as u32);
-                let tile = tile.truncated(self.base_levels.min(tile.levels));
-                let resident = ResidentTile::new(&tile, 0, h.spacing, &self.light, self.cracks())
-                    .clipped(self.extent(id));
-                (id, resident)
-            })
+            .filter(|(id, _)| id.level >= level)
+            .map(|(id, tile)| (id, self.resident(id, tile.as_ref(), 0)))
             .collect();
         Ok((resident, stored))
+    }
+
+    fn index_bytes(&self) -> usize {
+        self.reader.index_cache_limit()
     }
 }
 
@@ -216,20 +248,9 @@ impl TileLoader for ArchiveLoader {
     }
 
     fn load(&self, id: TileId, ring: u32) -> Result<(ResidentTile, u64)> {
-        let (x, y) = (id.x as usize, id.y as usize);
-        let (tile, downloaded) = self
-            .reader
-            .tile_levels(x, y, self.reader.header().levels())?;
-        let spacing = self.reader.header().spacing;
+        let (tile, downloaded) = self.reader.tile_levels(id, self.reader.header().levels())?;
         Ok((
-            ResidentTile::new(
-                &tile,
-                self.texture_base(ring),
-                spacing,
-                &self.light,
-                self.cracks(),
-            )
-            .clipped(self.extent(id)),
+            self.resident(id, tile.as_ref(), self.texture_base(ring)),
             downloaded,
         ))
     }
@@ -250,6 +271,8 @@ pub struct LevelPiece {
     have: usize,
     /// The raw chunks of levels `have..`, in order.
     chunks: Vec<Vec<u8>>,
+    /// The tile is absent: nothing is stored for it.
+    absent: bool,
 }
 
 /// Progressive streaming: a tile's levels come one range request at a time and merge into the
@@ -280,16 +303,14 @@ impl LevelLoader for ArchiveLoader {
         want: usize,
         cancel: &CancelToken,
     ) -> Result<(LevelPiece, u64)> {
-        let read = self.reader.read_levels_cancellable(
-            id.x as usize,
-            id.y as usize,
-            have..want,
-            cancel,
-        )?;
+        let read = self
+            .reader
+            .read_levels_cancellable(id, have..want, cancel)?;
         Ok((
             LevelPiece {
                 have,
                 chunks: read.chunks,
+                absent: read.absent,
             },
             read.stored_bytes,
         ))
@@ -302,7 +323,10 @@ impl LevelLoader for ArchiveLoader {
         piece: LevelPiece,
     ) -> Result<ResidentTile> {
         let h = self.reader.header();
-        let name = format!("{} tile {id}", self.reader.name());
+        let name = format!("{} {id}", self.reader.name());
+        if piece.absent {
+            return Ok(self.resident(id, None, 0));
+        }
         let held_levels = held.map_or(0, |t| t.levels);
         if held_levels != piece.have {
             return Err(Error::invalid(
@@ -316,22 +340,7 @@ impl LevelLoader for ArchiveLoader {
         let tile = match held {
             None => {
                 let chunks: Vec<&[u8]> = piece.chunks.iter().map(Vec::as_slice).collect();
-                let tile = Tile::from_levels(
-                    &chunks,
-                    h.tile_size as usize,
-                    h.texture_size as usize,
-                    &name,
-                )?;
-                if tile.quantum != h.height_quantum {
-                    return Err(Error::invalid(
-                        &name,
-                        format!(
-                            "height quantum {} differs from the archive's {}",
-                            tile.quantum, h.height_quantum
-                        ),
-                    ));
-                }
-                tile
+                self.reader.decode(&chunks, &name)?
             }
             Some(resident) => {
                 let mut tile = resident.to_tile();
@@ -341,14 +350,16 @@ impl LevelLoader for ArchiveLoader {
                 tile
             }
         };
-        Ok(
-            ResidentTile::new(&tile, 0, h.spacing, &self.light, self.cracks())
-                .clipped(self.extent(id)),
-        )
+        debug_assert_eq!(tile.tile_size, h.tile_size as usize);
+        Ok(self.resident(id, Some(&tile), 0))
     }
 
     fn held_levels(&self, tile: &ResidentTile) -> usize {
         tile.levels
+    }
+
+    fn is_absent(&self, tile: &ResidentTile) -> bool {
+        tile.absent
     }
 
     fn drop_levels(&self, tile: &mut ResidentTile, levels: usize) -> usize {

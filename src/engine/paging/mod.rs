@@ -1,30 +1,34 @@
 //! Paging: which tiles are resident, fetched beside the frame loop under a memory limit.
 //!
 //! Two strategies share one core. [`BeltPager`] is the paper's: Algorithm 1 ([`belts`]) keeps
-//! the largest complete square of belts of whole tiles that fits the limit. [`StreamPager`]
-//! streams progressive levels as the view needs them ([`stream`]). Both hold a [`Residency`] —
-//! the [`Ledger`] that accounts every byte before it is fetched, the resident tiles, the
-//! viewpoint's tile and square, and the counters — and send their requests over a [`Link`]: a
-//! fetch thread ([`PagerMode::Threaded`]) or, deterministically, this thread
-//! ([`PagerMode::Stepped`], [`PagerMode::Simulated`]). Each keeps only what differs: what to fetch
-//! next and how an arrival joins the resident tile. The engine drives either through the [`Paging`]
-//! trait.
+//! the largest complete square of belts of whole level-0 tiles that fits the limit — the near
+//! field — and the tiles of the pyramid's levels above that the frame's cut asks for come
+//! whole beside it (`far.rs`). [`StreamPager`] streams progressive levels of the tiles of every
+//! level as the view needs them ([`stream`]). Both keep the top of the pyramid resident
+//! (`top.rs`), and both hold a [`Residency`] — the [`Ledger`] that accounts every byte before it
+//! is fetched, the resident tiles, the viewpoint's tile and square, and the counters — and send
+//! their requests over a [`Link`]: a fetch thread ([`PagerMode::Threaded`]) or,
+//! deterministically, this thread ([`PagerMode::Stepped`], [`PagerMode::Simulated`]). Each
+//! keeps only what differs: what to fetch next and how an arrival joins the resident tile. The
+//! engine drives either through the [`Paging`] trait.
 
-mod base;
 mod belt_pager;
 pub mod belts;
+mod far;
 mod ledger;
 mod link;
 mod loader;
 mod meminfo;
 pub mod stream;
+mod top;
 mod worker;
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::sync::Arc;
 use std::time::Instant;
 
 pub use belt_pager::{BeltPager, Belts, TileLoader};
+pub use far::FAR_SHARE;
 pub use ledger::{Failure, Fetch, Ledger, Loaded, Record, Reservation, RetryPolicy};
 pub use link::{Link, Received};
 pub use loader::ArchiveLoader;
@@ -32,11 +36,11 @@ pub use meminfo::{memory_limit_from_available, parse_mem_available};
 pub use stream::{Progressive, StreamPager, StreamStats};
 pub use worker::{Job, Request};
 
-use crate::db::grid::{Grid, TileId};
+use crate::db::grid::{Grid, Pyramid, TileId};
 use crate::db::source::CancelToken;
 use crate::engine::resident::ResidentTile;
 use crate::error::{Error, Result};
-use base::{BaseFetch, BaseRequest, BaseTiles};
+use top::{TopFetch, TopRequest, TopTiles};
 
 /// How fetches run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -97,7 +101,7 @@ pub trait TransferClock: Send + Sync {
 }
 
 /// What both pagers are set with.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PagerConfig {
     /// The limit on accounted bytes (see [`memory_limit_from_available`] for a percentage).
     pub memory_limit_bytes: usize,
@@ -108,16 +112,21 @@ pub struct PagerConfig {
     pub mode: PagerMode,
     /// How failed tiles are tried again.
     pub retry: RetryPolicy,
+    /// The share of the memory limit the belt pager keeps for the far field, the tiles of the
+    /// pyramid's levels above 0 that the frames' cuts ask for (`far.rs`).
+    pub far_share: f64,
 }
 
 impl PagerConfig {
-    /// `memory_limit_bytes` in `mode`, using the nearest tile off the terrain, default retries.
+    /// `memory_limit_bytes` in `mode`, using the nearest tile off the terrain, default retries,
+    /// no far field.
     pub fn new(memory_limit_bytes: usize, mode: PagerMode) -> Self {
         PagerConfig {
             memory_limit_bytes,
             nearest_when_off: true,
             mode,
             retry: RetryPolicy::default(),
+            far_share: 0.0,
         }
     }
 }
@@ -168,19 +177,24 @@ pub struct PagerStats {
     pub errors: u64,
     /// Tiles whose last fetch failed.
     pub failed_tiles: usize,
-    /// Tiles of the base (every tile once it arrived; 0 without one).
-    pub base_tiles: usize,
-    /// Bytes the base holds, or has reserved while on its way (part of `memory_bytes`).
-    pub base_bytes: usize,
+    /// Tiles of the top resident (0 before it arrived, or without one).
+    pub top_tiles: usize,
+    /// Bytes the top holds, or has reserved while on its way (part of `memory_bytes`).
+    pub top_bytes: usize,
+    /// Bytes set aside for the archive's index pages (part of `memory_bytes`).
+    pub index_bytes: usize,
 }
 
-/// What a pager holds, whichever its strategy: the ledger, the resident tiles and the base,
+/// What a pager holds, whichever its strategy: the ledger, the resident tiles and the top,
 /// where the viewpoint is, the pager's clock and its counters.
 pub struct Residency<T> {
     ledger: Ledger,
     tiles: BTreeMap<TileId, T>,
-    /// The coarse copy of every tile, once it arrived ([`base`]).
-    base: BTreeMap<TileId, T>,
+    /// The top of the pyramid, once it arrived ([`top`]).
+    top: BTreeMap<TileId, T>,
+    /// Per tile, how many tiles below it are resident (paged or in the top): where a view may
+    /// find something to draw under a tile that is not resident itself.
+    covered: HashMap<TileId, u32>,
     mode: PagerMode,
     nearest_when_off: bool,
     center: Option<TileId>,
@@ -210,11 +224,12 @@ impl<T> Residency<T> {
         self.complete.map_or(0, |d| d + 1)
     }
 
-    fn new(grid: Grid, config: &PagerConfig) -> Self {
+    fn new(pyramid: Pyramid, config: &PagerConfig) -> Self {
         Residency {
-            ledger: Ledger::new(grid, config.memory_limit_bytes, config.retry),
+            ledger: Ledger::new(pyramid, config.memory_limit_bytes, config.retry),
             tiles: BTreeMap::new(),
-            base: BTreeMap::new(),
+            top: BTreeMap::new(),
+            covered: HashMap::new(),
             mode: config.mode,
             nearest_when_off: config.nearest_when_off,
             center: None,
@@ -239,27 +254,15 @@ impl<T> Residency<T> {
         self.center
     }
 
-    /// The paged tiles, row-major: the complete square and the cache (not the base).
+    /// The paged tiles, by level then row-major: the complete square, the cache and the far
+    /// field (not the top).
     pub fn tiles(&self) -> impl Iterator<Item = (TileId, &T)> {
         self.tiles.iter().map(|(id, t)| (*id, t))
     }
 
-    /// What can be drawn of every tile, row-major: its paged copy, or else its base copy.
-    pub fn drawable(&self) -> Box<dyn Iterator<Item = (TileId, &T)> + '_> {
-        if self.base.is_empty() {
-            Box::new(self.tiles())
-        } else {
-            Box::new(
-                self.base
-                    .iter()
-                    .map(|(id, b)| (*id, self.tiles.get(id).unwrap_or(b))),
-            )
-        }
-    }
-
-    /// The best copy of `id` there is: paged, or else from the base.
+    /// The best copy of `id` there is: paged, or else from the top.
     pub fn get(&self, id: TileId) -> Option<&T> {
-        self.tiles.get(&id).or_else(|| self.base.get(&id))
+        self.tiles.get(&id).or_else(|| self.top.get(&id))
     }
 
     /// The paged copy of `id`, if any.
@@ -267,9 +270,69 @@ impl<T> Residency<T> {
         self.tiles.get(&id)
     }
 
-    /// The base copy of `id`, if the base has arrived.
-    pub fn base_tile(&self, id: TileId) -> Option<&T> {
-        self.base.get(&id)
+    /// The top's copy of `id`, if the top has arrived and holds it.
+    pub fn top_tile(&self, id: TileId) -> Option<&T> {
+        self.top.get(&id)
+    }
+
+    /// The top's tiles.
+    pub fn top(&self) -> impl Iterator<Item = (TileId, &T)> {
+        self.top.iter().map(|(id, t)| (*id, t))
+    }
+
+    /// Tiles below `id` (of any level) that are resident.
+    pub fn covered(&self, id: TileId) -> u32 {
+        self.covered.get(&id).copied().unwrap_or(0)
+    }
+
+    /// Counts `id` (just made resident, `+1`, or dropped, `-1`) in its ancestors' coverage.
+    fn count(&mut self, id: TileId, change: i32) {
+        let root = self.ledger.pyramid().root().level;
+        for level in id.level + 1..=root {
+            let ancestor = id.ancestor(level);
+            let n = self.covered.entry(ancestor).or_default();
+            *n = n.saturating_add_signed(change);
+            if *n == 0 {
+                self.covered.remove(&ancestor);
+            }
+        }
+    }
+
+    /// Whether some copy of `id` (paged or top) is resident.
+    fn holds(&self, id: TileId) -> bool {
+        self.tiles.contains_key(&id) || self.top.contains_key(&id)
+    }
+
+    /// Makes `tiles` the top, in place of what it held.
+    fn set_top(&mut self, tiles: Vec<(TileId, T)>) {
+        let old: Vec<TileId> = self.top.keys().copied().collect();
+        for id in old {
+            self.top.remove(&id);
+            if !self.holds(id) {
+                self.count(id, -1);
+            }
+        }
+        for (id, tile) in tiles {
+            if !self.holds(id) {
+                self.count(id, 1);
+            }
+            self.top.insert(id, tile);
+        }
+    }
+
+    /// Makes `tile` the paged copy of `id`.
+    fn insert(&mut self, id: TileId, tile: T) {
+        if !self.holds(id) {
+            self.count(id, 1);
+        }
+        self.tiles.insert(id, tile);
+    }
+
+    /// Drops the paged copy of `id`.
+    fn remove(&mut self, id: TileId) {
+        if self.tiles.remove(&id).is_some() && !self.holds(id) {
+            self.count(id, -1);
+        }
     }
 
     /// The accounting: what every tile holds or has reserved.
@@ -295,12 +358,19 @@ impl<T> Residency<T> {
         }
     }
 
-    /// Whether `id` lies in the complete square of belts around the current tile.
+    /// Whether `id` is a level-0 tile of the complete square of belts around the current tile.
     pub fn in_square(&self, id: TileId) -> bool {
         match (self.center, self.complete) {
-            (Some(c), Some(d)) => Grid::ring(c, id) <= d,
+            (Some(c), Some(d)) => id.level == 0 && Grid::ring(c, id) <= d,
             _ => false,
         }
+    }
+
+    /// The belt of `id` around the viewpoint at `id`'s level: its Chebyshev distance from the
+    /// tile of its level under the viewpoint (0 without a viewpoint).
+    pub fn ring(&self, id: TileId) -> u32 {
+        self.center
+            .map_or(0, |c| Grid::ring(c.ancestor(id.level), id))
     }
 
     /// Where `id` stands: what it shows first (a resident copy, even while a finer one is on its
@@ -338,8 +408,9 @@ impl<T> Residency<T> {
             evictions: self.evictions,
             errors: self.errors,
             failed_tiles: self.ledger.failed_tiles(),
-            base_tiles: self.base.len(),
-            base_bytes: self.ledger.base(),
+            top_tiles: self.top.len(),
+            top_bytes: self.ledger.top(),
+            index_bytes: self.ledger.index(),
         }
     }
 
@@ -401,7 +472,7 @@ impl<T> Residency<T> {
         self.downloaded_bytes += downloaded;
         match self.ledger.arrive(id, bytes, self.now) {
             Ok(()) => {
-                self.tiles.insert(id, tile);
+                self.insert(id, tile);
                 self.fetches += 1;
                 true
             }
@@ -426,7 +497,7 @@ impl<T> Residency<T> {
     /// Drops the resident copy of `id` to make room.
     fn evict(&mut self, id: TileId) {
         self.ledger.evict(id);
-        self.tiles.remove(&id);
+        self.remove(id);
         self.evictions += 1;
     }
 
@@ -461,21 +532,26 @@ impl<T> Residency<T> {
     }
 }
 
-/// What the loaders of both strategies share: the size of a resident tile and the coarse base.
+/// What the loaders of both strategies share: the size of a resident tile and the top.
 pub trait ResidentLoader: Send + Sync + 'static {
     /// A resident tile.
     type Loaded: Send + 'static;
     /// Bytes a resident tile holds: at most what the loader predicted for what it holds (a tile
     /// holding more is refused as an error).
     fn loaded_bytes(&self, tile: &Self::Loaded) -> usize;
-    /// Bytes the coarse base will hold (every tile's first levels, resident for good), known
-    /// before it is fetched; 0, the default, when there is none.
-    fn base_bytes(&self) -> usize {
+    /// Bytes the top will hold (the pyramid's root and the levels kept with it, resident for
+    /// good), known before it is fetched; 0, the default, when none is kept.
+    fn top_bytes(&self) -> usize {
         0
     }
-    /// Fetches the coarse base (every tile's first levels), and the bytes downloaded.
-    fn load_base(&self) -> Result<(BaseTiles<Self::Loaded>, u64)> {
+    /// Fetches the top, and the bytes downloaded.
+    fn load_top(&self) -> Result<(TopTiles<Self::Loaded>, u64)> {
         Ok((Vec::new(), 0))
+    }
+    /// Bytes set aside for the archive's index pages: accounted under the limit for good, as
+    /// the reader caches pages up to them.
+    fn index_bytes(&self) -> usize {
+        0
     }
 }
 
@@ -493,8 +569,8 @@ pub trait Strategy: Sized + Send + 'static {
     type Piece: Send + 'static;
     /// The fetch thread's job for `loader`.
     fn job(loader: Arc<Self::Loader>) -> Job<Self::Request, Self::Piece>;
-    /// Brings a tile of the base to the loader's current settings; returns its bytes.
-    fn refit_base(loader: &Self::Loader, tile: &mut Self::Tile) -> usize;
+    /// Brings a tile of the top to the loader's current settings; returns its bytes.
+    fn refit_top(loader: &Self::Loader, tile: &mut Self::Tile) -> usize;
     /// Once per frame: takes in arrivals and plans.
     fn update(pager: &mut Pager<Self>, viewer: (f64, f64));
     /// Refits every resident tile after the loader's settings changed.
@@ -530,34 +606,36 @@ pub struct Pager<S: Strategy> {
     mode: PagerMode,
     resident: Residency<S::Tile>,
     link: Link<S::Request, S::Piece>,
-    base: BaseFetch<S::Tile>,
+    top: TopFetch<S::Tile>,
     strategy: S,
 }
 
 impl<S: Strategy> Pager<S> {
-    /// A pager for `grid` with nothing resident, following `strategy`; starts the fetch thread
-    /// in threaded mode.
+    /// A pager for `pyramid` with nothing resident, following `strategy`; starts the fetch
+    /// thread in threaded mode.
     pub fn with_strategy(
         loader: S::Loader,
-        grid: Grid,
+        pyramid: Pyramid,
         config: PagerConfig,
         strategy: S,
     ) -> Result<Self> {
         let loader = Arc::new(loader);
         let link = config.mode.link(S::job(Arc::clone(&loader)))?;
-        let base_loader = Arc::clone(&loader);
-        let base = BaseFetch::new(
-            Arc::new(move |_: BaseRequest, _: &CancelToken| base_loader.load_base()),
-            loader.base_bytes(),
+        let top_loader = Arc::clone(&loader);
+        let top = TopFetch::new(
+            Arc::new(move |_: TopRequest, _: &CancelToken| top_loader.load_top()),
+            loader.top_bytes(),
             config.mode,
             config.retry,
         )?;
+        let mut resident = Residency::new(pyramid, &config);
+        resident.ledger.set_index(loader.index_bytes())?;
         Ok(Pager {
             loader,
             mode: config.mode,
-            resident: Residency::new(grid, &config),
+            resident,
             link,
-            base,
+            top,
             strategy,
         })
     }
@@ -581,7 +659,7 @@ impl<S: Strategy> Pager<S> {
     /// Times transfers in [`PagerMode::Simulated`]; without one they take no time and a tile
     /// arrives at the update after its fetch.
     pub fn set_transfer_clock(&mut self, clock: Arc<dyn TransferClock>) {
-        self.base.set_transfer_clock(Arc::clone(&clock));
+        self.top.set_transfer_clock(Arc::clone(&clock));
         self.link.set_transfer_clock(clock);
     }
 
@@ -593,31 +671,31 @@ impl<S: Strategy> Pager<S> {
     }
 
     /// After the loader's settings changed (for example the crack mode): refits every resident
-    /// tile and the base and accounts what they hold now, never above the limit (a base that
+    /// tile and the top and accounts what they hold now, never above the limit (a top that
     /// no longer fits is dropped).
     pub fn refit(&mut self) {
         S::refit(self);
         let r = &mut self.resident;
         let bytes: usize = r
-            .base
+            .top
             .values_mut()
-            .map(|tile| S::refit_base(&self.loader, tile))
+            .map(|tile| S::refit_top(&self.loader, tile))
             .sum();
-        // The base comes first: paged tiles, farthest first, make room for its growth.
+        // The top comes first: paged tiles, farthest first, make room for its growth.
         let mut farthest: Vec<TileId> = r
             .tiles
             .keys()
             .copied()
             .filter(|&id| r.ledger.record(id).fetch.is_none())
             .collect();
-        farthest.sort_by_key(|&id| r.center.map_or(0, |c| Grid::ring(c, id)));
-        while r.ledger.set_base(bytes).is_err() {
+        farthest.sort_by_key(|&id| (r.ring(id), std::cmp::Reverse(id.level)));
+        while r.ledger.set_top(bytes).is_err() {
             let Some(id) = farthest.pop() else {
-                r.base.clear();
-                // Releasing the base always fits.
-                let _ = r.ledger.set_base(0);
+                r.set_top(Vec::new());
+                // Releasing the top always fits.
+                let _ = r.ledger.set_top(0);
                 r.record_error(format!(
-                    "the base was dropped: its {bytes} bytes in this mode do not fit the limit"
+                    "the top was dropped: its {bytes} bytes in this mode do not fit the limit"
                 ));
                 break;
             };
@@ -625,9 +703,9 @@ impl<S: Strategy> Pager<S> {
         }
     }
 
-    /// Whether tile fetches wait for the base's first attempt to come back.
-    fn base_pending(&self) -> bool {
-        self.base.first_pending()
+    /// Whether tile fetches wait for the top's first attempt to come back.
+    fn top_pending(&self) -> bool {
+        self.top.first_pending()
     }
 
     /// The start of an update: finds the tile under `viewer` and takes in every result the
@@ -636,7 +714,7 @@ impl<S: Strategy> Pager<S> {
     fn begin(&mut self, viewer: (f64, f64)) -> Arrivals<S::Request, S::Piece> {
         self.resident.begin(viewer);
         let loader = &*self.loader;
-        self.base
+        self.top
             .poll(&mut self.resident, |t| loader.loaded_bytes(t));
         self.resident.receive(&mut self.link)
     }

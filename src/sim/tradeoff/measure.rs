@@ -18,10 +18,14 @@ use super::views::View;
 use crate::db::source;
 use crate::engine::camera::Camera;
 use crate::engine::cracks::CrackMode;
+use crate::engine::error_bound::ErrorBound;
 use crate::engine::geomorph::Geomorph;
 use crate::engine::paging::PagerMode;
 use crate::engine::{Engine, EngineSettings, FrameReport};
 use crate::error::{Error, Result};
+
+/// The most frames a view is rendered to settle: the pyramid's levels come one a frame.
+const SETTLE_FRAMES: usize = 16;
 
 /// What one setting measured over all views.
 #[derive(Clone, Debug, PartialEq)]
@@ -157,24 +161,42 @@ impl Bench {
         Ok((measurements, pictures))
     }
 
-    /// Renders view `v` once, untimed, in every engine, and checks that every tile is loaded.
+    /// Renders view `v`, untimed, in every engine at full resolution until nothing more
+    /// arrives for it (the cut asks for the tiles of the pyramid it lacks, which come a level a
+    /// frame), and checks that every level-0 tile is loaded.
     fn settle(&mut self, v: usize) -> Result<()> {
         let camera = self.cameras[v];
         let mut fb =
             Framebuffer::new(1, 1, ColorFormat::Rgba8888, DepthFormat::D16).expect("a 1 x 1 frame");
         for (_, engine) in &mut self.engines {
-            engine.render(&camera, &mut fb)?;
+            // At full resolution, the deepest cut any setting draws: every tile is there for all.
+            engine.set_max_error(ErrorBound::Off);
+            let mut held = None;
+            for _ in 0..SETTLE_FRAMES {
+                engine.render(&camera, &mut fb)?;
+                let stats = engine.pager().stats();
+                let now = Some(stats.loaded_tiles);
+                if stats.fetching == 0 && now == held {
+                    break;
+                }
+                held = now;
+            }
             let terrain = engine.terrain();
             let all = terrain.tiles_x as usize * terrain.tiles_y as usize;
+            let level0 = engine
+                .pager()
+                .tiles()
+                .filter(|(id, _)| id.level == 0)
+                .count();
             let stats = engine.pager().stats();
-            if stats.loaded_tiles != all || stats.fetching != 0 {
+            if level0 != all || stats.fetching != 0 {
                 let why = engine
                     .pager()
                     .last_error()
                     .unwrap_or("memory or fetch failure");
                 return Err(Error::invalid(
                     &self.source,
-                    format!("only {} of {all} tiles loaded: {why}", stats.loaded_tiles),
+                    format!("only {level0} of {all} tiles loaded: {why}"),
                 ));
             }
         }
@@ -270,7 +292,11 @@ fn apply(engine: &mut Engine, setting: &Setting) {
     engine.set_max_error(setting.max_error);
     engine.set_allocation(setting.allocation);
     match setting.budget {
-        Budget::Full => engine.force_levels(Some(Box::new(|_| 0))),
+        // Full resolution: every tile of the model's own grid at its finest mask, whatever τ.
+        Budget::Full => {
+            engine.set_max_error(ErrorBound::Off);
+            engine.force_levels(Some(Box::new(|_| 0)));
+        }
         Budget::Triangles(n) => {
             engine.force_levels(None);
             engine.hold_budget(n);

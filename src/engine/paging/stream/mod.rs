@@ -15,9 +15,10 @@
 //!    and which absent tiles of the belts the view (or the predicted view) meets;
 //! 3. the pager passes the wishes through [`Wishes`] (hysteresis: a wish rises at once and falls
 //!    only after the frames asked for less during [`HOLD_SECONDS`]; meanwhile its request waits
-//!    unsent in frames that ask for less) and turns them into requests — a tile the view needs and
-//!    nobody holds comes above everything, in one range request up to the levels it is wished; a
-//!    held tile comes up to its wish in one range request, the worst-looking first; and the coarse
+//!    unsent in frames that ask for less) and turns them into requests — a tile over which the view
+//!    has nothing to draw comes above everything, a tile under one drawn too coarse by that tile's
+//!    error, in one range request up to the levels it is wished; a held tile comes up to its wish
+//!    in one range request, the worst-looking first; and the coarse
 //!    level of each tile of belt `d_c + 1` (Algorithm 1 at the coarsest level, while the coarse
 //!    square takes at most [`StreamSettings::square_share`] of the memory) comes when nothing a
 //!    view asks for waits — cancels the requests on their way that bring more than their tile is
@@ -53,7 +54,7 @@ use super::belts;
 use super::ledger::{Fetch, Ledger};
 use super::worker::Job;
 use super::{Pager, PagerConfig, PagerMode, ResidentLoader, Strategy};
-use crate::db::grid::{Grid, TileId};
+use crate::db::grid::{Grid, Pyramid, TileId};
 use crate::db::source::CancelToken;
 use crate::error::{Error, Result};
 use crate::named::Named;
@@ -109,9 +110,6 @@ impl Default for StreamSettings {
     }
 }
 
-/// Priority of the coarsest level of a tile the view needs: above every refinement.
-const COARSE_PRIORITY: f64 = f64::INFINITY;
-
 /// Priority of the coarsest level of a belt tile no view needs yet, at ring `ring`: below any
 /// refinement a view asks for (a wish's priority, the error its tile shows, is never
 /// negative), so on a slow link the square grows while the link would otherwise idle, never
@@ -149,6 +147,8 @@ pub trait LevelLoader: ResidentLoader {
     ) -> Result<Self::Loaded>;
     /// Progressive levels a resident tile holds.
     fn held_levels(&self, tile: &Self::Loaded) -> usize;
+    /// Whether a resident tile is absent (every sample nodata; it holds every level at once).
+    fn is_absent(&self, tile: &Self::Loaded) -> bool;
     /// Keeps only the first `levels` levels; returns the bytes held now.
     fn drop_levels(&self, tile: &mut Self::Loaded, levels: usize) -> usize;
     /// Brings a tile to the loader's current settings (see [`StreamPager::refit`]); returns its
@@ -239,7 +239,7 @@ impl<L: LevelLoader> Strategy for Progressive<L> {
         })
     }
 
-    fn refit_base(loader: &L, tile: &mut L::Loaded) -> usize {
+    fn refit_top(loader: &L, tile: &mut L::Loaded) -> usize {
         loader.refit(tile)
     }
 
@@ -256,26 +256,20 @@ impl<L: LevelLoader> Strategy for Progressive<L> {
         }
         let now = pager.resident.time();
         pager.strategy.stats.settle(now);
-        // `d_c` at the coarsest level: every tile of belts `0..=d_c` holds a level (or was
-        // given up), which the base gives every tile at once. With one cost at every ring no
-        // held tile counts as needing an upgrade.
+        // `d_c` at the coarsest level: every level-0 tile of belts `0..=d_c` holds a level (or
+        // was given up). With one cost at every ring no held tile counts as needing an upgrade.
         let r = &mut pager.resident;
-        r.complete = r.center.and_then(|c| {
-            if r.base.is_empty() {
-                belts::complete_belts(&r.ledger, c, |_, _| 0)
-            } else {
-                Some(r.ledger.grid().max_ring(c))
-            }
-        });
+        r.complete = r
+            .center
+            .and_then(|c| belts::complete_belts(&r.ledger, c, |_, _| 0));
     }
 
     /// Refits every resident tile and accounts what it holds now, dropping the finest levels of
     /// the farthest tiles while the total would exceed the limit.
     fn refit(pager: &mut StreamPager<L>) {
         let r = &mut pager.resident;
-        let center = r.center;
         let mut ids: Vec<TileId> = r.tiles.keys().copied().collect();
-        ids.sort_by_key(|&id| std::cmp::Reverse(center.map_or(0, |c| Grid::ring(c, id))));
+        ids.sort_by_key(|&id| std::cmp::Reverse(r.ring(id)));
         let mut sizes: Vec<(TileId, usize)> = ids
             .iter()
             .map(|&id| {
@@ -303,7 +297,7 @@ impl<L: LevelLoader> Strategy for Progressive<L> {
     }
 
     fn request(pager: &mut StreamPager<L>, wants: &[Want]) {
-        if !pager.base_pending() {
+        if !pager.top_pending() {
             pager.request(wants);
         }
     }
@@ -318,11 +312,11 @@ impl<L: LevelLoader> Strategy for Progressive<L> {
 }
 
 impl<L: LevelLoader> StreamPager<L> {
-    /// A pager for `grid` with nothing loaded, sharing its memory and queue as `settings` say;
-    /// starts the fetch thread in threaded mode.
+    /// A pager for the tiles of `pyramid` with nothing loaded, sharing its memory and queue as
+    /// `settings` say; starts the fetch thread in threaded mode.
     pub fn new(
         loader: L,
-        grid: Grid,
+        pyramid: Pyramid,
         config: PagerConfig,
         settings: StreamSettings,
     ) -> Result<Self> {
@@ -342,7 +336,7 @@ impl<L: LevelLoader> StreamPager<L> {
             stats: StreamStats::default(),
             loader: PhantomData,
         };
-        Pager::with_strategy(loader, grid, config, strategy)
+        Pager::with_strategy(loader, pyramid, config, strategy)
     }
 
     /// Once per frame, after the engine weighed the held tiles: turns `wants` (through the
@@ -479,7 +473,7 @@ impl<L: LevelLoader> StreamPager<L> {
         &self.strategy.stats
     }
 
-    /// Progressive levels `id` holds, in its paged copy or the base (0 when absent).
+    /// Progressive levels `id` holds, in its paged copy or the top (0 when absent).
     pub fn held_levels(&self, id: TileId) -> usize {
         self.resident
             .get(id)
@@ -493,10 +487,10 @@ impl<L: LevelLoader> StreamPager<L> {
             .map_or(0, |t| self.loader.held_levels(t))
     }
 
-    /// Progressive levels the base holds of `id` (0 without a base).
-    fn base_levels(&self, id: TileId) -> usize {
+    /// Progressive levels the top holds of `id` (0 when the top does not hold it).
+    fn top_levels(&self, id: TileId) -> usize {
         self.resident
-            .base_tile(id)
+            .top_tile(id)
             .map_or(0, |t| self.loader.held_levels(t))
     }
 
@@ -533,9 +527,9 @@ impl<L: LevelLoader> StreamPager<L> {
                 }
             }
         }
-        // A tile the view needs and nobody holds comes above everything, in one request up to
-        // the levels it is wished (one range request: the levels are contiguous); a held tile
-        // comes up to its wish by priority.
+        // A tile nobody holds comes in one request up to the levels it is wished (one range
+        // request: the levels are contiguous); a held tile comes up to its wish; each by its
+        // wish's priority.
         let mut ids: Vec<&TileId> = wanted.keys().collect();
         ids.sort();
         for id in ids {
@@ -544,11 +538,9 @@ impl<L: LevelLoader> StreamPager<L> {
             if !self.can_request(w.id) {
                 continue;
             }
-            let priority = if have == 0 {
-                COARSE_PRIORITY
-            } else {
-                w.priority
-            };
+            // A tile over which the view has nothing to draw comes with an infinite priority;
+            // a tile under one the view draws too coarse, with that tile's error.
+            let priority = w.priority;
             let levels = w.levels.min(self.loader.levels());
             if have < levels {
                 out.push(LevelRequest {
@@ -569,7 +561,7 @@ impl<L: LevelLoader> StreamPager<L> {
     /// Whether a request for `id` may be made now: none in flight, not failed or waiting.
     fn can_request(&self, id: TileId) -> bool {
         let r = self.resident.ledger.record(id);
-        r.fetch.is_none() && r.failure.is_none() && self.resident.ledger.grid().contains(id)
+        r.fetch.is_none() && r.failure.is_none() && self.resident.ledger.pyramid().contains(id)
     }
 
     /// Sends the best waiting request that is still valid, up to no more levels than this frame
@@ -591,8 +583,7 @@ impl<L: LevelLoader> StreamPager<L> {
             if request.levels <= have || !self.can_request(request.id) {
                 continue;
             }
-            // A paged copy grows; without one, the new copy holds every level it asks for
-            // (what the base holds of it stays in the base).
+            // A paged copy grows; without one, the new copy holds every level it asks for.
             let paged = self.paged_levels(request.id);
             let bytes = self.loader.predicted_bytes(request.levels)
                 - if paged == 0 {
@@ -606,10 +597,7 @@ impl<L: LevelLoader> StreamPager<L> {
                 self.resident.memory_bound = true;
                 return false;
             }
-            let ring = self
-                .resident
-                .center
-                .map_or(0, |c| Grid::ring(c, request.id));
+            let ring = self.resident.ring(request.id);
             let fetch = Fetch {
                 id: request.id,
                 ring,
@@ -668,9 +656,8 @@ impl<L: LevelLoader> StreamPager<L> {
         if free < bytes {
             return false;
         }
-        let center = self.resident.center;
         for (id, levels) in keep {
-            if levels <= self.base_levels(id) {
+            if levels <= self.top_levels(id) {
                 self.resident.evict(id);
                 continue;
             }
@@ -679,7 +666,7 @@ impl<L: LevelLoader> StreamPager<L> {
             };
             let bytes = self.loader.drop_levels(tile, levels);
             self.strategy.stats.dropped_levels += 1;
-            let ring = center.map_or(0, |c| Grid::ring(c, id));
+            let ring = self.resident.ring(id);
             self.resident.shrunk(id, bytes, ring);
         }
         true
@@ -691,7 +678,7 @@ impl<L: LevelLoader> StreamPager<L> {
     /// tile of the cache outside the square that nobody asks for.
     fn room_steps(&self, request: &LevelRequest, wanted: &HashMap<TileId, Want>) -> Vec<RoomStep> {
         let r = &self.resident;
-        let ring = |id: TileId| r.center.map_or(0, |c| Grid::ring(c, id));
+        let ring = |id: TileId| r.ring(id);
         let square = r.next_belt();
         let predicted = |levels| self.loader.predicted_bytes(levels);
         let mut steps = Vec::new();
@@ -702,8 +689,8 @@ impl<L: LevelLoader> StreamPager<L> {
             let held = self.loader.held_levels(tile);
             let want = wanted.get(&id);
             let (asked, priority) = want.map_or((0, 0.0), |w| (w.levels, w.priority));
-            // With a base the paged copy goes whole once it would hold no more than the base.
-            let floor = self.base_levels(id);
+            // A paged copy goes whole once it would hold no more than the top.
+            let floor = self.top_levels(id);
             for level in (floor.max(1) + 1..=held).rev() {
                 let class = if level > asked {
                     RoomClass::Unasked
@@ -722,7 +709,8 @@ impl<L: LevelLoader> StreamPager<L> {
                     saved,
                 });
             }
-            if floor == 0 && ring(id) > square && want.is_none() {
+            let outside = id.level > 0 || ring(id) > square;
+            if floor == 0 && outside && want.is_none() {
                 // Its finer levels are steps of their own (it is asked for none), so evicting
                 // it saves what is left once they are gone.
                 let fine = predicted(held) - predicted(1);
@@ -766,7 +754,8 @@ impl<L: LevelLoader> StreamPager<L> {
         let merged = result.and_then(|(piece, downloaded)| {
             let mut tile = self.loader.merge(id, self.resident.get(id), piece)?;
             let levels = self.loader.held_levels(&tile);
-            if levels != fetch.want {
+            // An absent tile holds every level at once: nothing is stored of any.
+            if levels != fetch.want && !self.loader.is_absent(&tile) {
                 return Err(Error::invalid(
                     id.to_string(),
                     format!("it holds {levels} levels after a fetch of {}", fetch.want),

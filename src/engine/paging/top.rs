@@ -1,10 +1,11 @@
-//! The base: a coarse copy of every tile — the archive's first progressive levels of each —
-//! fetched with one request before anything else and resident for good, so that wherever the
-//! view meets the terrain there is something to draw while the detail streams in.
+//! The top: the root of the pyramid and the levels below it that the archive stores together —
+//! a coarse copy of the whole terrain in a few tiles — fetched with one request before
+//! anything else and resident for good, so that wherever the view meets the terrain there is
+//! something to draw while the detail streams in, whatever the model's size.
 //!
-//! The base's bytes are reserved in the ledger before it is fetched, like any fetch, and stay
+//! The top's bytes are reserved in the ledger before it is fetched, like any fetch, and stay
 //! accounted while it is resident: paging works in what the limit leaves. Tile fetches wait for
-//! the first attempt to come back, so on a slow link the base arrives first. A failed fetch is
+//! the first attempt to come back, so on a slow link the top arrives first. A failed fetch is
 //! retried under the pager's retry policy, and tiles page as usual meanwhile.
 
 use std::fmt;
@@ -16,23 +17,23 @@ use super::{PagerMode, Residency, RetryPolicy, TransferClock};
 use crate::db::grid::TileId;
 use crate::error::Result;
 
-/// The request for the base.
+/// The request for the top.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct BaseRequest;
+pub struct TopRequest;
 
-impl fmt::Display for BaseRequest {
+impl fmt::Display for TopRequest {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str("the base")
+        f.write_str("the top")
     }
 }
 
-/// The base's key in the retry policy's jitter (no tile has it).
-const BASE_KEY: u64 = u64::MAX;
+/// The top's key in the retry policy's jitter (no tile has it).
+const TOP_KEY: u64 = u64::MAX;
 
-/// Every tile's coarse copy, and the bytes downloaded for them.
-pub type BaseTiles<T> = Vec<(TileId, T)>;
+/// The top's tiles.
+pub type TopTiles<T> = Vec<(TileId, T)>;
 
-/// Where the base stands.
+/// Where the top stands.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum State {
     /// Not asked for yet, or asked for again from the given update on after `attempts` failed.
@@ -41,24 +42,24 @@ enum State {
     InFlight { attempt: u32 },
     /// Resident.
     Arrived,
-    /// None: the archive has none, or it does not fit, or every attempt failed.
+    /// None: it is not kept, or it does not fit, or every attempt failed.
     Unavailable,
 }
 
-/// Fetches the base and hands it to the [`Residency`].
-pub struct BaseFetch<T> {
-    link: Option<Link<BaseRequest, BaseTiles<T>>>,
-    /// Bytes the base will hold, reserved while it is on its way.
+/// Fetches the top and hands it to the [`Residency`].
+pub struct TopFetch<T> {
+    link: Option<Link<TopRequest, TopTiles<T>>>,
+    /// Bytes the top will hold, reserved while it is on its way.
     bytes: usize,
     retry: RetryPolicy,
     state: State,
 }
 
-impl<T: Send + 'static> BaseFetch<T> {
-    /// A fetch of a base of `bytes` (0: there is none) by `job`, over a link of its own in
+impl<T: Send + 'static> TopFetch<T> {
+    /// A fetch of a top of `bytes` (0: none is kept) by `job`, over a link of its own in
     /// `mode`.
     pub fn new(
-        job: Job<BaseRequest, BaseTiles<T>>,
+        job: Job<TopRequest, TopTiles<T>>,
         bytes: usize,
         mode: PagerMode,
         retry: RetryPolicy,
@@ -75,7 +76,7 @@ impl<T: Send + 'static> BaseFetch<T> {
                 },
             )
         };
-        Ok(BaseFetch {
+        Ok(TopFetch {
             link,
             bytes,
             retry,
@@ -83,14 +84,14 @@ impl<T: Send + 'static> BaseFetch<T> {
         })
     }
 
-    /// Times the base's transfer in [`PagerMode::Simulated`], as the tiles' are.
+    /// Times the top's transfer in [`PagerMode::Simulated`], as the tiles' are.
     pub fn set_transfer_clock(&mut self, clock: Arc<dyn TransferClock>) {
         if let Some(link) = &mut self.link {
             link.set_transfer_clock(clock);
         }
     }
 
-    /// Whether tile fetches wait: the base's first attempt has not come back.
+    /// Whether tile fetches wait: the top's first attempt has not come back.
     pub fn first_pending(&self) -> bool {
         matches!(
             self.state,
@@ -107,15 +108,15 @@ impl<T: Send + 'static> BaseFetch<T> {
         if let State::Waiting { attempts, from } = self.state
             && resident.now >= from
         {
-            if let Err(e) = resident.ledger.set_base(self.bytes) {
-                resident.record_error(format!("the base is left out: {e}"));
+            if let Err(e) = resident.ledger.set_top(self.bytes) {
+                resident.record_error(format!("the top is left out: {e}"));
                 self.state = State::Unavailable;
                 return;
             }
             self.state = State::InFlight {
                 attempt: attempts + 1,
             };
-            if let Some((_, result)) = link.start(BaseRequest, resident.time) {
+            if let Some((_, result)) = link.start(TopRequest, resident.time) {
                 self.arrive(resident, result, &tile_bytes);
             }
             return;
@@ -137,7 +138,7 @@ impl<T: Send + 'static> BaseFetch<T> {
     fn arrive(
         &mut self,
         resident: &mut Residency<T>,
-        result: Result<(BaseTiles<T>, u64)>,
+        result: Result<(TopTiles<T>, u64)>,
         tile_bytes: &impl Fn(&T) -> usize,
     ) {
         let State::InFlight { attempt } = self.state else {
@@ -147,22 +148,22 @@ impl<T: Send + 'static> BaseFetch<T> {
             let bytes: usize = tiles.iter().map(|(_, t)| tile_bytes(t)).sum();
             if bytes > self.bytes {
                 return Err(crate::error::Error::invalid(
-                    "the base",
+                    "the top",
                     format!("it holds {bytes} bytes, {} were predicted", self.bytes),
                 ));
             }
-            resident.ledger.set_base(bytes)?;
+            resident.ledger.set_top(bytes)?;
             Ok((tiles, downloaded))
         });
         match accepted {
             Ok((tiles, downloaded)) => {
                 resident.downloaded_bytes += downloaded;
-                resident.base = tiles.into_iter().collect();
+                resident.set_top(tiles);
                 self.state = State::Arrived;
             }
             Err(e) => {
                 // Releasing a reservation always fits.
-                let _ = resident.ledger.set_base(0);
+                let _ = resident.ledger.set_top(0);
                 let outcome = if attempt >= self.retry.max_attempts {
                     self.state = State::Unavailable;
                     "given up"
@@ -171,16 +172,16 @@ impl<T: Send + 'static> BaseFetch<T> {
                         attempts: attempt,
                         from: resident
                             .now
-                            .saturating_add(self.retry.delay(BASE_KEY, attempt)),
+                            .saturating_add(self.retry.delay(TOP_KEY, attempt)),
                     };
                     "will retry"
                 };
-                resident.record_error(format!("the base ({outcome}): {e}"));
+                resident.record_error(format!("the top ({outcome}): {e}"));
             }
         }
     }
 }
 
 fn lost() -> crate::error::Error {
-    crate::error::Error::invalid("the base", "the fetch thread stopped while fetching it")
+    crate::error::Error::invalid("the top", "the fetch thread stopped while fetching it")
 }

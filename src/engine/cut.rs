@@ -1,0 +1,318 @@
+//! The frame's cut through the pyramid: for every part of the terrain in view, exactly one
+//! resident tile to draw — the coarsest whose geometric error on screen meets τ and whose
+//! texels are no wider than [`TEXEL_PIXELS`], finer near the eye, coarser to the horizon, as
+//! deep as the resident tiles reach — and what the view would need beyond them.
+//!
+//! The walk starts at the root and goes down only where the view is: a tile out of the view
+//! frustum is left with everything under it, a tile fine enough is drawn, and a tile that is
+//! not is replaced by its children in view when every one of them is resident (or absent);
+//! otherwise it is drawn and its missing children in view are asked for. A tile that is not resident itself is
+//! gone through when some tile under it is, and is a hole otherwise. So the tiles drawn cover
+//! the view once, without overlap, and the walk costs what the view holds, not what the archive
+//! does.
+
+use glam::DVec3;
+
+use crate::db::grid::{Pyramid, TileId};
+use crate::engine::camera::Camera;
+use crate::engine::frustum::{Aabb, Frustum};
+use crate::engine::paging::Residency;
+use crate::engine::resident::ResidentTile;
+use crate::engine::terrain::TerrainFrame;
+
+/// The widest a texel of a drawn tile may be on screen, pixels: a tile whose texels would be
+/// wider is replaced by its children, which hold twice the texels over the same ground.
+pub const TEXEL_PIXELS: f64 = 1.5;
+
+/// What decides how deep the cut goes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CutSettings {
+    /// The pixel-error bound τ: a tile whose finest level's error on screen exceeds it is
+    /// refined; `None` refines every tile whose children are there (full resolution).
+    pub max_error_px: Option<f64>,
+    /// The screen's height, pixels.
+    pub height: u32,
+    /// No tile is seen from nearer than this (the eye's clearance), metres.
+    pub clearance: f64,
+}
+
+/// What the cut reads of the resident tiles: the pager's [`Residency`], or any other holding.
+pub trait Holdings {
+    /// The resident copy of tile `id`, if any.
+    fn tile(&self, id: TileId) -> Option<&ResidentTile>;
+    /// Tiles below `id` (of any level) that are resident.
+    fn covered(&self, id: TileId) -> u32;
+}
+
+impl Holdings for Residency<ResidentTile> {
+    fn tile(&self, id: TileId) -> Option<&ResidentTile> {
+        self.get(id)
+    }
+
+    fn covered(&self, id: TileId) -> u32 {
+        Residency::covered(self, id)
+    }
+}
+
+/// A frame's cut and what it lacks.
+#[derive(Debug, Default)]
+pub struct Cut<'p> {
+    /// The tiles to draw, each with its resident copy and its box's distance from the eye.
+    pub tiles: Vec<(TileId, &'p ResidentTile, f64)>,
+    /// Tiles the view needs that no one holds, with how much they matter: the children of a
+    /// tile it would refine (the screen error of that tile, pixels), and the tiles in view over
+    /// which nothing is resident (infinite: a hole).
+    pub missing: Vec<(TileId, f64)>,
+    /// The resident tiles the walk went down through, each with the largest error of the
+    /// tiles drawn under it: what keeps the drawn tiles reachable.
+    pub passed: Vec<(TileId, f64)>,
+    /// Parts of the view with nothing to draw: tiles in view with no resident copy and nothing
+    /// resident under them (nothing is a hole where the top is resident).
+    pub holes: Vec<TileId>,
+    /// Absent tiles in view that the walk reached: every sample nodata, nothing drawn, no hole.
+    pub absent: Vec<TileId>,
+}
+
+/// The cut of the view of `camera` at `aspect` through the tiles `resident` holds.
+pub fn cut<'p>(
+    resident: &'p (impl Holdings + ?Sized),
+    terrain: &TerrainFrame,
+    pyramid: &Pyramid,
+    camera: &Camera,
+    aspect: f64,
+    settings: &CutSettings,
+) -> Cut<'p> {
+    let frustum = Frustum::from_view_projection(&camera.view_projection(aspect));
+    let eye = camera.position;
+    let mut out = Cut::default();
+    // Each entry: a tile to visit, and the index in `passed` of the resident tile above it
+    // that the walk went through, if any.
+    let mut stack = vec![(pyramid.root(), None::<usize>)];
+    // For each entry of `passed`, the index of the one above it.
+    let mut above: Vec<Option<usize>> = Vec::new();
+    while let Some((id, parent)) = stack.pop() {
+        let tile = resident.tile(id);
+        // An absent tile has no heights: it is boxed like a tile not yet loaded.
+        let (lo, hi) = match tile {
+            Some(t) if !t.absent => terrain.tile_box(id, f64::from(t.min), f64::from(t.max)),
+            _ => terrain.tile_box(id, terrain.heights.0, terrain.heights.1),
+        };
+        let aabb = Aabb::new(lo - eye, hi - eye);
+        if !frustum.intersects(&aabb) {
+            continue;
+        }
+        if tile.is_some_and(|t| t.absent) {
+            out.absent.push(id);
+            continue;
+        }
+        let distance = aabb.distance(DVec3::ZERO);
+        let Some(tile) = tile else {
+            if id.level > 0 && resident.covered(id) > 0 {
+                stack.extend(pyramid.children(id).map(|c| (c, parent)));
+            } else {
+                out.holes.push(id);
+                out.missing.push((id, f64::INFINITY));
+            }
+            continue;
+        };
+        let shown = shown_px(tile, id, distance, camera, terrain, settings);
+        let refine = id.level > 0
+            && settings
+                .max_error_px
+                .is_none_or(|tau| shown.error > tau || shown.texel > TEXEL_PIXELS);
+        if refine {
+            // The children in view: their heights lie within the tile's finest error of its
+            // own range, its samples being some of theirs.
+            let margin = f64::from(tile.level_errors.first().copied().unwrap_or(0.0));
+            let (lo_h, hi_h) = (f64::from(tile.min) - margin, f64::from(tile.max) + margin);
+            let children: Vec<TileId> = pyramid
+                .children(id)
+                .filter(|&c| {
+                    let (lo, hi) = terrain.tile_box(c, lo_h, hi_h);
+                    frustum.intersects(&Aabb::new(lo - eye, hi - eye))
+                })
+                .collect();
+            let missing: Vec<TileId> = children
+                .iter()
+                .copied()
+                .filter(|&c| resident.tile(c).is_none())
+                .collect();
+            if missing.is_empty() {
+                let here = out.passed.len();
+                out.passed.push((id, 0.0));
+                above.push(parent);
+                stack.extend(children.into_iter().map(|c| (c, Some(here))));
+                continue;
+            }
+            let priority = shown.error.max(shown.texel);
+            out.missing
+                .extend(missing.into_iter().map(|c| (c, priority)));
+        }
+        let mut up = parent;
+        while let Some(k) = up {
+            let p = &mut out.passed[k];
+            p.1 = p.1.max(shown.error);
+            up = above[k];
+        }
+        out.tiles.push((id, tile, distance));
+    }
+    out
+}
+
+/// What a tile would show on screen at `distance`: the error of its finest level (its own
+/// samples against the full resolution they stand for) and the width of a texel, pixels.
+struct Shown {
+    error: f64,
+    texel: f64,
+}
+
+fn shown_px(
+    tile: &ResidentTile,
+    id: TileId,
+    distance: f64,
+    camera: &Camera,
+    terrain: &TerrainFrame,
+    settings: &CutSettings,
+) -> Shown {
+    let ppm = camera.pixels_per_metre(distance.max(settings.clearance), settings.height);
+    let texels = ((tile.texture.levels()[0].width() as usize) << tile.texture_base).max(2);
+    let texel = terrain.level_metres(id.level) / (texels - 1) as f64;
+    Shown {
+        error: f64::from(tile.level_errors.first().copied().unwrap_or(0.0)) * ppm,
+        texel: texel * ppm,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::{HashMap, HashSet};
+
+    use proptest::prelude::*;
+
+    use super::*;
+    use crate::db::archive::Header;
+    use crate::db::tile::Tile;
+    use crate::engine::cracks::CrackMode;
+    use crate::engine::resident::Light;
+
+    const S: usize = 5;
+    const SPACING: f64 = 10.0;
+
+    /// Resident tiles by id, and how many resident tiles lie under each.
+    #[derive(Default)]
+    struct Fake {
+        tiles: HashMap<TileId, ResidentTile>,
+        covered: HashMap<TileId, u32>,
+    }
+
+    impl Holdings for Fake {
+        fn tile(&self, id: TileId) -> Option<&ResidentTile> {
+            self.tiles.get(&id)
+        }
+
+        fn covered(&self, id: TileId) -> u32 {
+            self.covered.get(&id).copied().unwrap_or(0)
+        }
+    }
+
+    /// A tile spanning heights 0 ..= 100 m like every other, so that every box in view at the
+    /// archive's height range is in view at its own too.
+    fn tile(id: TileId) -> ResidentTile {
+        let mut heights = vec![50.0; S * S];
+        (heights[0], heights[S * S - 1]) = (0.0, 100.0);
+        let t = Tile::new(&heights, S, 0.25, &[[90, 120, 80]; 16], 4).unwrap();
+        ResidentTile::of_level(&t, id.level, 0, SPACING, &Light::default(), CrackMode::None)
+    }
+
+    fn terrain(tiles_x: u32, tiles_y: u32) -> TerrainFrame {
+        let cells = (S - 1) as u32;
+        TerrainFrame::new(&Header {
+            tiles_x,
+            tiles_y,
+            tile_size: S as u32,
+            texture_size: 4,
+            codec: crate::db::archive::Codec::None,
+            source_width: tiles_x * cells + 1,
+            source_height: tiles_y * cells + 1,
+            spacing: SPACING,
+            vertical_scale: 1.0,
+            origin_x: 0.0,
+            origin_y: 0.0,
+            min_height: 0.0,
+            max_height: 100.0,
+            height_quantum: 0.25,
+            nodata_filled: 0,
+            nodata_flattened: 0,
+            absent_tiles: 0,
+            top_level: 0,
+            top_offset: 0,
+            top_len: 0,
+            archive_len: 0,
+        })
+    }
+
+    proptest! {
+        /// Whatever is resident and wherever the eye is, every level-0 tile in view is covered
+        /// by exactly one tile the cut drew, found absent or counted as a hole; no tile drawn
+        /// lies over another; and the cut draws only resident tiles.
+        #[test]
+        fn the_cut_covers_the_view_once(
+            (tiles_x, tiles_y) in (1u32..13, 1u32..13),
+            held in proptest::collection::vec(0u8..4, 400),
+            eye in (-100.0..700.0f64, 5.0..800.0f64, -100.0..700.0f64),
+            target in (0.0..500.0f64, 0.0..500.0f64),
+            tau in prop_oneof![Just(None), (0.1..20.0f64).prop_map(Some)],
+        ) {
+            let terrain = terrain(tiles_x, tiles_y);
+            let pyramid = terrain.pyramid();
+            let mut fake = Fake::default();
+            // 0: not resident, 1: absent, 2 and 3: resident (half the tiles).
+            for (k, id) in pyramid.tiles().enumerate() {
+                let copy = match held[k % held.len()] {
+                    0 => continue,
+                    1 => ResidentTile::absent(S, id.level, SPACING, &Light::default()),
+                    _ => tile(id),
+                };
+                fake.tiles.insert(id, copy);
+                for level in id.level + 1..pyramid.levels() as u8 {
+                    *fake.covered.entry(id.ancestor(level)).or_default() += 1;
+                }
+            }
+            let mut camera = Camera::looking_at(
+                DVec3::new(eye.0, eye.1, eye.2),
+                DVec3::new(target.0, 0.0, target.1),
+            );
+            camera.near = 1.0;
+            camera.far = 10_000.0;
+            let settings = CutSettings { max_error_px: tau, height: 120, clearance: 1.0 };
+            let cut = cut(&fake, &terrain, &pyramid, &camera, 4.0 / 3.0, &settings);
+            let drawn: HashSet<TileId> = cut.tiles.iter().map(|t| t.0).collect();
+            prop_assert_eq!(drawn.len(), cut.tiles.len(), "a tile drawn twice");
+            for &(id, copy, _) in &cut.tiles {
+                prop_assert!(!copy.absent && fake.tiles.contains_key(&id));
+            }
+            let stops: Vec<TileId> = cut
+                .tiles
+                .iter()
+                .map(|t| t.0)
+                .chain(cut.holes.iter().copied())
+                .chain(cut.absent.iter().copied())
+                .collect();
+            let frustum = Frustum::from_view_projection(&camera.view_projection(4.0 / 3.0));
+            for l in pyramid.tiles().filter(|id| id.level == 0) {
+                let (lo, hi) = terrain.tile_box(l, 0.0, 100.0);
+                let seen = frustum
+                    .intersects(&Aabb::new(lo - camera.position, hi - camera.position));
+                let over: Vec<&TileId> = stops
+                    .iter()
+                    .filter(|s| l.ancestor(s.level) == **s)
+                    .collect();
+                if seen {
+                    prop_assert_eq!(over.len(), 1, "{} is covered by {:?}", l, over);
+                } else {
+                    prop_assert!(over.len() <= 1, "{} is covered by {:?}", l, over);
+                }
+            }
+        }
+    }
+}

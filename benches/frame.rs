@@ -7,17 +7,29 @@
 //! above), and a 32 x 32 grid seen from its southern edge, where about half the tiles are culled;
 //! each with either allocation. Tiles have 65 x 65 samples. To compare with a frame: 5 % of a
 //! 7 fps frame is 7.1 ms, of a 25 fps frame 2 ms.
+//!
+//! Then the cut through the pyramid (`engine::cut`) of one view — 1,500 m above the north-west
+//! corner, looking 20 km ahead, τ = 1 px — over models of 16², 256², 4,096² and 16,384² tiles
+//! with every tile of every level resident: what the walk costs as the model grows.
 
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::dcamera::rh::{proj::directx::perspective, view::look_at_mat4};
 use glam::{DMat4, DVec3};
+use stripmask::db::archive::{Codec, Header};
+use stripmask::db::grid::TileId;
+use stripmask::db::tile::Tile;
 use stripmask::engine::allocation::{Allocation, TileErrors};
 use stripmask::engine::budget::{BudgetController, BudgetSettings};
+use stripmask::engine::camera::Camera;
+use stripmask::engine::cracks::CrackMode;
+use stripmask::engine::cut::{CutSettings, Holdings, cut};
 use stripmask::engine::frustum::{Aabb, Frustum};
 use stripmask::engine::importance::{TileMeasure, Weights, visual_importance};
 use stripmask::engine::masks::{LevelSet, MaskSet};
+use stripmask::engine::resident::{Light, ResidentTile};
+use stripmask::engine::terrain::TerrainFrame;
 
 /// Tile side in metres: 64 cells of 10 m.
 const TILE: f64 = 640.0;
@@ -218,5 +230,96 @@ fn frames(c: &mut Criterion) {
     );
 }
 
-criterion_group!(benches, frames);
+/// Every tile of every level resident: one shared copy per level, whose finest error (against
+/// the full resolution) doubles with the level.
+struct EveryTile {
+    per_level: Vec<ResidentTile>,
+}
+
+impl Holdings for EveryTile {
+    fn tile(&self, id: TileId) -> Option<&ResidentTile> {
+        self.per_level.get(usize::from(id.level))
+    }
+
+    fn covered(&self, _: TileId) -> u32 {
+        1
+    }
+}
+
+fn cuts(c: &mut Criterion) {
+    const S: usize = 65;
+    let heights: Vec<f32> = (0..S * S)
+        .map(|k| 300.0 + 80.0 * ((k % S) as f32 * 0.2).sin() * ((k / S) as f32 * 0.15).cos())
+        .collect();
+    let tile = Tile::new(&heights, S, 0.0625, &[[90, 120, 80]; 64 * 64], 64).unwrap();
+    for side in [16u32, 256, 4096, 16384] {
+        let header = Header {
+            tiles_x: side,
+            tiles_y: side,
+            tile_size: S as u32,
+            texture_size: 64,
+            codec: Codec::Lz4,
+            source_width: side * 64 + 1,
+            source_height: side * 64 + 1,
+            spacing: 40.0,
+            vertical_scale: 1.0,
+            origin_x: 0.0,
+            origin_y: 0.0,
+            min_height: 220.0,
+            max_height: 380.0,
+            height_quantum: 0.0625,
+            nodata_filled: 0,
+            nodata_flattened: 0,
+            absent_tiles: 0,
+            top_level: 0,
+            top_offset: 0,
+            top_len: 0,
+            archive_len: 0,
+        };
+        let terrain = TerrainFrame::new(&header);
+        let pyramid = header.pyramid();
+        let held = EveryTile {
+            per_level: (0..pyramid.levels() as u8)
+                .map(|level| {
+                    let mut copy = ResidentTile::of_level(
+                        &tile,
+                        level,
+                        0,
+                        40.0,
+                        &Light::default(),
+                        CrackMode::Stitch,
+                    );
+                    copy.level_errors[0] = 4.0 * f32::powi(2.0, i32::from(level));
+                    copy
+                })
+                .collect(),
+        };
+        let mut camera = Camera::looking_at(
+            DVec3::new(3000.0, 1800.0, 3000.0),
+            DVec3::new(23_000.0, 0.0, 23_000.0),
+        );
+        camera.near = 1.0;
+        camera.far = 1e7;
+        let settings = CutSettings {
+            max_error_px: Some(1.0),
+            height: 240,
+            clearance: 1.0,
+        };
+        let drawn = cut(&held, &terrain, &pyramid, &camera, 4.0 / 3.0, &settings)
+            .tiles
+            .len();
+        println!("cut over {side}² tiles: {drawn} drawn");
+        c.bench_function(&format!("cut_over_{side}x{side}_tiles"), |b| {
+            b.iter(|| {
+                black_box(
+                    cut(&held, &terrain, &pyramid, &camera, 4.0 / 3.0, &settings)
+                        .tiles
+                        .len(),
+                )
+            })
+        });
+    }
+}
+
+criterion_group!(benches, frames, cuts);
 criterion_main!(benches);

@@ -61,7 +61,7 @@ for side in "${sides[@]}"; do
             drawn=$(sed -n 3p "$out.txt")
             fps=$(grep -oP 'median \K[0-9.]+(?= fps)' <<<"$summary")
             error=$(grep -oP 'screen error max \K[0-9.]+ / mean [0-9.]+' <<<"$summary" |
-                awk '{print $3 " / " $1}')
+                awk '{print $4 " / " $1}')
             peak=$(grep -oP 'peak memory \K[0-9.]+' <<<"$summary")
             first=$(grep -oP 'first frame at \K[0-9.]+ s|first frame at never' <<<"$holes")
             full=$(grep -oP 'first without a hole at \K([0-9.]+ s|never)' <<<"$holes")

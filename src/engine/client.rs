@@ -37,8 +37,8 @@ use crate::engine::paging::stream::{
     LevelLoader, PredictedView, Predictor, StreamPager, StreamSettings, Streaming, Want,
 };
 use crate::engine::paging::{
-    ArchiveLoader, BeltPager, FAR_SHARE, PagerConfig, PagerMode, PagerStats, Paging, Residency,
-    ResidentLoader, StreamStats, TileLoader, TransferClock,
+    ArchiveLoader, BeltPager, PagerConfig, PagerMode, PagerStats, Paging, Residency,
+    ResidentLoader, StreamStats, TileLoader, TransferClock, far_share,
 };
 use crate::engine::partial_meshes::PartialMeshes;
 use crate::engine::render::{RenderSettings, TileDraw, TileMeshes, draw_tiles};
@@ -88,6 +88,11 @@ pub struct EngineSettings {
     /// fetched first and drawn wherever no finer tile is held, so that no view of the terrain
     /// is empty, whatever the model's size.
     pub keep_top: bool,
+    /// Whether the cut goes no deeper than the budget can use: when the last frame's budget
+    /// left more error on screen than τ, a tile whose own samples show less than half of it is
+    /// not replaced by its children (fewer tiles, the same error). Off, the cut follows τ alone,
+    /// so that frames of one view under different budgets draw the same tiles.
+    pub fit_cut_to_budget: bool,
 }
 
 impl Default for EngineSettings {
@@ -111,6 +116,7 @@ impl Default for EngineSettings {
             threads: 0,
             streaming: Streaming::Belts,
             keep_top: true,
+            fit_cut_to_budget: true,
         }
     }
 }
@@ -191,6 +197,9 @@ pub struct Engine {
     /// The last frame's need when the error bound (not the budget) capped it, for the
     /// controller ([`BudgetController::record_needing`]).
     need: Option<usize>,
+    /// The error the last frame's budget left on screen, when the budget capped it (see
+    /// [`FramePlan::water_px`]): the next frame's cut goes no deeper than it can use.
+    water_px: Option<f64>,
     settings: EngineSettings,
     rasterizer: Rasterizer,
 }
@@ -221,7 +230,8 @@ impl Engine {
         let mut config = PagerConfig::new(settings.memory_limit_bytes, settings.pager_mode);
         config.nearest_when_off = settings.nearest_when_off;
         if pyramid.levels() > 1 {
-            config.far_share = FAR_SHARE;
+            let whole = TileLoader::predicted_bytes(&loader, pyramid.root(), 1);
+            config.far_share = far_share(settings.memory_limit_bytes, whole);
         }
         let (pager, predictor): (Box<dyn Paging>, _) = match settings.streaming {
             Streaming::Belts => (
@@ -256,6 +266,7 @@ impl Engine {
             forced_levels: None,
             budget: BudgetController::new(settings.budget),
             need: None,
+            water_px: None,
             settings,
             rasterizer,
         })
@@ -360,6 +371,7 @@ impl Engine {
             height: screen.1,
             clearance: self.settings.clearance,
             kept: &no_kept,
+            water_px: None,
         };
         let view = plan_view(&inputs, camera, aspect);
         if view.cut.missing.iter().any(|&(id, _)| near(id)) {
@@ -477,6 +489,7 @@ impl Engine {
             height,
             clearance: self.settings.clearance,
             kept: &kept,
+            water_px: self.water_px,
         };
         let plan = plan_frame(&inputs, &camera, aspect);
         let wants = frame_wants(
@@ -511,6 +524,17 @@ impl Engine {
         let rendered_tiles = draws.len();
         let (budget, triangles, bound) = (plan.budget, plan.triangles(), plan.bound);
         self.need = (bound != Bound::Budget).then_some(plan.need);
+        // A frame the budget did not bind lets the cut deepen again, a little at a time: a cut
+        // that jumped back to τ would bind the budget again the next frame, and the frames
+        // would alternate between two cuts.
+        self.water_px = match plan.water_px {
+            Some(water) => Some(water),
+            None => self
+                .water_px
+                .map(|w| w * WATER_DECAY)
+                .filter(|&w| w * CUT_WATER_SHARE > self.settings.max_error.pixels().max(0.5)),
+        }
+        .filter(|_| self.settings.fit_cut_to_budget);
         drop(draws);
         drop(plan);
         self.tell_pager(&wants, &rendered);
@@ -638,6 +662,7 @@ impl Engine {
     /// Sets the next frame's budget to `triangles`, where it stays until a recorded frame moves
     /// it: measurements at a fixed budget (the tradeoff report) bypass the frame-rate controller.
     pub fn hold_budget(&mut self, triangles: usize) {
+        self.water_px = None;
         let settings = *self.budget.settings();
         self.budget = BudgetController::new(BudgetSettings {
             initial_budget: triangles,
@@ -655,14 +680,18 @@ impl Engine {
         self.budget.record_needing(seconds, triangles, self.need)
     }
 
-    /// Changes the pixel-error bound τ between frames.
+    /// Changes the pixel-error bound τ between frames (the next cut follows it alone: what the
+    /// last budget left says nothing of the new bound).
     pub fn set_max_error(&mut self, bound: ErrorBound) {
         self.settings.max_error = bound;
+        self.water_px = None;
     }
 
-    /// Changes how the tiles share the triangle budget between frames.
+    /// Changes how the tiles share the triangle budget between frames (the next cut follows τ
+    /// alone).
     pub fn set_allocation(&mut self, allocation: Allocation) {
         self.settings.allocation = allocation;
+        self.water_px = None;
     }
 
     /// Near plane from the height above the ground (depth precision where it matters), far
@@ -710,6 +739,8 @@ struct FrameInputs<'e> {
     clearance: f64,
     /// The level each tile should keep if the budget allows (see [`Engine::kept_levels`]).
     kept: &'e HashMap<TileId, usize>,
+    /// The error the last frame's budget left on screen, if it capped the frame.
+    water_px: Option<f64>,
 }
 
 impl FrameInputs<'_> {
@@ -751,12 +782,16 @@ impl FrameInputs<'_> {
             .collect()
     }
 
-    /// What decides how deep the cut of a view goes: τ (none when it is off) and the screen.
+    /// What decides how deep the cut of a view goes: τ (none when it is off), or a fraction
+    /// of the error the budget left on the last frame when that is larger — a tile whose own
+    /// samples show less than the budget allows gains nothing from its children but their
+    /// cost — and the screen.
     fn cut_settings(&self) -> CutSettings {
+        let water = self.water_px.map(|w| w * CUT_WATER_SHARE);
         CutSettings {
             max_error_px: match self.max_error {
-                ErrorBound::Off => None,
-                ErrorBound::Pixels(_) => Some(self.max_error.pixels()),
+                ErrorBound::Off => water,
+                ErrorBound::Pixels(_) => Some(self.max_error.pixels().max(water.unwrap_or(0.0))),
             },
             height: self.height,
             clearance: self.clearance,
@@ -802,6 +837,9 @@ struct FramePlan<'p> {
     holes: usize,
     /// Per tile, whether stitching to another pyramid level made its level finer.
     conformed: Vec<bool>,
+    /// When the budget capped the frame, the largest error on screen among the tiles it kept
+    /// coarser than they could draw: the error the budget affords everywhere.
+    water_px: Option<f64>,
 }
 
 /// What a frame's plan takes from the view alone, whatever its budget: the cut, the tiles'
@@ -917,6 +955,17 @@ fn levels(inputs: &FrameInputs, view: &ViewPlan, budget: usize) -> Levels {
     (allocation, offered, conformed)
 }
 
+/// How much of the budget's error the cut keeps in view after a frame the budget did not bind.
+const WATER_DECAY: f64 = 0.8;
+
+/// How many times a frame shares its budget again, less what conforming added, before it
+/// searches from nothing for the share that fits.
+const CONFORM_PASSES: usize = 4;
+
+/// The share of the error the budget left on the last frame below which the cut refines no
+/// tile: its children may then draw finer than the parent could, where the budget lets them.
+const CUT_WATER_SHARE: f64 = 0.5;
+
 /// Cuts, weighs (Algorithm 2) and shares the budget, no tile finer than τ needs, the levels of
 /// tiles meeting a tile of another pyramid level conformed when stitching: the frame's plan.
 /// What conforming adds is taken from the budget the others share.
@@ -930,23 +979,56 @@ fn plan_frame<'p>(inputs: &FrameInputs<'p>, camera: &Camera, aspect: f64) -> Fra
     let mut plan = levels(inputs, &view, inputs.budget);
     let drawn = |plan: &Levels| plan.0.iter().map(|a| a.triangles).sum::<usize>();
     if drawn(&plan) > inputs.budget && inputs.forced_levels.is_none() {
-        // The largest share whose conformed levels fit the budget, within a few percent.
-        let (mut fits, mut over) = (0, inputs.budget);
-        let mut best = levels(inputs, &view, 0);
+        // Conforming added what the share did not count: share that much less, a few times
+        // (each pass lands close), then search between the last share over the budget and
+        // the first within it for the largest that fits; then spend what is left where it
+        // ties nothing.
+        let (mut over, mut share) = (inputs.budget, inputs.budget);
+        let mut fitting = None;
+        for _ in 0..CONFORM_PASSES {
+            let excess = drawn(&plan).saturating_sub(inputs.budget);
+            if excess == 0 {
+                fitting = Some(share);
+                break;
+            }
+            over = share;
+            share = share.saturating_sub(excess + inputs.budget / 256);
+            plan = levels(inputs, &view, share);
+        }
+        let mut fits = match fitting {
+            Some(share) => share,
+            None if drawn(&plan) <= inputs.budget => share,
+            None => {
+                over = share;
+                plan = levels(inputs, &view, 0);
+                0
+            }
+        };
         while over - fits > (inputs.budget / 128).max(1) {
             let mid = fits + (over - fits) / 2;
             let tried = levels(inputs, &view, mid);
             if drawn(&tried) <= inputs.budget {
-                (fits, best) = (mid, tried);
+                (fits, plan) = (mid, tried);
             } else {
                 over = mid;
             }
         }
-        plan = best;
         top_up(inputs, &view, &mut plan, inputs.budget);
     }
     let (allocation, offered, conformed) = plan;
+    let water_px = (bound == Bound::Budget && inputs.forced_levels.is_none())
+        .then(|| {
+            allocation
+                .iter()
+                .zip(&view.finest)
+                .zip(&view.errors)
+                .filter(|((a, finest), _)| a.level > **finest)
+                .map(|((a, _), e)| e.pixels(a.level))
+                .fold(None, |m: Option<f64>, e| Some(m.map_or(e, |m| m.max(e))))
+        })
+        .flatten();
     FramePlan {
+        water_px,
         conformed,
         pixels_per_metre: view.errors.iter().map(|e| e.pixels_per_metre).collect(),
         holes: view.cut.holes.len(),
@@ -1175,6 +1257,7 @@ fn frame_wants(
                 },
                 priority: shown_error_px(tile, ppm),
                 predicted: false,
+                drawn: true,
             }
         })
         .collect();
@@ -1189,14 +1272,19 @@ fn frame_wants(
 /// of each tile it went through, with their priorities (halved for the predicted view's).
 fn cut_wants(cut: &Cut<'_>, predicted: bool) -> Vec<Want> {
     let weight = if predicted { 0.5 } else { 1.0 };
+    // The tiles gone through come last: they spare work, they add no detail.
+    let through = cut.through.iter().map(|&id| (id, 0.0));
     cut.missing
         .iter()
         .chain(&cut.passed)
-        .map(|&(id, priority)| Want {
+        .copied()
+        .chain(through)
+        .map(|(id, priority)| Want {
             id,
             levels: 1,
             priority: weight * priority,
             predicted,
+            drawn: false,
         })
         .collect()
 }
@@ -1253,6 +1341,7 @@ fn predicted_wants(inputs: &FrameInputs<'_>, view: &PredictedView, aspect: f64) 
             levels: levels_for_mask(o.level, levels),
             priority: 0.5 * shown_error_px(tile, e.pixels_per_metre),
             predicted: true,
+            drawn: false,
         })
         .collect();
     wants.extend(cut_wants(&seen, true));

@@ -71,6 +71,9 @@ pub struct Cut<'p> {
     pub holes: Vec<TileId>,
     /// Absent tiles in view that the walk reached: every sample nodata, nothing drawn, no hole.
     pub absent: Vec<TileId>,
+    /// Tiles without a copy that the walk went through to resident tiles under them: with a
+    /// copy, the cut could stop there and draw one tile instead of many.
+    pub through: Vec<TileId>,
 }
 
 /// The cut of the view of `camera` at `aspect` through the tiles `resident` holds.
@@ -82,81 +85,150 @@ pub fn cut<'p>(
     aspect: f64,
     settings: &CutSettings,
 ) -> Cut<'p> {
-    let frustum = Frustum::from_view_projection(&camera.view_projection(aspect));
-    let eye = camera.position;
-    let mut out = Cut::default();
-    // Each entry: a tile to visit, and the index in `passed` of the resident tile above it
-    // that the walk went through, if any.
-    let mut stack = vec![(pyramid.root(), None::<usize>)];
-    // For each entry of `passed`, the index of the one above it.
-    let mut above: Vec<Option<usize>> = Vec::new();
-    while let Some((id, parent)) = stack.pop() {
-        let tile = resident.tile(id);
+    let mut walk = Walk {
+        resident,
+        terrain,
+        pyramid,
+        camera,
+        settings,
+        frustum: Frustum::from_view_projection(&camera.view_projection(aspect)),
+        out: Cut::default(),
+        above: Vec::new(),
+    };
+    walk.visit(pyramid.root(), None);
+    walk.out
+}
+
+/// The walk's state: what it reads and what it has found so far.
+struct Walk<'p, 'w, H: Holdings + ?Sized> {
+    resident: &'p H,
+    terrain: &'w TerrainFrame,
+    pyramid: &'w Pyramid,
+    camera: &'w Camera,
+    settings: &'w CutSettings,
+    frustum: Frustum,
+    out: Cut<'p>,
+    /// For each entry of `out.passed`, the index of the one above it.
+    above: Vec<Option<usize>>,
+}
+
+impl<'p, H: Holdings + ?Sized> Walk<'p, '_, H> {
+    /// Visits tile `id` under the passed tile `parent` (an index in `out.passed`); returns
+    /// false when part of it in view has nothing to draw (its holes are in `out.holes`).
+    fn visit(&mut self, id: TileId, parent: Option<usize>) -> bool {
+        let eye = self.camera.position;
+        let tile = self.resident.tile(id);
         // An absent tile has no heights: it is boxed like a tile not yet loaded.
         let (lo, hi) = match tile {
-            Some(t) if !t.absent => terrain.tile_box(id, f64::from(t.min), f64::from(t.max)),
-            _ => terrain.tile_box(id, terrain.heights.0, terrain.heights.1),
+            Some(t) if !t.absent => self
+                .terrain
+                .tile_box(id, f64::from(t.min), f64::from(t.max)),
+            _ => self
+                .terrain
+                .tile_box(id, self.terrain.heights.0, self.terrain.heights.1),
         };
         let aabb = Aabb::new(lo - eye, hi - eye);
-        if !frustum.intersects(&aabb) {
-            continue;
+        if !self.frustum.intersects(&aabb) {
+            return true;
         }
-        if tile.is_some_and(|t| t.absent) {
-            out.absent.push(id);
-            continue;
+        let Some(tile) = tile else {
+            // Gone through when tiles under it are resident: they may cover its part in view.
+            if id.level > 0 && self.resident.covered(id) > 0 {
+                self.out.through.push(id);
+                let children: Vec<TileId> = self.pyramid.children(id).collect();
+                return self.visit_all(&children, parent);
+            }
+            self.out.holes.push(id);
+            self.out.missing.push((id, f64::INFINITY));
+            return false;
+        };
+        if tile.absent {
+            self.out.absent.push(id);
+            return true;
         }
         let distance = aabb.distance(DVec3::ZERO);
-        let Some(tile) = tile else {
-            if id.level > 0 && resident.covered(id) > 0 {
-                stack.extend(pyramid.children(id).map(|c| (c, parent)));
-            } else {
-                out.holes.push(id);
-                out.missing.push((id, f64::INFINITY));
-            }
-            continue;
-        };
-        let shown = shown_px(tile, id, distance, camera, terrain, settings);
+        let shown = shown_px(tile, id, distance, self.camera, self.terrain, self.settings);
         let refine = id.level > 0
-            && settings
+            && self
+                .settings
                 .max_error_px
                 .is_none_or(|tau| shown.error > tau || shown.texel > TEXEL_PIXELS);
-        if refine {
-            // The children in view: their heights lie within the tile's finest error of its
-            // own range, its samples being some of theirs.
-            let margin = f64::from(tile.level_errors.first().copied().unwrap_or(0.0));
-            let (lo_h, hi_h) = (f64::from(tile.min) - margin, f64::from(tile.max) + margin);
-            let children: Vec<TileId> = pyramid
-                .children(id)
-                .filter(|&c| {
-                    let (lo, hi) = terrain.tile_box(c, lo_h, hi_h);
-                    frustum.intersects(&Aabb::new(lo - eye, hi - eye))
-                })
-                .collect();
-            let missing: Vec<TileId> = children
-                .iter()
-                .copied()
-                .filter(|&c| resident.tile(c).is_none())
-                .collect();
-            if missing.is_empty() {
-                let here = out.passed.len();
-                out.passed.push((id, 0.0));
-                above.push(parent);
-                stack.extend(children.into_iter().map(|c| (c, Some(here))));
-                continue;
-            }
-            let priority = shown.error.max(shown.texel);
-            out.missing
-                .extend(missing.into_iter().map(|c| (c, priority)));
+        if refine && self.refine(id, tile, parent, shown.error.max(shown.texel)) {
+            return true;
         }
         let mut up = parent;
         while let Some(k) = up {
-            let p = &mut out.passed[k];
+            let p = &mut self.out.passed[k];
             p.1 = p.1.max(shown.error);
-            up = above[k];
+            up = self.above[k];
         }
-        out.tiles.push((id, tile, distance));
+        self.out.tiles.push((id, tile, distance));
+        true
     }
-    out
+
+    /// Visits every tile of `ids` (all of them, so that every hole is found); returns whether
+    /// none had a hole.
+    fn visit_all(&mut self, ids: &[TileId], parent: Option<usize>) -> bool {
+        let mut covered = true;
+        for &id in ids {
+            covered &= self.visit(id, parent);
+        }
+        covered
+    }
+
+    /// Replaces resident tile `id` by its children in view, when what is resident covers them
+    /// without a hole; otherwise leaves the walk as it was, asks for what the children lack
+    /// (with `priority`, the tile's error on screen) and returns false.
+    fn refine(
+        &mut self,
+        id: TileId,
+        tile: &ResidentTile,
+        parent: Option<usize>,
+        priority: f64,
+    ) -> bool {
+        let eye = self.camera.position;
+        // The children in view: their heights lie within the tile's finest error of its own
+        // range, its samples being some of theirs.
+        let margin = f64::from(tile.level_errors.first().copied().unwrap_or(0.0));
+        let (lo_h, hi_h) = (f64::from(tile.min) - margin, f64::from(tile.max) + margin);
+        let children: Vec<TileId> = self
+            .pyramid
+            .children(id)
+            .filter(|&c| {
+                let (lo, hi) = self.terrain.tile_box(c, lo_h, hi_h);
+                self.frustum.intersects(&Aabb::new(lo - eye, hi - eye))
+            })
+            .collect();
+        let marks = (
+            self.out.tiles.len(),
+            self.out.passed.len(),
+            self.out.holes.len(),
+            self.out.absent.len(),
+            self.out.missing.len(),
+            self.out.through.len(),
+        );
+        let here = self.out.passed.len();
+        self.out.passed.push((id, 0.0));
+        self.above.push(parent);
+        let covered = self.visit_all(&children, Some(here));
+        if covered {
+            return true;
+        }
+        // Not a hole after all: this tile stands in, and its children it lacks are wanted as
+        // much as its error — its children first, what lies under them once they are here.
+        self.out.tiles.truncate(marks.0);
+        self.out.passed.truncate(marks.1);
+        self.above.truncate(marks.1);
+        self.out.holes.truncate(marks.2);
+        self.out.absent.truncate(marks.3);
+        self.out.missing.truncate(marks.4);
+        self.out.through.truncate(marks.5);
+        let lacking = children
+            .into_iter()
+            .filter(|&c| self.resident.tile(c).is_none());
+        self.out.missing.extend(lacking.map(|c| (c, priority)));
+        false
+    }
 }
 
 /// What a tile would show on screen at `distance`: the error of its finest level (its own
@@ -249,6 +321,72 @@ mod tests {
             top_len: 0,
             archive_len: 0,
         })
+    }
+
+    /// A holding of the resident copies of `ids` in `pyramid`.
+    fn holding(pyramid: &Pyramid, ids: impl Iterator<Item = TileId>) -> Fake {
+        let mut fake = Fake::default();
+        for id in ids {
+            fake.tiles.insert(id, tile(id));
+            for level in id.level + 1..pyramid.levels() as u8 {
+                *fake.covered.entry(id.ancestor(level)).or_default() += 1;
+            }
+        }
+        fake
+    }
+
+    /// The cut of 4 x 4 tiles seen whole from high above, at full resolution.
+    fn from_above(fake: &Fake) -> Cut<'_> {
+        let terrain = terrain(4, 4);
+        let mut camera =
+            Camera::looking_at(DVec3::new(80.0, 400.0, 81.0), DVec3::new(80.0, 0.0, 80.0));
+        camera.near = 1.0;
+        camera.far = 10_000.0;
+        let settings = CutSettings {
+            max_error_px: None,
+            height: 120,
+            clearance: 1.0,
+        };
+        cut(fake, &terrain, &terrain.pyramid(), &camera, 1.0, &settings)
+    }
+
+    #[test]
+    fn the_walk_goes_through_tiles_not_held_to_the_tiles_under_them() {
+        let pyramid = terrain(4, 4).pyramid();
+        let fake = holding(&pyramid, pyramid.tiles().filter(|id| id.level != 1));
+        let cut = from_above(&fake);
+        assert_eq!(cut.tiles.len(), 16);
+        assert!(cut.tiles.iter().all(|t| t.0.level == 0));
+        assert!(cut.holes.is_empty() && cut.missing.is_empty());
+        assert_eq!(
+            cut.through.len(),
+            4,
+            "a copy of each would spare drawing four"
+        );
+    }
+
+    #[test]
+    fn a_hole_under_a_tile_not_held_draws_the_tile_above_and_asks_for_its_children() {
+        let pyramid = terrain(4, 4).pyramid();
+        let fake = holding(
+            &pyramid,
+            pyramid
+                .tiles()
+                .filter(|id| id.level != 1 && *id != TileId::new(0, 0)),
+        );
+        let cut = from_above(&fake);
+        let drawn: Vec<TileId> = cut.tiles.iter().map(|t| t.0).collect();
+        assert_eq!(drawn, vec![pyramid.root()]);
+        assert!(cut.holes.is_empty() && cut.through.is_empty());
+        let mut asked: Vec<TileId> = cut.missing.iter().map(|m| m.0).collect();
+        asked.sort();
+        let mut children: Vec<TileId> = pyramid.children(pyramid.root()).collect();
+        children.sort();
+        assert_eq!(
+            asked, children,
+            "its children first, not what lies under them"
+        );
+        assert!(cut.missing.iter().all(|m| m.1.is_finite()));
     }
 
     proptest! {

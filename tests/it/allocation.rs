@@ -5,14 +5,22 @@
 use glam::DVec3;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};
-use stripmask::engine::Engine;
 use stripmask::engine::allocation::Allocation;
+use stripmask::engine::{Engine, EngineSettings};
 use stripmask::{Bound, ErrorBound};
 use stripmask_raster::Framebuffer;
 
-/// An engine over the hills archive with every tile loaded, τ off.
+/// An engine over the hills archive with every tile loaded, τ off, and the cut following τ
+/// alone, so that both shares see the same tiles whatever the last frame's budget left.
 fn loaded(dir: &std::path::Path) -> (Engine, Framebuffer) {
-    crate::error_bound::loaded(dir, ErrorBound::Off)
+    crate::error_bound::loaded_with(
+        &crate::support::hills::archive(dir, 33),
+        EngineSettings {
+            max_error: ErrorBound::Off,
+            fit_cut_to_budget: false,
+            ..EngineSettings::default()
+        },
+    )
 }
 
 fn views() -> impl Strategy<Value = ((f64, f64, f64), (f64, f64))> {

@@ -18,15 +18,28 @@ const HEIGHT: u32 = 120;
 
 /// An engine over the hills archive with every tile of every level loaded.
 pub(crate) fn loaded(dir: &std::path::Path, max_error: ErrorBound) -> (Engine, Framebuffer) {
-    let path = hills::archive(dir, 33);
+    loaded_with(
+        &hills::archive(dir, 33),
+        EngineSettings {
+            max_error,
+            ..EngineSettings::default()
+        },
+    )
+}
+
+/// The same over the archive at `path` (257 x 257 samples, 30 m apart) with `settings` (all of
+/// the archive fits in memory, one thread, stepped paging).
+pub(crate) fn loaded_with(
+    path: &std::path::Path,
+    settings: EngineSettings,
+) -> (Engine, Framebuffer) {
     let settings = EngineSettings {
         memory_limit_bytes: 1 << 30,
         pager_mode: PagerMode::Stepped {
             fetches_per_update: usize::MAX,
         },
         threads: 1,
-        max_error,
-        ..EngineSettings::default()
+        ..settings
     };
     let mut engine = Engine::new(
         source::open(path.to_str().unwrap()).unwrap(),
@@ -171,4 +184,56 @@ fn the_budget_does_not_grow_while_tau_binds() {
         budget = next;
     }
     assert!(bound_frames > 50, "{bound_frames}");
+}
+
+/// Under a budget far below what τ needs, the second frame's cut stops where the first frame's
+/// budget left more error than a tile's own samples show: fewer tiles, no more error.
+#[test]
+fn a_budget_that_cannot_meet_tau_cuts_no_deeper_than_it_can_use() {
+    let dir = tempfile::tempdir().unwrap();
+    let budget = 400;
+    let settings = EngineSettings {
+        budget: stripmask::engine::budget::BudgetSettings {
+            min_budget: budget,
+            max_budget: budget,
+            initial_budget: budget,
+            ..Default::default()
+        },
+        ..EngineSettings::default()
+    };
+    // Rough at the scale of a sample, so that the errors of the levels above 0, not their
+    // texels, decide how deep the cut at τ goes.
+    let options = stripmask::db::builder::BuildOptions {
+        tile_size: 33,
+        spacing: Some(30.0),
+        texture_factor: 1,
+        ..Default::default()
+    };
+    let rough = hills::synthetic(dir.path(), "rough", (257, 257), &options, |i, j| {
+        400.0 + 20.0 * ((i * 7 + j * 13) % 5) as f32
+    });
+    let (mut engine, mut fb) = loaded_with(&rough, settings);
+    let camera = engine.camera(
+        DVec3::new(500.0, 900.0, 7000.0),
+        DVec3::new(5000.0, 0.0, 1500.0),
+        false,
+    );
+    let deep = engine.render(&camera, &mut fb).unwrap();
+    let fitted = engine.render(&camera, &mut fb).unwrap();
+    for report in [&deep, &fitted] {
+        assert_eq!(report.bound, Bound::Budget);
+        assert!(report.triangles <= budget);
+    }
+    assert!(
+        fitted.rendered.len() < deep.rendered.len(),
+        "the cut at τ draws {} tiles, the cut the budget can use {}",
+        deep.rendered.len(),
+        fitted.rendered.len()
+    );
+    assert!(
+        fitted.max_error_px <= deep.max_error_px * 1.05,
+        "fewer tiles show no more error: {} px against {} px",
+        fitted.max_error_px,
+        deep.max_error_px
+    );
 }

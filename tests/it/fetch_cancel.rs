@@ -116,6 +116,7 @@ fn want(levels: usize) -> Want {
         levels,
         priority: 1.0,
         predicted: false,
+        drawn: true,
     }
 }
 

@@ -41,6 +41,7 @@ mod pager_simulated;
 mod partial_tiles;
 mod pocketpc;
 mod pocketpc_http;
+mod pyramid_cracks;
 mod seams;
 mod serve_limits;
 mod source_http;

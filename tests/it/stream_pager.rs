@@ -110,6 +110,7 @@ fn want(x: u32, y: u32, levels: usize, priority: f64) -> Want {
         levels,
         priority,
         predicted: false,
+        drawn: true,
     }
 }
 

@@ -16,7 +16,7 @@ use std::marker::PhantomData;
 use std::sync::Arc;
 
 use super::belts::{self, Plan};
-use super::far::FarField;
+use super::far::{FarField, URGENT_PX};
 use super::ledger::Fetch;
 use super::stream::Want;
 use super::worker::Job;
@@ -83,23 +83,23 @@ impl<L: TileLoader> Strategy for Belts<L> {
         } else if let PagerMode::Stepped { fetches_per_update } = pager.mode {
             // One fetch at a time, re-planning after each arrival: a run is reproducible.
             for _ in 0..fetches_per_update {
-                let plan = pager.plan(1);
-                let fetch = match plan.fetch.first() {
-                    Some(&fetch) => fetch,
-                    None => match pager.plan_far(1).first() {
-                        Some(&fetch) => fetch,
-                        None => break,
-                    },
+                let Some(fetch) = pager.next_fetch() else {
+                    break;
                 };
                 pager.fetch(fetch);
             }
         } else {
+            // The urgent far tiles, then Algorithm 1's, then the rest of the far field's.
+            let room = pager.mode.room(pager.resident.ledger.fetching());
+            for fetch in pager.plan_far(room, URGENT_PX) {
+                pager.fetch(fetch);
+            }
             let plan = pager.plan(pager.mode.room(pager.resident.ledger.fetching()));
             for &fetch in &plan.fetch {
                 pager.fetch(fetch);
             }
             let room = pager.mode.room(pager.resident.ledger.fetching());
-            for fetch in pager.plan_far(room) {
+            for fetch in pager.plan_far(room, 0.0) {
                 pager.fetch(fetch);
             }
         }
@@ -199,12 +199,21 @@ impl<L: TileLoader> BeltPager<L> {
         plan
     }
 
-    /// The far field's next at most `max_fetches` fetches (it evicts what it makes room with).
-    fn plan_far(&mut self, max_fetches: usize) -> Vec<Fetch> {
+    /// The next single fetch: an urgent far tile's, else Algorithm 1's, else the far field's.
+    fn next_fetch(&mut self) -> Option<Fetch> {
+        let urgent = self.plan_far(1, URGENT_PX).first().copied();
+        urgent
+            .or_else(|| self.plan(1).fetch.first().copied())
+            .or_else(|| self.plan_far(1, 0.0).first().copied())
+    }
+
+    /// The far field's next at most `max_fetches` fetches of at least `min_priority` (it
+    /// evicts what it makes room with).
+    fn plan_far(&mut self, max_fetches: usize, min_priority: f64) -> Vec<Fetch> {
         let loader = &*self.loader;
         self.strategy
             .far
-            .plan(&mut self.resident, max_fetches, |id, ring| {
+            .plan(&mut self.resident, max_fetches, min_priority, |id, ring| {
                 loader.predicted_bytes(id, ring)
             })
     }

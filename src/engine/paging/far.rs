@@ -8,15 +8,41 @@
 //! of the tile the cut drew instead); when the share is full, far tiles no frame asked for
 //! lately go first, the longest unasked and the farthest first.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use super::ledger::Fetch;
 use super::{Residency, stream::Want};
 use crate::db::grid::TileId;
 
-/// The share of the memory limit the engine's far field takes: a quarter holds the few dozen
-/// tiles that reach from the near field to the horizon (a ring of each level).
+/// The share of the memory limit the engine's far field takes at least: a quarter holds the
+/// few dozen tiles that reach from the near field to the horizon (a ring of each level).
 pub const FAR_SHARE: f64 = 0.25;
+
+/// Whole tiles the far field holds at least: those it draws near the eye and the children a
+/// refinement needs at once.
+const FAR_TILES: usize = 16;
+
+/// The largest share of the memory limit the far field takes, whatever its tiles weigh: the
+/// belts keep half.
+const FAR_MAX_SHARE: f64 = 0.5;
+
+/// The far field's share of `limit` bytes when a whole far tile takes `tile_bytes`:
+/// [`FAR_SHARE`], or room for 16 tiles when that is more, at most half the limit.
+/// Without the room, a view of large tiles on a small device keeps a coarse tile near the eye
+/// for want of room for its children.
+pub fn far_share(limit: usize, tile_bytes: usize) -> f64 {
+    let needed = (FAR_TILES * tile_bytes) as f64 / limit.max(1) as f64;
+    needed.clamp(FAR_SHARE, FAR_MAX_SHARE)
+}
+
+/// The error on screen, pixels, of a tile the cut drew instead of a far tile it asked for,
+/// beyond which that far tile is fetched before the belts grow: a coarse tile so wrong (the
+/// root near the eye at the start of a flight) matters more than the near field's next ring.
+pub const URGENT_PX: f64 = 16.0;
+
+/// How much less visible a wished far tile must be than another wish to make room for it:
+/// tiles about as visible never trade places back and forth.
+const VICTIM_RATIO: f64 = 0.5;
 
 /// What the frames asked of the far field, and when.
 #[derive(Debug, Default)]
@@ -25,6 +51,8 @@ pub struct FarField {
     share: f64,
     /// The last frame's wishes for tiles above level 0, by id: their priority.
     wants: HashMap<TileId, f64>,
+    /// The tiles above level 0 the last frame drew.
+    drawn: HashSet<TileId>,
     /// The update each far tile was last asked for in.
     asked: HashMap<TileId, u64>,
 }
@@ -41,7 +69,11 @@ impl FarField {
     /// Hears the frame's wishes (those for level-0 tiles are Algorithm 1's business).
     pub fn hear(&mut self, wants: &[Want], now: u64) {
         self.wants.clear();
+        self.drawn.clear();
         for w in wants.iter().filter(|w| w.id.level > 0 && !w.predicted) {
+            if w.drawn {
+                self.drawn.insert(w.id);
+            }
             let p = self.wants.entry(w.id).or_insert(w.priority);
             *p = p.max(w.priority);
             self.asked.insert(w.id, now);
@@ -63,25 +95,32 @@ impl FarField {
             .sum()
     }
 
-    /// The next at most `max_fetches` far tiles to fetch, the most visible first, each with the
-    /// ring it is fetched for and its predicted bytes; evicts (from `resident`) far tiles not
-    /// asked for lately to make room within the share and the limit. Sets
-    /// `resident.memory_bound` when a wished tile does not fit.
+    /// The next at most `max_fetches` far tiles to fetch whose priority is at least
+    /// `min_priority`, the most visible first, each with the ring it is fetched for and its
+    /// predicted bytes; evicts (from `resident`) far tiles not asked for lately to make room
+    /// within the share and the limit. Sets `resident.memory_bound` when a wished tile does
+    /// not fit.
     pub fn plan<T>(
         &mut self,
         resident: &mut Residency<T>,
         max_fetches: usize,
+        min_priority: f64,
         predicted: impl Fn(TileId, u32) -> usize,
     ) -> Vec<Fetch> {
         let now = resident.now;
         self.asked
             .retain(|id, _| resident.ledger.record(*id) != Default::default());
-        let mut wished: Vec<(TileId, f64)> = self.wants.iter().map(|(&id, &p)| (id, p)).collect();
+        let mut wished: Vec<(TileId, f64)> = self
+            .wants
+            .iter()
+            .filter(|&(_, &p)| p >= min_priority)
+            .map(|(&id, &p)| (id, p))
+            .collect();
         wished.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
         let share = self.share(resident.ledger.limit());
         let mut far = FarField::bytes(resident);
         let mut fetches = Vec::new();
-        for (id, _) in wished {
+        for (id, priority) in wished {
             if fetches.len() >= max_fetches {
                 break;
             }
@@ -95,7 +134,7 @@ impl FarField {
             let limit = resident.ledger.limit();
             let fits = |far: usize, memory: usize| far + bytes <= share && memory + bytes <= limit;
             while !fits(far, resident.ledger.memory()) {
-                let Some(victim) = self.victim(resident, now) else {
+                let Some(victim) = self.victim(resident, now, priority) else {
                     break;
                 };
                 far -= resident.ledger.record(victim).loaded.map_or(0, |l| l.bytes);
@@ -111,17 +150,144 @@ impl FarField {
         fetches
     }
 
-    /// The far tile to evict first: held, not on its way, not asked for in the last update;
-    /// the longest unasked, then the farthest, then the finest.
-    fn victim<T>(&self, resident: &Residency<T>, now: u64) -> Option<TileId> {
+    /// The far tile to evict first for one wished with `priority`: held, not on its way, not
+    /// drawn, and either not asked for in the last two updates or asked for this one with a
+    /// priority [`VICTIM_RATIO`] as large or less — so that the share settles on the most visible wishes instead of
+    /// trading them for each other — the unasked first (the longest unasked), then the least
+    /// visible, then the farthest, then the finest.
+    fn victim<T>(&self, resident: &Residency<T>, now: u64, priority: f64) -> Option<TileId> {
         resident
             .ledger
             .records()
             .filter(|(id, r)| id.level > 0 && r.loaded.is_some() && r.fetch.is_none())
-            .filter(|(id, _)| !self.wants.contains_key(id))
-            .map(|(id, _)| (id, self.asked.get(&id).copied().unwrap_or(0)))
-            .filter(|&(_, asked)| asked + 1 < now)
-            .min_by_key(|&(id, asked)| (asked, std::cmp::Reverse(resident.ring(id)), id.level, id))
-            .map(|(id, _)| id)
+            .filter(|(id, _)| !self.drawn.contains(id))
+            .filter_map(|(id, _)| match self.wants.get(&id) {
+                Some(&p) => (p < VICTIM_RATIO * priority).then_some((id, now, p)),
+                None => {
+                    let asked = self.asked.get(&id).copied().unwrap_or(0);
+                    (asked + 1 < now).then_some((id, asked, f64::NEG_INFINITY))
+                }
+            })
+            .min_by(|a, b| {
+                (a.1.cmp(&b.1))
+                    .then(a.2.total_cmp(&b.2))
+                    .then(resident.ring(b.0).cmp(&resident.ring(a.0)))
+                    .then(a.0.level.cmp(&b.0.level))
+                    .then(a.0.cmp(&b.0))
+            })
+            .map(|(id, _, _)| id)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::db::grid::Pyramid;
+    use crate::engine::paging::{PagerConfig, PagerMode};
+
+    /// Bytes of every far tile.
+    const TILE: usize = 100;
+
+    /// A residency of 16 x 16 level-0 tiles whose far field holds four tiles.
+    fn residency() -> Residency<()> {
+        let config = PagerConfig::new(
+            16 * TILE,
+            PagerMode::Stepped {
+                fetches_per_update: 1,
+            },
+        );
+        let mut r = Residency::new(Pyramid::new(16, 16).unwrap(), &config);
+        r.now = 10;
+        r
+    }
+
+    fn far() -> FarField {
+        FarField::new(0.25)
+    }
+
+    fn at(level: u8, x: u32, y: u32) -> TileId {
+        TileId::at(level, x, y)
+    }
+
+    fn want(id: TileId, priority: f64, drawn: bool) -> Want {
+        Want {
+            id,
+            levels: 1,
+            priority,
+            predicted: false,
+            drawn,
+        }
+    }
+
+    /// Plans and lets every fetch arrive; returns the tiles fetched.
+    fn step(far: &mut FarField, r: &mut Residency<()>, wants: &[Want]) -> Vec<TileId> {
+        far.hear(wants, r.now);
+        let fetches = far.plan(r, 8, 0.0, |_, _| TILE);
+        for f in &fetches {
+            r.ledger.reserve(*f).unwrap();
+            r.ledger.arrive(f.id, f.bytes, r.now).unwrap();
+        }
+        r.now += 1;
+        fetches.iter().map(|f| f.id).collect()
+    }
+
+    fn held(r: &Residency<()>, id: TileId) -> bool {
+        r.ledger.record(id).loaded.is_some()
+    }
+
+    #[test]
+    fn the_share_holds_sixteen_whole_tiles_within_a_quarter_and_a_half() {
+        assert_eq!(far_share(1000, 10), FAR_SHARE);
+        assert_eq!(far_share(1600, 30), 0.3);
+        assert_eq!(far_share(1000, 100), FAR_MAX_SHARE);
+    }
+
+    #[test]
+    fn a_wish_never_evicts_a_drawn_tile_and_evicts_a_much_less_visible_one() {
+        let (mut far, mut r) = (far(), residency());
+        let drawn = [at(2, 0, 0), at(2, 1, 0)];
+        let faint = [at(2, 0, 1), at(2, 1, 1)];
+        let wants: Vec<Want> = drawn
+            .iter()
+            .map(|&id| want(id, 3.0, true))
+            .chain(faint.iter().map(|&id| want(id, 1.0, false)))
+            .collect();
+        assert_eq!(step(&mut far, &mut r, &wants).len(), 4);
+        // Two children of a drawn tile, much more visible than the faint wishes: they take
+        // the faint tiles' room, never the drawn tiles'.
+        let children = [at(1, 0, 0), at(1, 1, 0)];
+        let mut next: Vec<Want> = wants.clone();
+        next.extend(children.iter().map(|&id| want(id, 40.0, false)));
+        assert_eq!(step(&mut far, &mut r, &next), children.to_vec());
+        assert!(drawn.iter().chain(&children).all(|&id| held(&r, id)));
+        assert!(faint.iter().all(|&id| !held(&r, id)));
+        // A third child finds no room: everything held is drawn or as visible as it.
+        next.push(want(at(1, 0, 1), 40.0, false));
+        assert!(step(&mut far, &mut r, &next).is_empty());
+        assert!(r.memory_bound);
+    }
+
+    #[test]
+    fn wishes_about_as_visible_do_not_trade_places() {
+        let (mut far, mut r) = (far(), residency());
+        let first: Vec<Want> = (0..4).map(|x| want(at(1, x, 0), 10.0, false)).collect();
+        assert_eq!(step(&mut far, &mut r, &first).len(), 4);
+        let mut both = first.clone();
+        both.extend((0..4).map(|x| want(at(1, x, 1), 12.0, false)));
+        for _ in 0..3 {
+            assert!(step(&mut far, &mut r, &both).is_empty(), "no thrashing");
+        }
+        assert!(first.iter().all(|w| held(&r, w.id)));
+    }
+
+    #[test]
+    fn tiles_no_one_asked_for_lately_go_first() {
+        let (mut far, mut r) = (far(), residency());
+        let old: Vec<Want> = (0..4).map(|x| want(at(1, x, 0), 50.0, false)).collect();
+        assert_eq!(step(&mut far, &mut r, &old).len(), 4);
+        // Two updates without them, then a faint wish: the unasked tiles make room for it.
+        step(&mut far, &mut r, &[]);
+        let faint = [want(at(1, 0, 1), 0.5, false)];
+        assert_eq!(step(&mut far, &mut r, &faint), vec![at(1, 0, 1)]);
     }
 }

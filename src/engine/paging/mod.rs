@@ -28,7 +28,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 pub use belt_pager::{BeltPager, Belts, TileLoader};
-pub use far::FAR_SHARE;
+pub use far::{FAR_SHARE, far_share};
 pub use ledger::{Failure, Fetch, Ledger, Loaded, Record, Reservation, RetryPolicy};
 pub use link::{Link, Received};
 pub use loader::ArchiveLoader;

@@ -171,6 +171,9 @@ pub struct Want {
     pub priority: f64,
     /// Whether only the predicted view asks for it.
     pub predicted: bool,
+    /// Whether the frame draws it: dropping it would show a coarser tile in its place, so a
+    /// wish for another tile never evicts it.
+    pub drawn: bool,
 }
 
 /// Why a step of [`StreamPager::make_room`] may drop what it drops, in the order they go.

@@ -65,7 +65,8 @@ impl Wishes {
     }
 }
 
-/// Each tile's strongest wish of a frame: the most levels and the highest priority asked; the
+/// Each tile's strongest wish of a frame: the most levels and the highest priority asked, drawn
+/// when any wish says so; the
 /// prediction's when only the predicted view asks for that many levels (levels the view does
 /// not ask for are the prediction's, even where the view asks for fewer).
 pub fn merge(wants: &[Want]) -> HashMap<TileId, Want> {
@@ -79,6 +80,7 @@ pub fn merge(wants: &[Want]) -> HashMap<TileId, Want> {
                 }
                 m.levels = m.levels.max(w.levels);
                 m.priority = m.priority.max(w.priority);
+                m.drawn |= w.drawn;
             })
             .or_insert(*w);
     }
@@ -95,6 +97,7 @@ mod tests {
             levels,
             priority: 0.5,
             predicted: false,
+            drawn: true,
         }
     }
 

@@ -43,6 +43,8 @@ mod partial_tiles;
 mod pocketpc;
 mod pocketpc_http;
 mod seams;
+mod serve_attacks;
+mod serve_http;
 mod serve_limits;
 mod source_http;
 mod stream_compare;

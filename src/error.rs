@@ -69,6 +69,28 @@ pub enum Error {
         /// Whether the run's deadline, not the request timeout, cut it short.
         by_deadline: bool,
     },
+    /// The archive behind a file or URL is no longer the one that was opened: it was replaced,
+    /// rewritten, truncated or garbled while it was read. Its index no longer describes its
+    /// bytes, so reading on would only fail checksums.
+    #[error("the archive at {name} changed while it was read ({what}): reopen it")]
+    ArchiveChanged {
+        /// The file or URL.
+        name: String,
+        /// What gave it away: a size, a validator, an answer.
+        what: String,
+    },
+    /// Reads of tiles failed their checksums during a run (nothing unverified was drawn): the
+    /// archive is damaged, or the link damaged the bytes.
+    #[error(
+        "{name}: {refused} read(s) of tiles failed their checksums during the run; \
+         the archive or the link is damaged"
+    )]
+    ChecksumsRefused {
+        /// The archive file or URL.
+        name: String,
+        /// Reads refused.
+        refused: u64,
+    },
     /// A read was cancelled by whoever asked for it (the pager, once its tile stopped
     /// mattering) before all its bytes arrived: nothing is wrong with the source.
     #[error("{name}: {request} cancelled after {received} of its bytes arrived")]

@@ -9,6 +9,7 @@
 //! frames as they are computed as well (`demo --window`).
 
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressStyle};
@@ -18,6 +19,7 @@ use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 use crate::db::source;
 use crate::db::source::http::HttpOptions;
 use crate::db::source::throttle::LinkProfile;
+use crate::db::source::watch::{Watch, Watched};
 use crate::engine::allocation::Allocation;
 use crate::engine::error_bound::Bound;
 use crate::engine::paging::{PagerMode, PagerStats};
@@ -121,6 +123,10 @@ pub struct FlySummary {
     pub first_errors: Vec<String>,
     /// Fetches (tiles and the base) still on their way when the flight ended, abandoned.
     pub in_flight: usize,
+    /// Reads of tiles (or of the base) whose bytes failed their checksums.
+    pub refused: u64,
+    /// What showed that the archive changed while it was read, which ended the flight there.
+    pub archive_changed: Option<String>,
 }
 
 /// What a flight's requests get beyond its length on the wall clock before its deadline.
@@ -156,7 +162,7 @@ pub fn fly_live(o: &FlyOptions, mut live: Option<LiveView<'_>>) -> Result<FlySum
     };
     let (w, h) = o.size;
     let mut fb = Framebuffer::new(w, h, o.color, o.depth)?;
-    let mut engine = flight_engine(o)?;
+    let (mut engine, watch) = flight_engine(o)?;
     let length = o
         .length
         .unwrap_or(Length::Seconds(o.flight.duration().max(f64::MIN_POSITIVE)));
@@ -164,7 +170,11 @@ pub fn fly_live(o: &FlyOptions, mut live: Option<LiveView<'_>>) -> Result<FlySum
     let mut hud = Hud::new(o.hud);
     let started = Instant::now();
     let mut tally = Tally::default();
-    while !tally.reached(length) && !live.as_mut().is_some_and(|l| l.presenter.poll_input().quit) {
+    // A changed archive ends the flight: what is still to come would only fail its checksums.
+    while !tally.reached(length)
+        && watch.changed().is_none()
+        && !live.as_mut().is_some_and(|l| l.presenter.poll_input().quit)
+    {
         let t = tally.t;
         let (eye, target) = o.flight.at(t);
         let camera = engine.camera(eye, target, o.flight.above_ground);
@@ -206,24 +216,26 @@ pub fn fly_live(o: &FlyOptions, mut live: Option<LiveView<'_>>) -> Result<FlySum
     if o.plots {
         report::draw(&o.out)?;
     }
-    Ok(tally.summary(&engine))
+    Ok(tally.summary(&engine, &watch))
 }
 
-/// The engine of a flight, reading its tiles over the flight's link. The simulated clock turns a
-/// threaded pager into a simulated one with the same queue depth.
-fn flight_engine(o: &FlyOptions) -> Result<Engine> {
+/// The engine of a flight, reading its tiles over the flight's link, and the watch on its
+/// source. The simulated clock turns a threaded pager into a simulated one with the same queue
+/// depth.
+fn flight_engine(o: &FlyOptions) -> Result<(Engine, Arc<Watch>)> {
     let mut settings = o.engine;
     if let (Clock::Simulated { .. }, PagerMode::Threaded { queue_depth }) =
         (o.clock, settings.pager_mode)
     {
         settings.pager_mode = PagerMode::Simulated { queue_depth };
     }
-    let (source, meter) = connect(source::open_with(&o.source, o.http)?, o.link, &o.clock);
+    let (watched, watch) = Watched::new(source::open_with(&o.source, o.http)?);
+    let (source, meter) = connect(Box::new(watched), o.link, &o.clock);
     let mut engine = Engine::new(source, settings, o.size.1)?;
     if let Some(meter) = meter {
         engine.set_transfer_clock(meter);
     }
-    Ok(engine)
+    Ok((engine, watch))
 }
 
 /// The `stats.csv` line of frame number `frame`, drawn at flight time `t` in `seconds` (its
@@ -301,7 +313,7 @@ impl Tally {
     }
 
     /// The summary of the flight `engine` flew.
-    fn summary(mut self, engine: &Engine) -> FlySummary {
+    fn summary(mut self, engine: &Engine, watch: &Watch) -> FlySummary {
         self.fps.sort_by(f64::total_cmp);
         let stats = self.last_stats.unwrap_or_else(|| engine.pager().stats());
         let frames = self.frames.max(1) as f64;
@@ -321,6 +333,8 @@ impl Tally {
             errors: stats.errors,
             first_errors: engine.pager().first_errors().to_vec(),
             in_flight: in_flight(&stats),
+            refused: watch.refused(),
+            archive_changed: watch.changed().map(str::to_string),
         }
     }
 }

@@ -4,6 +4,7 @@
 mod support;
 
 mod allocation;
+mod archive_changed;
 mod archive_corrupt;
 mod archive_fuzz;
 mod archive_levels;

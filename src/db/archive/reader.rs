@@ -1,4 +1,5 @@
-//! Reading an archive through any [`TileSource`], with checksums and retries.
+//! Reading an archive through any [`TileSource`], with checksums and retries; a chunk that
+//! fails its checksum is reported to the source, which may find that the archive changed.
 
 use std::ops::Range;
 use std::time::Duration;
@@ -252,6 +253,7 @@ impl<S: TileSource> ArchiveReader<S> {
                     let actual = crc32fast::hash(&bytes[at..at + len]);
                     let expected = entry.levels[g].crc32;
                     if actual != expected {
+                        self.source.checksum_failed()?;
                         return Err(Error::Checksum {
                             name: name.to_string(),
                             tile: i,
@@ -345,22 +347,26 @@ impl<S: TileSource> ArchiveReader<S> {
             });
             match failed {
                 None => Ok(bytes),
-                Some((level, expected, actual)) => Err(Error::Checksum {
-                    name: name.to_string(),
-                    tile: i,
-                    level,
-                    expected,
-                    actual,
-                    attempts: attempt,
-                }),
+                Some((level, expected, actual)) => {
+                    self.source.checksum_failed()?;
+                    Err(Error::Checksum {
+                        name: name.to_string(),
+                        tile: i,
+                        level,
+                        expected,
+                        actual,
+                        attempts: attempt,
+                    })
+                }
             }
         })
     }
 }
 
 /// Runs `f` (given the attempt's number, from 1) up to `attempts` times until it succeeds and
-/// returns the last error, except that a timeout or a cancellation ends the tries at once. Before each retry of
-/// a `remote` source it waits as [`RETRY_BACKOFF`] says for the piece at `key` (its offset).
+/// returns the last error, except that a timeout, a cancellation or a changed archive ends the
+/// tries at once. Before each retry of a `remote` source it waits as [`RETRY_BACKOFF`] says
+/// for the piece at `key` (its offset).
 fn retry<T>(
     attempts: u32,
     remote: bool,
@@ -372,7 +378,12 @@ fn retry<T>(
         match f(attempt) {
             Err(e)
                 if attempt < attempts
-                    && !matches!(e, Error::TimedOut { .. } | Error::Cancelled { .. }) =>
+                    && !matches!(
+                        e,
+                        Error::TimedOut { .. }
+                            | Error::Cancelled { .. }
+                            | Error::ArchiveChanged { .. }
+                    ) =>
             {
                 if remote {
                     std::thread::sleep(Duration::from_secs_f64(RETRY_BACKOFF.wait(key, attempt)));

@@ -253,6 +253,10 @@ impl<S: TileSource> TileSource for SimulatedLink<S> {
         }
         self.inner.read_range_cancellable(offset, len, cancel)
     }
+
+    fn checksum_failed(&self) -> Result<()> {
+        self.inner.checksum_failed()
+    }
 }
 
 #[cfg(test)]

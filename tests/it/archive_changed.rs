@@ -1,0 +1,350 @@
+//! A client pins the archive it opened. Over HTTP it sends the archive's `ETag` as `If-Match`
+//! and compares every answer's `Content-Range` total and validators; from a file it compares
+//! the file's size, modification time and identity when a read fails. An archive replaced,
+//! rewritten or truncated under a reader stops it with "the archive at NAME changed while it
+//! was read: reopen it", and `fly` exits non-zero saying so, or saying how many reads failed
+//! their checksums when the archive stayed but its bytes were damaged.
+
+use std::io::{BufRead, BufReader, Write};
+use std::net::{SocketAddr, TcpListener};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Stdio};
+use std::time::{Duration, Instant};
+
+use stripmask::Error;
+use stripmask::db::archive::ArchiveReader;
+use stripmask::db::builder::BuildOptions;
+use stripmask::db::server::Server;
+use stripmask::db::source::TileSource;
+use stripmask::db::source::file::FileSource;
+use stripmask::db::source::http::HttpSource;
+use stripmask::db::source::throttle::LinkProfile;
+
+use crate::support::cli::{fly_quietly, stripmask};
+use crate::support::hills::synthetic;
+
+/// An archive of 8 x 8 tiles named `name`, its heights raised by `lift`, in `dir`.
+fn hills(dir: &Path, name: &str, lift: f32) -> PathBuf {
+    let options = BuildOptions {
+        tile_size: 33,
+        spacing: Some(30.0),
+        texture_factor: 1,
+        ..BuildOptions::default()
+    };
+    synthetic(dir, name, (257, 257), &options, |i, j| {
+        lift + 300.0 + 200.0 * (i as f32 * 0.05).sin() * (j as f32 * 0.04).cos()
+    })
+}
+
+/// Another build (heights raised) under `path`'s name, in a folder beside it, made before
+/// it is needed so that putting it in place takes no time.
+fn next_build(path: &Path) -> PathBuf {
+    let dir = path.parent().unwrap().join("next");
+    std::fs::create_dir_all(&dir).unwrap();
+    hills(&dir, path.file_stem().unwrap().to_str().unwrap(), 1000.0)
+}
+
+/// Puts `next` at `path`, renamed into place as builds do (a new file under the old name).
+fn replace(next: &Path, path: &Path) {
+    std::fs::rename(next, path).unwrap();
+}
+
+/// Writes `next`'s bytes over `path` in place (the same file, new content).
+fn overwrite(next: &Path, path: &Path) {
+    std::fs::write(path, std::fs::read(next).unwrap()).unwrap();
+}
+
+fn assert_changed(e: Error, name: &str, says: &str) {
+    match &e {
+        Error::ArchiveChanged { name: n, what } => {
+            assert_eq!(n, name);
+            assert!(what.contains(says), "{what}");
+        }
+        other => panic!("{other:?}"),
+    }
+    let text = e.to_string();
+    assert!(
+        text.contains(&format!("the archive at {name} changed while it was read"))
+            && text.ends_with("reopen it"),
+        "{text}"
+    );
+}
+
+#[test]
+fn an_http_reader_stops_when_the_served_archive_is_replaced() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = hills(dir.path(), "hills", 0.0);
+    let loopback: SocketAddr = "127.0.0.1:0".parse().unwrap();
+    let server = Server::start(&path, loopback, LinkProfile::default()).unwrap();
+    let url = server.url().to_string();
+    let reader = ArchiveReader::open(HttpSource::new(&url)).unwrap();
+    reader.tile_bytes(0).unwrap();
+    replace(&next_build(&path), &path);
+    let e = reader.tile_bytes(1).unwrap_err();
+    assert_changed(e, &url, "412 to If-Match");
+    // Pinned: every later read fails at once (no server needed), with what showed the change.
+    drop(server);
+    let e = reader.tile_bytes(2).unwrap_err();
+    assert_changed(e, &url, "412 to If-Match");
+}
+
+/// A server that ignores preconditions and answers every range of a `len`-byte file of zeros
+/// with `head` (HEAD answers say `len` and `ETag: "a"`); its URL.
+fn careless_server(len: usize, head: impl Fn(usize, usize) -> String + Send + 'static) -> String {
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listener.local_addr().unwrap();
+    std::thread::spawn(move || {
+        for stream in listener.incoming().take(8) {
+            let Ok(mut stream) = stream else { return };
+            let mut reader = BufReader::new(stream.try_clone().unwrap());
+            let mut lines = Vec::new();
+            loop {
+                let mut line = String::new();
+                if reader.read_line(&mut line).unwrap_or(0) == 0 || line == "\r\n" {
+                    break;
+                }
+                lines.push(line.to_ascii_lowercase());
+            }
+            let answer = if lines.first().is_some_and(|l| l.starts_with("head")) {
+                format!(
+                    "HTTP/1.1 200 OK\r\nContent-Length: {len}\r\nETag: \"a\"\r\nConnection: close\r\n\r\n"
+                )
+            } else {
+                let range = lines
+                    .iter()
+                    .find_map(|l| l.strip_prefix("range: bytes="))
+                    .unwrap_or("0-0");
+                let (a, b) = range.trim().split_once('-').unwrap();
+                let (a, b): (usize, usize) = (a.parse().unwrap(), b.parse().unwrap());
+                let body = "\0".repeat(b + 1 - a);
+                format!("{}{body}", head(a, b))
+            };
+            let _ = stream.write_all(answer.as_bytes());
+        }
+    });
+    format!("http://{addr}/x.smdb")
+}
+
+#[test]
+fn an_http_source_compares_every_answer_with_the_archive_it_opened() {
+    // The total size in Content-Range changed.
+    let url = careless_server(1000, |a, b| {
+        format!(
+            "HTTP/1.1 206 Partial Content\r\nContent-Length: {}\r\nContent-Range: bytes {a}-{b}/900\r\nETag: \"a\"\r\nConnection: close\r\n\r\n",
+            b + 1 - a
+        )
+    });
+    let source = HttpSource::new(&url);
+    assert_eq!(source.size().unwrap(), 1000);
+    let e = source.read_range(0, 10).unwrap_err();
+    assert_changed(e, &url, "its size went from 1000 to 900 bytes");
+    assert_changed(source.read_range(0, 10).unwrap_err(), &url, "1000 to 900");
+
+    // The ETag changed.
+    let url = careless_server(1000, |a, b| {
+        format!(
+            "HTTP/1.1 206 Partial Content\r\nContent-Length: {}\r\nContent-Range: bytes {a}-{b}/1000\r\nETag: \"b\"\r\nConnection: close\r\n\r\n",
+            b + 1 - a
+        )
+    });
+    let source = HttpSource::new(&url);
+    source.size().unwrap();
+    let e = source.read_range(0, 10).unwrap_err();
+    assert_changed(e, &url, "its ETag went from \"a\" to \"b\"");
+
+    // The same archive: nothing to say.
+    let url = careless_server(1000, |a, b| {
+        format!(
+            "HTTP/1.1 206 Partial Content\r\nContent-Length: {}\r\nContent-Range: bytes {a}-{b}/1000\r\nETag: \"a\"\r\nConnection: close\r\n\r\n",
+            b + 1 - a
+        )
+    });
+    let source = HttpSource::new(&url);
+    source.size().unwrap();
+    assert_eq!(source.read_range(5, 10).unwrap(), vec![0; 10]);
+}
+
+#[test]
+fn a_file_reader_stops_when_its_archive_is_rewritten_or_truncated_in_place() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = hills(dir.path(), "hills", 0.0);
+    let name = path.display().to_string();
+
+    let next = next_build(&path);
+    let reader = ArchiveReader::open(FileSource::open(&path).unwrap()).unwrap();
+    reader.tile_bytes(0).unwrap();
+    overwrite(&next, &path);
+    // Some tile's bytes are now another build's: its checksum fails, and the source sees why.
+    let e = (0..reader.index().len())
+        .find_map(|i| reader.tile_bytes(i).err())
+        .expect("a tile of the other build passed the checksums of this one");
+    assert_changed(e, &name, "");
+    assert!(matches!(
+        reader.tile_bytes(0),
+        Err(Error::ArchiveChanged { .. })
+    ));
+
+    let path = hills(dir.path(), "short", 0.0);
+    let name = path.display().to_string();
+    let reader = ArchiveReader::open(FileSource::open(&path).unwrap()).unwrap();
+    let len = std::fs::metadata(&path).unwrap().len();
+    std::fs::OpenOptions::new()
+        .write(true)
+        .open(&path)
+        .unwrap()
+        .set_len(len / 2)
+        .unwrap();
+    let last = reader.index().len() - 1;
+    let e = reader.tile_bytes(last).unwrap_err();
+    assert_changed(
+        e,
+        &name,
+        &format!("its size went from {len} to {} bytes", len / 2),
+    );
+}
+
+#[test]
+fn a_damaged_file_that_did_not_change_fails_its_checksum_as_before() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = hills(dir.path(), "hills", 0.0);
+    let offset = {
+        let reader = ArchiveReader::open(FileSource::open(&path).unwrap()).unwrap();
+        reader.index()[3].offset
+    };
+    // Damaged before it is opened: this archive is the one the reader pins.
+    let mut bytes = std::fs::read(&path).unwrap();
+    bytes[offset as usize] ^= 0x55;
+    std::fs::write(&path, bytes).unwrap();
+    let reader = ArchiveReader::open(FileSource::open(&path).unwrap()).unwrap();
+    assert!(matches!(
+        reader.tile_bytes(3),
+        Err(Error::Checksum { tile: 3, .. })
+    ));
+    reader.tile_bytes(2).unwrap();
+}
+
+/// `fly SOURCE` for 8 s over a link of 300 ms a request, keeping every frame: the process,
+/// and the folder its first frame appears in.
+fn slow_fly(source: &str, out: &Path) -> (Child, PathBuf) {
+    let child = stripmask()
+        .args([
+            "fly",
+            source,
+            "--seconds",
+            "8",
+            "--every",
+            "1",
+            "--no-plots",
+            "--quiet",
+        ])
+        .args(["--size", "64x48", "--latency-ms", "300", "--out"])
+        .arg(out)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    (child, out.join("frames"))
+}
+
+/// Waits for the flight's first frame: its engine has opened the archive.
+fn first_frame(frames: &Path, child: &mut Child) {
+    let started = Instant::now();
+    loop {
+        let any = std::fs::read_dir(frames)
+            .map(|mut d| d.next().is_some())
+            .unwrap_or(false);
+        if any {
+            return;
+        }
+        if started.elapsed() > Duration::from_secs(60) || child.try_wait().unwrap().is_some() {
+            let _ = child.kill();
+            panic!("the flight drew no frame");
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
+/// The exit code, stdout and stderr of the flight, which must end within a minute.
+fn ended(mut child: Child) -> (Option<i32>, String, String) {
+    let started = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if started.elapsed() > Duration::from_secs(60) {
+            let _ = child.kill();
+            panic!("the flight did not end");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let output = child.wait_with_output().unwrap();
+    (
+        output.status.code(),
+        String::from_utf8_lossy(&output.stdout).into_owned(),
+        String::from_utf8_lossy(&output.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn fly_over_http_stops_with_an_error_when_the_archive_is_replaced() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = hills(dir.path(), "hills", 0.0);
+    let loopback: SocketAddr = "127.0.0.1:0".parse().unwrap();
+    let server = Server::start(&path, loopback, LinkProfile::default()).unwrap();
+    let next = next_build(&path);
+    let (mut child, frames) = slow_fly(server.url(), &dir.path().join("run"));
+    first_frame(&frames, &mut child);
+    replace(&next, &path);
+    let (code, _, err) = ended(child);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains(&format!(
+            "the archive at {} changed while it was read",
+            server.url()
+        )) && err.contains("reopen it"),
+        "{err}"
+    );
+}
+
+#[test]
+fn fly_from_a_file_stops_with_an_error_when_the_archive_is_rewritten() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = hills(dir.path(), "hills", 0.0);
+    let source = path.to_str().unwrap();
+    let next = next_build(&path);
+    let (mut child, frames) = slow_fly(source, &dir.path().join("run"));
+    first_frame(&frames, &mut child);
+    overwrite(&next, &path);
+    let (code, _, err) = ended(child);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains(&format!(
+            "the archive at {source} changed while it was read"
+        )) && err.contains("reopen it"),
+        "{err}"
+    );
+}
+
+#[test]
+fn fly_says_how_many_reads_failed_their_checksums_and_exits_non_zero() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = hills(dir.path(), "hills", 0.0);
+    // The archive ends with its coarse base: its last byte belongs to the base's last chunk,
+    // which every flight reads first.
+    let mut bytes = std::fs::read(&path).unwrap();
+    *bytes.last_mut().unwrap() ^= 0x55;
+    std::fs::write(&path, bytes).unwrap();
+    let out = dir.path().join("run");
+    let (code, err, _) = fly_quietly(
+        path.to_str().unwrap(),
+        &out,
+        &["--clock", "simulated", "--frames", "30"],
+    );
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains(path.to_str().unwrap()) && err.contains("failed their checksums"),
+        "{err}"
+    );
+    let refused: u64 = err
+        .split(": ")
+        .find_map(|part| part.split(" read(s) of tiles").next()?.trim().parse().ok())
+        .unwrap_or_else(|| panic!("no count in {err}"));
+    assert!(refused >= 1, "{err}");
+}

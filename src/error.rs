@@ -91,6 +91,17 @@ pub enum Error {
         /// Reads refused.
         refused: u64,
     },
+    /// A build's output is its input (or its texture image): building would replace what it
+    /// reads.
+    #[error("{output} is the build's {role} {input}: choose another output")]
+    OutputIsInput {
+        /// The output path, as given.
+        output: String,
+        /// What it is: `input` or `texture`.
+        role: &'static str,
+        /// The input's path, as given.
+        input: String,
+    },
     /// A read was cancelled by whoever asked for it (the pager, once its tile stopped
     /// mattering) before all its bytes arrived: nothing is wrong with the source.
     #[error("{name}: {request} cancelled after {received} of its bytes arrived")]

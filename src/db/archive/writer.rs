@@ -124,6 +124,9 @@ impl ArchiveWriter {
         self.header.nodata_flattened = nodata.flattened;
         self.header.validate(&name)?;
         let io = |e| Error::io(&name, e);
+        // From here the file is ours to remove on every failure (`Drop` no longer sees it),
+        // after the file is closed: the guard is dropped after it.
+        let discard = Discard(&self.partial);
         let mut file = self.file.take().expect("writer not finished");
         for base in &self.base {
             file.write_all(base).map_err(io)?;
@@ -137,7 +140,18 @@ impl ArchiveWriter {
         drop(file);
         std::fs::rename(&self.partial, &self.path)
             .map_err(|e| Error::io(self.path.display().to_string(), e))?;
+        std::mem::forget(discard);
         Ok(self.position)
+    }
+}
+
+/// Removes a partial file when dropped, unless forgotten: the failures of
+/// [`ArchiveWriter::finish`].
+struct Discard<'a>(&'a Path);
+
+impl Drop for Discard<'_> {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(self.0);
     }
 }
 

@@ -2,10 +2,11 @@
 //! connection, ask for N random byte ranges of an archive; prints requests per second, errors
 //! and the 50th and 99th percentile latencies (the figures in docs/security.md).
 //!
-//! With `attack`, the server is attacked instead: reconnecting slowloris connections, slow
-//! readers (4 KiB every 5 s) and idle connections are opened and kept, and meanwhile a normal
-//! client asks for 64 KiB ranges, each on a new connection; prints how long it waited, the
-//! server's threads, and the memory the attack cost.
+//! With `attack`, the server is attacked instead: reconnecting slowloris connections (a byte a
+//! second), slow readers of the whole file (the archive followed by zeros up to 64 MiB; 4 KiB
+//! every 5 s) and idle connections are opened and kept, and meanwhile a normal client asks for
+//! a 64 KiB range once a second for 20 s, each on a new connection; prints how long it waited,
+//! the process's threads, and the memory the attack cost.
 //!
 //! ```sh
 //! cargo run --release --example serve_load                # 8 clients x 500 ranges
@@ -130,6 +131,13 @@ fn under_attack(slowloris: usize, slow: usize, idle: usize) {
     std::fs::create_dir_all(&dir).expect("a temporary directory");
     let archive = dir.join("load.smdb");
     make_archive(&archive);
+    // Zeros after the archive, up to 64 MiB (sparse): a whole answer outlasts the socket
+    // buffers of a slow reader.
+    std::fs::OpenOptions::new()
+        .write(true)
+        .open(&archive)
+        .and_then(|f| f.set_len(64 << 20))
+        .expect("the archive grows");
     let before = resident_kib();
     let server = Server::start(
         &archive,
@@ -168,6 +176,7 @@ fn under_attack(slowloris: usize, slow: usize, idle: usize) {
     let mut errors = 0;
     let mut peak_threads = 0;
     let mut peak_kib = 0;
+    let mut peak_tcp_pages = 0;
     for _ in 0..20 {
         let asked = Instant::now();
         let agent: ureq::Agent = ureq::Agent::config_builder()
@@ -187,6 +196,7 @@ fn under_attack(slowloris: usize, slow: usize, idle: usize) {
         errors += usize::from(!ok);
         peak_threads = peak_threads.max(threads());
         peak_kib = peak_kib.max(resident_kib());
+        peak_tcp_pages = peak_tcp_pages.max(tcp_pages());
         std::thread::sleep(Duration::from_secs(1).saturating_sub(asked.elapsed()));
     }
     let reconnects: Vec<u64> = attacks.iter().map(Attack::reconnects).collect();
@@ -198,11 +208,12 @@ fn under_attack(slowloris: usize, slow: usize, idle: usize) {
         "a normal client, 20 requests of 64 KiB on new connections: p50 {:.2} ms, max {max:.2} ms, \
          {errors} errors; reconnects forced (slowloris, slow, idle): {reconnects:?}; threads of the \
          process at most {peak_threads}; resident memory {:.1} MB before the server, {:.1} MB \
-         with it idle, at most {:.1} MB under attack",
+         with it idle, at most {:.1} MB under attack; the system's TCP buffers at most {:.1} MB",
         percentile(&mut waits, 0.5),
         before as f64 / 1024.0,
         idle_server as f64 / 1024.0,
         peak_kib as f64 / 1024.0,
+        peak_tcp_pages as f64 * 4096.0 / 1e6,
     );
 }
 
@@ -221,6 +232,20 @@ fn status_number(field: &str) -> u64 {
 /// The process's resident memory, KiB.
 fn resident_kib() -> u64 {
     status_number("VmRSS:")
+}
+
+/// The pages the system's TCP buffers take (`/proc/net/sockstat`), both ends of every
+/// loopback connection included.
+fn tcp_pages() -> u64 {
+    std::fs::read_to_string("/proc/net/sockstat")
+        .ok()
+        .and_then(|s| {
+            let tcp = s.lines().find_map(|l| l.strip_prefix("TCP:"))?;
+            let mut words = tcp.split_whitespace();
+            words.find(|w| *w == "mem")?;
+            words.next()?.parse().ok()
+        })
+        .unwrap_or(0)
 }
 
 /// The process's threads.

@@ -161,16 +161,12 @@ impl Server {
             url: format!("http://{listen}"),
             problem: format!("cannot {what}: {e}"),
         };
-        let listener = std::net::TcpListener::bind(listen).map_err(|e| cannot("listen", e))?;
-        let addr = listener.local_addr().map_err(|e| cannot("listen", e))?;
-        listener
-            .set_nonblocking(true)
-            .map_err(|e| cannot("listen", e))?;
         let runtime = runtime().map_err(|e| cannot("start the server's threads", e))?;
         let listener = {
             let _entered = runtime.enter();
-            tokio::net::TcpListener::from_std(listener).map_err(|e| cannot("listen", e))?
+            bind(listen).map_err(|e| cannot("listen", e))?
         };
+        let addr = listener.local_addr().map_err(|e| cannot("listen", e))?;
         let cap = limits.max_connections.min(descriptor_room());
         let shared = Arc::new(Shared {
             service: Link::new(
@@ -237,6 +233,32 @@ fn runtime() -> std::io::Result<tokio::runtime::Runtime> {
         .enable_io()
         .enable_time()
         .build()
+}
+
+/// Connections the system may hold for the server before it accepts them. A burst of
+/// connections (clients reconnecting all at once) over the backlog has its SYNs dropped, and a
+/// client whose SYN is dropped tries again a second later.
+const BACKLOG: u32 = 4096;
+
+/// The send buffer of every connection, bytes (Linux doubles it for its own bookkeeping). The
+/// system would otherwise grow it to megabytes for a client that does not read, so that 200
+/// slow readers would hold most of a gigabyte of kernel memory; this much still carries
+/// 512 KiB per round trip (40 Mbit/s at 100 ms).
+const SEND_BUFFER: u32 = 256 * 1024;
+
+/// A listener on `addr` (port 0 picks a free port) with room for [`BACKLOG`] connections, whose
+/// connections inherit its [`SEND_BUFFER`].
+fn bind(addr: SocketAddr) -> std::io::Result<tokio::net::TcpListener> {
+    let socket = match addr {
+        SocketAddr::V4(_) => tokio::net::TcpSocket::new_v4()?,
+        SocketAddr::V6(_) => tokio::net::TcpSocket::new_v6()?,
+    };
+    // As the standard library's listeners: a restarted server can take its port back at once.
+    #[cfg(unix)]
+    socket.set_reuseaddr(true)?;
+    socket.set_send_buffer_size(SEND_BUFFER)?;
+    socket.bind(addr)?;
+    socket.listen(BACKLOG)
 }
 
 /// Accepts connections until the server stops. A failed accept (out of descriptors, a

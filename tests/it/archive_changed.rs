@@ -63,19 +63,26 @@ fn assert_changed(e: Error, name: &str, says: &str) {
         other => panic!("{other:?}"),
     }
     let text = e.to_string();
-    assert!(
-        text.contains(&format!("the archive at {name} changed while it was read"))
-            && text.ends_with("reopen it"),
-        "{text}"
-    );
+    assert!(says_changed(&text, name), "{text}");
+}
+
+/// Whether `text` says that the archive at `name` changed, and what to do.
+fn says_changed(text: &str, name: &str) -> bool {
+    text.contains(&format!("the archive at {name} changed while it was read"))
+        && text.contains("reopen it")
+}
+
+/// A server of `path` on 127.0.0.1.
+fn served(path: &Path) -> Server {
+    let loopback: SocketAddr = "127.0.0.1:0".parse().unwrap();
+    Server::start(path, loopback, LinkProfile::default()).unwrap()
 }
 
 #[test]
 fn an_http_reader_stops_when_the_served_archive_is_replaced() {
     let dir = tempfile::tempdir().unwrap();
     let path = hills(dir.path(), "hills", 0.0);
-    let loopback: SocketAddr = "127.0.0.1:0".parse().unwrap();
-    let server = Server::start(&path, loopback, LinkProfile::default()).unwrap();
+    let server = served(&path);
     let url = server.url().to_string();
     let reader = ArchiveReader::open(HttpSource::new(&url)).unwrap();
     reader.tile_bytes(0).unwrap();
@@ -88,9 +95,10 @@ fn an_http_reader_stops_when_the_served_archive_is_replaced() {
     assert_changed(e, &url, "412 to If-Match");
 }
 
-/// A server that ignores preconditions and answers every range of a `len`-byte file of zeros
-/// with `head` (HEAD answers say `len` and `ETag: "a"`); its URL.
-fn careless_server(len: usize, head: impl Fn(usize, usize) -> String + Send + 'static) -> String {
+/// A server that ignores preconditions: `HEAD` answers say a file of `len` bytes with
+/// `ETag: "a"`, and every range of it (zeros) is answered with a `Content-Range` total of
+/// `total` and `etag`; its URL.
+fn careless_server(len: usize, total: usize, etag: &'static str) -> String {
     let listener = TcpListener::bind("127.0.0.1:0").unwrap();
     let addr = listener.local_addr().unwrap();
     std::thread::spawn(move || {
@@ -117,7 +125,12 @@ fn careless_server(len: usize, head: impl Fn(usize, usize) -> String + Send + 's
                 let (a, b) = range.trim().split_once('-').unwrap();
                 let (a, b): (usize, usize) = (a.parse().unwrap(), b.parse().unwrap());
                 let body = "\0".repeat(b + 1 - a);
-                format!("{}{body}", head(a, b))
+                format!(
+                    "HTTP/1.1 206 Partial Content\r\nContent-Length: {}\r\n\
+                     Content-Range: bytes {a}-{b}/{total}\r\nETag: {etag}\r\n\
+                     Connection: close\r\n\r\n{body}",
+                    body.len()
+                )
             };
             let _ = stream.write_all(answer.as_bytes());
         }
@@ -128,12 +141,7 @@ fn careless_server(len: usize, head: impl Fn(usize, usize) -> String + Send + 's
 #[test]
 fn an_http_source_compares_every_answer_with_the_archive_it_opened() {
     // The total size in Content-Range changed.
-    let url = careless_server(1000, |a, b| {
-        format!(
-            "HTTP/1.1 206 Partial Content\r\nContent-Length: {}\r\nContent-Range: bytes {a}-{b}/900\r\nETag: \"a\"\r\nConnection: close\r\n\r\n",
-            b + 1 - a
-        )
-    });
+    let url = careless_server(1000, 900, "\"a\"");
     let source = HttpSource::new(&url);
     assert_eq!(source.size().unwrap(), 1000);
     let e = source.read_range(0, 10).unwrap_err();
@@ -141,24 +149,14 @@ fn an_http_source_compares_every_answer_with_the_archive_it_opened() {
     assert_changed(source.read_range(0, 10).unwrap_err(), &url, "1000 to 900");
 
     // The ETag changed.
-    let url = careless_server(1000, |a, b| {
-        format!(
-            "HTTP/1.1 206 Partial Content\r\nContent-Length: {}\r\nContent-Range: bytes {a}-{b}/1000\r\nETag: \"b\"\r\nConnection: close\r\n\r\n",
-            b + 1 - a
-        )
-    });
+    let url = careless_server(1000, 1000, "\"b\"");
     let source = HttpSource::new(&url);
     source.size().unwrap();
     let e = source.read_range(0, 10).unwrap_err();
     assert_changed(e, &url, "its ETag went from \"a\" to \"b\"");
 
     // The same archive: nothing to say.
-    let url = careless_server(1000, |a, b| {
-        format!(
-            "HTTP/1.1 206 Partial Content\r\nContent-Length: {}\r\nContent-Range: bytes {a}-{b}/1000\r\nETag: \"a\"\r\nConnection: close\r\n\r\n",
-            b + 1 - a
-        )
-    });
+    let url = careless_server(1000, 1000, "\"a\"");
     let source = HttpSource::new(&url);
     source.size().unwrap();
     assert_eq!(source.read_range(5, 10).unwrap(), vec![0; 10]);
@@ -282,44 +280,36 @@ fn ended(mut child: Child) -> (Option<i32>, String, String) {
     )
 }
 
+/// Flies from `source` slowly, makes `change` once the first frame is drawn, and checks that
+/// the flight then exits 1 saying that the archive at `source` changed.
+fn fly_through_a_change(source: &str, out: &Path, change: impl FnOnce()) {
+    let (mut child, frames) = slow_fly(source, out);
+    first_frame(&frames, &mut child);
+    change();
+    let (code, _, err) = ended(child);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(says_changed(&err, source), "{err}");
+}
+
 #[test]
 fn fly_over_http_stops_with_an_error_when_the_archive_is_replaced() {
     let dir = tempfile::tempdir().unwrap();
     let path = hills(dir.path(), "hills", 0.0);
-    let loopback: SocketAddr = "127.0.0.1:0".parse().unwrap();
-    let server = Server::start(&path, loopback, LinkProfile::default()).unwrap();
+    let server = served(&path);
     let next = next_build(&path);
-    let (mut child, frames) = slow_fly(server.url(), &dir.path().join("run"));
-    first_frame(&frames, &mut child);
-    replace(&next, &path);
-    let (code, _, err) = ended(child);
-    assert_eq!(code, Some(1), "{err}");
-    assert!(
-        err.contains(&format!(
-            "the archive at {} changed while it was read",
-            server.url()
-        )) && err.contains("reopen it"),
-        "{err}"
-    );
+    fly_through_a_change(server.url(), &dir.path().join("run"), || {
+        replace(&next, &path)
+    });
 }
 
 #[test]
 fn fly_from_a_file_stops_with_an_error_when_the_archive_is_rewritten() {
     let dir = tempfile::tempdir().unwrap();
     let path = hills(dir.path(), "hills", 0.0);
-    let source = path.to_str().unwrap();
     let next = next_build(&path);
-    let (mut child, frames) = slow_fly(source, &dir.path().join("run"));
-    first_frame(&frames, &mut child);
-    overwrite(&next, &path);
-    let (code, _, err) = ended(child);
-    assert_eq!(code, Some(1), "{err}");
-    assert!(
-        err.contains(&format!(
-            "the archive at {source} changed while it was read"
-        )) && err.contains("reopen it"),
-        "{err}"
-    );
+    fly_through_a_change(path.to_str().unwrap(), &dir.path().join("run"), || {
+        overwrite(&next, &path)
+    });
 }
 
 #[test]

@@ -267,14 +267,8 @@ fn an_output_that_is_the_input_is_refused_before_reading_through_any_path_or_lin
         outputs.extend([symlink, hard]);
     }
     for output in &outputs {
-        let o = stripmask()
-            .args(["build", "--quiet", "--tile-size", "17", "-o"])
-            .arg(output)
-            .arg(&input)
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(1), "{output:?}: {err}");
+        let (code, err) = build_into(output, &input, None);
+        assert_eq!(code, Some(1), "{output:?}: {err}");
         assert!(
             err.contains(&format!(
                 "{} is the build's input {}",
@@ -289,25 +283,27 @@ fn an_output_that_is_the_input_is_refused_before_reading_through_any_path_or_lin
     // The texture image is read too.
     let texture = dir.path().join("texture.png");
     image::RgbImage::new(8, 8).save(&texture).unwrap();
-    let o = stripmask()
-        .args(["build", "--quiet", "--tile-size", "17", "--texture"])
-        .arg(&texture)
-        .arg("-o")
-        .arg(&texture)
-        .arg(&input)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(1), "{err}");
+    let (code, err) = build_into(&texture, &input, Some(&texture));
+    assert_eq!(code, Some(1), "{err}");
     assert!(err.contains("is the build's texture"), "{err}");
     // Another output beside the input builds.
-    let o = stripmask()
-        .args(["build", "--quiet", "--tile-size", "17", "-o"])
-        .arg(dir.path().join("in.smdb"))
-        .arg(&input)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (code, err) = build_into(&dir.path().join("in.smdb"), &input, None);
+    assert_eq!(code, Some(0), "{err}");
+}
+
+/// `stripmask build INPUT -o OUTPUT` (with a texture image): its exit code and stderr.
+fn build_into(output: &Path, input: &Path, texture: Option<&Path>) -> (Option<i32>, String) {
+    let mut command = stripmask();
+    command.args(["build", "--quiet", "--tile-size", "17", "-o"]);
+    command.arg(output).arg(input);
+    if let Some(texture) = texture {
+        command.arg("--texture").arg(texture);
+    }
+    let o = command.output().unwrap();
+    (
+        o.status.code(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
 }
 
 /// A build whose writes fail once the file passes a size (`ulimit -f`, with the signal that

@@ -132,16 +132,19 @@ fn idle_connections_keep_no_client_out() {
     assert_served(&server, "300 reconnecting idle connections");
 }
 
+/// A server of a large archive in `dir` that keeps `max_connections` open at most.
+fn serve_at_most(dir: &Path, max_connections: usize) -> Server {
+    let limits = Limits {
+        max_connections,
+        ..Limits::default()
+    };
+    serve(&large_archive(dir), limits)
+}
+
 #[test]
 fn at_the_limit_the_connection_waiting_longest_makes_room() {
     let dir = tempfile::tempdir().unwrap();
-    let server = serve(
-        &large_archive(dir.path()),
-        Limits {
-            max_connections: 8,
-            ..Limits::default()
-        },
-    );
+    let server = serve_at_most(dir.path(), 8);
     let idle: Vec<TcpStream> = (0..8)
         .map(|_| {
             let s = TcpStream::connect(server.addr()).unwrap();
@@ -161,13 +164,7 @@ fn at_the_limit_the_connection_waiting_longest_makes_room() {
 #[test]
 fn at_the_limit_with_every_connection_answering_a_new_one_gets_503() {
     let dir = tempfile::tempdir().unwrap();
-    let server = serve(
-        &large_archive(dir.path()),
-        Limits {
-            max_connections: 4,
-            ..Limits::default()
-        },
-    );
+    let server = serve_at_most(dir.path(), 4);
     let path = path_of(&server);
     // Four clients that ask for the whole archive and read none of it.
     let answering: Vec<TcpStream> = (0..4)

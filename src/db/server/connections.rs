@@ -30,7 +30,8 @@ use tokio::net::TcpStream;
 use tokio::sync::watch;
 use tokio::time::Instant;
 
-use super::body::{Answer, text};
+use super::body::{Answer, Body, text};
+use super::link::Paced;
 use super::{Limits, Shared};
 
 /// Refused connections answered at once at the most; more are closed unanswered.
@@ -296,7 +297,7 @@ impl Service<Request<Incoming>> for Tracked {
 /// An answer's body on its way: when it is done with (sent, or dropped because the
 /// connection ended), its connection waits for the next request head.
 struct Sending {
-    body: super::link::Paced<super::body::Body>,
+    body: Paced<Body>,
     slot: Arc<Slot>,
 }
 

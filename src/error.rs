@@ -69,6 +69,39 @@ pub enum Error {
         /// Whether the run's deadline, not the request timeout, cut it short.
         by_deadline: bool,
     },
+    /// The archive behind a file or URL is no longer the one that was opened: it was replaced,
+    /// rewritten, truncated or garbled while it was read. Its index no longer describes its
+    /// bytes, so reading on would only fail checksums.
+    #[error("the archive at {name} changed while it was read ({what}): reopen it")]
+    ArchiveChanged {
+        /// The file or URL.
+        name: String,
+        /// What gave it away: a size, a validator, an answer.
+        what: String,
+    },
+    /// Reads of tiles failed their checksums during a run (nothing unverified was drawn): the
+    /// archive is damaged, or the link damaged the bytes.
+    #[error(
+        "{name}: {refused} read(s) of tiles failed their checksums during the run; \
+         the archive or the link is damaged"
+    )]
+    ChecksumsRefused {
+        /// The archive file or URL.
+        name: String,
+        /// Reads refused.
+        refused: u64,
+    },
+    /// A build's output is its input (or its texture image): building would replace what it
+    /// reads.
+    #[error("{output} is the build's {role} {input}: choose another output")]
+    OutputIsInput {
+        /// The output path, as given.
+        output: String,
+        /// What it is: `input` or `texture`.
+        role: &'static str,
+        /// The input's path, as given.
+        input: String,
+    },
     /// A read was cancelled by whoever asked for it (the pager, once its tile stopped
     /// mattering) before all its bytes arrived: nothing is wrong with the source.
     #[error("{name}: {request} cancelled after {received} of its bytes arrived")]
@@ -130,7 +163,7 @@ pub enum Error {
         errors: u64,
         /// The messages of the first failures, each naming its tile.
         first: Vec<String>,
-        /// Fetches (tiles and the base) still unanswered at the end, abandoned.
+        /// Fetches (tiles and the top) still unanswered at the end, abandoned.
         in_flight: usize,
     },
     /// A command this build of stripmask was made without: a cargo feature left out, or one

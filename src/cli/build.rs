@@ -1,6 +1,7 @@
 //! `stripmask build`: a DEM in, an archive out.
 
-use std::path::PathBuf;
+use std::fs::Metadata;
+use std::path::{Path, PathBuf};
 
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -8,7 +9,7 @@ use stripmask::Named;
 use stripmask::db::archive::Codec;
 use stripmask::db::builder::{BuildOptions, BuildReport, build_file};
 use stripmask::db::dem::{DemFormat, OpenOptions, RawLayout, SampleType};
-use stripmask::error::Result;
+use stripmask::error::{Error, Result};
 
 use super::args::named;
 
@@ -112,6 +113,10 @@ impl BuildArgs {
 
 /// Builds the archive with a progress bar and prints its summary (text or JSON).
 pub(super) fn run(a: BuildArgs) -> Result<()> {
+    refuse_output_over(
+        &a.output,
+        [("input", Some(&a.input)), ("texture", a.texture.as_ref())],
+    )?;
     let options = a.build_options();
     let bar = if a.quiet {
         ProgressBar::hidden()
@@ -181,4 +186,41 @@ fn summary(output: &std::path::Path, report: &BuildReport) -> String {
         lines.push(super::info::absent_line(h));
     }
     lines.iter().map(|l| format!("{l}\n")).collect()
+}
+
+/// Refuses an `output` that is one of the files the build reads (the DEM, the texture image):
+/// the same file through any path, symbolic link or hard link, by canonical path and, on unix,
+/// by device and inode. Nothing is read before: the build would replace its own input.
+fn refuse_output_over(output: &Path, inputs: [(&'static str, Option<&PathBuf>); 2]) -> Result<()> {
+    // An output that does not exist yet is no input.
+    let Ok(written) = std::fs::metadata(output) else {
+        return Ok(());
+    };
+    let canonical = std::fs::canonicalize(output).ok();
+    for (role, input) in inputs {
+        let Some(input) = input else { continue };
+        let Ok(read) = std::fs::metadata(input) else {
+            continue;
+        };
+        let same_path = canonical.is_some() && canonical == std::fs::canonicalize(input).ok();
+        if same_path || same_inode(&written, &read) {
+            return Err(Error::OutputIsInput {
+                output: output.display().to_string(),
+                role,
+                input: input.display().to_string(),
+            });
+        }
+    }
+    Ok(())
+}
+
+#[cfg(unix)]
+fn same_inode(a: &Metadata, b: &Metadata) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    (a.dev(), a.ino()) == (b.dev(), b.ino())
+}
+
+#[cfg(not(unix))]
+fn same_inode(_: &Metadata, _: &Metadata) -> bool {
+    false
 }

@@ -50,7 +50,9 @@ pub(super) struct FlyArgs {
     scene: SceneArgs,
 }
 
-/// Flies headless and prints the summary.
+/// Flies headless and prints the summary. Fails when the archive changed while it was read,
+/// when no terrain could be drawn because fetches failed, and when reads of tiles failed their
+/// checksums.
 pub(super) fn run(a: FlyArgs) -> Result<()> {
     let started = Instant::now();
     let length = length(a.frames, a.seconds)?;
@@ -114,6 +116,18 @@ pub(super) fn run(a: FlyArgs) -> Result<()> {
         s.host_bookkeeping_ms,
         s.host_draw_ms
     );
+    if s.refused > 0 {
+        say!(
+            "refused: {} read(s) of tiles failed their checksums",
+            s.refused
+        );
+    }
+    if let Some(what) = s.archive_changed {
+        return Err(Error::ArchiveChanged {
+            name: a.source.clone(),
+            what,
+        });
+    }
     if s.holes.first_frame_s.is_none() && (s.errors > 0 || s.in_flight > 0) {
         return Err(Error::NothingLoaded {
             name: a.source.clone(),
@@ -121,6 +135,12 @@ pub(super) fn run(a: FlyArgs) -> Result<()> {
             errors: s.errors,
             first: s.first_errors,
             in_flight: s.in_flight,
+        });
+    }
+    if s.refused > 0 {
+        return Err(Error::ChecksumsRefused {
+            name: a.source.clone(),
+            refused: s.refused,
         });
     }
     Ok(())

@@ -33,7 +33,8 @@ pub(super) struct ServeArgs {
     /// Seed of the latency and drop decisions.
     #[arg(long, default_value_t = LinkProfile::default().seed)]
     seed: u64,
-    /// Connections served at once (one worker thread each); more are answered 503.
+    /// Connections open at once; at the limit a new one closes the connection that has waited
+    /// longest for a request, and is answered 503 only when every connection is answering.
     #[arg(long, default_value_t = Limits::default().max_connections)]
     max_connections: usize,
 }

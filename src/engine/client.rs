@@ -561,7 +561,7 @@ impl Engine {
     /// ground arrived in this frame's update and the eye is under it (or within the clearance):
     /// [`Engine::camera`] stood it on the archive's lowest height, so it goes up by the
     /// ground's height over that, where [`Engine::camera`] places it now, and at least
-    /// `clearance` above the ground. Without this, the first frame the base arrives for would
+    /// `clearance` above the ground. Without this, the first frame the top arrives for would
     /// be drawn, and its levels wished, from under the terrain.
     fn stand_on_arrived_ground(&self, camera: &mut Camera) {
         let Some(ground) = self.ground(camera.position) else {

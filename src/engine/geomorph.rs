@@ -27,7 +27,7 @@
 //! The tile data are not touched: the engine morphs each drawn tile into one scratch buffer per
 //! frame, so geomorphing costs no memory per tile, and nothing at all when it is off.
 //!
-//! A partial tile (the coarse base, or a progressive tile holding its first levels: the grid of
+//! A partial tile (a progressive tile holding its first levels: the grid of
 //! every `stride`-th sample) morphs in its own grid, whose hierarchy is the whole tile's
 //! restricted to the samples it holds, with each factor taken at the whole-tile position and
 //! step: it gives every held sample exactly the whole tile's morphed value

@@ -251,6 +251,10 @@ impl<S: TileSource> TileSource for MeteredLink<S> {
         }
         self.inner.read_range(offset, len)
     }
+
+    fn checksum_failed(&self) -> Result<()> {
+        self.inner.checksum_failed()
+    }
 }
 
 /// Puts `source` behind `link` as `clock` needs it: metered (no waiting) on the simulated clock,

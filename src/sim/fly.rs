@@ -9,6 +9,7 @@
 //! frames as they are computed as well (`demo --window`).
 
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressStyle};
@@ -18,6 +19,7 @@ use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 use crate::db::source;
 use crate::db::source::http::HttpOptions;
 use crate::db::source::throttle::LinkProfile;
+use crate::db::source::watch::{Watch, Watched};
 use crate::engine::allocation::Allocation;
 use crate::engine::error_bound::Bound;
 use crate::engine::paging::{PagerMode, PagerStats};
@@ -112,9 +114,9 @@ pub struct FlySummary {
     pub memory_limit_bytes: usize,
     /// Bytes downloaded.
     pub downloaded_bytes: u64,
-    /// Frames with holes and why, the first frame, the first without a hole, the base.
+    /// Frames with holes and why, the first frame, the first without a hole, the top.
     pub holes: HoleTally,
-    /// Fetches that failed (tiles and the base).
+    /// Fetches that failed (tiles and the top).
     pub errors: u64,
     /// The messages of the first failures, each naming its tile (at most
     /// [`crate::engine::paging::FIRST_ERRORS`]).
@@ -129,6 +131,10 @@ pub struct FlySummary {
     pub host_draw_ms: f64,
     /// Mean tiles drawn per frame.
     pub mean_tiles: f64,
+    /// Reads of tiles (or of the top) whose bytes failed their checksums.
+    pub refused: u64,
+    /// What showed that the archive changed while it was read, which ended the flight there.
+    pub archive_changed: Option<String>,
 }
 
 impl FlySummary {
@@ -176,7 +182,7 @@ pub fn fly_live(o: &FlyOptions, mut live: Option<LiveView<'_>>) -> Result<FlySum
     };
     let (w, h) = o.size;
     let mut fb = Framebuffer::new(w, h, o.color, o.depth)?;
-    let mut engine = flight_engine(o)?;
+    let (mut engine, watch) = flight_engine(o)?;
     let length = o
         .length
         .unwrap_or(Length::Seconds(o.flight.duration().max(f64::MIN_POSITIVE)));
@@ -184,7 +190,11 @@ pub fn fly_live(o: &FlyOptions, mut live: Option<LiveView<'_>>) -> Result<FlySum
     let mut hud = Hud::new(o.hud);
     let started = Instant::now();
     let mut tally = Tally::default();
-    while !tally.reached(length) && !live.as_mut().is_some_and(|l| l.presenter.poll_input().quit) {
+    // A changed archive ends the flight: what is still to come would only fail its checksums.
+    while !tally.reached(length)
+        && watch.changed().is_none()
+        && !live.as_mut().is_some_and(|l| l.presenter.poll_input().quit)
+    {
         let t = tally.t;
         let (eye, target) = o.flight.at(t);
         let camera = engine.camera(eye, target, o.flight.above_ground);
@@ -226,24 +236,26 @@ pub fn fly_live(o: &FlyOptions, mut live: Option<LiveView<'_>>) -> Result<FlySum
     if o.plots {
         report::draw(&o.out)?;
     }
-    Ok(tally.summary(&engine))
+    Ok(tally.summary(&engine, &watch))
 }
 
-/// The engine of a flight, reading its tiles over the flight's link. The simulated clock turns a
-/// threaded pager into a simulated one with the same queue depth.
-fn flight_engine(o: &FlyOptions) -> Result<Engine> {
+/// The engine of a flight, reading its tiles over the flight's link, and the watch on its
+/// source. The simulated clock turns a threaded pager into a simulated one with the same queue
+/// depth.
+fn flight_engine(o: &FlyOptions) -> Result<(Engine, Arc<Watch>)> {
     let mut settings = o.engine;
     if let (Clock::Simulated { .. }, PagerMode::Threaded { queue_depth }) =
         (o.clock, settings.pager_mode)
     {
         settings.pager_mode = PagerMode::Simulated { queue_depth };
     }
-    let (source, meter) = connect(source::open_with(&o.source, o.http)?, o.link, &o.clock);
+    let (watched, watch) = Watched::new(source::open_with(&o.source, o.http)?);
+    let (source, meter) = connect(Box::new(watched), o.link, &o.clock);
     let mut engine = Engine::new(source, settings, o.size.1)?;
     if let Some(meter) = meter {
         engine.set_transfer_clock(meter);
     }
-    Ok(engine)
+    Ok((engine, watch))
 }
 
 /// The `stats.csv` line of frame number `frame`, drawn at flight time `t` in `seconds` (its
@@ -327,7 +339,7 @@ impl Tally {
     }
 
     /// The summary of the flight `engine` flew.
-    fn summary(mut self, engine: &Engine) -> FlySummary {
+    fn summary(mut self, engine: &Engine, watch: &Watch) -> FlySummary {
         let median = |v: &mut Vec<f64>| {
             v.sort_by(f64::total_cmp);
             v.get(v.len() / 2).copied().unwrap_or(0.0)
@@ -356,6 +368,8 @@ impl Tally {
             host_bookkeeping_ms,
             host_draw_ms,
             mean_tiles: self.tiles as f64 / frames,
+            refused: watch.refused(),
+            archive_changed: watch.changed().map(str::to_string),
         }
     }
 }

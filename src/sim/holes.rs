@@ -66,7 +66,7 @@ impl HoleTally {
     }
 }
 
-/// One line: how many frames had holes and why, when the base arrived, the first frames.
+/// One line: how many frames had holes and why, when the top arrived, the first frames.
 impl fmt::Display for HoleTally {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let secs = |t: Option<f64>| t.map_or("never".into(), |t| format!("{t:.2} s"));

@@ -238,3 +238,95 @@ fn a_build_removes_what_killed_builds_of_its_output_left_and_nothing_else() {
     );
     ArchiveReader::open(FileSource::open(&out).unwrap()).unwrap();
 }
+
+#[test]
+fn an_output_that_is_the_input_is_refused_before_reading_through_any_path_or_link() {
+    let dir = tempfile::tempdir().unwrap();
+    let fixture = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/plain.asc");
+    let input = dir.path().join("in.asc");
+    std::fs::copy(&fixture, &input).unwrap();
+    let original = std::fs::read(&input).unwrap();
+    std::fs::create_dir(dir.path().join("sub")).unwrap();
+    let mut outputs = vec![
+        input.clone(),
+        dir.path().join("sub/../in.asc"),
+        dir.path().join("./in.asc"),
+    ];
+    #[cfg(unix)]
+    {
+        let symlink = dir.path().join("link.smdb");
+        std::os::unix::fs::symlink(&input, &symlink).unwrap();
+        let hard = dir.path().join("hard.smdb");
+        std::fs::hard_link(&input, &hard).unwrap();
+        outputs.extend([symlink, hard]);
+    }
+    for output in &outputs {
+        let (code, err) = build_into(output, &input, None);
+        assert_eq!(code, Some(1), "{output:?}: {err}");
+        assert!(
+            err.contains(&format!(
+                "{} is the build's input {}",
+                output.display(),
+                input.display()
+            )),
+            "{err}"
+        );
+        assert_eq!(std::fs::read(&input).unwrap(), original, "{output:?}");
+        assert!(leftovers(dir.path()).is_empty());
+    }
+    // The texture image is read too.
+    let texture = dir.path().join("texture.png");
+    image::RgbImage::new(8, 8).save(&texture).unwrap();
+    let (code, err) = build_into(&texture, &input, Some(&texture));
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("is the build's texture"), "{err}");
+    // Another output beside the input builds.
+    let (code, err) = build_into(&dir.path().join("in.smdb"), &input, None);
+    assert_eq!(code, Some(0), "{err}");
+}
+
+/// `stripmask build INPUT -o OUTPUT` (with a texture image): its exit code and stderr.
+fn build_into(output: &Path, input: &Path, texture: Option<&Path>) -> (Option<i32>, String) {
+    let mut command = stripmask();
+    command.args(["build", "--quiet", "--tile-size", "17", "-o"]);
+    command.arg(output).arg(input);
+    if let Some(texture) = texture {
+        command.arg("--texture").arg(texture);
+    }
+    let o = command.output().unwrap();
+    (
+        o.status.code(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+/// A build whose writes fail once the file passes a size (`ulimit -f`, with the signal that
+/// would kill it ignored) fails while finishing, after every tile was written: it removes its
+/// temporary file and leaves no output.
+#[cfg(unix)]
+#[test]
+fn a_build_that_fails_while_finishing_leaves_no_temporary_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let fixture = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/plain.asc");
+    let out = dir.path().join("x.smdb");
+    let script = "trap '' XFSZ; ulimit -f 1; exec \"$0\" \"$@\"";
+    let o = std::process::Command::new("sh")
+        .args(["-c", script, env!("CARGO_BIN_EXE_stripmask")])
+        .args(["build", "--quiet", "--tile-size", "17", "-o"])
+        .arg(&out)
+        .arg(&fixture)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains(".partial") && err.contains("too large"),
+        "{err}"
+    );
+    assert!(!out.exists());
+    assert!(
+        leftovers(dir.path()).is_empty(),
+        "{:?}",
+        leftovers(dir.path())
+    );
+}

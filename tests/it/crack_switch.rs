@@ -225,7 +225,7 @@ fn tiles_in_flight_during_a_switch_arrive_in_the_new_mode() {
     let source = source::open(&scene.archive.display().to_string()).unwrap();
     let mut engine = Engine::new(source, settings, SIZE.1).unwrap();
     let mut fb = frame();
-    // The first frame fetches the base, the second the tiles.
+    // The first frame fetches the top, the second the tiles.
     scene.render(&mut engine, 9, &mut fb).unwrap();
     scene.render(&mut engine, 9, &mut fb).unwrap();
     assert!(engine.pager().stats().fetching > 0, "fetches in flight");

@@ -1,7 +1,7 @@
 //! Geomorphing on the crack scene (`stripmask::sim::crack_metric`): stitched tiles stay
 //! crack-free when morphed, a mask switch pops less, and a morph factor of 0 draws the plain
-//! tiles up to sub-pixel rounding, and `fly` morphs the partial tiles of the coarse base and of
-//! progressive streaming. (Factor 1 giving exactly the coarse surface is checked on the mesh, in
+//! tiles up to sub-pixel rounding, and `fly` morphs whole tiles in belts and the partial tiles
+//! of progressive streaming. (Factor 1 giving exactly the coarse surface is checked on the mesh, in
 //! `src/engine/geomorph.rs`.)
 
 use crate::support::cli::{fly_quietly, plain_archive};
@@ -114,11 +114,10 @@ fn in_a_flight_the_budget_s_switches_pop_less_with_geomorph() {
     assert!(on.switch_alone < off.switch_alone, "on {on:?}, off {off:?}");
 }
 
-/// `fly` with geomorphing on a file archive, which keeps its coarse base resident (every
-/// tile's first level: partial tiles) in both streaming modes: runs to the end and morphs
-/// partial tiles as it morphs whole ones.
+/// `fly` with geomorphing on a file archive, with whole tiles in belts and partial tiles
+/// streamed progressively: runs to the end and morphs partial tiles as it morphs whole ones.
 #[test]
-fn fly_morphs_the_coarse_base_and_progressive_tiles_of_a_file_archive() {
+fn fly_morphs_whole_and_progressive_tiles_of_a_file_archive() {
     let dir = tempfile::tempdir().unwrap();
     let archive = dir.path().join("plain.smdb");
     plain_archive(&archive);

@@ -4,6 +4,7 @@
 mod support;
 
 mod allocation;
+mod archive_changed;
 mod archive_corrupt;
 mod archive_fuzz;
 mod archive_levels;
@@ -43,6 +44,8 @@ mod pocketpc;
 mod pocketpc_http;
 mod pyramid_cracks;
 mod seams;
+mod serve_attacks;
+mod serve_http;
 mod serve_limits;
 mod source_http;
 mod stream_compare;

@@ -1,11 +1,17 @@
 //! The archive behind a real static server: nginx, started on 127.0.0.1 from a generated config,
-//! serves a built archive; `info --check` and a short flight read it through nginx. Skipped, with
+//! serves a built archive; `info --check` and a short flight read it through nginx, and a
+//! reader notices a new build put in its place. Skipped, with
 //! a message, when nginx is not installed (`.ci/run` installs it).
 
 use std::net::TcpListener;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
+
+use stripmask::Error;
+use stripmask::db::archive::ArchiveReader;
+use stripmask::db::grid::TileId;
+use stripmask::db::source::http::HttpSource;
 
 use crate::support::cli::{plain_archive, stripmask};
 
@@ -132,4 +138,23 @@ fn an_archive_served_by_nginx_checks_and_flies() {
     );
     let stats = std::fs::read_to_string(out.join("stats.csv")).unwrap();
     assert_eq!(stats.lines().count(), 21, "a header and 20 frames");
+
+    // nginx's validators pin the archive too: a reader opened before a new build (larger by a
+    // few bytes, so that its ETag differs even within the same second) is renamed into place
+    // stops with the change named.
+    let reader = ArchiveReader::open(HttpSource::new(&url)).unwrap();
+    let next = dir.path().join("plain.smdb");
+    plain_archive(&next);
+    let mut bytes = std::fs::read(&next).unwrap();
+    bytes.extend_from_slice(b"a newer build");
+    std::fs::write(&next, bytes).unwrap();
+    std::fs::rename(&next, root.join("plain.smdb")).unwrap();
+    let levels = reader.header().levels();
+    match reader.read_levels(TileId::new(0, 0), 0..levels) {
+        Err(Error::ArchiveChanged { name, what }) => {
+            assert_eq!(name, url);
+            assert!(what.contains("412"), "{what}");
+        }
+        other => panic!("{other:?}"),
+    }
 }

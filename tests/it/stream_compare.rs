@@ -63,7 +63,7 @@ fn every_link_and_strategy_gets_a_row_and_progressive_tiles_cost_fewer_bytes() {
             .first_frame_s
             .unwrap()
     };
-    // Both draw the base first; whole tiles never come sooner than it.
+    // Both draw the top first; whole tiles never come sooner than it.
     assert!(slow(Strategy::Progressive) <= slow(Strategy::Belts));
     let markdown = write(&options.out, &results, &options).unwrap();
     for s in Strategy::ALL {

@@ -292,7 +292,7 @@ fn levels_are_not_asked_for_tiles_that_leave_the_view_before_they_arrive() {
     let (engine, _) = slow_link_flight_of(&path, streaming, Builtin::Low, 60.0);
     let stats = engine.stream_stats().unwrap();
     assert!(stats.round_trip().is_some_and(|r| r > 0.0), "{stats:?}");
-    // The first frame that draws stands on the ground the base brought in its update, so it
+    // The first frame that draws stands on the ground the top brought in its update, so it
     // asks for what the view near it needs too.
     let (settled, rendered) = (stats.view_settled_bytes, stats.view_rendered_bytes);
     assert!(settled > 50_000, "{stats:?}");
@@ -446,14 +446,14 @@ fn the_worst_looking_tile_is_refined_first() {
     assert_eq!(refined(&engine), vec![TileId::new(1, 4)]);
 }
 
-/// The first frame a camera placed before the base arrived is drawn with stands where
+/// The first frame a camera placed before the top arrived is drawn with stands where
 /// `Engine::camera` places it once the ground under it is held: not under the terrain.
 #[test]
-fn the_frame_the_base_arrives_for_stands_on_its_ground() {
+fn the_frame_the_top_arrives_for_stands_on_its_ground() {
     let dir = tempfile::tempdir().unwrap();
     let path = archive(dir.path(), 33);
     for streaming in [progressive(), Streaming::Belts] {
-        // The base only: a level fetched in the frame would change the ground under the eye.
+        // The top only: a level fetched in the frame would change the ground under the eye.
         let mode = PagerMode::Stepped {
             fetches_per_update: 0,
         };
@@ -465,7 +465,7 @@ fn the_frame_the_base_arrives_for_stands_on_its_ground() {
         let report = engine.render(&before, &mut frame()).unwrap();
         let ground = engine
             .ground(report.camera.position)
-            .expect("the base arrived");
+            .expect("the top arrived");
         let placed = engine.camera(eye, target, true);
         assert!(
             before.position.y < ground,

@@ -1,4 +1,5 @@
-//! Reading an archive through any [`TileSource`], by region, with checksums and retries.
+//! Reading an archive through any [`TileSource`], by region, with checksums and retries; bytes
+//! that fail their checksum are reported to the source, which may find that the archive changed.
 
 use std::collections::HashMap;
 use std::ops::Range;
@@ -222,6 +223,7 @@ impl<S: TileSource> ArchiveReader<S> {
                         let bytes =
                             self.read_whole(&label, page.offset, page.len.into(), cancel)?;
                         if crc32fast::hash(&bytes) != page.crc32 {
+                            self.source.checksum_failed()?;
                             return Err(Error::invalid(
                                 &label,
                                 "checksum mismatch (corrupt index page)",
@@ -256,7 +258,13 @@ impl<S: TileSource> ArchiveReader<S> {
         let label = format!("{}: page table chunk {chunk} of level {level}", self.name());
         let refs: Arc<[PageRef]> = retry(self.attempts, self.source.is_remote(), offset, |_| {
             let bytes = self.read_whole(&label, offset, len, cancel)?;
-            parse_table_chunk(&bytes, &self.header, grid, chunk * per, entries, &label)
+            let parsed =
+                parse_table_chunk(&bytes, &self.header, grid, chunk * per, entries, &label);
+            if parsed.is_err() {
+                // Its checksum or its references: either may mean the archive changed.
+                self.source.checksum_failed()?;
+            }
+            parsed
         })?
         .into();
         self.cache().put(piece, Held::Table(Arc::clone(&refs)), len);
@@ -363,7 +371,7 @@ impl<S: TileSource> ArchiveReader<S> {
         let stored = retry(self.attempts, self.source.is_remote(), offset, |_| {
             let bytes = self.read_whole("the top", offset, length, &CancelToken::new())?;
             for (id, entry) in self.directory.top.iter().filter(|(_, e)| !e.is_absent()) {
-                verify(name, *id, entry, 0..self.header.levels(), &bytes, offset, 1)?;
+                self.verify(*id, entry, 0..self.header.levels(), &bytes, offset, 1)?;
             }
             Ok(bytes)
         })?;
@@ -419,6 +427,38 @@ impl<S: TileSource> ArchiveReader<S> {
         Ok(bytes)
     }
 
+    /// Checks the chunks of `levels` of tile `id` (at `entry`) in `bytes`, which start at file
+    /// offset `start`, against their crc32s; a mismatch is reported to the source first, which
+    /// may find that the archive changed.
+    fn verify(
+        &self,
+        id: TileId,
+        entry: &IndexEntry,
+        levels: Range<usize>,
+        bytes: &[u8],
+        start: u64,
+        attempts: u32,
+    ) -> Result<()> {
+        for g in levels {
+            let (at, len) = entry.range(g..g + 1);
+            let at = (at - start) as usize;
+            let actual = crc32fast::hash(&bytes[at..at + len as usize]);
+            let expected = entry.levels[g].crc32;
+            if actual != expected {
+                self.source.checksum_failed()?;
+                return Err(Error::Checksum {
+                    name: self.name().to_string(),
+                    tile: id.to_string(),
+                    level: g,
+                    expected,
+                    actual,
+                    attempts,
+                });
+            }
+        }
+        Ok(())
+    }
+
     /// The stored bytes of `levels` of tile `id` (at `entry`) in one source read per attempt,
     /// returned once every chunk matches its crc32.
     fn fetch(
@@ -428,49 +468,19 @@ impl<S: TileSource> ArchiveReader<S> {
         levels: Range<usize>,
         cancel: &CancelToken,
     ) -> Result<Vec<u8>> {
-        let name = self.source.name();
         let (offset, length) = entry.range(levels.clone());
         retry(self.attempts, self.source.is_remote(), offset, |attempt| {
             let bytes = self.read_whole(&id.to_string(), offset, length, cancel)?;
-            verify(name, id, entry, levels.clone(), &bytes, offset, attempt)?;
+            self.verify(id, entry, levels.clone(), &bytes, offset, attempt)?;
             Ok(bytes)
         })
     }
 }
 
-/// Checks the chunks of `levels` of tile `id` (at `entry`) in `bytes`, which start at file
-/// offset `start`, against their crc32s.
-fn verify(
-    name: &str,
-    id: TileId,
-    entry: &IndexEntry,
-    levels: Range<usize>,
-    bytes: &[u8],
-    start: u64,
-    attempts: u32,
-) -> Result<()> {
-    for g in levels {
-        let (at, len) = entry.range(g..g + 1);
-        let at = (at - start) as usize;
-        let actual = crc32fast::hash(&bytes[at..at + len as usize]);
-        let expected = entry.levels[g].crc32;
-        if actual != expected {
-            return Err(Error::Checksum {
-                name: name.to_string(),
-                tile: id.to_string(),
-                level: g,
-                expected,
-                actual,
-                attempts,
-            });
-        }
-    }
-    Ok(())
-}
-
 /// Runs `f` (given the attempt's number, from 1) up to `attempts` times until it succeeds and
-/// returns the last error, except that a timeout or a cancellation ends the tries at once. Before each retry of
-/// a `remote` source it waits as [`RETRY_BACKOFF`] says for the piece at `key` (its offset).
+/// returns the last error, except that a timeout, a cancellation or a changed archive ends the
+/// tries at once. Before each retry of a `remote` source it waits as [`RETRY_BACKOFF`] says
+/// for the piece at `key` (its offset).
 fn retry<T>(
     attempts: u32,
     remote: bool,
@@ -482,7 +492,12 @@ fn retry<T>(
         match f(attempt) {
             Err(e)
                 if attempt < attempts
-                    && !matches!(e, Error::TimedOut { .. } | Error::Cancelled { .. }) =>
+                    && !matches!(
+                        e,
+                        Error::TimedOut { .. }
+                            | Error::Cancelled { .. }
+                            | Error::ArchiveChanged { .. }
+                    ) =>
             {
                 if remote {
                     std::thread::sleep(Duration::from_secs_f64(RETRY_BACKOFF.wait(key, attempt)));

@@ -342,6 +342,9 @@ impl ArchiveWriter {
         let directory = directory.to_bytes();
         debug_assert!(HEADER_LEN as u64 + directory.len() as u64 <= self.header.payload_start());
         let io = |e| Error::io(&name, e);
+        // From here the file is ours to remove on every failure (`Drop` no longer sees it),
+        // after the file is closed: the guard is dropped after it.
+        let discard = Discard(&self.partial);
         let mut file = self.file.take().expect("writer not finished");
         file.seek(SeekFrom::Start(0)).map_err(io)?;
         file.write_all(&self.header.to_bytes()).map_err(io)?;
@@ -351,7 +354,18 @@ impl ArchiveWriter {
         drop(file);
         std::fs::rename(&self.partial, &self.path)
             .map_err(|e| Error::io(self.path.display().to_string(), e))?;
+        std::mem::forget(discard);
         Ok(self.header.clone())
+    }
+}
+
+/// Removes a partial file when dropped, unless forgotten: the failures of
+/// [`ArchiveWriter::finish`].
+struct Discard<'a>(&'a Path);
+
+impl Drop for Discard<'_> {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(self.0);
     }
 }
 

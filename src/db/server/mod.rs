@@ -1,69 +1,79 @@
-//! `stripmask serve`: a small static HTTP server for one archive, with byte ranges and an
-//! optional simulated link (latency with jitter, bandwidth, drops) for experiments.
+//! `stripmask serve`: one archive over HTTP/1.1 (hyper on a small tokio runtime), with byte
+//! ranges, validators and conditional requests, and an optional simulated link (latency with
+//! jitter, bandwidth, drops) for experiments.
 //!
 //! It answers `GET` and `HEAD` for `/` and `/<file name>` only; every other path is 404 and
 //! every other method 405, so nothing but the archive can be read (no listing, no traversal).
 //! `Range: bytes=a-b`, `bytes=a-` and `bytes=-n` give 206 with `Content-Range`; an unsatisfiable
 //! range gives 416; a request without a (single, parseable) range gets the whole file with 200.
-//! Every answer waits for its delay (`latency ± jitter`, [`LatencyDice`]) and is paced at the
-//! bandwidth per connection; a dropped request (see [`LinkProfile::drop_rate`]) is answered 503.
+//! Every answer about the archive carries its validators (`ETag` from its size and modification
+//! time, `Last-Modified`), and `If-Match`, `If-Unmodified-Since` (412), `If-None-Match`,
+//! `If-Modified-Since` (304) and `If-Range` are honoured. hyper reads the requests: a malformed
+//! head is answered 400, one over the size limit 431, and a `HEAD` answer never has a body.
 //!
-//! One client cannot stop it ([`Limits`], docs/security.md): a fixed pool of workers serves one
-//! connection each, so threads and memory do not grow with requests; a connection over the pool
-//! is answered 503 at once; a connection serves a bounded number of requests, each of whose head
-//! must arrive whole, within a size limit (431) and a time limit (408); writes time out; and no
-//! client's failure ends anything but its own connection.
+//! The simulated link is a layer around the archive's service ([`LinkProfile`]): every answer
+//! waits for its delay, a dropped request is answered 503, and bodies are paced at the
+//! bandwidth.
+//!
+//! One client cannot stop it ([`Limits`], docs/security.md): every connection is a task, so
+//! idle and slow clients cost memory, not threads; a request head must arrive whole in time and
+//! an answer must be sent in time; and at the connection limit the connection that has waited
+//! longest for a request head makes room for the new one.
 
-mod answer;
-mod head;
+mod archive;
+mod body;
+mod connections;
+mod link;
 mod range;
+mod validator;
 
-use std::collections::HashMap;
-use std::net::{Ipv4Addr, Ipv6Addr, SocketAddr, TcpListener, TcpStream};
-use std::panic::{AssertUnwindSafe, catch_unwind};
-use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::mpsc::{Receiver, SyncSender, TrySendError, sync_channel};
-use std::sync::{Arc, Mutex, PoisonError};
-use std::thread::JoinHandle;
+use std::net::SocketAddr;
+use std::path::Path;
+use std::sync::Arc;
 use std::time::Duration;
 
 pub use range::{RangeRequest, parse_range};
 
+use self::archive::Archive;
+use self::connections::Connections;
+use self::link::Link;
 use crate::db::archive::ArchiveReader;
 use crate::db::source::file::FileSource;
-use crate::db::source::throttle::{DropDice, LatencyDice, LinkProfile};
+use crate::db::source::throttle::LinkProfile;
 use crate::error::{Error, Result};
 
 /// What one server allows its clients: the bounds that keep a client (or many) from exhausting
-/// its threads, memory or time.
+/// its memory or its time, or keeping other clients out.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Limits {
-    /// Connections served at once, one worker thread each (a fixed pool); a connection over
-    /// this is answered 503.
+    /// Connections open at once. At the limit, a new connection closes the one that has waited
+    /// longest for a request head; when every connection is in the middle of an answer, the
+    /// new one is answered 503. Never more than the process's file descriptors allow.
     pub max_connections: usize,
     /// Requests one connection may send; the last answer says `Connection: close`.
     pub max_requests_per_connection: usize,
     /// The longest request head (request line and headers), bytes; a longer one is answered 431.
     pub max_header_bytes: usize,
     /// Time a request head has to arrive whole, from when the connection is ready for it (so
-    /// also how long an idle kept-alive connection is kept); a slower one is answered 408.
+    /// also how long an idle kept-alive connection is kept); then the connection is closed.
     pub request_timeout: Duration,
-    /// Time one write of an answer may block on a client that does not read.
-    pub write_timeout: Duration,
-    /// Time spent on a refused connection (reading its request, writing the 503).
-    pub refuse_timeout: Duration,
+    /// Time an answer has to be sent whole, on top of its length at
+    /// [`Limits::min_send_rate`] and at the simulated link's bandwidth
+    /// ([`Limits::time_to_send`]); then the connection is closed.
+    pub response_timeout: Duration,
+    /// The slowest a client may read an answer, bytes per second.
+    pub min_send_rate: u64,
 }
 
 impl Default for Limits {
     fn default() -> Self {
         Limits {
-            max_connections: 64,
+            max_connections: 4096,
             max_requests_per_connection: 1000,
             max_header_bytes: 8 * 1024,
             request_timeout: Duration::from_secs(10),
-            write_timeout: Duration::from_secs(30),
-            refuse_timeout: Duration::from_millis(200),
+            response_timeout: Duration::from_secs(30),
+            min_send_rate: 64 * 1024,
         }
     }
 }
@@ -71,33 +81,44 @@ impl Default for Limits {
 impl Limits {
     /// The limits when each is within what a server can work with.
     pub fn validate(&self) -> Result<()> {
-        if !(1..=4096).contains(&self.max_connections) {
+        if !(1..=65536).contains(&self.max_connections) {
             return Err(Error::setting(
                 "--max-connections",
                 self.max_connections,
-                "1 ..= 4096",
+                "1 ..= 65536",
             ));
         }
         if self.max_requests_per_connection == 0 {
             return Err(Error::setting("requests per connection", 0, "at least 1"));
         }
-        if self.max_header_bytes < 256 {
+        if !(256..=1 << 20).contains(&self.max_header_bytes) {
             return Err(Error::setting(
                 "header size limit",
                 self.max_header_bytes,
-                "at least 256 bytes",
+                "256 bytes ..= 1 MiB",
             ));
         }
         for (name, t) in [
             ("request timeout", self.request_timeout),
-            ("write timeout", self.write_timeout),
-            ("refuse timeout", self.refuse_timeout),
+            ("response timeout", self.response_timeout),
         ] {
-            if t < Duration::from_millis(1) {
-                return Err(Error::setting(name, format!("{t:?}"), "at least 1 ms"));
+            if !(Duration::from_millis(1)..=Duration::from_secs(86_400)).contains(&t) {
+                return Err(Error::setting(name, format!("{t:?}"), "1 ms ..= 1 day"));
             }
         }
+        if self.min_send_rate == 0 {
+            return Err(Error::setting("minimum send rate", 0, "at least 1 byte/s"));
+        }
         Ok(())
+    }
+
+    /// The time an answer of `len` bytes has to be sent over `link`:
+    /// [`Limits::response_timeout`], plus `len` at [`Limits::min_send_rate`], plus `len` at
+    /// the link's bandwidth.
+    pub fn time_to_send(&self, len: u64, link: &LinkProfile) -> Duration {
+        self.response_timeout
+            + Duration::from_secs_f64(len as f64 / self.min_send_rate as f64)
+            + link.transfer_time(len)
     }
 }
 
@@ -105,31 +126,16 @@ impl Limits {
 pub struct Server {
     addr: SocketAddr,
     url: String,
-    shared: Arc<Shared>,
-    accept: Option<JoinHandle<()>>,
+    runtime: Option<tokio::runtime::Runtime>,
+    accept: Option<tokio::task::JoinHandle<()>>,
 }
 
-/// What every worker reads: the archive, the link and the limits, and the open connections
-/// (so that stopping can close them).
+/// What every connection reads: the archive behind its link, the limits, the open connections.
 struct Shared {
-    path: PathBuf,
-    url_path: String,
+    service: Link<Archive>,
     profile: LinkProfile,
-    dice: DropDice,
-    delays: LatencyDice,
     limits: Limits,
-    stop: AtomicBool,
-    open: Mutex<HashMap<u64, TcpStream>>,
-}
-
-impl Shared {
-    fn stopping(&self) -> bool {
-        self.stop.load(Ordering::Acquire)
-    }
-
-    fn open(&self) -> std::sync::MutexGuard<'_, HashMap<u64, TcpStream>> {
-        self.open.lock().unwrap_or_else(PoisonError::into_inner)
-    }
+    connections: Arc<Connections>,
 }
 
 impl Server {
@@ -151,28 +157,31 @@ impl Server {
         // Refuse anything that is not a readable archive (checks the header and the index).
         ArchiveReader::open(FileSource::open(archive)?)?;
         let file_name = served_name(archive)?;
-        let cannot_listen = |e: std::io::Error| Error::Http {
+        let cannot = |what: &str, e: std::io::Error| Error::Http {
             url: format!("http://{listen}"),
-            problem: format!("cannot listen: {e}"),
+            problem: format!("cannot {what}: {e}"),
         };
-        let listener = TcpListener::bind(listen).map_err(cannot_listen)?;
-        disable_nagle(&listener);
-        let addr = listener.local_addr().map_err(cannot_listen)?;
+        let runtime = runtime().map_err(|e| cannot("start the server's threads", e))?;
+        let listener = {
+            let _entered = runtime.enter();
+            bind(listen).map_err(|e| cannot("listen", e))?
+        };
+        let addr = listener.local_addr().map_err(|e| cannot("listen", e))?;
+        let cap = limits.max_connections.min(descriptor_room());
         let shared = Arc::new(Shared {
-            path: archive.to_path_buf(),
-            url_path: format!("/{file_name}"),
-            dice: DropDice::new(profile.drop_rate, profile.seed),
-            delays: LatencyDice::new(&profile),
+            service: Link::new(
+                Archive::new(archive.to_path_buf(), format!("/{file_name}")),
+                &profile,
+            ),
             profile,
             limits,
-            stop: AtomicBool::new(false),
-            open: Mutex::new(HashMap::new()),
+            connections: Arc::new(Connections::new(cap)),
         });
-        let accept = spawn_threads(listener, &shared, addr)?;
+        let accept = runtime.spawn(accept_loop(listener, shared));
         Ok(Server {
             addr,
             url: format!("http://{addr}/{file_name}"),
-            shared,
+            runtime: Some(runtime),
             accept: Some(accept),
         })
     }
@@ -189,13 +198,12 @@ impl Server {
 
     /// Blocks until the server stops (for the CLI, which runs until killed).
     pub fn wait(mut self) {
-        if let Some(handle) = self.accept.take() {
-            let _ = handle.join();
+        if let (Some(runtime), Some(accept)) = (self.runtime.as_ref(), self.accept.take()) {
+            let _ = runtime.block_on(accept);
         }
     }
 
-    /// Stops accepting requests, closes the open connections and waits for the accept loop
-    /// to end.
+    /// Stops accepting requests and closes the open connections.
     pub fn stop(self) {
         drop(self);
     }
@@ -203,26 +211,84 @@ impl Server {
 
 impl Drop for Server {
     fn drop(&mut self) {
-        self.shared.stop.store(true, Ordering::Release);
-        // Wake the accept loop with a connection of our own.
-        let wake = match self.addr {
-            SocketAddr::V4(a) if a.ip().is_unspecified() => {
-                SocketAddr::from((Ipv4Addr::LOCALHOST, a.port()))
+        if let Some(runtime) = self.runtime.take() {
+            // Dropping every task closes the listener and every connection.
+            if tokio::runtime::Handle::try_current().is_ok() {
+                runtime.shutdown_background();
+            } else {
+                runtime.shutdown_timeout(Duration::from_secs(1));
             }
-            SocketAddr::V6(a) if a.ip().is_unspecified() => {
-                SocketAddr::from((Ipv6Addr::LOCALHOST, a.port()))
-            }
-            a => a,
-        };
-        let _ = TcpStream::connect_timeout(&wake, Duration::from_secs(1));
-        for stream in self.shared.open().values() {
-            let _ = stream.shutdown(std::net::Shutdown::Both);
-        }
-        if let Some(handle) = self.accept.take() {
-            let _ = handle.join();
         }
     }
 }
+
+/// The server's runtime: as many workers as cores, two at least and four at most. Its
+/// threads never grow with requests or connections.
+fn runtime() -> std::io::Result<tokio::runtime::Runtime> {
+    let cores = std::thread::available_parallelism().map_or(2, |n| n.get());
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(cores.clamp(2, 4))
+        .max_blocking_threads(1)
+        .thread_name("serve")
+        .enable_io()
+        .enable_time()
+        .build()
+}
+
+/// Connections the system may hold for the server before it accepts them. A burst of
+/// connections (clients reconnecting all at once) over the backlog has its SYNs dropped, and a
+/// client whose SYN is dropped tries again a second later.
+const BACKLOG: u32 = 4096;
+
+/// The send buffer of every connection, bytes (Linux doubles it for its own bookkeeping). The
+/// system would otherwise grow it to megabytes for a client that does not read, so that 200
+/// slow readers would hold most of a gigabyte of kernel memory; this much still carries
+/// 512 KiB per round trip (40 Mbit/s at 100 ms).
+const SEND_BUFFER: u32 = 256 * 1024;
+
+/// A listener on `addr` (port 0 picks a free port) with room for [`BACKLOG`] connections, whose
+/// connections inherit its [`SEND_BUFFER`].
+fn bind(addr: SocketAddr) -> std::io::Result<tokio::net::TcpListener> {
+    let socket = match addr {
+        SocketAddr::V4(_) => tokio::net::TcpSocket::new_v4()?,
+        SocketAddr::V6(_) => tokio::net::TcpSocket::new_v6()?,
+    };
+    // As the standard library's listeners: a restarted server can take its port back at once.
+    #[cfg(unix)]
+    socket.set_reuseaddr(true)?;
+    socket.set_send_buffer_size(SEND_BUFFER)?;
+    socket.bind(addr)?;
+    socket.listen(BACKLOG)
+}
+
+/// Accepts connections until the server stops. A failed accept (out of descriptors, a
+/// connection reset before it was accepted) never stops serving: it waits a moment.
+async fn accept_loop(listener: tokio::net::TcpListener, shared: Arc<Shared>) {
+    loop {
+        match listener.accept().await {
+            Ok((stream, _)) => connections::accept(stream, &shared),
+            Err(_) => tokio::time::sleep(Duration::from_millis(10)).await,
+        }
+    }
+}
+
+/// How many connections the process's file descriptors leave room for (Linux: the soft limit
+/// of `/proc/self/limits`, less a reserve for the archive, the listener and the rest), so that
+/// the connection limit is reached, and makes room, before accepting fails.
+fn descriptor_room() -> usize {
+    const RESERVE: usize = 64;
+    let limit = std::fs::read_to_string("/proc/self/limits")
+        .ok()
+        .and_then(|limits| {
+            limits
+                .lines()
+                .find_map(|l| l.strip_prefix("Max open files"))
+                .and_then(|rest| rest.split_whitespace().next())
+                .and_then(|soft| soft.parse::<usize>().ok())
+        });
+    limit.map_or(usize::MAX, |soft| soft.saturating_sub(RESERVE).max(1))
+}
+
 /// The archive's file name, which becomes its URL path: plain ASCII only, so that no request
 /// path needs decoding.
 fn served_name(archive: &Path) -> Result<String> {
@@ -241,120 +307,3 @@ fn served_name(archive: &Path) -> Result<String> {
             )
         })
 }
-
-/// Starts the pool (one worker per connection served at once, all started now, so that no
-/// request ever needs a new thread), the thread that answers refused connections, and the
-/// accept loop, whose handle is returned.
-fn spawn_threads(
-    listener: TcpListener,
-    shared: &Arc<Shared>,
-    addr: SocketAddr,
-) -> Result<JoinHandle<()>> {
-    let limits = shared.limits;
-    let spawn_failed = |e: std::io::Error| Error::Http {
-        url: format!("http://{addr}"),
-        problem: format!("cannot start the server's threads: {e}"),
-    };
-    let (work, jobs) = sync_channel::<(u64, TcpStream)>(limits.max_connections);
-    let jobs = Arc::new(Mutex::new(jobs));
-    for i in 0..limits.max_connections {
-        let (jobs, shared) = (Arc::clone(&jobs), Arc::clone(shared));
-        std::thread::Builder::new()
-            .name(format!("serve-{i}"))
-            .spawn(move || work_loop(&jobs, &shared))
-            .map_err(spawn_failed)?;
-    }
-    let (refusals, refused) = sync_channel::<TcpStream>(limits.max_connections);
-    std::thread::Builder::new()
-        .name("serve-refuse".into())
-        .spawn(move || {
-            for stream in refused {
-                answer::refuse(stream, &limits);
-            }
-        })
-        .map_err(spawn_failed)?;
-    let shared = Arc::clone(shared);
-    std::thread::Builder::new()
-        .name("serve-accept".into())
-        .spawn(move || accept_loop(&listener, &shared, &work, &refusals))
-        .map_err(spawn_failed)
-}
-
-/// Accepts connections until the server stops: each goes to a worker when one is free, or to
-/// the refuser (503) when all are busy; a connection neither can take is closed.
-fn accept_loop(
-    listener: &TcpListener,
-    shared: &Shared,
-    work: &SyncSender<(u64, TcpStream)>,
-    refusals: &SyncSender<TcpStream>,
-) {
-    let ids = AtomicU64::new(0);
-    for stream in listener.incoming() {
-        if shared.stopping() {
-            return;
-        }
-        let stream = match stream {
-            Ok(s) => s,
-            Err(_) => {
-                // Out of descriptors or a connection reset before accept: never a reason to
-                // stop serving; give the system a moment.
-                std::thread::sleep(Duration::from_millis(10));
-                continue;
-            }
-        };
-        let id = ids.fetch_add(1, Ordering::Relaxed);
-        let mut open = shared.open();
-        if open.len() >= shared.limits.max_connections {
-            drop(open);
-            if let Err(TrySendError::Full(s) | TrySendError::Disconnected(s)) =
-                refusals.try_send(stream)
-            {
-                drop(s);
-            }
-            continue;
-        }
-        let Ok(clone) = stream.try_clone() else {
-            continue;
-        };
-        open.insert(id, clone);
-        drop(open);
-        if work.send((id, stream)).is_err() {
-            return;
-        }
-    }
-}
-
-/// A worker: serves one connection at a time until the accept loop ends.
-fn work_loop(jobs: &Mutex<Receiver<(u64, TcpStream)>>, shared: &Shared) {
-    loop {
-        let job = jobs.lock().unwrap_or_else(PoisonError::into_inner).recv();
-        let Ok((id, stream)) = job else { return };
-        // A bug in answering one client ends that connection only, never the worker.
-        let _ = catch_unwind(AssertUnwindSafe(|| {
-            answer::serve_connection(stream, shared)
-        }));
-        shared.open().remove(&id);
-    }
-}
-
-/// Sets `TCP_NODELAY` on the listening socket, which Linux passes on to accepted connections.
-/// Without it, the last partial segment of an answer on a kept-alive connection waits for the
-/// client's delayed ACK: 40 ms per tile on loopback.
-#[cfg(unix)]
-fn disable_nagle(listener: &TcpListener) {
-    use std::os::fd::AsRawFd;
-    let one: libc::c_int = 1;
-    // SAFETY: a valid socket descriptor and a pointer to a c_int of the size given.
-    unsafe {
-        libc::setsockopt(
-            listener.as_raw_fd(),
-            libc::IPPROTO_TCP,
-            libc::TCP_NODELAY,
-            (&one as *const libc::c_int).cast(),
-            std::mem::size_of::<libc::c_int>() as libc::socklen_t,
-        );
-    }
-}
-
-#[cfg(not(unix))]
-fn disable_nagle(_listener: &TcpListener) {}

@@ -6,6 +6,13 @@
 //! source itself never retries; the reader and the pager do, backing off ([`crate::db::backoff`]).
 //! A read whose [`CancelToken`] is raised stops between pieces of its body and closes its
 //! connection, unless less than [`FINISH_BELOW`] bytes are left.
+//!
+//! A source pins the archive it opened: the first answer's total size and validators (`ETag`,
+//! `Last-Modified`) are kept, every range request carries them as a precondition (`If-Match`
+//! for a strong `ETag`, else `If-Unmodified-Since`), and every answer's `Content-Range` total
+//! and validators are compared with them. When they differ, or the server answers 412, the
+//! archive changed under the reader: this read and every later one fail with
+//! [`Error::ArchiveChanged`] instead of fetching bytes the index no longer describes.
 
 use std::io::Read;
 use std::sync::OnceLock;
@@ -67,7 +74,79 @@ pub struct HttpSource {
     url: String,
     agent: ureq::Agent,
     options: HttpOptions,
-    len: OnceLock<u64>,
+    /// The archive opened, from the first answer.
+    pinned: OnceLock<Pinned>,
+    /// What showed that the archive changed, once something did.
+    changed: OnceLock<String>,
+}
+
+/// What identifies the archive a source opened: its size and the server's validators.
+#[derive(Clone, Debug, PartialEq, Eq)]
+struct Pinned {
+    len: u64,
+    etag: Option<String>,
+    last_modified: Option<String>,
+}
+
+impl Pinned {
+    /// What an answer says of the archive, given its total size.
+    fn of(len: u64, response: &ureq::http::Response<ureq::Body>) -> Self {
+        let header = |name: &str| {
+            response
+                .headers()
+                .get(name)
+                .and_then(|v| v.to_str().ok())
+                .map(|v| v.trim().to_string())
+        };
+        Pinned {
+            len,
+            etag: header("etag"),
+            last_modified: header("last-modified"),
+        }
+    }
+
+    /// How `seen` differs from this, in words; `None` when it describes the same archive (a
+    /// validator the answer leaves out tells nothing).
+    fn difference(&self, seen: &Pinned) -> Option<String> {
+        if seen.len != self.len {
+            return Some(format!(
+                "its size went from {} to {} bytes",
+                self.len, seen.len
+            ));
+        }
+        for (name, before, now) in [
+            ("ETag", &self.etag, &seen.etag),
+            ("Last-Modified", &self.last_modified, &seen.last_modified),
+        ] {
+            if let (Some(before), Some(now)) = (before, now) {
+                if before != now {
+                    return Some(format!("its {name} went from {before} to {now}"));
+                }
+            }
+        }
+        None
+    }
+
+    /// The precondition a range request sends: `If-Match` with a strong `ETag` (a weak one
+    /// never matches by strong comparison), else `If-Unmodified-Since` with `Last-Modified`.
+    fn precondition(&self) -> Option<(&'static str, &str)> {
+        match (&self.etag, &self.last_modified) {
+            (Some(etag), _) if !etag.starts_with("W/") => Some(("If-Match", etag)),
+            (_, Some(date)) => Some(("If-Unmodified-Since", date)),
+            _ => None,
+        }
+    }
+}
+
+/// The first, last and total of a `Content-Range: bytes a-b/total` value.
+fn content_range(value: &str) -> Option<(u64, u64, u64)> {
+    let (range, total) = value.trim().strip_prefix("bytes ")?.split_once('/')?;
+    let (first, last) = range.split_once('-')?;
+    Some((
+        first.trim().parse().ok()?,
+        last.trim().parse().ok()?,
+        total.trim().parse().ok()?,
+    ))
 }
 
 impl HttpSource {
@@ -87,7 +166,8 @@ impl HttpSource {
             url: url.to_string(),
             agent,
             options,
-            len: OnceLock::new(),
+            pinned: OnceLock::new(),
+            changed: OnceLock::new(),
         }
     }
 
@@ -96,6 +176,56 @@ impl HttpSource {
             url: self.url.clone(),
             problem: problem.into(),
         }
+    }
+
+    /// The [`Error::ArchiveChanged`] of this source, after the first thing that showed the
+    /// change (`what`, when nothing did before).
+    fn changed(&self, what: String) -> Error {
+        Error::ArchiveChanged {
+            name: self.url.clone(),
+            what: self.changed.get_or_init(|| what).clone(),
+        }
+    }
+
+    /// The error of a source whose archive is known to have changed.
+    fn refuse_changed(&self) -> Result<()> {
+        match self.changed.get() {
+            Some(what) => Err(self.changed(what.clone())),
+            None => Ok(()),
+        }
+    }
+
+    /// Pins `seen` when nothing is pinned yet, or checks it against what is.
+    fn pin(&self, seen: Pinned) -> Result<u64> {
+        let pinned = self.pinned.get_or_init(|| seen.clone());
+        match pinned.difference(&seen) {
+            Some(what) => Err(self.changed(what)),
+            None => Ok(pinned.len),
+        }
+    }
+
+    /// Checks a 206 answer for `offset ..= last`: its `Content-Range` must be that range, and
+    /// its total and validators those of the archive pinned.
+    fn check_part(
+        &self,
+        response: &ureq::http::Response<ureq::Body>,
+        offset: u64,
+        last: u64,
+    ) -> Result<()> {
+        let range = response
+            .headers()
+            .get("content-range")
+            .and_then(|v| v.to_str().ok())
+            .ok_or_else(|| self.error("a 206 answer without Content-Range"))?;
+        let (first, end, total) = content_range(range)
+            .ok_or_else(|| self.error(format!("unreadable Content-Range {range:?}")))?;
+        self.pin(Pinned::of(total, response))?;
+        if (first, end) != (offset, last) {
+            return Err(self.error(format!(
+                "asked for bytes {offset}-{last}, the answer holds {first}-{end}"
+            )));
+        }
+        Ok(())
     }
 
     /// The time `request` may take, or the error of a deadline already past.
@@ -145,8 +275,8 @@ impl TileSource for HttpSource {
     }
 
     fn size(&self) -> Result<u64> {
-        if let Some(&len) = self.len.get() {
-            return Ok(len);
+        if let Some(pinned) = self.pinned.get() {
+            return Ok(pinned.len);
         }
         let budget = self.budget("HEAD")?;
         let response = self
@@ -167,7 +297,7 @@ impl TileSource for HttpSource {
             .and_then(|v| v.to_str().ok())
             .and_then(|v| v.trim().parse::<u64>().ok())
             .ok_or_else(|| self.error("HEAD answer has no Content-Length"))?;
-        Ok(*self.len.get_or_init(|| len))
+        self.pin(Pinned::of(len, &response))
     }
 
     fn read_range(&self, offset: u64, len: u64) -> Result<Vec<u8>> {
@@ -193,26 +323,43 @@ impl TileSource for HttpSource {
         if cancel.is_cancelled() {
             return Err(cancelled(&self.url, offset, len, 0));
         }
+        self.refuse_changed()?;
         let request = format!("GET bytes {offset}-{last}");
         let budget = self.budget(&request)?;
-        let mut response = self
+        let mut call = self
             .agent
             .get(&self.url)
             .config()
             .timeout_global(Some(budget.0))
             .build()
-            .header("Range", &format!("bytes={offset}-{last}"))
-            .call()
-            .map_err(|e| self.failed(&request, budget, e))?;
+            .header("Range", &format!("bytes={offset}-{last}"));
+        let precondition = self.pinned.get().and_then(Pinned::precondition);
+        if let Some((name, value)) = precondition {
+            call = call.header(name, value);
+        }
+        let mut response = call.call().map_err(|e| self.failed(&request, budget, e))?;
         let status = response.status().as_u16();
         match status {
-            206 => {}
+            206 => self.check_part(&response, offset, last)?,
+            412 => {
+                let (name, value) = precondition.unwrap_or(("a precondition", ""));
+                return Err(self.changed(format!("the server answered 412 to {name}: {value}")));
+            }
             200 => {
                 return Err(self.error(
                     "the server ignored the Range header (status 200); it must support range requests",
                 ));
             }
             416 => {
+                let total = response
+                    .headers()
+                    .get("content-range")
+                    .and_then(|v| v.to_str().ok())
+                    .and_then(|v| v.trim().strip_prefix("bytes */"))
+                    .and_then(|v| v.parse::<u64>().ok());
+                if let Some(total) = total {
+                    self.pin(Pinned::of(total, &response))?;
+                }
                 return Err(self.error(format!(
                     "truncated: bytes {offset}-{last} are past the end (status 416)"
                 )));

@@ -5,11 +5,15 @@
 //! positioned reads, [`http::HttpSource`] fetches the same file with HTTP range requests from any
 //! static server, and [`throttle::SimulatedLink`] wraps either with latency, bandwidth and drops.
 //! A read can be cancelled while it runs ([`CancelToken`]): an HTTP range stops downloading.
+//! Both sources pin the archive they opened: a file or URL whose archive changed under them
+//! fails every read after with [`Error::ArchiveChanged`], and [`watch::Watched`] counts what
+//! a run's reads were refused for.
 
 mod cancel;
 pub mod file;
 pub mod http;
 pub mod throttle;
+pub mod watch;
 
 pub use cancel::CancelToken;
 
@@ -43,6 +47,12 @@ pub trait TileSource: Send + Sync {
     fn is_remote(&self) -> bool {
         false
     }
+    /// Told that bytes this source gave failed their checksum: [`Error::ArchiveChanged`] when
+    /// the source finds that the archive is no longer the one it opened, `Ok` when it cannot
+    /// tell (the bytes were damaged on their way, or where they are kept).
+    fn checksum_failed(&self) -> Result<()> {
+        Ok(())
+    }
 }
 
 impl<S: TileSource + ?Sized> TileSource for Box<S> {
@@ -65,6 +75,9 @@ impl<S: TileSource + ?Sized> TileSource for Box<S> {
     }
     fn is_remote(&self) -> bool {
         (**self).is_remote()
+    }
+    fn checksum_failed(&self) -> Result<()> {
+        (**self).checksum_failed()
     }
 }
 

@@ -3,12 +3,11 @@
 //! a run can be repeated.
 //!
 //! [`LinkProfile`] is shared by [`SimulatedLink`] (a [`TileSource`] wrapper, no network at all),
-//! by the simulated clock's metered link, and by `stripmask serve`, which delays each answer by
-//! [`LatencyDice`] and paces it with [`PacedReader`].
+//! by the simulated clock's metered link, and by `stripmask serve`, whose link layer delays each
+//! answer by [`LatencyDice`], drops with [`DropDice`] and paces the body at the bandwidth.
 
-use std::io::Read;
 use std::sync::Mutex;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use super::{CancelToken, TileSource};
 use crate::error::{Error, Result};
@@ -160,45 +159,6 @@ impl LatencyDice {
     }
 }
 
-/// A reader that never delivers faster than the link's bandwidth.
-pub struct PacedReader<R> {
-    inner: R,
-    bytes_per_second: Option<f64>,
-    start: Option<Instant>,
-    sent: u64,
-}
-
-impl<R> PacedReader<R> {
-    /// Paces `inner` at `profile`'s bandwidth.
-    pub fn new(inner: R, profile: &LinkProfile) -> Self {
-        PacedReader {
-            inner,
-            bytes_per_second: profile.bytes_per_second(),
-            start: None,
-            sent: 0,
-        }
-    }
-}
-
-impl<R: Read> Read for PacedReader<R> {
-    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
-        let Some(bps) = self.bytes_per_second else {
-            return self.inner.read(buf);
-        };
-        let start = *self.start.get_or_insert_with(Instant::now);
-        // Small chunks (at most ~20 ms of data) keep the pace smooth.
-        let chunk = ((bps / 50.0) as usize).clamp(1, buf.len().max(1));
-        let take = chunk.min(buf.len());
-        let n = self.inner.read(&mut buf[..take])?;
-        self.sent += n as u64;
-        let due = Duration::from_secs_f64(self.sent as f64 / bps);
-        if let Some(wait) = due.checked_sub(start.elapsed()) {
-            std::thread::sleep(wait);
-        }
-        Ok(n)
-    }
-}
-
 /// A [`TileSource`] behind a simulated link: every read waits for its delay (latency ± jitter)
 /// and the transfer time, and a dropped read fails (as a lost connection would).
 pub struct SimulatedLink<S> {
@@ -252,6 +212,10 @@ impl<S: TileSource> TileSource for SimulatedLink<S> {
             ));
         }
         self.inner.read_range_cancellable(offset, len, cancel)
+    }
+
+    fn checksum_failed(&self) -> Result<()> {
+        self.inner.checksum_failed()
     }
 }
 
@@ -318,26 +282,5 @@ mod tests {
             (0..200).map(|_| dice.roll()).collect::<Vec<_>>()
         };
         assert_eq!(drops(&profile), drops(&steady));
-    }
-
-    #[test]
-    fn paced_reader_takes_the_transfer_time() {
-        let profile = LinkProfile {
-            bandwidth_kbps: Some(800.0),
-            ..LinkProfile::default()
-        };
-        let data = vec![7u8; 5000];
-        let t = Instant::now();
-        let mut out = Vec::new();
-        PacedReader::new(&data[..], &profile)
-            .read_to_end(&mut out)
-            .unwrap();
-        assert_eq!(out, data);
-        // 5000 bytes at 100 000 bytes/s = 50 ms.
-        assert!(
-            t.elapsed() >= Duration::from_millis(45),
-            "{:?}",
-            t.elapsed()
-        );
     }
 }

@@ -1,5 +1,7 @@
 //! Code shared by the integration tests.
 
+#[path = "../../../examples/support/attack.rs"]
+pub mod attack;
 pub mod cli;
 pub mod crack_scene;
 pub mod fake_http;

@@ -82,7 +82,10 @@ pub struct RenderSettings {
     pub perspective: Perspective,
     /// Texture sampling; `None` draws untextured (shading colour only).
     pub sampler: Option<Sampler>,
-    /// Per-vertex lighting (Gouraud); off draws the texture alone.
+    /// Per-vertex lighting (Gouraud) over the texture. Off by default: the archive's textures
+    /// carry the hill shading, prefiltered in their mips, so the texture alone shades the terrain
+    /// continuously where tiles of different levels meet, whose vertex normals (each level's
+    /// own grid) differ. Without a texture the terrain is lit whatever this says.
     pub lighting: bool,
     /// Depth test: tiles drawn front to back. Off: back to front, painter's order.
     pub depth_test: bool,
@@ -102,7 +105,7 @@ impl Default for RenderSettings {
             precision: Precision::Fixed,
             perspective: Perspective::Spans(16),
             sampler: Some(Sampler::BILINEAR_MIPMAP),
-            lighting: true,
+            lighting: false,
             depth_test: true,
             fog: true,
             fog_start: 0.6,
@@ -265,7 +268,7 @@ pub fn draw_tiles<T: DrawTarget>(
             } else {
                 partial_indices(held, mode, t)
             };
-            let lit = t.tile.lit_vertices(t.level, &mut relit);
+            let lit = drawn_vertices(t, settings.lighting, &mut relit);
             let (vertices, tile_transform) = match &mut morph {
                 Some((view, fine, morpher)) => (morphed(morpher, view, t, lit), fine.tile(t.id)?),
                 None => (lit, transform.tile(t.id)?),
@@ -290,8 +293,8 @@ pub fn draw_tiles<T: DrawTarget>(
     Ok(TilesDrawn { triangles, lines })
 }
 
-/// The render state of the terrain surface and its fog: as set, or, with only the wireframe
-/// shown, plain white without texture, lighting or fog under the lines.
+/// The render state of the terrain surface and its fog: as set (lit when untextured), or, with
+/// only the wireframe shown, plain white without texture, lighting or fog under the lines.
 fn surface_settings(settings: &RenderSettings, fog: Option<Fog>) -> (RenderSettings, Option<Fog>) {
     match settings.wireframe {
         Wireframe::Only => (
@@ -303,7 +306,13 @@ fn surface_settings(settings: &RenderSettings, fog: Option<Fog>) -> (RenderSetti
             },
             None,
         ),
-        Wireframe::Off | Wireframe::Over => (*settings, fog),
+        Wireframe::Off | Wireframe::Over => (
+            RenderSettings {
+                lighting: settings.lighting || settings.sampler.is_none(),
+                ..*settings
+            },
+            fog,
+        ),
     }
 }
 
@@ -329,6 +338,16 @@ fn partial_indices<'h>(
     let (masks, cracks) = held.get(mode, t.tile.side());
     let neighbours = t.neighbours.map(|n| compact_level(n, stride));
     cracks.tile(masks, compact_level(t.level, stride), neighbours)
+}
+
+/// The vertices of `t` as drawn at its level: lit for that level when the surface is `lit`,
+/// else as held, whose colours the draw does not read (so an unlit frame lights nothing).
+fn drawn_vertices<'v>(t: &TileDraw<'v>, lit: bool, scratch: &'v mut Vec<Vertex>) -> &'v [Vertex] {
+    if lit {
+        t.tile.lit_vertices(t.level, scratch)
+    } else {
+        &t.tile.vertices
+    }
 }
 
 /// Draws the shadow quad of every tile in `tiles` ([`crate::engine::cracks::shadow`]), in their order,
@@ -357,7 +376,7 @@ fn draw_shadows<'t, E: From<RasterError>>(
             continue;
         };
         // Lit like the tile's corners at the level it is drawn at.
-        let lit = t.tile.lit_vertices(t.level, &mut relit);
+        let lit = drawn_vertices(t, settings.lighting, &mut relit);
         for (v, k) in vertices.iter_mut().zip(shadow::corners(t.tile.side())) {
             v.color = lit[k].color;
         }

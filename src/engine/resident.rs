@@ -341,18 +341,6 @@ impl ResidentTile {
         scratch
     }
 
-    /// The finest level of [`Self::texture`] worth reading when the tile is drawn at (whole-tile)
-    /// mask level `mask_level`: texture detail follows the geometric detail the tile's importance
-    /// bought (the paper's textures-follow-importance rule). A mask that keeps every `l + 1`-th
-    /// sample spans `l + 1` cells per triangle edge, so the archive mip `floor(log2(l + 1))`
-    /// keeps the full level's texels per mesh edge; mips the tile does not hold (dropped, or
-    /// not fetched by a partial tile) count as dropped already.
-    pub fn finest_texture_level(&self, mask_level: usize) -> u8 {
-        let archive_mip = (mask_level + 1).ilog2() as usize;
-        let held = self.texture.levels().len() - 1;
-        archive_mip.saturating_sub(self.texture_base).min(held) as u8
-    }
-
     /// Adds or removes the skirt vertices so that the tile draws in crack mode `cracks` (heights
     /// in archive quanta of `quantum` metres), exactly as if it had been loaded in that mode:
     /// switching modes needs no fetch. Returns the bytes the tile holds now.
@@ -553,23 +541,6 @@ mod tests {
         assert_eq!(r.coarsen_texture(1), smaller, "never refines");
     }
 
-    #[test]
-    fn texture_detail_follows_the_mask_level_and_what_the_tile_holds() {
-        let tile = sloped_tile();
-        let full = ResidentTile::new(&tile, 0, 2.0, &Light::default(), CrackMode::None);
-        // Mask levels 0..7 keep every 1st..8th sample: archive mips 0, 1, 1, 2, 2, 2, 2, 3.
-        let levels: Vec<u8> = (0..8).map(|l| full.finest_texture_level(l)).collect();
-        assert_eq!(levels, [0, 1, 1, 2, 2, 2, 2, 3]);
-        let coarse = ResidentTile::new(&tile, 2, 2.0, &Light::default(), CrackMode::None);
-        let levels: Vec<u8> = (0..8).map(|l| coarse.finest_texture_level(l)).collect();
-        assert_eq!(levels, [0, 0, 0, 0, 0, 0, 0, 1], "mips from 2 on are held");
-        assert_eq!(
-            full.finest_texture_level(1000),
-            3,
-            "never past the last level"
-        );
-    }
-
     /// A 17-sample tile with rough relief and a texture whose every mip differs.
     fn rough_tile() -> Tile {
         let s = 17;
@@ -700,16 +671,5 @@ mod tests {
                 }
             }
         }
-    }
-
-    #[test]
-    fn texture_detail_of_a_partial_tile_starts_at_its_first_mip() {
-        let coarse = rough_tile().truncated(3);
-        let r = ResidentTile::new(&coarse, 0, 2.0, &Light::default(), CrackMode::None);
-        // Stride 4: archive mip 2 is the finest held; levels 3 and 7 read mips 2 and 3.
-        assert_eq!(r.texture_base, 2);
-        assert_eq!(r.finest_texture_level(3), 0);
-        assert_eq!(r.finest_texture_level(7), 1);
-        assert_eq!(r.finest_texture_level(15), 2);
     }
 }

@@ -22,11 +22,15 @@ const VIEW: usize = 9;
 /// 10 pixels at 320x240).
 const MORPHED: Geomorph = Geomorph::Distance { pixels: 16.0 };
 
+/// The crack scene's settings with `geomorph`, the vertices lit, so that what the morph moves
+/// shows in the shading as well as in where the texture lands.
 fn settings(geomorph: Geomorph) -> EngineSettings {
-    EngineSettings {
+    let mut settings = EngineSettings {
         geomorph,
         ..CrackScene::settings(CrackMode::Stitch)
-    }
+    };
+    settings.render.lighting = true;
+    settings
 }
 
 fn fb() -> Framebuffer {

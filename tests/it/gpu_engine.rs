@@ -77,7 +77,7 @@ fn an_engine_frame_on_the_gpu_matches_the_cpu_frame() {
 fn the_tradeoff_report_measures_every_setting_against_the_gpu_reference_too() {
     use stripmask::sim::tradeoff::reference::{CpuFloat, Gpu, Reference};
     use stripmask::sim::tradeoff::{TradeoffOptions, run_with};
-    let size = (64, 48);
+    let size = (160, 120);
     let gpu = match Gpu::new(size) {
         Ok(gpu) => gpu,
         Err(e @ PlatformError::NoGpuAdapter { .. }) => {
@@ -120,7 +120,12 @@ fn the_tradeoff_report_measures_every_setting_against_the_gpu_reference_too() {
         .unwrap();
     // The GPU reference ranks the budgets as the CPU one does.
     let gpu_error = |r: &stripmask::sim::tradeoff::Row| r.measurement.errors[1].ssim;
-    assert!(gpu_error(full) > gpu_error(coarse));
+    assert!(
+        gpu_error(full) > gpu_error(coarse),
+        "{} {}",
+        gpu_error(full),
+        gpu_error(coarse)
+    );
     let csv = std::fs::read_to_string(out.join("tradeoff.csv")).unwrap();
     assert!(csv.lines().next().unwrap().contains("wgpu_ssim"));
     assert!(out.join("reference-wgpu-0-overview.png").exists());

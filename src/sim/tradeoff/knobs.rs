@@ -261,12 +261,13 @@ fn features() -> Vec<Knob> {
                 value!("off", |s| s.render.depth_test = false),
             ],
         ),
+        // Vertex lighting over the shaded texture: off by default, so not a feature to save.
         Knob::new(
             "lighting",
-            true,
+            false,
             vec![
-                value!("on", |s| s.render.lighting = true),
                 value!("off", |s| s.render.lighting = false),
+                value!("on", |s| s.render.lighting = true),
             ],
         ),
         Knob::new(

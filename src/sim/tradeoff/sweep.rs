@@ -30,12 +30,7 @@ pub const PRESETS: [(&str, &[(&str, &str)]); 2] = [
     ),
     (
         "features-off",
-        &[
-            ("texture", "off"),
-            ("depth-test", "off"),
-            ("lighting", "off"),
-            ("fog", "off"),
-        ],
+        &[("texture", "off"), ("depth-test", "off"), ("fog", "off")],
     ),
 ];
 

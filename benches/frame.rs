@@ -24,7 +24,7 @@ use stripmask::engine::allocation::{Allocation, TileErrors};
 use stripmask::engine::budget::{BudgetController, BudgetSettings};
 use stripmask::engine::camera::Camera;
 use stripmask::engine::cracks::CrackMode;
-use stripmask::engine::cut::{CutSettings, Holdings, cut};
+use stripmask::engine::cut::{CutSettings, Holdings, LastFrame, cut};
 use stripmask::engine::frustum::{Aabb, Frustum};
 use stripmask::engine::importance::{TileMeasure, Weights, visual_importance};
 use stripmask::engine::masks::{LevelSet, MaskSet};
@@ -302,19 +302,37 @@ fn cuts(c: &mut Criterion) {
         camera.far = 1e7;
         let settings = CutSettings {
             max_error_px: Some(1.0),
+            water_px: None,
             height: 240,
             clearance: 1.0,
         };
-        let drawn = cut(&held, &terrain, &pyramid, &camera, 4.0 / 3.0, &settings)
-            .tiles
-            .len();
+        let last = LastFrame::default();
+        let drawn = cut(
+            &held,
+            &terrain,
+            &pyramid,
+            &camera,
+            4.0 / 3.0,
+            &settings,
+            &last,
+        )
+        .tiles
+        .len();
         println!("cut over {side}² tiles: {drawn} drawn");
         c.bench_function(&format!("cut_over_{side}x{side}_tiles"), |b| {
             b.iter(|| {
                 black_box(
-                    cut(&held, &terrain, &pyramid, &camera, 4.0 / 3.0, &settings)
-                        .tiles
-                        .len(),
+                    cut(
+                        &held,
+                        &terrain,
+                        &pyramid,
+                        &camera,
+                        4.0 / 3.0,
+                        &settings,
+                        &last,
+                    )
+                    .tiles
+                    .len(),
                 )
             })
         });

@@ -38,8 +38,8 @@ cores() {
     } END {printf "%.2f", (u + s) / (w > 0 ? w : 1)}' "$1"
 }
 
-echo "| model | tiles | build | build memory | cores | archive | open reads | profile | first frame | first hole-free | pager peak | process peak | bookkeeping | median fps | error mean / max | tiles drawn | triangles / pixel |"
-echo "| --- | --- | ---: | ---: | ---: | ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"
+echo "| model | tiles | build | build memory | cores | archive | open reads | profile | first frame | first hole-free | pager peak | process peak | bookkeeping | paging | median fps | error mean / max | tiles drawn | triangles / pixel |"
+echo "| --- | --- | ---: | ---: | ---: | ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"
 for side in "${sides[@]}"; do
     raw="$work/puget$side.r16"
     [ -f "$raw" ] || target/release/examples/mirror_model "$side" "$raw"
@@ -70,13 +70,14 @@ for side in "${sides[@]}"; do
             mean_tiles=$(grep -oP 'drawn: \K[0-9.]+' <<<"$drawn")
             per_pixel=$(grep -oP '[0-9.]+(?= triangles per pixel)' <<<"$drawn")
             bookkeeping=$(grep -oP 'median \K[0-9.]+(?= ms of bookkeeping)' <<<"$drawn")
+            paging=$(grep -oP '[0-9.]+(?= ms of paging)' <<<"$drawn")
             build="-"
             [ -f "$archive.time" ] && build="$(wall_s "$archive.time") s"
             bmem="-"
             [ -f "$archive.time" ] && bmem="$(rss_mb "$archive.time") MB"
             bcores="-"
             [ -f "$archive.time" ] && bcores=$(cores "$archive.time")
-            echo "| ${side}², tiles of $tile | $tiles | $build | $bmem | $bcores | $(awk "BEGIN {printf \"%.1f MB\", $bytes / 1e6}") | $opening B | $profile | $first | $full | $peak MB | $(rss_mb "$out.time") MB | $bookkeeping ms | $fps | $error px | $mean_tiles | $per_pixel |"
+            echo "| ${side}², tiles of $tile | $tiles | $build | $bmem | $bcores | $(awk "BEGIN {printf \"%.1f MB\", $bytes / 1e6}") | $opening B | $profile | $first | $full | $peak MB | $(rss_mb "$out.time") MB | $bookkeeping ms | $paging ms | $fps | $error px | $mean_tiles | $per_pixel |"
         done
     done
 done

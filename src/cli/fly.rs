@@ -110,10 +110,11 @@ pub(super) fn run(a: FlyArgs) -> Result<()> {
     let pixels = f64::from(scene.size.0) * f64::from(scene.size.1);
     say!(
         "drawn: {:.1} tiles and {:.2} triangles per pixel a frame on average; host: median \
-         {:.3} ms of bookkeeping and {:.3} ms of drawing a frame",
+         {:.3} ms of bookkeeping, {:.3} ms of paging and {:.3} ms of drawing a frame",
         s.mean_tiles,
         s.mean_triangles / pixels,
         s.host_bookkeeping_ms,
+        s.host_paging_ms,
         s.host_draw_ms
     );
     if s.refused > 0 {

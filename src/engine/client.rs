@@ -26,8 +26,10 @@ use crate::engine::budget::{
 use crate::engine::camera::Camera;
 use crate::engine::cracks::CrackMode;
 use crate::engine::cracks::TileIndices;
-use crate::engine::cracks::neighbours::{conform, neighbour_levels, pyramid_borders};
-use crate::engine::cut::{Cut, CutSettings, cut};
+use crate::engine::cracks::neighbours::{
+    Neighbourhood, conform, neighbour_levels, pyramid_borders,
+};
+use crate::engine::cut::{Cut, CutSettings, LastFrame, SPLIT_SHARE, cut};
 use crate::engine::error_bound::{Bound, ErrorBound};
 use crate::engine::frustum::{Aabb, Frustum};
 use crate::engine::geomorph::{Geomorph, Morpher, SUBDIVISION};
@@ -88,10 +90,12 @@ pub struct EngineSettings {
     /// fetched first and drawn wherever no finer tile is held, so that no view of the terrain
     /// is empty, whatever the model's size.
     pub keep_top: bool,
-    /// Whether the cut goes no deeper than the budget can use: when the last frame's budget
-    /// left more error on screen than τ, a tile whose own samples show less than half of it is
-    /// not replaced by its children (fewer tiles, the same error). Off, the cut follows τ alone,
-    /// so that frames of one view under different budgets draw the same tiles.
+    /// Whether the cut goes no deeper than the budget can use ([`crate::engine::cut`]): when
+    /// the last frame's budget left more error on screen than τ, tiles that showed little of it
+    /// are not replaced by their children (fewer tiles, the same error). Off, the cut follows
+    /// τ alone, so that frames of one view under different budgets draw the same tiles. With
+    /// belts only: progressive streaming asks for the levels of the tiles drawn, and a cut that
+    /// moved with the budget would ask for levels that the next frames do not draw.
     pub fit_cut_to_budget: bool,
 }
 
@@ -149,7 +153,11 @@ pub struct FrameReport {
     pub draw: DrawStats,
     /// What the wireframe's lines did (zero when it is off).
     pub wireframe: LineStats,
-    /// Seconds spent on culling, importance, budget and masks.
+    /// Seconds the pager's update took at the frame's start: taking in arrived tiles and
+    /// planning fetches — and, when the pager fetches on the frame's thread (stepped and
+    /// simulated modes), the fetches themselves.
+    pub paging_seconds: f64,
+    /// Seconds spent on the cut, importance, budget, masks and the draw list.
     pub bookkeeping_seconds: f64,
     /// Seconds spent drawing.
     pub draw_seconds: f64,
@@ -200,6 +208,8 @@ pub struct Engine {
     /// The error the last frame's budget left on screen, when the budget capped it (see
     /// [`FramePlan::water_px`]): the next frame's cut goes no deeper than it can use.
     water_px: Option<f64>,
+    /// What the last frame drew, for the next frame's cut when the budget capped it.
+    last_frame: LastFrame,
     settings: EngineSettings,
     rasterizer: Rasterizer,
 }
@@ -240,6 +250,7 @@ impl Engine {
             ),
             Streaming::Progressive(stream) => {
                 check_progressive(&settings)?;
+                settings.fit_cut_to_budget = false;
                 // Partial tiles draw powers-of-two masks only (see `plan_frame`): every frame
                 // does, so a view does not change set when its last tile completes.
                 settings.level_set = LevelSet::PowerOfTwo;
@@ -267,6 +278,7 @@ impl Engine {
             budget: BudgetController::new(settings.budget),
             need: None,
             water_px: None,
+            last_frame: LastFrame::default(),
             settings,
             rasterizer,
         })
@@ -372,6 +384,7 @@ impl Engine {
             clearance: self.settings.clearance,
             kept: &no_kept,
             water_px: None,
+            last: &LastFrame::default(),
         };
         let view = plan_view(&inputs, camera, aspect);
         if view.cut.missing.iter().any(|&(id, _)| near(id)) {
@@ -466,6 +479,8 @@ impl Engine {
         let placed_on_ground = self.ground(camera.position).is_some();
         self.pager
             .update(self.terrain.tile_position(camera.position));
+        let paging_seconds = started.elapsed().as_secs_f64();
+        let started = Instant::now();
         let mut camera = *camera;
         if !placed_on_ground {
             self.stand_on_arrived_ground(&mut camera);
@@ -490,6 +505,7 @@ impl Engine {
             clearance: self.settings.clearance,
             kept: &kept,
             water_px: self.water_px,
+            last: &self.last_frame,
         };
         let plan = plan_frame(&inputs, &camera, aspect);
         let wants = frame_wants(
@@ -532,11 +548,13 @@ impl Engine {
             None => self
                 .water_px
                 .map(|w| w * WATER_DECAY)
-                .filter(|&w| w * CUT_WATER_SHARE > self.settings.max_error.pixels().max(0.5)),
+                .filter(|&w| w * SPLIT_SHARE > self.settings.max_error.pixels().max(0.5)),
         }
         .filter(|_| self.settings.fit_cut_to_budget);
         drop(draws);
         drop(plan);
+        self.last_frame =
+            LastFrame::new(rendered.iter().map(|t| (t.id, t.error_px)), &self.pyramid);
         self.tell_pager(&wants, &rendered);
         let max_error_px = rendered.iter().map(|t| t.error_px).fold(0.0, f64::max);
         Ok(FrameReport {
@@ -551,6 +569,7 @@ impl Engine {
             holes,
             draw: drawn.triangles,
             wireframe: drawn.lines,
+            paging_seconds,
             bookkeeping_seconds,
             draw_seconds,
             pager: self.pager.resident().stats(),
@@ -741,6 +760,8 @@ struct FrameInputs<'e> {
     kept: &'e HashMap<TileId, usize>,
     /// The error the last frame's budget left on screen, if it capped the frame.
     water_px: Option<f64>,
+    /// What the last frame drew.
+    last: &'e LastFrame,
 }
 
 impl FrameInputs<'_> {
@@ -782,17 +803,15 @@ impl FrameInputs<'_> {
             .collect()
     }
 
-    /// What decides how deep the cut of a view goes: τ (none when it is off), or a fraction
-    /// of the error the budget left on the last frame when that is larger — a tile whose own
-    /// samples show less than the budget allows gains nothing from its children but their
-    /// cost — and the screen.
+    /// What decides how deep the cut of a view goes: τ (none when it is off), the error the
+    /// last frame's budget left when it capped the frame, and the screen.
     fn cut_settings(&self) -> CutSettings {
-        let water = self.water_px.map(|w| w * CUT_WATER_SHARE);
         CutSettings {
             max_error_px: match self.max_error {
-                ErrorBound::Off => water,
-                ErrorBound::Pixels(_) => Some(self.max_error.pixels().max(water.unwrap_or(0.0))),
+                ErrorBound::Off => None,
+                ErrorBound::Pixels(_) => Some(self.max_error.pixels()),
             },
+            water_px: self.water_px,
             height: self.height,
             clearance: self.clearance,
         }
@@ -810,6 +829,7 @@ impl FrameInputs<'_> {
             camera,
             aspect,
             &self.cut_settings(),
+            self.last,
         )
     }
 }
@@ -837,6 +857,8 @@ struct FramePlan<'p> {
     holes: usize,
     /// Per tile, whether stitching to another pyramid level made its level finer.
     conformed: Vec<bool>,
+    /// Which drawn tiles border which.
+    neighbourhood: Neighbourhood,
     /// When the budget capped the frame, the largest error on screen among the tiles it kept
     /// coarser than they could draw: the error the budget affords everywhere.
     water_px: Option<f64>,
@@ -858,6 +880,8 @@ struct ViewPlan<'p> {
     errors: Vec<TileErrors<'p>>,
     /// Some tile in view holds only part of its levels.
     partial: bool,
+    /// Which drawn tiles border which.
+    neighbourhood: Neighbourhood,
 }
 
 /// Cuts through the pyramid and weighs the tiles in view (Algorithm 2), with the levels τ
@@ -894,7 +918,9 @@ fn plan_view<'p>(inputs: &FrameInputs<'p>, camera: &Camera, aspect: f64) -> View
         .map(|((_, tile, _), &level)| tile.finest_mask_level().max(level))
         .collect();
     let errors = inputs.tile_errors(camera, cut.tiles.iter().copied());
+    let ids: Vec<TileId> = cut.tiles.iter().map(|t| t.0).collect();
     ViewPlan {
+        neighbourhood: Neighbourhood::of(&ids),
         cut,
         importance,
         needed,
@@ -948,7 +974,7 @@ fn levels(inputs: &FrameInputs, view: &ViewPlan, budget: usize) -> Levels {
         }
     }
     let conformed = if inputs.cracks == CrackMode::Stitch {
-        conform_levels(inputs, &view.cut, &mut allocation, &mut offered)
+        conform_levels(inputs, view, &mut allocation, &mut offered)
     } else {
         vec![false; allocation.len()]
     };
@@ -961,10 +987,6 @@ const WATER_DECAY: f64 = 0.8;
 /// How many times a frame shares its budget again, less what conforming added, before it
 /// searches from nothing for the share that fits.
 const CONFORM_PASSES: usize = 4;
-
-/// The share of the error the budget left on the last frame below which the cut refines no
-/// tile: its children may then draw finer than the parent could, where the budget lets them.
-const CUT_WATER_SHARE: f64 = 0.5;
 
 /// Cuts, weighs (Algorithm 2) and shares the budget, no tile finer than τ needs, the levels of
 /// tiles meeting a tile of another pyramid level conformed when stitching: the frame's plan.
@@ -1028,6 +1050,7 @@ fn plan_frame<'p>(inputs: &FrameInputs<'p>, camera: &Camera, aspect: f64) -> Fra
         })
         .flatten();
     FramePlan {
+        neighbourhood: view.neighbourhood,
         water_px,
         conformed,
         pixels_per_metre: view.errors.iter().map(|e| e.pixels_per_metre).collect(),
@@ -1047,14 +1070,7 @@ fn plan_frame<'p>(inputs: &FrameInputs<'p>, camera: &Camera, aspect: f64) -> Fra
 /// largest error first, none finer than its cap.
 fn top_up(inputs: &FrameInputs, view: &ViewPlan, plan: &mut Levels, budget: usize) {
     let (allocation, offered, _) = plan;
-    let levels: Vec<(TileId, usize)> = view
-        .cut
-        .tiles
-        .iter()
-        .zip(allocation.iter())
-        .map(|(&(id, _, _), a)| (id, a.level))
-        .collect();
-    let border = pyramid_borders(&levels);
+    let border = pyramid_borders(&view.neighbourhood);
     let mut left = budget.saturating_sub(allocation.iter().map(|a| a.triangles).sum());
     let finer = |level: usize| {
         inputs
@@ -1114,16 +1130,12 @@ impl Ord for OrderedError {
 /// mask is then asked for them). Returns which tiles changed.
 fn conform_levels(
     inputs: &FrameInputs,
-    cut: &Cut,
+    view: &ViewPlan,
     allocation: &mut [TileAllocation],
     offered: &mut [TileAllocation],
 ) -> Vec<bool> {
-    let mut levels: Vec<(TileId, usize)> = cut
-        .tiles
-        .iter()
-        .zip(allocation.iter())
-        .map(|(&(id, _, _), a)| (id, a.level))
-        .collect();
+    let cut = &view.cut;
+    let mut levels: Vec<usize> = allocation.iter().map(|a| a.level).collect();
     let finest: Vec<usize> = cut
         .tiles
         .iter()
@@ -1134,10 +1146,17 @@ fn conform_levels(
         metres.map_or(f64::INFINITY, f64::from)
     };
     let mut changed = vec![false; levels.len()];
-    if !conform(&mut levels, inputs.terrain.tile_size, |k| finest[k], error) {
+    let tile_size = inputs.terrain.tile_size;
+    if !conform(
+        &view.neighbourhood,
+        &mut levels,
+        tile_size,
+        |k| finest[k],
+        error,
+    ) {
         return changed;
     }
-    for (((a, o), (_, level)), c) in allocation
+    for (((a, o), level), c) in allocation
         .iter_mut()
         .zip(offered.iter_mut())
         .zip(levels)
@@ -1161,27 +1180,19 @@ impl<'p> FramePlan<'p> {
 
     /// The draw list: each tile with its level and its neighbours' levels (for crack hiding).
     fn draws(&self, tile_size: usize) -> Vec<TileDraw<'p>> {
-        let levels: Vec<(TileId, usize)> = self
-            .cut
-            .tiles
-            .iter()
-            .zip(&self.allocation)
-            .map(|(&(id, _, _), a)| (id, a.level))
-            .collect();
+        let levels: Vec<usize> = self.allocation.iter().map(|a| a.level).collect();
         self.cut
             .tiles
             .iter()
-            .zip(neighbour_levels(&levels, tile_size))
+            .zip(neighbour_levels(&self.neighbourhood, &levels, tile_size))
             .zip(&levels)
-            .map(
-                |((&(id, tile, distance), neighbours), &(_, level))| TileDraw {
-                    id,
-                    tile,
-                    level,
-                    neighbours,
-                    distance,
-                },
-            )
+            .map(|((&(id, tile, distance), neighbours), &level)| TileDraw {
+                id,
+                tile,
+                level,
+                neighbours,
+                distance,
+            })
             .collect()
     }
 

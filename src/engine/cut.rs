@@ -5,11 +5,18 @@
 //!
 //! The walk starts at the root and goes down only where the view is: a tile out of the view
 //! frustum is left with everything under it, a tile fine enough is drawn, and a tile that is
-//! not is replaced by its children in view when every one of them is resident (or absent);
-//! otherwise it is drawn and its missing children in view are asked for. A tile that is not resident itself is
+//! not is replaced by its children in view when what is resident covers them; otherwise it is
+//! drawn and its missing children in view are asked for. A tile that is not resident itself is
 //! gone through when some tile under it is, and is a hole otherwise. So the tiles drawn cover
 //! the view once, without overlap, and the walk costs what the view holds, not what the archive
 //! does.
+//!
+//! When the last frame's budget could not meet τ, more tiles would cost bookkeeping and buy no
+//! detail the budget can pay for: a tile is then refined only where the last frame showed at
+//! least half the error the budget left (drawn there, or, for a tile refined last frame, under
+//! it a quarter: the gap keeps a view from switching between a tile and its children).
+
+use std::collections::HashMap;
 
 use glam::DVec3;
 
@@ -24,12 +31,23 @@ use crate::engine::terrain::TerrainFrame;
 /// wider is replaced by its children, which hold twice the texels over the same ground.
 pub const TEXEL_PIXELS: f64 = 1.5;
 
+/// Of the error the last frame's budget left, the share a tile drawn there must have shown to
+/// be refined.
+pub const SPLIT_SHARE: f64 = 0.5;
+
+/// Of the error the last frame's budget left, the share the tiles drawn under a tile refined
+/// there must have shown for it to stay refined.
+pub const MERGE_SHARE: f64 = 0.25;
+
 /// What decides how deep the cut goes.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CutSettings {
     /// The pixel-error bound τ: a tile whose finest level's error on screen exceeds it is
     /// refined; `None` refines every tile whose children are there (full resolution).
     pub max_error_px: Option<f64>,
+    /// When the last frame's budget capped its detail, the largest error on screen it left
+    /// (see the module's documentation); `None` when it did not.
+    pub water_px: Option<f64>,
     /// The screen's height, pixels.
     pub height: u32,
     /// No tile is seen from nearer than this (the eye's clearance), metres.
@@ -51,6 +69,37 @@ impl Holdings for Residency<ResidentTile> {
 
     fn covered(&self, id: TileId) -> u32 {
         Residency::covered(self, id)
+    }
+}
+
+/// What the last frame drew, for the next frame's cut: each drawn tile's error on screen, and
+/// for each tile above them the largest error drawn under it.
+#[derive(Clone, Debug, Default)]
+pub struct LastFrame {
+    drawn: HashMap<TileId, f64>,
+    under: HashMap<TileId, f64>,
+}
+
+impl LastFrame {
+    /// The record of a frame that drew `drawn` (tile, error on screen in pixels) from the
+    /// pyramid `pyramid`.
+    pub fn new(drawn: impl Iterator<Item = (TileId, f64)>, pyramid: &Pyramid) -> LastFrame {
+        let mut last = LastFrame::default();
+        for (id, error) in drawn {
+            last.drawn.insert(id, error);
+            for level in id.level + 1..pyramid.levels() as u8 {
+                let above = last
+                    .under
+                    .entry(id.ancestor(level))
+                    .or_insert(f64::NEG_INFINITY);
+                if *above >= error {
+                    // Every tile further up holds at least as much already.
+                    break;
+                }
+                *above = error;
+            }
+        }
+        last
     }
 }
 
@@ -77,6 +126,8 @@ pub struct Cut<'p> {
 }
 
 /// The cut of the view of `camera` at `aspect` through the tiles `resident` holds.
+/// `last` is what the last frame drew, which matters when `settings.water_px` says its budget
+/// capped it.
 pub fn cut<'p>(
     resident: &'p (impl Holdings + ?Sized),
     terrain: &TerrainFrame,
@@ -84,6 +135,7 @@ pub fn cut<'p>(
     camera: &Camera,
     aspect: f64,
     settings: &CutSettings,
+    last: &LastFrame,
 ) -> Cut<'p> {
     let mut walk = Walk {
         resident,
@@ -91,6 +143,7 @@ pub fn cut<'p>(
         pyramid,
         camera,
         settings,
+        last,
         frustum: Frustum::from_view_projection(&camera.view_projection(aspect)),
         out: Cut::default(),
         above: Vec::new(),
@@ -106,6 +159,7 @@ struct Walk<'p, 'w, H: Holdings + ?Sized> {
     pyramid: &'w Pyramid,
     camera: &'w Camera,
     settings: &'w CutSettings,
+    last: &'w LastFrame,
     frustum: Frustum,
     out: Cut<'p>,
     /// For each entry of `out.passed`, the index of the one above it.
@@ -152,7 +206,8 @@ impl<'p, H: Holdings + ?Sized> Walk<'p, '_, H> {
             && self
                 .settings
                 .max_error_px
-                .is_none_or(|tau| shown.error > tau || shown.texel > TEXEL_PIXELS);
+                .is_none_or(|tau| shown.error > tau || shown.texel > TEXEL_PIXELS)
+            && self.worth_refining(id, shown.error);
         if refine && self.refine(id, tile, parent, shown.error.max(shown.texel)) {
             return true;
         }
@@ -164,6 +219,23 @@ impl<'p, H: Holdings + ?Sized> Walk<'p, '_, H> {
         }
         self.out.tiles.push((id, tile, distance));
         true
+    }
+
+    /// Whether refining tile `id`, whose finest level shows `finest_error` pixels, buys detail
+    /// the budget can pay for (always, unless the last frame's budget capped its detail): when
+    /// it was drawn, if it showed at least [`SPLIT_SHARE`] of the error the budget left; when
+    /// its children were, unless it shows less than that at its finest and they showed less
+    /// than [`MERGE_SHARE`] of it; else if its finest level shows more than [`SPLIT_SHARE`].
+    fn worth_refining(&self, id: TileId, finest_error: f64) -> bool {
+        let Some(water) = self.settings.water_px else {
+            return true;
+        };
+        let coarse_enough = finest_error <= SPLIT_SHARE * water;
+        match (self.last.drawn.get(&id), self.last.under.get(&id)) {
+            (Some(&drawn), _) => drawn > SPLIT_SHARE * water,
+            (None, Some(&under)) => !coarse_enough || under > MERGE_SHARE * water,
+            (None, None) => !coarse_enough,
+        }
     }
 
     /// Visits every tile of `ids` (all of them, so that every hole is found); returns whether
@@ -337,6 +409,11 @@ mod tests {
 
     /// The cut of 4 x 4 tiles seen whole from high above, at full resolution.
     fn from_above(fake: &Fake) -> Cut<'_> {
+        from_above_after(fake, None, &LastFrame::default())
+    }
+
+    /// The same after a frame that drew `last`, whose budget left `water_px` on screen.
+    fn from_above_after<'p>(fake: &'p Fake, water_px: Option<f64>, last: &LastFrame) -> Cut<'p> {
         let terrain = terrain(4, 4);
         let mut camera =
             Camera::looking_at(DVec3::new(80.0, 400.0, 81.0), DVec3::new(80.0, 0.0, 80.0));
@@ -344,10 +421,70 @@ mod tests {
         camera.far = 10_000.0;
         let settings = CutSettings {
             max_error_px: None,
+            water_px,
             height: 120,
             clearance: 1.0,
         };
-        cut(fake, &terrain, &terrain.pyramid(), &camera, 1.0, &settings)
+        cut(
+            fake,
+            &terrain,
+            &terrain.pyramid(),
+            &camera,
+            1.0,
+            &settings,
+            last,
+        )
+    }
+
+    #[test]
+    fn the_last_frame_records_the_largest_error_drawn_under_each_tile() {
+        let pyramid = terrain(4, 4).pyramid();
+        let drawn = [
+            (TileId::new(0, 0), 3.0),
+            (TileId::new(1, 1), 5.0),
+            (TileId::new(3, 3), 1.0),
+            (TileId::at(1, 0, 1), 2.0),
+        ];
+        let last = LastFrame::new(drawn.into_iter(), &pyramid);
+        assert_eq!(last.drawn[&TileId::new(1, 1)], 5.0);
+        assert_eq!(last.under[&TileId::at(1, 0, 0)], 5.0);
+        assert_eq!(last.under[&TileId::at(1, 1, 1)], 1.0);
+        assert_eq!(last.under[&pyramid.root()], 5.0);
+        assert!(!last.under.contains_key(&TileId::at(1, 1, 0)));
+    }
+
+    #[test]
+    fn under_a_capped_budget_the_cut_refines_where_the_last_frame_erred_most() {
+        let pyramid = terrain(4, 4).pyramid();
+        let fake = holding(&pyramid, pyramid.tiles());
+        // The root drawn at 10 px of the 10 the budget left: refined. At 4 px: kept whole.
+        let at = |error: f64| LastFrame::new([(pyramid.root(), error)].into_iter(), &pyramid);
+        assert_eq!(from_above_after(&fake, Some(10.0), &at(4.0)).tiles.len(), 1);
+        assert_eq!(
+            from_above_after(&fake, Some(10.0), &at(10.0)).tiles.len(),
+            4
+        );
+        // The level-1 tiles drawn last frame, under the root: they showed 3 px of 10, more
+        // than a quarter, so the root stays refined; at 2 px they make way for the root,
+        // which shows no more than half the water at its finest level.
+        let children = |error: f64| {
+            let drawn = pyramid.children(pyramid.root()).map(|c| (c, error));
+            LastFrame::new(drawn, &pyramid)
+        };
+        assert_eq!(
+            from_above_after(&fake, Some(10.0), &children(3.0))
+                .tiles
+                .len(),
+            4
+        );
+        assert_eq!(
+            from_above_after(&fake, Some(10.0), &children(2.0))
+                .tiles
+                .len(),
+            1
+        );
+        // Without a capped budget, the cut follows τ alone: every tile to level 0.
+        assert_eq!(from_above_after(&fake, None, &at(4.0)).tiles.len(), 16);
     }
 
     #[test]
@@ -422,8 +559,13 @@ mod tests {
             );
             camera.near = 1.0;
             camera.far = 10_000.0;
-            let settings = CutSettings { max_error_px: tau, height: 120, clearance: 1.0 };
-            let cut = cut(&fake, &terrain, &pyramid, &camera, 4.0 / 3.0, &settings);
+            let settings = CutSettings {
+                max_error_px: tau,
+                water_px: None,
+                height: 120,
+                clearance: 1.0,
+            };
+            let cut = cut(&fake, &terrain, &pyramid, &camera, 4.0 / 3.0, &settings, &LastFrame::default());
             let drawn: HashSet<TileId> = cut.tiles.iter().map(|t| t.0).collect();
             prop_assert_eq!(drawn.len(), cut.tiles.len(), "a tile drawn twice");
             for &(id, copy, _) in &cut.tiles {

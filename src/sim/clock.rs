@@ -133,7 +133,8 @@ impl Clock {
     pub fn frame_seconds(&self, report: &FrameReport) -> f64 {
         match *self {
             Clock::Wall { slowdown } => {
-                slowdown * (report.bookkeeping_seconds + report.draw_seconds)
+                slowdown
+                    * (report.paging_seconds + report.bookkeeping_seconds + report.draw_seconds)
             }
             Clock::Simulated { model, slowdown } => {
                 slowdown * model.seconds(report.draw.triangles, report.draw.fragments)

@@ -123,10 +123,14 @@ pub struct FlySummary {
     pub first_errors: Vec<String>,
     /// Fetches (tiles and the top) still on their way when the flight ended, abandoned.
     pub in_flight: usize,
-    /// Median host time of a frame's bookkeeping (cut, importance, budget, masks), milliseconds
-    /// measured on this machine whatever the clock: not part of `stats.csv`, which repeats
-    /// byte for byte.
+    /// Median host time of a frame's bookkeeping (cut, importance, budget, masks, the draw
+    /// list), milliseconds measured on this machine whatever the clock: not part of
+    /// `stats.csv`, which repeats byte for byte.
     pub host_bookkeeping_ms: f64,
+    /// Median host time of the pager's update at a frame's start, milliseconds, measured
+    /// likewise: on the simulated clock it includes the tiles fetched and decoded on the
+    /// frame's thread.
+    pub host_paging_ms: f64,
     /// Median host time of a frame's drawing, milliseconds, measured likewise.
     pub host_draw_ms: f64,
     /// Mean tiles drawn per frame.
@@ -143,6 +147,7 @@ impl FlySummary {
     pub fn repeatable(&self) -> FlySummary {
         FlySummary {
             host_bookkeeping_ms: 0.0,
+            host_paging_ms: 0.0,
             host_draw_ms: 0.0,
             ..self.clone()
         }
@@ -308,6 +313,7 @@ struct Tally {
     budget_frames: u64,
     last_stats: Option<PagerStats>,
     bookkeeping_ms: Vec<f64>,
+    paging_ms: Vec<f64>,
     draw_ms: Vec<f64>,
     tiles: u64,
 }
@@ -332,6 +338,7 @@ impl Tally {
         self.budget_frames += record.budget_binds;
         self.last_stats = Some(report.pager);
         self.bookkeeping_ms.push(report.bookkeeping_seconds * 1e3);
+        self.paging_ms.push(report.paging_seconds * 1e3);
         self.draw_ms.push(report.draw_seconds * 1e3);
         self.tiles += report.rendered_tiles as u64;
         self.t += seconds;
@@ -345,6 +352,7 @@ impl Tally {
             v.get(v.len() / 2).copied().unwrap_or(0.0)
         };
         let host_bookkeeping_ms = median(&mut self.bookkeeping_ms);
+        let host_paging_ms = median(&mut self.paging_ms);
         let host_draw_ms = median(&mut self.draw_ms);
         self.fps.sort_by(f64::total_cmp);
         let stats = self.last_stats.unwrap_or_else(|| engine.pager().stats());
@@ -366,6 +374,7 @@ impl Tally {
             first_errors: engine.pager().first_errors().to_vec(),
             in_flight: in_flight(&stats),
             host_bookkeeping_ms,
+            host_paging_ms,
             host_draw_ms,
             mean_tiles: self.tiles as f64 / frames,
             refused: watch.refused(),

@@ -7,7 +7,7 @@ use stripmask::db::grid::TileId;
 use stripmask::db::tile::Tile;
 use stripmask::engine::budget::drawable_level;
 use stripmask::engine::camera::Camera;
-use stripmask::engine::cracks::neighbours::neighbour_levels;
+use stripmask::engine::cracks::neighbours::{Neighbourhood, neighbour_levels};
 use stripmask::engine::cracks::{CrackMode, TileIndices};
 use stripmask::engine::masks::{LevelSet, MaskSet};
 use stripmask::engine::partial_meshes::PartialMeshes;
@@ -81,9 +81,11 @@ fn draw(
     let ids: Vec<(TileId, usize)> = (0..tiles.len())
         .map(|k| (TileId::new(k as u32 % TILES, k as u32 / TILES), levels[k]))
         .collect();
+    let places: Vec<TileId> = ids.iter().map(|&(id, _)| id).collect();
+    let around = neighbour_levels(&Neighbourhood::of(&places), levels, S);
     let mut draws: Vec<TileDraw<'_>> = ids
         .iter()
-        .zip(neighbour_levels(&ids, S))
+        .zip(around)
         .zip(tiles)
         .map(|((&(id, level), neighbours), tile)| {
             let (lo, hi) = terrain.tile_box(id, f64::from(tile.min), f64::from(tile.max));

@@ -20,51 +20,70 @@ fn across(id: TileId, side: Side) -> Option<TileId> {
     Some(TileId::at(id.level, x, y))
 }
 
-/// The drawn tiles by id, and the coarsest pyramid level among them.
-struct Drawn {
-    index: HashMap<TileId, usize>,
-    coarsest: u8,
+/// Who borders whom among a frame's drawn tiles, found once per frame (the levels they are
+/// drawn at change as the budget is shared, their places do not): for each tile and side, the
+/// drawn tile across it of its pyramid level or a coarser one, with how many levels coarser.
+#[derive(Clone, Debug, Default)]
+pub struct Neighbourhood {
+    across: Vec<[Option<(usize, u8)>; 4]>,
 }
 
-impl Drawn {
-    fn new(drawn: &[(TileId, usize)]) -> Self {
-        Drawn {
-            index: drawn
+impl Neighbourhood {
+    /// The neighbourhood of the drawn tiles `drawn`, in [`Side::ALL`] order per tile. Finer
+    /// tiles across a side, or none, leave it `None`.
+    pub fn of(drawn: &[TileId]) -> Neighbourhood {
+        let index: HashMap<TileId, usize> =
+            drawn.iter().enumerate().map(|(k, &id)| (id, k)).collect();
+        let coarsest = drawn.iter().map(|id| id.level).max().unwrap_or(0);
+        let find = |id: TileId, side: Side| {
+            let next = across(id, side)?;
+            (id.level..=coarsest).find_map(|level| {
+                let k = *index.get(&next.ancestor(level))?;
+                Some((k, level - id.level))
+            })
+        };
+        Neighbourhood {
+            across: drawn
                 .iter()
-                .enumerate()
-                .map(|(k, &(id, _))| (id, k))
+                .map(|&id| Side::ALL.map(|side| find(id, side)))
                 .collect(),
-            coarsest: drawn.iter().map(|(id, _)| id.level).max().unwrap_or(0),
         }
     }
 
-    /// The drawn tile across `side` of `id` of its level or a coarser one: its index in the
-    /// list, and how many levels coarser it is. `None` when the tiles there are finer, or none
-    /// is drawn.
-    fn across(&self, id: TileId, side: Side) -> Option<(usize, u8)> {
-        let next = across(id, side)?;
-        (id.level..=self.coarsest).find_map(|level| {
-            let k = *self.index.get(&next.ancestor(level))?;
-            Some((k, level - id.level))
+    /// The pairs `(finer, coarser, levels between)` of drawn tiles of different pyramid levels
+    /// that share a border.
+    fn pyramid_pairs(&self) -> impl Iterator<Item = (usize, usize, u8)> + '_ {
+        self.across.iter().enumerate().flat_map(|(a, sides)| {
+            sides
+                .iter()
+                .flatten()
+                .filter(|&&(_, coarser)| coarser > 0)
+                .map(move |&(b, coarser)| (a, b, coarser))
         })
     }
 }
 
-/// For each drawn tile `(id, level)` (tiles of `tile_size` samples), the levels of its four
-/// neighbours in [`Side::ALL`] order, counted in its own samples: a neighbour of its pyramid
-/// level counts with its level; one `d` levels coarser, whose samples are `2^d` of this tile's
-/// apart, with the level whose kept samples are its kept samples, `(l + 1) 2^d - 1` (at most
-/// the corners-only level); finer neighbours — which match their borders to this tile — and a
-/// side where nothing is drawn count as the tile's own level.
-pub fn neighbour_levels(drawn: &[(TileId, usize)], tile_size: usize) -> Vec<[usize; 4]> {
-    let index = Drawn::new(drawn);
+/// For each drawn tile (drawn at `levels`, tiles of `tile_size` samples, placed as
+/// `neighbourhood` says), the levels of its four neighbours in [`Side::ALL`] order, counted in
+/// its own samples: a neighbour of its pyramid level counts with its level; one `d` levels
+/// coarser, whose samples are `2^d` of this tile's apart, with the level whose kept samples are
+/// its kept samples, `(l + 1) 2^d - 1` (at most the corners-only level); finer neighbours —
+/// which match their borders to this tile — and a side where nothing is drawn count as the
+/// tile's own level.
+pub fn neighbour_levels(
+    neighbourhood: &Neighbourhood,
+    levels: &[usize],
+    tile_size: usize,
+) -> Vec<[usize; 4]> {
     let last = tile_size.saturating_sub(2);
-    drawn
+    neighbourhood
+        .across
         .iter()
-        .map(|&(id, level)| {
-            Side::ALL.map(|side| match index.across(id, side) {
-                Some((k, 0)) => drawn[k].1,
-                Some((k, coarser)) => (((drawn[k].1 + 1) << coarser) - 1).min(last),
+        .zip(levels)
+        .map(|(sides, &level)| {
+            sides.map(|across| match across {
+                Some((k, 0)) => levels[k],
+                Some((k, coarser)) => (((levels[k] + 1) << coarser) - 1).min(last),
                 None => level,
             })
         })
@@ -73,16 +92,11 @@ pub fn neighbour_levels(drawn: &[(TileId, usize)], tile_size: usize) -> Vec<[usi
 
 /// For each drawn tile, whether it meets a drawn tile of another level of the pyramid across
 /// one of its sides (the tiles [`conform`] may change).
-pub fn pyramid_borders(drawn: &[(TileId, usize)]) -> Vec<bool> {
-    let index = Drawn::new(drawn);
-    let mut border = vec![false; drawn.len()];
-    for (a, &(id, _)) in drawn.iter().enumerate() {
-        for side in Side::ALL {
-            if let Some((b, _)) = index.across(id, side).filter(|&(_, c)| c > 0) {
-                border[a] = true;
-                border[b] = true;
-            }
-        }
+pub fn pyramid_borders(neighbourhood: &Neighbourhood) -> Vec<bool> {
+    let mut border = vec![false; neighbourhood.across.len()];
+    for (a, b, _) in neighbourhood.pyramid_pairs() {
+        border[a] = true;
+        border[b] = true;
     }
     border
 }
@@ -90,12 +104,14 @@ pub fn pyramid_borders(drawn: &[(TileId, usize)]) -> Vec<bool> {
 /// Makes stitching close the borders between pyramid levels: a tile bordering a finer one
 /// keeps that tile's corners (its samples there are `2^d` of the finer tile's apart, so its
 /// mask keeps no more than every `(s - 1) / 2^d`-th), and both draw powers-of-two masks with
-/// the finer no coarser than the coarser where they meet. Each level changed becomes the
-/// coarsest that obeys and shows no larger error than the level it replaces (`error(k, level)`
-/// for the `k`-th tile; level 0 shows none), no finer than `finest(k)`, the finest the tile can
-/// draw (what it holds). Returns whether anything changed.
+/// the finer no coarser than the coarser where they meet. Each level changed (of `levels`, the
+/// tiles placed as `neighbourhood` says) becomes the coarsest that obeys and shows no larger
+/// error than the level it replaces (`error(k, level)` for the `k`-th tile; level 0 shows
+/// none), no finer than `finest(k)`, the finest the tile can draw (what it holds). Returns
+/// whether anything changed.
 pub fn conform(
-    drawn: &mut [(TileId, usize)],
+    neighbourhood: &Neighbourhood,
+    levels: &mut [usize],
     tile_size: usize,
     finest: impl Fn(usize) -> usize,
     error: impl Fn(usize, usize) -> f64,
@@ -118,35 +134,21 @@ pub fn conform(
             stride /= 2;
         }
     };
+    let pairs: Vec<(usize, usize, u8)> = neighbourhood.pyramid_pairs().collect();
     let mut changed = false;
     loop {
         let mut moved = false;
-        let pairs: Vec<(usize, usize, u8)> = {
-            let index = Drawn::new(drawn);
-            drawn
-                .iter()
-                .enumerate()
-                .flat_map(|(a, &(id, _))| {
-                    let index = &index;
-                    Side::ALL
-                        .into_iter()
-                        .filter_map(move |side| index.across(id, side))
-                        .filter(|&(_, coarser)| coarser > 0)
-                        .map(move |(b, coarser)| (a, b, coarser))
-                })
-                .collect()
-        };
-        for (fine, coarse, d) in pairs {
+        for &(fine, coarse, d) in &pairs {
             let keep = (cells >> d).max(1);
-            let level = settle(coarse, drawn[coarse].1, keep);
-            if level != drawn[coarse].1 {
-                drawn[coarse].1 = level;
+            let level = settle(coarse, levels[coarse], keep);
+            if level != levels[coarse] {
+                levels[coarse] = level;
                 moved = true;
             }
-            let bound = ((drawn[coarse].1 + 1) << d).min(cells);
-            let level = settle(fine, drawn[fine].1, bound);
-            if level != drawn[fine].1 {
-                drawn[fine].1 = level;
+            let bound = ((levels[coarse] + 1) << d).min(cells);
+            let level = settle(fine, levels[fine], bound);
+            if level != levels[fine] {
+                levels[fine] = level;
                 moved = true;
             }
         }
@@ -161,6 +163,32 @@ pub fn conform(
 mod tests {
     use super::*;
 
+    /// The neighbourhood of `drawn`'s tiles and their levels.
+    fn split(drawn: &[(TileId, usize)]) -> (Neighbourhood, Vec<usize>) {
+        let ids: Vec<TileId> = drawn.iter().map(|d| d.0).collect();
+        (Neighbourhood::of(&ids), drawn.iter().map(|d| d.1).collect())
+    }
+
+    fn levels_around(drawn: &[(TileId, usize)], tile_size: usize) -> Vec<[usize; 4]> {
+        let (n, levels) = split(drawn);
+        neighbour_levels(&n, &levels, tile_size)
+    }
+
+    /// Conforms `drawn` in place; whether anything changed.
+    fn conformed(
+        drawn: &mut [(TileId, usize)],
+        tile_size: usize,
+        finest: impl Fn(usize) -> usize,
+        error: impl Fn(usize, usize) -> f64,
+    ) -> bool {
+        let (n, mut levels) = split(drawn);
+        let changed = conform(&n, &mut levels, tile_size, finest, error);
+        for (d, l) in drawn.iter_mut().zip(levels) {
+            d.1 = l;
+        }
+        changed
+    }
+
     #[test]
     fn neighbours_are_read_north_east_south_west_and_missing_ones_take_the_own_level() {
         let drawn = [
@@ -169,7 +197,7 @@ mod tests {
             (TileId::new(2, 1), 7),
             (TileId::new(0, 0), 2),
         ];
-        let n = neighbour_levels(&drawn, 17);
+        let n = levels_around(&drawn, 17);
         assert_eq!(n[0], [5, 7, 3, 3]);
         assert_eq!(n[1], [5, 5, 3, 2]);
         assert_eq!(n[2], [7, 7, 7, 3]);
@@ -185,14 +213,14 @@ mod tests {
             (TileId::at(1, 1, 0), 3),
             (TileId::new(0, 0), 1),
         ];
-        let n = neighbour_levels(&drawn, 17);
+        let n = levels_around(&drawn, 17);
         // East of level-0 tile (1, 0): every 4th sample of the level-1 tile is every 8th of its.
         assert_eq!(n[0][1], 7);
         // The level-1 tile's finer neighbours count as its own level.
         assert_eq!(n[1], [3, 3, 3, 3]);
         // Two levels coarser at its corners-only level: capped at the corners-only level.
         let drawn = [(TileId::new(3, 0), 0), (TileId::at(2, 1, 0), 15)];
-        assert_eq!(neighbour_levels(&drawn, 17)[0][1], 15);
+        assert_eq!(levels_around(&drawn, 17)[0][1], 15);
     }
 
     #[test]
@@ -203,17 +231,17 @@ mod tests {
             (TileId::at(1, 0, 1), 2),
         ];
         let none = |_: usize, level: usize| level as f64;
-        assert!(conform(&mut drawn, 17, |_| 0, none));
+        assert!(conformed(&mut drawn, 17, |_| 0, none));
         // The level-1 tile keeps every 8th of its samples at most (the level-0 tile's corners
         // are 8 of them apart); the level-0 tile draws a power of two no coarser than that.
         assert_eq!(drawn[1].1, 7);
         assert_eq!(drawn[0].1, 3);
         // Tiles bordering no other level keep their levels.
         assert_eq!(drawn[2].1, 2);
-        assert!(!conform(&mut drawn, 17, |_| 0, none));
+        assert!(!conformed(&mut drawn, 17, |_| 0, none));
         // A tile that cannot draw finer stays at what it holds.
         let mut drawn = [(TileId::new(1, 0), 0), (TileId::at(1, 1, 0), 15)];
-        conform(&mut drawn, 17, |k| if k == 1 { 15 } else { 0 }, none);
+        conformed(&mut drawn, 17, |k| if k == 1 { 15 } else { 0 }, none);
         assert_eq!(drawn[1].1, 15);
     }
 
@@ -225,7 +253,10 @@ mod tests {
             (TileId::new(0, 0), 1),
             (TileId::at(1, 1, 1), 2),
         ];
-        assert_eq!(pyramid_borders(&drawn), [true, true, false, false]);
+        assert_eq!(
+            pyramid_borders(&split(&drawn).0),
+            [true, true, false, false]
+        );
     }
 
     #[test]
@@ -239,7 +270,7 @@ mod tests {
             _ => 0.0,
         };
         let mut drawn = [(TileId::new(1, 0), 0), (TileId::at(1, 1, 0), 15)];
-        conform(&mut drawn, 17, |_| 0, errors);
+        conformed(&mut drawn, 17, |_| 0, errors);
         assert_eq!(drawn[1].1, 3);
     }
 }

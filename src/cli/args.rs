@@ -39,6 +39,11 @@ pub(super) struct StreamingArgs {
     /// With --streaming progressive: (tile, level) requests waiting to be sent, at most.
     #[arg(long, default_value_t = StreamSettings::default().queue_capacity)]
     queue: usize,
+    /// With --streaming progressive: fill the square of belts around the viewer with the
+    /// tiles' coarsest level while the link would idle, up to this share of the memory (0: no
+    /// fill; the archive's top already covers every view).
+    #[arg(long, default_value_t = StreamSettings::default().square_share)]
+    belt_fill: f64,
     /// With --streaming progressive: prefetch for the viewpoint predicted ahead (fuller frames
     /// sooner, some bytes no frame draws).
     #[arg(long)]
@@ -56,20 +61,27 @@ pub(super) struct StreamingArgs {
 impl StreamingArgs {
     /// The streaming asked for, progressive with the queue and prediction given.
     pub(super) fn resolve(&self) -> Result<Streaming> {
-        let Streaming::Progressive(defaults) = self.streaming else {
+        let Streaming::Progressive(_) = self.streaming else {
             return Ok(self.streaming);
         };
         if self.queue == 0 {
             return Err(Error::setting("--queue", 0, "at least 1"));
         }
         let horizon = positive("--predict-seconds", self.predict_seconds)?;
+        if !(0.0..=1.0).contains(&self.belt_fill) {
+            return Err(Error::setting(
+                "--belt-fill",
+                self.belt_fill,
+                "a share in [0, 1]",
+            ));
+        }
         Ok(Streaming::Progressive(StreamSettings {
             queue_capacity: self.queue,
+            square_share: self.belt_fill,
             prediction: self.predict.then_some(PredictionSettings {
                 horizon,
                 ..PredictionSettings::default()
             }),
-            ..defaults
         }))
     }
 }

@@ -8,7 +8,7 @@
 //!        pager (top, belts, far field | levels) <── tile source
 //! ```
 
-use std::collections::{BinaryHeap, HashMap};
+use std::collections::{BinaryHeap, HashMap, HashSet};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -1248,6 +1248,15 @@ fn frame_wants(
             Frustum::from_view_projection(&c.view_projection(aspect)),
         )
     });
+    // A tile whose children the cut asks for is about to be replaced by them: its own finer
+    // levels would arrive to be drawn no more.
+    let refined: HashSet<TileId> = plan
+        .cut
+        .missing
+        .iter()
+        .filter(|&&(id, _)| id.level < inputs.pyramid.root().level)
+        .map(|&(id, _)| id.parent())
+        .collect();
     let mut wants: Vec<Want> = plan
         .cut
         .tiles
@@ -1256,9 +1265,10 @@ fn frame_wants(
         .zip(&plan.pixels_per_metre)
         .map(|((&(id, tile, _), o), &ppm)| {
             let wished = levels_for_mask(o.level, levels);
-            let stays = arrival.as_ref().is_none_or(|(eye, frustum)| {
-                frustum.intersects(&held_box(inputs.terrain, id, tile, *eye))
-            });
+            let stays = !refined.contains(&id)
+                && arrival.as_ref().is_none_or(|(eye, frustum)| {
+                    frustum.intersects(&held_box(inputs.terrain, id, tile, *eye))
+                });
             Want {
                 id,
                 levels: if stays {

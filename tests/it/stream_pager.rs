@@ -94,12 +94,19 @@ impl LevelLoader for Synthetic {
     }
 }
 
+/// The settings of these tests: the coarse square fills, so that tiles come with no view asking.
+const FILL: StreamSettings = StreamSettings {
+    queue_capacity: 32,
+    square_share: 0.5,
+    prediction: None,
+};
+
 fn pager(limit: usize, tiles: u32, fetches_per_update: usize) -> StreamPager<Synthetic> {
     StreamPager::new(
         Synthetic::default(),
         Pyramid::new(tiles, tiles).unwrap(),
         PagerConfig::new(limit, PagerMode::Stepped { fetches_per_update }),
-        StreamSettings::default(),
+        FILL,
     )
     .unwrap()
 }
@@ -267,7 +274,7 @@ fn a_broken_tile_is_retried_then_given_up_without_stopping_the_square() {
                 fetches_per_update: 4,
             },
         ),
-        StreamSettings::default(),
+        FILL,
     )
     .unwrap();
     for _ in 0..200 {
@@ -336,12 +343,7 @@ impl TransferClock for PerFetch {
 /// A pager over `tiles` x 1 tiles on a simulated link carrying `queue_depth` requests, each
 /// taking [`SECONDS_PER_FETCH`].
 fn simulated(tiles: u32, queue_depth: usize) -> StreamPager<Synthetic> {
-    link_of(
-        tiles,
-        queue_depth,
-        SECONDS_PER_FETCH,
-        StreamSettings::default(),
-    )
+    link_of(tiles, queue_depth, SECONDS_PER_FETCH, FILL)
 }
 
 /// A pager over `tiles` x 1 tiles with `settings` on a simulated link carrying `queue_depth`
@@ -374,7 +376,7 @@ fn frame(p: &mut StreamPager<Synthetic>, t: f64, wants: &[Want]) {
 fn sent_in_one_frame(queue_depth: usize, seconds: f64, capacity: usize) -> usize {
     let settings = StreamSettings {
         queue_capacity: capacity,
-        ..StreamSettings::default()
+        ..FILL
     };
     let mut p = link_of(5, queue_depth, seconds, settings);
     let mut t = 0.0;
@@ -466,7 +468,7 @@ proptest! {
     ) {
         let limit = 36 * bytes_at(1) + rest.len() * bytes_at(LEVELS);
         let config = PagerConfig::new(limit, PagerMode::Stepped { fetches_per_update: 2 });
-        let settings = StreamSettings { queue_capacity: capacity, ..StreamSettings::default() };
+        let settings = StreamSettings { queue_capacity: capacity, ..FILL };
         let mut p =
             StreamPager::new(Synthetic::default(), Pyramid::new(6, 6).unwrap(), config, settings)
                 .unwrap();

@@ -18,10 +18,10 @@
 //!    unsent in frames that ask for less) and turns them into requests — a tile over which the view
 //!    has nothing to draw comes above everything, a tile under one drawn too coarse by that tile's
 //!    error, in one range request up to the levels it is wished; a held tile comes up to its wish
-//!    in one range request, the worst-looking first; and the coarse
-//!    level of each tile of belt `d_c + 1` (Algorithm 1 at the coarsest level, while the coarse
-//!    square takes at most [`StreamSettings::square_share`] of the memory) comes when nothing a
-//!    view asks for waits — cancels the requests on their way that bring more than their tile is
+//!    in one range request, the worst-looking first; and, when
+//!    [`StreamSettings::square_share`] allows it, the coarse level of each tile of belt
+//!    `d_c + 1` (Algorithm 1 at the coarsest level) comes when nothing a view asks for waits —
+//!    cancels the requests on their way that bring more than their tile is
 //!    still wished, or whose tile no view asks for and whose transfer has not started (where the
 //!    link can: the simulated link drops the transfer), re-prioritises its bounded [`RequestQueue`]
 //!    with them, cancelling what fell out before it was sent, and sends the best while the link has
@@ -93,7 +93,9 @@ impl Named for Streaming {
 pub struct StreamSettings {
     /// Requests waiting to be sent, at most.
     pub queue_capacity: usize,
-    /// The most of the memory limit the coarse square may take.
+    /// The most of the memory limit the coarse square of belts may take while it fills ahead
+    /// of the view at the coarsest level; 0, the default, fills nothing: the archive's top
+    /// already covers every view, and the fill's levels are seldom drawn within a second.
     pub square_share: f64,
     /// Prefetching for the predicted view, or none (the default: a guess that misses spends
     /// bytes no frame draws, docs/streaming.md).
@@ -104,7 +106,7 @@ impl Default for StreamSettings {
     fn default() -> Self {
         StreamSettings {
             queue_capacity: 32,
-            square_share: 0.5,
+            square_share: 0.0,
             prediction: None,
         }
     }
@@ -323,11 +325,11 @@ impl<L: LevelLoader> StreamPager<L> {
         config: PagerConfig,
         settings: StreamSettings,
     ) -> Result<Self> {
-        if !(settings.square_share > 0.0 && settings.square_share <= 1.0) {
+        if !(0.0..=1.0).contains(&settings.square_share) {
             return Err(Error::setting(
                 "the coarse square's share of memory",
                 settings.square_share,
-                "a share in (0, 1]",
+                "a share in [0, 1]",
             ));
         }
         let strategy = Progressive {
@@ -507,7 +509,11 @@ impl<L: LevelLoader> StreamPager<L> {
     ) -> Vec<LevelRequest> {
         let mut out = Vec::new();
         self.resident.memory_bound = false;
-        if let Some(center) = self.resident.center {
+        if let Some(center) = self
+            .resident
+            .center
+            .filter(|_| self.strategy.square_share > 0.0)
+        {
             let grid = self.resident.ledger.grid();
             let next = self.resident.next_belt();
             if next <= grid.max_ring(center) {

@@ -284,6 +284,9 @@ pub struct NodataFill<R> {
     rows_read: usize,
     next_out: usize,
     stats: FillStats,
+    /// The lowest valid height of the last row read with data: the floor of a nodata band
+    /// that runs to the DEM's end (the sea south of a coast), farther than the held rows reach.
+    last_low: f32,
 }
 
 impl<R: DemReader> NodataFill<R> {
@@ -297,6 +300,7 @@ impl<R: DemReader> NodataFill<R> {
             rows_read: 0,
             next_out: 0,
             stats: FillStats::default(),
+            last_low: f32::INFINITY,
         }
     }
 
@@ -320,8 +324,14 @@ impl<R: DemReader> NodataFill<R> {
             }
         }
         self.rows_read += 1;
-        self.held
-            .push_back(nearest_in_row(&row).map(|near| (row, near)));
+        let held = nearest_in_row(&row).map(|near| (row, near));
+        if let Some((row, _)) = &held {
+            self.last_low = row
+                .iter()
+                .filter(|v| !v.is_nan())
+                .fold(f32::INFINITY, |m, v| m.min(*v));
+        }
+        self.held.push_back(held);
         Ok(())
     }
 
@@ -341,7 +351,7 @@ impl<R: DemReader> NodataFill<R> {
         while self.rows_read < height && !self.held.iter().any(Option::is_some) {
             self.read_raw()?;
         }
-        if !self.held.iter().any(Option::is_some) {
+        if !self.held.iter().any(Option::is_some) && !self.last_low.is_finite() {
             return Err(Error::invalid(
                 &self.info().name,
                 "every sample of the DEM is nodata",
@@ -409,7 +419,13 @@ impl<R: DemReader> NodataFill<R> {
         for i in far {
             let around = &column_min[i.saturating_sub(FILL_RADIUS)..(i + FILL_RADIUS + 1).min(w)];
             let m = around.iter().fold(f32::INFINITY, |m, v| m.min(*v));
-            out[i] = if m.is_finite() { m } else { held_min };
+            out[i] = if m.is_finite() {
+                m
+            } else if held_min.is_finite() {
+                held_min
+            } else {
+                self.last_low
+            };
         }
     }
 
@@ -650,6 +666,26 @@ mod tests {
         assert_eq!(out[(h - 2) * w..(h - 1) * w], [100.0, 101.0, 102.0, 103.0]);
         assert!(stats.flattened > 0 && stats.filled > 0);
         assert_eq!(stats.filled + stats.flattened, (w * (h - 1)) as u64);
+    }
+
+    #[test]
+    fn a_nodata_band_to_the_end_lies_flat_at_the_last_data_row_lowest() {
+        // Two rows with data, then a band of nodata far taller than the fill looks.
+        let rows = 2 + 3 * FILL_RADIUS;
+        let mut samples = vec![f32::NAN; 3 * rows];
+        samples[..6].copy_from_slice(&[5.0, 7.0, 9.0, 4.0, 6.0, 8.0]);
+        let r = MemoryReader::new("coast.asc", 3, rows, samples).unwrap();
+        let mut fill = NodataFill::new(r, None);
+        let mut samples = vec![0.0; 3 * rows];
+        for row in samples.chunks_exact_mut(3) {
+            fill.read_row(row).unwrap();
+        }
+        assert_eq!(&samples[..6], &[5.0, 7.0, 9.0, 4.0, 6.0, 8.0]);
+        assert!(samples[3 * (rows - 1)..].iter().all(|&v| v == 4.0));
+        assert_eq!(
+            fill.stats().filled + fill.stats().flattened,
+            3 * (rows as u64 - 2)
+        );
     }
 
     #[test]

@@ -38,8 +38,8 @@ cores() {
     } END {printf "%.2f", (u + s) / (w > 0 ? w : 1)}' "$1"
 }
 
-echo "| model | tiles | build | build memory | cores | archive | open reads | profile | first frame | first hole-free | pager peak | process peak | bookkeeping | paging | median fps | error mean / max | tiles drawn | triangles / pixel |"
-echo "| --- | --- | ---: | ---: | ---: | ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"
+echo "| model | tiles | build | build memory | cores | archive | open reads | profile | first frame | first hole-free | pager peak | process peak | bookkeeping | paging | median fps | error mean / max | error mean after 10 s | tiles drawn | triangles / pixel |"
+echo "| --- | --- | ---: | ---: | ---: | ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"
 for side in "${sides[@]}"; do
     raw="$work/puget$side.r16"
     [ -f "$raw" ] || target/release/examples/mirror_model "$side" "$raw"
@@ -71,13 +71,17 @@ for side in "${sides[@]}"; do
             per_pixel=$(grep -oP '[0-9.]+(?= triangles per pixel)' <<<"$drawn")
             bookkeeping=$(grep -oP 'median \K[0-9.]+(?= ms of bookkeeping)' <<<"$drawn")
             paging=$(grep -oP '[0-9.]+(?= ms of paging)' <<<"$drawn")
+            # The mean past the first 10 s: what the view costs once the chain of tiles from
+            # the top down to the eye has arrived (the start grows with the pyramid's depth).
+            settled=$(awk -F, 'NR == 1 {for (i = 1; i <= NF; i++) if ($i == "error_px") c = i; next}
+                $2 >= 10 {s += $c; n++} END {printf "%.2f", n ? s / n : 0}' "$out/stats.csv")
             build="-"
             [ -f "$archive.time" ] && build="$(wall_s "$archive.time") s"
             bmem="-"
             [ -f "$archive.time" ] && bmem="$(rss_mb "$archive.time") MB"
             bcores="-"
             [ -f "$archive.time" ] && bcores=$(cores "$archive.time")
-            echo "| ${side}², tiles of $tile | $tiles | $build | $bmem | $bcores | $(awk "BEGIN {printf \"%.1f MB\", $bytes / 1e6}") | $opening B | $profile | $first | $full | $peak MB | $(rss_mb "$out.time") MB | $bookkeeping ms | $paging ms | $fps | $error px | $mean_tiles | $per_pixel |"
+            echo "| ${side}², tiles of $tile | $tiles | $build | $bmem | $bcores | $(awk "BEGIN {printf \"%.1f MB\", $bytes / 1e6}") | $opening B | $profile | $first | $full | $peak MB | $(rss_mb "$out.time") MB | $bookkeeping ms | $paging ms | $fps | $error px | $settled px | $mean_tiles | $per_pixel |"
         done
     done
 done

@@ -241,7 +241,9 @@ impl Engine {
         config.nearest_when_off = settings.nearest_when_off;
         if pyramid.levels() > 1 {
             let whole = TileLoader::predicted_bytes(&loader, pyramid.root(), 1);
-            config.far_share = far_share(settings.memory_limit_bytes, whole);
+            // The levels between the top (or the root) and level 0.
+            let chain = header.top_level.clamp(1, u32::from(pyramid.root().level)) as usize - 1;
+            config.far_share = far_share(settings.memory_limit_bytes, whole, chain);
         }
         let (pager, predictor): (Box<dyn Paging>, _) = match settings.streaming {
             Streaming::Belts => (

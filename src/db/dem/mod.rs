@@ -378,6 +378,15 @@ impl<R: DemReader> NodataFill<R> {
     /// Fills output row `j` (held) from the held rows around it.
     fn fill_row(&mut self, j: usize, out: &mut [f32]) {
         let w = out.len();
+        let lo = j.saturating_sub(FILL_RADIUS).max(self.first);
+        let hi = (j + FILL_RADIUS).min(self.first + self.held.len() - 1);
+        if (lo..=hi).all(|k| self.held[k - self.first].is_none()) {
+            // Deep in a nodata band (an ocean, the outside of a mosaic): no sample within the
+            // radius, so the whole row lies flat, at the cost of a row, not of a search per sample.
+            out.fill(self.floor());
+            self.stats.flattened += w as u64;
+            return;
+        }
         let mut far = Vec::new();
         for (i, o) in out.iter_mut().enumerate() {
             let own = self.held[j - self.first].as_ref().map(|(row, _)| row[i]);
@@ -400,8 +409,6 @@ impl<R: DemReader> NodataFill<R> {
         // The lowest valid height per column over the rows within the radius, then per sample
         // over the columns within the radius.
         let mut column_min = vec![f32::INFINITY; w];
-        let lo = j.saturating_sub(FILL_RADIUS).max(self.first);
-        let hi = (j + FILL_RADIUS).min(self.first + self.held.len() - 1);
         let rows = || (lo..=hi).filter_map(|k| self.held[k - self.first].as_ref());
         for (row, _) in rows() {
             for (m, v) in column_min.iter_mut().zip(row) {
@@ -410,22 +417,27 @@ impl<R: DemReader> NodataFill<R> {
                 }
             }
         }
+        let floor = self.floor();
+        for i in far {
+            let around = &column_min[i.saturating_sub(FILL_RADIUS)..(i + FILL_RADIUS + 1).min(w)];
+            let m = around.iter().fold(f32::INFINITY, |m, v| m.min(*v));
+            out[i] = if m.is_finite() { m } else { floor };
+        }
+    }
+
+    /// The height of a sample with no valid one within the radius: the lowest valid height of
+    /// the rows held, or of the last row with data when none is held.
+    fn floor(&self) -> f32 {
         let held_min = self
             .held
             .iter()
             .flatten()
             .flat_map(|(row, _)| row.iter().filter(|v| !v.is_nan()))
             .fold(f32::INFINITY, |m, v| m.min(*v));
-        for i in far {
-            let around = &column_min[i.saturating_sub(FILL_RADIUS)..(i + FILL_RADIUS + 1).min(w)];
-            let m = around.iter().fold(f32::INFINITY, |m, v| m.min(*v));
-            out[i] = if m.is_finite() {
-                m
-            } else if held_min.is_finite() {
-                held_min
-            } else {
-                self.last_low
-            };
+        if held_min.is_finite() {
+            held_min
+        } else {
+            self.last_low
         }
     }
 

@@ -22,16 +22,22 @@ pub const FAR_SHARE: f64 = 0.25;
 /// refinement needs at once.
 const FAR_TILES: usize = 16;
 
-/// The largest share of the memory limit the far field takes, whatever its tiles weigh: the
-/// belts keep half.
-const FAR_MAX_SHARE: f64 = 0.5;
+/// Whole tiles per pyramid level between the top and the belts that a cut down to the eye
+/// needs at once: a tile is replaced by its four children or not at all.
+const CHAIN_TILES: usize = 4;
 
-/// The far field's share of `limit` bytes when a whole far tile takes `tile_bytes`:
-/// [`FAR_SHARE`], or room for 16 tiles when that is more, at most half the limit.
+/// The largest share of the memory limit the far field takes, whatever its tiles weigh: the
+/// belts keep the rest, at least a square of 3 x 3 tiles on the devices it was set for.
+const FAR_MAX_SHARE: f64 = 0.6;
+
+/// The far field's share of `limit` bytes when a whole far tile takes `tile_bytes` and
+/// `chain` pyramid levels lie between the top and the belts' level 0: [`FAR_SHARE`], or room
+/// for 16 tiles or four a level of the chain when that is more, at most [`FAR_MAX_SHARE`].
 /// Without the room, a view of large tiles on a small device keeps a coarse tile near the eye
-/// for want of room for its children.
-pub fn far_share(limit: usize, tile_bytes: usize) -> f64 {
-    let needed = (FAR_TILES * tile_bytes) as f64 / limit.max(1) as f64;
+/// for want of room for the children of every level down to it.
+pub fn far_share(limit: usize, tile_bytes: usize, chain: usize) -> f64 {
+    let tiles = FAR_TILES.max(CHAIN_TILES * chain);
+    let needed = (tiles * tile_bytes) as f64 / limit.max(1) as f64;
     needed.clamp(FAR_SHARE, FAR_MAX_SHARE)
 }
 
@@ -236,10 +242,11 @@ mod tests {
     }
 
     #[test]
-    fn the_share_holds_sixteen_whole_tiles_within_a_quarter_and_a_half() {
-        assert_eq!(far_share(1000, 10), FAR_SHARE);
-        assert_eq!(far_share(1600, 30), 0.3);
-        assert_eq!(far_share(1000, 100), FAR_MAX_SHARE);
+    fn the_share_holds_sixteen_whole_tiles_or_four_a_level_within_a_quarter_and_six_tenths() {
+        assert_eq!(far_share(1000, 10, 2), FAR_SHARE);
+        assert_eq!(far_share(1600, 30, 2), 0.3);
+        assert_eq!(far_share(2000, 30, 6), 0.36);
+        assert_eq!(far_share(1000, 100, 2), FAR_MAX_SHARE);
     }
 
     #[test]

@@ -32,7 +32,7 @@ const FAR_MAX_SHARE: f64 = 0.6;
 
 /// The far field's share of `limit` bytes when a whole far tile takes `tile_bytes` and
 /// `chain` pyramid levels lie between the top and the belts' level 0: [`FAR_SHARE`], or room
-/// for 16 tiles or four a level of the chain when that is more, at most [`FAR_MAX_SHARE`].
+/// for 16 tiles or four a level of the chain when that is more, at most six tenths of the limit.
 /// Without the room, a view of large tiles on a small device keeps a coarse tile near the eye
 /// for want of room for the children of every level down to it.
 pub fn far_share(limit: usize, tile_bytes: usize, chain: usize) -> f64 {

@@ -39,6 +39,9 @@ pub const SPLIT_SHARE: f64 = 0.5;
 /// there must have shown for it to stay refined.
 pub const MERGE_SHARE: f64 = 0.25;
 
+/// How much more the children a tile lacks matter once some of its children are held.
+const BEGUN_SET_WEIGHT: f64 = 4.0;
+
 /// What decides how deep the cut goes.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CutSettings {
@@ -295,10 +298,22 @@ impl<'p, H: Holdings + ?Sized> Walk<'p, '_, H> {
         self.out.absent.truncate(marks.3);
         self.out.missing.truncate(marks.4);
         self.out.through.truncate(marks.5);
+        let count = children.len();
         let lacking = children
             .into_iter()
-            .filter(|&c| self.resident.tile(c).is_none());
-        self.out.missing.extend(lacking.map(|c| (c, priority)));
+            .filter(|&c| self.resident.tile(c).is_none())
+            .collect::<Vec<_>>();
+        // A set begun goes before one not begun: a tile is replaced by all its children or by
+        // none, so a child that arrived draws nothing until its last sibling does.
+        let begun = lacking.len() < count;
+        let priority = if begun {
+            BEGUN_SET_WEIGHT * priority
+        } else {
+            priority
+        };
+        self.out
+            .missing
+            .extend(lacking.into_iter().map(|c| (c, priority)));
         false
     }
 }
@@ -500,6 +515,22 @@ mod tests {
             4,
             "a copy of each would spare drawing four"
         );
+    }
+
+    #[test]
+    fn the_children_of_a_set_begun_are_asked_for_before_those_of_a_set_not_begun() {
+        let pyramid = terrain(4, 4).pyramid();
+        let root = pyramid.root();
+        // The root and one of its children: the other three are asked for, more than the
+        // children of a root held alone.
+        let begun = holding(&pyramid, [root, TileId::new(0, 0).ancestor(1)].into_iter());
+        let alone = holding(&pyramid, [root].into_iter());
+        let (begun, alone) = (from_above(&begun), from_above(&alone));
+        assert_eq!((begun.missing.len(), alone.missing.len()), (3, 4));
+        for (b, a) in begun.missing.iter().zip(&alone.missing) {
+            assert!(a.1 > 0.0 && a.1.is_finite(), "{a:?}");
+            assert_eq!(b.1, BEGUN_SET_WEIGHT * a.1, "{b:?} {a:?}");
+        }
     }
 
     #[test]

@@ -1291,13 +1291,15 @@ fn frame_wants(
     wants
 }
 
-/// The wishes a cut makes beyond its drawn tiles: the coarsest level of each tile it lacks and
-/// of each tile it went through, with their priorities (halved for the predicted view's).
+/// The wishes a cut makes beyond its drawn tiles: the coarsest level of each tile it lacks, of
+/// each tile it went through and of each absent tile it met, with their priorities (halved for
+/// the predicted view's).
 fn cut_wants(cut: &Cut<'_>, predicted: bool) -> Vec<Want> {
     let weight = if predicted { 0.5 } else { 1.0 };
     // The tiles gone through come last: they spare work, they add no detail.
     let through = cut.through.iter().map(|&id| (id, 0.0));
-    cut.missing
+    let wants = cut
+        .missing
         .iter()
         .chain(&cut.passed)
         .copied()
@@ -1308,8 +1310,17 @@ fn cut_wants(cut: &Cut<'_>, predicted: bool) -> Vec<Want> {
             priority: weight * priority,
             predicted,
             drawn: false,
-        })
-        .collect()
+        });
+    // An absent tile in view is drawn as nothing, and kept as a drawn tile is: without it,
+    // the tile above could not be replaced by its children and would draw over all of them.
+    let absent = cut.absent.iter().map(|&id| Want {
+        id,
+        levels: 1,
+        priority: 0.0,
+        predicted,
+        drawn: !predicted,
+    });
+    wants.chain(absent).collect()
 }
 
 /// The box of resident tile `id` between its lowest and highest held heights, relative to `eye`.
@@ -1480,4 +1491,23 @@ fn check_morph_range(settings: &EngineSettings, terrain: &TerrainFrame, name: &s
         ));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_absent_tile_in_view_is_wished_as_a_drawn_tile_and_a_predicted_one_is_not() {
+        let sea = TileId::at(2, 1, 1);
+        let cut = Cut {
+            absent: vec![sea],
+            ..Cut::default()
+        };
+        let now = cut_wants(&cut, false);
+        assert_eq!(now.len(), 1);
+        assert!(now[0].id == sea && now[0].drawn && !now[0].predicted && now[0].levels == 1);
+        let ahead = cut_wants(&cut, true);
+        assert!(ahead[0].id == sea && !ahead[0].drawn && ahead[0].predicted);
+    }
 }

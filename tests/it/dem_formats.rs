@@ -319,3 +319,76 @@ fn bad_inputs_name_the_file_and_the_problem() {
     let e = err(&dir.path().join("x.dat"), &options());
     assert!(e.contains("x.dat") && e.contains("--format"), "{e}");
 }
+
+/// Writes a UInt16 TIFF of `w x h` samples `raw(i, j)`, with GDAL's metadata XML `metadata`
+/// and nodata text `nodata` when given.
+fn write_u16_tiff(
+    path: &Path,
+    (w, h): (u32, u32),
+    raw: impl Fn(u32, u32) -> u16,
+    metadata: &str,
+    nodata: Option<&str>,
+) {
+    use tiff::encoder::{TiffEncoder, colortype::Gray16};
+    use tiff::tags::Tag;
+    let data: Vec<u16> = (0..w * h).map(|k| raw(k % w, k / w)).collect();
+    let mut encoder = TiffEncoder::new(std::fs::File::create(path).unwrap()).unwrap();
+    let mut image = encoder.new_image::<Gray16>(w, h).unwrap();
+    image
+        .encoder()
+        .write_tag(Tag::Unknown(42112), metadata)
+        .unwrap();
+    if let Some(nodata) = nodata {
+        image.encoder().write_tag(Tag::GdalNodata, nodata).unwrap();
+    }
+    image.write_data(&data).unwrap();
+}
+
+#[test]
+fn geotiff_with_gdal_scale_and_offset_gives_metres_and_compares_nodata_raw() {
+    // How GDAL stores decimetres from -200 m in UInt16: raw 0 is -200 m, raw 65535 nodata.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("decimetres.tif");
+    let metadata = "<GDALMetadata>\n  <Item name=\"OFFSET\" sample=\"0\" role=\"offset\">-200</Item>\n  <Item name=\"SCALE\" sample=\"0\" role=\"scale\">0.1</Item>\n</GDALMetadata>\n";
+    let raw = |i: u32, j: u32| {
+        if (i, j) == (3, 4) {
+            65535
+        } else {
+            (i * 100 + j * 7) as u16
+        }
+    };
+    write_u16_tiff(&path, (40, 30), raw, metadata, Some("65535"));
+    let reader = dem::open(&path, &options()).unwrap();
+    assert!(
+        reader
+            .info()
+            .notes
+            .iter()
+            .any(|n| n.contains("scale 0.1 and offset -200")),
+        "{:?}",
+        reader.info().notes
+    );
+    let dem = reader.read_all().unwrap();
+    assert_eq!(dem.at(0, 0), -200.0);
+    assert!((dem.at(39, 29) - (0.1 * f32::from(raw(39, 29)) - 200.0)).abs() < 1e-3);
+    // The nodata sample took a neighbour's height, not 65535 * 0.1 - 200.
+    assert!(dem.at(3, 4) < 200.0, "{}", dem.at(3, 4));
+}
+
+#[test]
+fn geotiff_whose_gdal_metadata_is_not_xml_is_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("garbled.tif");
+    write_u16_tiff(
+        &path,
+        (8, 8),
+        |i, j| (i + j) as u16,
+        "<GDALMetadata><Item role=",
+        None,
+    );
+    let e = dem::open(&path, &options()).err().unwrap().to_string();
+    assert!(
+        e.contains("garbled.tif") && e.contains("GDAL_METADATA"),
+        "{e}"
+    );
+}

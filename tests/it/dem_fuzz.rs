@@ -13,8 +13,9 @@ fn cases() -> u32 {
         .unwrap_or(48)
 }
 
-const FIXTURES: [(&str, &str); 11] = [
+const FIXTURES: [(&str, &str); 12] = [
     ("int16_deflate_pred2_nodata.tif", "tif"),
+    ("scaled.tif", "tif"),
     ("uint16_lzw_tiled.tif", "tif"),
     ("int32_packbits.tif", "tif"),
     ("float32_deflate_pred3_tiled_nodata.tif", "tif"),
@@ -28,8 +29,11 @@ const FIXTURES: [(&str, &str); 11] = [
 ];
 
 /// The bytes of fixture `name`: a file, or an image made here (`rgb.png`, `rgb.jpg`: a gray
-/// ramp in three equal channels).
+/// ramp in three equal channels; `scaled.tif`: UInt16 decimetres with GDAL's scale and offset).
 fn fixture(name: &str) -> Vec<u8> {
+    if name == "scaled.tif" {
+        return scaled_tiff(SCALED);
+    }
     let format = match name {
         "rgb.png" => Some(image::ImageFormat::Png),
         "rgb.jpg" => Some(image::ImageFormat::Jpeg),
@@ -47,6 +51,24 @@ fn fixture(name: &str) -> Vec<u8> {
             .join(name),
     )
     .unwrap()
+}
+
+/// GDAL's metadata of a band of decimetres from -200 m.
+const SCALED: &str = "<GDALMetadata><Item name=\"OFFSET\" sample=\"0\" role=\"offset\">-200</Item><Item name=\"SCALE\" sample=\"0\" role=\"scale\">0.1</Item></GDALMetadata>";
+
+/// A 37 x 29 UInt16 TIFF whose GDAL_METADATA tag holds `metadata`.
+fn scaled_tiff(metadata: &str) -> Vec<u8> {
+    use tiff::encoder::{TiffEncoder, colortype::Gray16};
+    let data: Vec<u16> = (0..37 * 29).map(|k| (k * 13 % 40000) as u16).collect();
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    let mut encoder = TiffEncoder::new(&mut bytes).unwrap();
+    let mut image = encoder.new_image::<Gray16>(37, 29).unwrap();
+    image
+        .encoder()
+        .write_tag(tiff::tags::Tag::Unknown(42112), metadata)
+        .unwrap();
+    image.write_data(&data).unwrap();
+    bytes.into_inner()
 }
 
 /// Opens `bytes` as a file with extension `ext` and reads up to 64 rows.
@@ -112,6 +134,11 @@ proptest! {
         bytes in proptest::collection::vec(any::<u8>(), 0..600),
     ) {
         read_some(&bytes, ext);
+    }
+
+    #[test]
+    fn random_gdal_metadata_never_panics(text in "(<GDALMetadata>|</GDALMetadata>|<Item |role=\"scale\"|role=\"offset\"|sample=\"[0-9]\"|>|</Item>|-?[0-9]{1,5}(\\.[0-9]{1,3})?(e[0-9]{1,3})?|nan|inf|&amp;|[ \n])*") {
+        read_some(&scaled_tiff(&text), "tif");
     }
 
     #[test]

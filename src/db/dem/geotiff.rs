@@ -18,6 +18,8 @@ pub struct TiffReader {
     info: DemInfo,
     decoder: Decoder<BufReader<File>>,
     nodata: Option<f64>,
+    /// GDAL's scale and offset of the band: a height is `raw * scale + offset`.
+    scaling: Scaling,
     chunk_width: usize,
     chunk_height: usize,
     chunks_across: usize,
@@ -58,6 +60,21 @@ impl TiffReader {
             _ => None,
         };
         let mut info = DemInfo::new(&name, width, height);
+        let scaling = match decoder.find_tag(Tag::Unknown(GDAL_METADATA)) {
+            Ok(Some(v)) => match v.into_string() {
+                Ok(xml) => gdal_scaling(&xml).map_err(|e| {
+                    Error::invalid(&name, format!("unreadable GDAL_METADATA tag: {e}"))
+                })?,
+                Err(_) => Scaling::default(),
+            },
+            _ => Scaling::default(),
+        };
+        if scaling != Scaling::default() {
+            info.notes.push(format!(
+                "GDAL scale {} and offset {} applied: a height is the raw value times the scale plus the offset",
+                scaling.scale, scaling.offset
+            ));
+        }
         georeference(&mut decoder, &mut info);
         let (cw, ch) = decoder.chunk_dimensions();
         let (chunk_width, chunk_height) = (cw as usize, ch as usize);
@@ -95,6 +112,7 @@ impl TiffReader {
             info,
             decoder,
             nodata,
+            scaling,
             chunk_width,
             chunk_height,
             chunks_across: width.div_ceil(chunk_width),
@@ -118,7 +136,7 @@ impl TiffReader {
                 .decoder
                 .read_chunk(index)
                 .map_err(|e| Error::invalid(name, format!("corrupt TIFF chunk {index}: {e}")))?;
-            let samples = to_f32(chunk, self.nodata);
+            let samples = to_f32(chunk, self.nodata, self.scaling);
             if c == 0 {
                 // Sized only after the decoder (and its limits) accepted a chunk of this row.
                 self.band.clear();
@@ -147,38 +165,96 @@ impl TiffReader {
     }
 }
 
-/// Converts decoded samples to `f32`, nodata as `NaN`.
-fn to_f32(chunk: DecodingResult, nodata: Option<f64>) -> Vec<f32> {
-    fn map<T: Copy>(v: Vec<T>, nodata: Option<f64>, f: impl Fn(T) -> f64) -> Vec<f32> {
+/// The TIFF tag in which GDAL writes its metadata as XML, the band's scale and offset among it.
+const GDAL_METADATA: u16 = 42112;
+
+/// GDAL's linear transform of a band's raw values (`SCALE`, `OFFSET`; how GDAL stores
+/// decimetres in integers, say).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Scaling {
+    scale: f64,
+    offset: f64,
+}
+
+impl Default for Scaling {
+    fn default() -> Self {
+        Scaling {
+            scale: 1.0,
+            offset: 0.0,
+        }
+    }
+}
+
+/// The scale and offset of the first band in GDAL's metadata XML (items with the role
+/// `scale` and `offset` of sample 0, or of no sample); the identity when it has none.
+fn gdal_scaling(xml: &str) -> std::result::Result<Scaling, String> {
+    let doc = roxmltree::Document::parse(xml.trim_matches(char::from(0)).trim())
+        .map_err(|e| e.to_string())?;
+    let mut scaling = Scaling::default();
+    let items = doc.descendants().filter(|n| n.has_tag_name("Item"));
+    for item in items.filter(|n| n.attribute("sample").is_none_or(|s| s == "0")) {
+        let value = || {
+            let text = item.text().unwrap_or("").trim();
+            text.parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| {
+                    format!(
+                        "{} is not a number: {text:?}",
+                        item.attribute("role").unwrap_or("")
+                    )
+                })
+        };
+        match item.attribute("role") {
+            Some("scale") => scaling.scale = value()?,
+            Some("offset") => scaling.offset = value()?,
+            _ => {}
+        }
+    }
+    if scaling.scale == 0.0 {
+        return Err("its scale is 0".into());
+    }
+    Ok(scaling)
+}
+
+/// Converts decoded samples to `f32` heights (`raw * scale + offset`), nodata (a raw value,
+/// as GDAL compares it) as `NaN`.
+fn to_f32(chunk: DecodingResult, nodata: Option<f64>, scaling: Scaling) -> Vec<f32> {
+    fn map<T>(v: Vec<T>, nodata: Option<f64>, s: Scaling, f: impl Fn(T) -> f64) -> Vec<f32> {
         v.into_iter()
             .map(|x| {
                 let x = f(x);
                 if Some(x) == nodata {
                     f32::NAN
                 } else {
-                    x as f32
+                    (x * s.scale + s.offset) as f32
                 }
             })
             .collect()
     }
+    let (n, s) = (nodata, scaling);
     match chunk {
-        DecodingResult::U8(v) => map(v, nodata, f64::from),
-        DecodingResult::U16(v) => map(v, nodata, f64::from),
-        DecodingResult::U32(v) => map(v, nodata, f64::from),
-        DecodingResult::U64(v) => map(v, nodata, |x| x as f64),
-        DecodingResult::I8(v) => map(v, nodata, f64::from),
-        DecodingResult::I16(v) => map(v, nodata, f64::from),
-        DecodingResult::I32(v) => map(v, nodata, f64::from),
-        DecodingResult::I64(v) => map(v, nodata, |x| x as f64),
-        DecodingResult::F16(v) => map(v, nodata, f64::from),
+        DecodingResult::U8(v) => map(v, n, s, f64::from),
+        DecodingResult::U16(v) => map(v, n, s, f64::from),
+        DecodingResult::U32(v) => map(v, n, s, f64::from),
+        DecodingResult::U64(v) => map(v, n, s, |x| x as f64),
+        DecodingResult::I8(v) => map(v, n, s, f64::from),
+        DecodingResult::I16(v) => map(v, n, s, f64::from),
+        DecodingResult::I32(v) => map(v, n, s, f64::from),
+        DecodingResult::I64(v) => map(v, n, s, |x| x as f64),
+        DecodingResult::F16(v) => map(v, n, s, f64::from),
         DecodingResult::F32(v) => {
             // Compare at f32 precision: GDAL writes the nodata text of the f32 value.
             let nd = nodata.map(|n| n as f32);
             v.into_iter()
-                .map(|x| if Some(x) == nd { f32::NAN } else { x })
+                .map(|x| match x {
+                    x if Some(x) == nd => f32::NAN,
+                    x if scaling == Scaling::default() => x,
+                    x => (f64::from(x) * scaling.scale + scaling.offset) as f32,
+                })
                 .collect()
         }
-        DecodingResult::F64(v) => map(v, nodata, |x| x),
+        DecodingResult::F64(v) => map(v, n, s, |x| x),
     }
 }
 
@@ -298,4 +374,52 @@ fn check_chunks(name: &str, offsets: &[u64], counts: &[u64], file_len: u64) -> R
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gdal_scaling_reads_band_one_and_refuses_what_is_not_a_number() {
+        let xml = r#"<GDALMetadata>
+  <Item name="OFFSET" sample="0" role="offset">-200</Item>
+  <Item name="SCALE" sample="0" role="scale">0.1</Item>
+  <Item name="SCALE" sample="1" role="scale">5</Item>
+  <Item name="AREA_OR_POINT">Area</Item>
+</GDALMetadata>"#;
+        let band_one = Scaling {
+            scale: 0.1,
+            offset: -200.0,
+        };
+        assert_eq!(gdal_scaling(xml), Ok(band_one));
+        let none = r#"<GDALMetadata><Item name="AREA_OR_POINT">Point</Item></GDALMetadata>"#;
+        assert_eq!(gdal_scaling(none), Ok(Scaling::default()));
+        for bad in [
+            r#"<GDALMetadata><Item role="scale">x</Item></GDALMetadata>"#,
+            r#"<GDALMetadata><Item role="scale">0</Item></GDALMetadata>"#,
+            r#"<GDALMetadata><Item role="offset">inf</Item></GDALMetadata>"#,
+            "<GDALMetadata>",
+        ] {
+            assert!(gdal_scaling(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn heights_are_scaled_after_nodata_is_compared_on_the_raw_value() {
+        let s = Scaling {
+            scale: 0.1,
+            offset: -200.0,
+        };
+        let h = to_f32(DecodingResult::U16(vec![0, 10, 65535]), Some(65535.0), s);
+        assert_eq!(h[..2], [-200.0, -199.0]);
+        assert!(h[2].is_nan());
+        let f = to_f32(
+            DecodingResult::F32(vec![1.5, -9999.0]),
+            Some(-9999.0),
+            Scaling::default(),
+        );
+        assert_eq!(f[0], 1.5);
+        assert!(f[1].is_nan());
+    }
 }

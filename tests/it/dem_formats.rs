@@ -320,26 +320,49 @@ fn bad_inputs_name_the_file_and_the_problem() {
     assert!(e.contains("x.dat") && e.contains("--format"), "{e}");
 }
 
-/// Writes a UInt16 TIFF of `w x h` samples `raw(i, j)`, with GDAL's metadata XML `metadata`
-/// and nodata text `nodata` when given.
-fn write_u16_tiff(
-    path: &Path,
-    (w, h): (u32, u32),
-    raw: impl Fn(u32, u32) -> u16,
-    metadata: &str,
-    nodata: Option<&str>,
-) {
+/// The tags a test GeoTIFF carries besides its samples.
+#[derive(Default)]
+struct Tags<'a> {
+    /// GDAL's metadata XML.
+    metadata: Option<&'a str>,
+    /// GDAL's nodata text.
+    nodata: Option<&'a str>,
+    /// Pixel scale (x, y) and the world position of the first pixel's corner.
+    georeference: Option<([f64; 2], [f64; 2])>,
+    /// GeoKeys `(id, value)`, short values.
+    keys: &'a [(u16, u16)],
+}
+
+/// Writes a UInt16 TIFF of `w x h` samples `raw(i, j)` with `tags`.
+fn write_u16_tiff(path: &Path, (w, h): (u32, u32), raw: impl Fn(u32, u32) -> u16, tags: &Tags) {
     use tiff::encoder::{TiffEncoder, colortype::Gray16};
     use tiff::tags::Tag;
     let data: Vec<u16> = (0..w * h).map(|k| raw(k % w, k / w)).collect();
     let mut encoder = TiffEncoder::new(std::fs::File::create(path).unwrap()).unwrap();
     let mut image = encoder.new_image::<Gray16>(w, h).unwrap();
-    image
-        .encoder()
-        .write_tag(Tag::Unknown(42112), metadata)
+    let dir = image.encoder();
+    if let Some(metadata) = tags.metadata {
+        dir.write_tag(Tag::Unknown(42112), metadata).unwrap();
+    }
+    if let Some(nodata) = tags.nodata {
+        dir.write_tag(Tag::GdalNodata, nodata).unwrap();
+    }
+    if let Some((scale, corner)) = tags.georeference {
+        dir.write_tag(Tag::ModelPixelScaleTag, &[scale[0], scale[1], 0.0][..])
+            .unwrap();
+        dir.write_tag(
+            Tag::ModelTiepointTag,
+            &[0.0, 0.0, 0.0, corner[0], corner[1], 0.0][..],
+        )
         .unwrap();
-    if let Some(nodata) = nodata {
-        image.encoder().write_tag(Tag::GdalNodata, nodata).unwrap();
+    }
+    if !tags.keys.is_empty() {
+        let mut directory = vec![1, 1, 0, tags.keys.len() as u16];
+        for &(id, value) in tags.keys {
+            directory.extend([id, 0, 1, value]);
+        }
+        dir.write_tag(Tag::GeoKeyDirectoryTag, &directory[..])
+            .unwrap();
     }
     image.write_data(&data).unwrap();
 }
@@ -357,7 +380,12 @@ fn geotiff_with_gdal_scale_and_offset_gives_metres_and_compares_nodata_raw() {
             (i * 100 + j * 7) as u16
         }
     };
-    write_u16_tiff(&path, (40, 30), raw, metadata, Some("65535"));
+    let tags = Tags {
+        metadata: Some(metadata),
+        nodata: Some("65535"),
+        ..Tags::default()
+    };
+    write_u16_tiff(&path, (40, 30), raw, &tags);
     let reader = dem::open(&path, &options()).unwrap();
     assert!(
         reader
@@ -379,16 +407,86 @@ fn geotiff_with_gdal_scale_and_offset_gives_metres_and_compares_nodata_raw() {
 fn geotiff_whose_gdal_metadata_is_not_xml_is_refused_by_name() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("garbled.tif");
-    write_u16_tiff(
-        &path,
-        (8, 8),
-        |i, j| (i + j) as u16,
-        "<GDALMetadata><Item role=",
-        None,
-    );
+    let tags = Tags {
+        metadata: Some("<GDALMetadata><Item role="),
+        ..Tags::default()
+    };
+    write_u16_tiff(&path, (8, 8), |i, j| (i + j) as u16, &tags);
     let e = dem::open(&path, &options()).err().unwrap().to_string();
     assert!(
         e.contains("garbled.tif") && e.contains("GDAL_METADATA"),
         "{e}"
     );
+}
+
+/// A projected GeoTIFF of 20 x 10 samples, raw value `100 + i`, with `keys` and cells of
+/// `cell` file units whose first corner lies at `corner`; what the reader makes of it.
+fn projected(keys: &[(u16, u16)], cell: [f64; 2], corner: [f64; 2]) -> (dem::DemInfo, dem::Dem) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("projected.tif");
+    let tags = Tags {
+        georeference: Some((cell, corner)),
+        keys,
+        ..Tags::default()
+    };
+    write_u16_tiff(&path, (20, 10), |i, _| 100 + i as u16, &tags);
+    let reader = dem::open(&path, &options()).unwrap();
+    let info = reader.info().clone();
+    (info, reader.read_all().unwrap())
+}
+
+#[test]
+fn a_projected_grid_in_us_survey_feet_gets_metres_never_feet_taken_as_metres() {
+    // A state plane grid (EPSG:2926) of 3 ft cells, heights in feet.
+    let keys = [(1024, 1), (3072, 2926), (3076, 9003), (4099, 9003)];
+    let (info, dem) = projected(&keys, [3.0, 3.0], [1_000_000.0, 500_000.0]);
+    let foot = 1200.0 / 3937.0;
+    assert!(
+        (info.spacing_hint.unwrap() - 3.0 * foot).abs() < 1e-9,
+        "{info:?}"
+    );
+    let (x, y) = info.origin_hint.unwrap();
+    assert!((x - 1_000_001.5 * foot).abs() < 1e-6 && (y - 499_998.5 * foot).abs() < 1e-6);
+    assert!(
+        (dem.at(0, 0) - 100.0 * foot as f32).abs() < 1e-3,
+        "{}",
+        dem.at(0, 0)
+    );
+    let notes = info.notes.join("\n");
+    assert!(notes.contains("EPSG:2926 in US survey feet"), "{notes}");
+    assert!(notes.contains("heights in US survey feet"), "{notes}");
+}
+
+#[test]
+fn web_mercator_metres_become_ground_metres_at_the_grid_latitude() {
+    // 30 m Web Mercator cells around 46.85° N (northing 5,918,000).
+    let keys = [(1024, 1), (3072, 3857), (3076, 9001)];
+    let (info, _) = projected(&keys, [30.0, 30.0], [-13_500_000.0, 5_918_150.0]);
+    let latitude = (5_918_000.0f64 / 6_378_137.0).sinh().atan();
+    let spacing = info.spacing_hint.unwrap();
+    assert!((spacing - 30.0 * latitude.cos()).abs() < 0.01, "{spacing}");
+    assert!(
+        info.notes.iter().any(|n| n.contains("Web Mercator")),
+        "{:?}",
+        info.notes
+    );
+}
+
+#[test]
+fn a_projected_grid_in_an_unknown_unit_asks_for_the_spacing() {
+    let keys = [(1024, 1), (3072, 32610), (3076, 9036)];
+    let (info, _) = projected(&keys, [0.03, 0.03], [500.0, 5000.0]);
+    let problem = info.spacing_problem.expect("no spacing problem");
+    assert!(
+        problem.contains("9036") && problem.contains("--spacing"),
+        "{problem}"
+    );
+}
+
+#[test]
+fn a_projected_grid_of_oblong_cells_is_resampled_to_square_ones() {
+    let keys = [(1024, 1), (3072, 32610), (3076, 9001)];
+    let (info, _) = projected(&keys, [20.0, 30.0], [500_000.0, 5_000_000.0]);
+    assert_eq!(info.spacing_hint, Some(30.0));
+    assert!((info.east_west_scale - 2.0 / 3.0).abs() < 1e-12);
 }

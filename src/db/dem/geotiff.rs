@@ -75,7 +75,11 @@ impl TiffReader {
                 scaling.scale, scaling.offset
             ));
         }
-        georeference(&mut decoder, &mut info);
+        let vertical = georeference(&mut decoder, &mut info);
+        let scaling = Scaling {
+            scale: scaling.scale * vertical,
+            offset: scaling.offset * vertical,
+        };
         let (cw, ch) = decoder.chunk_dimensions();
         let (chunk_width, chunk_height) = (cw as usize, ch as usize);
         if chunk_width == 0 || chunk_height == 0 {
@@ -260,7 +264,7 @@ fn to_f32(chunk: DecodingResult, nodata: Option<f64>, scaling: Scaling) -> Vec<f
 
 /// Spacing (metres) and origin from the GeoTIFF pixel-scale, tie-point and GeoKey tags, into
 /// `info`; a geographic grid (degrees) gets metres on both axes ([`Geographic`]).
-fn georeference(decoder: &mut Decoder<BufReader<File>>, info: &mut DemInfo) {
+fn georeference(decoder: &mut Decoder<BufReader<File>>, info: &mut DemInfo) -> f64 {
     let scale = decoder.get_tag_f64_vec(Tag::ModelPixelScaleTag).ok();
     let tie = decoder.get_tag_f64_vec(Tag::ModelTiepointTag).ok();
     let keys = decoder
@@ -274,8 +278,9 @@ fn georeference(decoder: &mut Decoder<BufReader<File>>, info: &mut DemInfo) {
     };
     let geographic = key(1024) == Some(2);
     let pixel_is_point = key(1025) == Some(2);
+    let vertical = vertical_unit(info, key(4099));
     let Some(scale) = scale.filter(|s| s.len() >= 2 && s[0] > 0.0 && s[1] > 0.0) else {
-        return;
+        return vertical;
     };
     // The tie point's world position of sample (0, 0)'s centre, in the file's units.
     let corner = match tie {
@@ -289,9 +294,8 @@ fn georeference(decoder: &mut Decoder<BufReader<File>>, info: &mut DemInfo) {
         _ => None,
     };
     if !geographic {
-        info.spacing_hint = Some(scale[0]).filter(|s| s.is_finite());
-        info.origin_hint = corner.filter(|(x, y)| x.is_finite() && y.is_finite());
-        return;
+        projected(info, key, scale[0], scale[1], corner);
+        return vertical;
     }
     let grid = corner.map(|(west, north)| Geographic {
         cell_x: scale[0],
@@ -309,6 +313,89 @@ fn georeference(decoder: &mut Decoder<BufReader<File>>, info: &mut DemInfo) {
             ));
         }
     }
+    vertical
+}
+
+/// Metres per unit of the linear units GeoTIFF names by EPSG code: metre, foot, US survey foot.
+fn metres_per_unit(code: u16) -> Option<(f64, &'static str)> {
+    match code {
+        9001 => Some((1.0, "metres")),
+        9002 => Some((0.3048, "feet")),
+        9003 => Some((1200.0 / 3937.0, "US survey feet")),
+        _ => None,
+    }
+}
+
+/// The heights' metres per unit from the vertical units key (`VerticalUnitsGeoKey`), with a note
+/// when they are not metres; 1 when the file does not say.
+fn vertical_unit(info: &mut DemInfo, code: Option<u16>) -> f64 {
+    let Some(code) = code else { return 1.0 };
+    match metres_per_unit(code) {
+        Some((1.0, _)) => 1.0,
+        Some((factor, unit)) => {
+            info.notes.push(format!(
+                "heights in {unit} (the file's vertical unit): converted to metres (x {factor:.7})"
+            ));
+            factor
+        }
+        None => {
+            info.notes.push(format!(
+                "vertical unit code {code} unknown: heights taken as metres (--vertical-scale sets metres per unit)"
+            ));
+            1.0
+        }
+    }
+}
+
+/// The EPSG codes of Web Mercator, whose "metres" are ground metres over the cosine of the
+/// latitude.
+const WEB_MERCATOR: [u16; 2] = [3857, 3785];
+
+/// Spacing and origin of a projected grid of `cell_x x cell_y` cells whose first sample's
+/// centre lies at `corner`, in the file's linear units: converted to metres (feet are not taken
+/// as metres), Web Mercator's scale undone at the grid's latitude, the CRS noted as read.
+fn projected(
+    info: &mut DemInfo,
+    key: impl Fn(u16) -> Option<u16>,
+    cell_x: f64,
+    cell_y: f64,
+    corner: Option<(f64, f64)>,
+) {
+    let crs = key(3072).map_or("a projected CRS".to_string(), |c| format!("EPSG:{c}"));
+    let unit = key(3076).unwrap_or(9001);
+    let Some((to_metres, unit_name)) = metres_per_unit(unit) else {
+        info.spacing_problem = Some(format!(
+            "{crs} in linear unit {unit} (GeoTIFF ProjLinearUnitsGeoKey), neither metres nor \
+             feet; pass --spacing METRES"
+        ));
+        return;
+    };
+    let mut factor = to_metres;
+    if to_metres != 1.0 {
+        info.notes.push(format!(
+            "{crs} in {unit_name}: spacing and origin converted to metres (x {to_metres:.7})"
+        ));
+    }
+    if let (Some(code), Some((_, north))) = (key(3072), corner)
+        && WEB_MERCATOR.contains(&code)
+    {
+        let centre = north - cell_y * (info.height.saturating_sub(1) as f64) / 2.0;
+        let latitude = (centre * to_metres / 6_378_137.0).sinh().atan();
+        factor *= latitude.cos();
+        info.notes.push(format!(
+            "{crs} (Web Mercator): its metres are {:.3} ground metres at the grid's latitude \
+             ({:.2}°); spacing and origin scaled to ground metres",
+            latitude.cos(),
+            latitude.to_degrees()
+        ));
+    }
+    info.spacing_hint = Some(cell_y * factor).filter(|s| s.is_finite() && *s > 0.0);
+    if (cell_x - cell_y).abs() > 1e-9 * cell_y {
+        info.east_west_scale = cell_x / cell_y;
+    }
+    info.origin_hint = corner
+        .map(|(x, y)| (x * factor, y * factor))
+        .filter(|(x, y)| x.is_finite() && y.is_finite());
 }
 
 impl DemReader for TiffReader {

@@ -8,7 +8,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use stripmask::Named;
 use stripmask::db::archive::Codec;
 use stripmask::db::builder::{BuildOptions, BuildReport, build_file};
-use stripmask::db::dem::{DemFormat, OpenOptions, RawLayout, SampleType};
+use stripmask::db::dem::{DemFormat, HeightEncoding, OpenOptions, RawLayout, SampleType};
 use stripmask::error::{Error, Result};
 
 use super::args::named;
@@ -24,6 +24,10 @@ pub(super) struct BuildArgs {
     /// Input format (default: from the extension).
     #[arg(long, value_parser = named::<DemFormat>())]
     format: Option<DemFormat>,
+    /// How a PNG's pixels hold heights: gray levels, or the web maps' Mapbox Terrain-RGB or
+    /// Terrarium tiles (heights in metres).
+    #[arg(long, value_parser = named::<HeightEncoding>(), default_value = HeightEncoding::Gray.name())]
+    encoding: HeightEncoding,
     /// Raw/BIL: samples per row.
     #[arg(long, requires_all = ["height", "sample_type"])]
     width: Option<usize>,
@@ -93,6 +97,7 @@ impl BuildArgs {
             format: self.format,
             raw,
             nodata: self.nodata,
+            encoding: self.encoding,
         }
     }
 

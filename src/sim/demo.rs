@@ -177,14 +177,7 @@ pub fn run_live(o: &DemoOptions, live: Option<LiveView<'_>>) -> Result<DemoSumma
         None
     } else {
         let open = || match &o.dem {
-            Some(path) => dem::open(
-                path,
-                &OpenOptions {
-                    format: None,
-                    raw: None,
-                    nodata: None,
-                },
-            ),
+            Some(path) => dem::open(path, &OpenOptions::default()),
             None => dem::open_png_bytes(DEM_NAME, DEM_PNG),
         };
         let model = open()?.info().name.clone();

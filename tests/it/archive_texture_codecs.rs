@@ -21,15 +21,7 @@ fn payload_parts_compress_and_jpeg_textures_decode_to_similar_colours() {
     let dir = tempfile::tempdir().unwrap();
     let input =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/data/puget_sound_1k_height.png");
-    let reader = dem::open(
-        &input,
-        &OpenOptions {
-            format: None,
-            raw: None,
-            nodata: None,
-        },
-    )
-    .unwrap();
+    let reader = dem::open(&input, &OpenOptions::default()).unwrap();
     let out = dir.path().join("p.smdb");
     let options = BuildOptions {
         spacing: Some(160.0),

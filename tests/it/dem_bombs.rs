@@ -7,11 +7,7 @@ use std::path::Path;
 use stripmask::db::dem::{self, OpenOptions};
 
 fn options() -> OpenOptions {
-    OpenOptions {
-        format: None,
-        raw: None,
-        nodata: None,
-    }
+    OpenOptions::default()
 }
 
 /// A 64 x 64 16-bit uncompressed TIFF in 64 one-row strips; `shared` points every strip at

@@ -57,11 +57,7 @@ fn filled(i: usize, j: usize, holes: bool) -> f32 {
 }
 
 fn options() -> OpenOptions {
-    OpenOptions {
-        format: None,
-        raw: None,
-        nodata: None,
-    }
+    OpenOptions::default()
 }
 
 /// Reads `path` and compares every sample with the truth (filled where the fixture has holes).
@@ -169,6 +165,7 @@ fn bil_with_explicit_layout_and_nodata_option() {
             header_bytes: 0,
         }),
         nodata: Some(-9999.0),
+        ..OpenOptions::default()
     };
     check(&fixture("int16_bil.bil"), &opts, true);
 }
@@ -244,6 +241,7 @@ fn eight_bit_png_and_big_endian_raw() {
             header_bytes: 8,
         }),
         nodata: None,
+        ..OpenOptions::default()
     };
     let dem = dem::open(&raw, &opts).unwrap().read_all().unwrap();
     assert_eq!(dem.samples, vec![-2.0, -0.5, 1.0, 2.5, 4.0, 5.5]);
@@ -291,6 +289,7 @@ fn bad_inputs_name_the_file_and_the_problem() {
         format: Some(DemFormat::Raw),
         raw: Some(raw),
         nodata: None,
+        ..OpenOptions::default()
     };
     let e = err(&fixture("int16_bil.bil"), &opts);
     assert!(
@@ -489,4 +488,80 @@ fn a_projected_grid_of_oblong_cells_is_resampled_to_square_ones() {
     let (info, _) = projected(&keys, [20.0, 30.0], [500_000.0, 5_000_000.0]);
     assert_eq!(info.spacing_hint, Some(30.0));
     assert!((info.east_west_scale - 2.0 / 3.0).abs() < 1e-12);
+}
+
+/// Writes an RGB PNG of `w x h` pixels `rgb(i, j)`.
+fn write_rgb_png(path: &Path, (w, h): (u32, u32), rgb: impl Fn(u32, u32) -> [u8; 3]) {
+    image::RgbImage::from_fn(w, h, |i, j| image::Rgb(rgb(i, j)))
+        .save(path)
+        .unwrap();
+}
+
+#[test]
+fn terrain_rgb_and_terrarium_tiles_decode_to_metres() {
+    use stripmask::db::dem::HeightEncoding;
+    let dir = tempfile::tempdir().unwrap();
+    // Terrain-RGB: 0 m is 100,000 tenths, (1, 134, 160); Rainier's 4,392 m is (2, 50, 48).
+    let path = dir.path().join("terrain-rgb.png");
+    write_rgb_png(&path, (20, 10), |i, _| {
+        if i < 10 { [1, 134, 160] } else { [2, 50, 48] }
+    });
+    let opts = OpenOptions {
+        encoding: HeightEncoding::TerrainRgb,
+        ..OpenOptions::default()
+    };
+    let reader = dem::open(&path, &opts).unwrap();
+    assert!(
+        reader
+            .info()
+            .notes
+            .iter()
+            .any(|n| n.contains("terrain-rgb")),
+        "{:?}",
+        reader.info().notes
+    );
+    let dem = reader.read_all().unwrap();
+    assert!((dem.at(0, 0) - 0.0).abs() < 1e-3, "{}", dem.at(0, 0));
+    assert!((dem.at(19, 9) - 4392.0).abs() < 1e-2, "{}", dem.at(19, 9));
+    // Terrarium: -10.5 m below the sea is (127, 245, 128).
+    let path = dir.path().join("terrarium.png");
+    write_rgb_png(&path, (4, 4), |_, _| [127, 245, 128]);
+    let opts = OpenOptions {
+        encoding: HeightEncoding::Terrarium,
+        ..OpenOptions::default()
+    };
+    let dem = dem::open(&path, &opts).unwrap().read_all().unwrap();
+    assert_eq!(dem.at(2, 2), -10.5);
+    // The same colour tile read as gray is refused, naming a pixel.
+    let e = dem::open(&path, &options())
+        .unwrap()
+        .read_all()
+        .err()
+        .unwrap();
+    assert!(e.to_string().contains("colour image"), "{e}");
+}
+
+#[test]
+fn an_encoding_on_a_gray_png_or_another_format_is_refused_by_name() {
+    use stripmask::db::dem::HeightEncoding;
+    let opts = OpenOptions {
+        encoding: HeightEncoding::TerrainRgb,
+        ..OpenOptions::default()
+    };
+    let e = dem::open(&fixture("uint16.png"), &opts)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("uint16.png") && e.contains("8-bit red, green and blue"),
+        "{e}"
+    );
+    let e = dem::open(&fixture("uint16_lzw_tiled.tif"), &opts)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("uint16_lzw_tiled.tif") && e.contains("for PNG"),
+        "{e}"
+    );
 }

@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use proptest::prelude::*;
-use stripmask::db::dem::{self, DemFormat, OpenOptions, RawLayout, SampleType};
+use stripmask::db::dem::{self, DemFormat, HeightEncoding, OpenOptions, RawLayout, SampleType};
 
 fn cases() -> u32 {
     std::env::var("PROPTEST_CASES")
@@ -73,6 +73,11 @@ fn scaled_tiff(metadata: &str) -> Vec<u8> {
 
 /// Opens `bytes` as a file with extension `ext` and reads up to 64 rows.
 fn read_some(bytes: &[u8], ext: &str) {
+    read_encoded(bytes, ext, HeightEncoding::Gray);
+}
+
+/// [`read_some`] with the pixels' height encoding.
+fn read_encoded(bytes: &[u8], ext: &str, encoding: HeightEncoding) {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join(format!("m.{ext}"));
     std::fs::write(&path, bytes).unwrap();
@@ -91,6 +96,7 @@ fn read_some(bytes: &[u8], ext: &str) {
         },
         raw: Some(raw),
         nodata: Some(-9999.0),
+        encoding,
     };
     if let Ok(mut reader) = dem::open(&path, &opts) {
         let info = reader.info().clone();
@@ -126,6 +132,19 @@ proptest! {
             b.truncate((c * b.len() as f64) as usize);
         }
         read_some(&b, ext);
+    }
+
+    #[test]
+    fn mutated_colour_tiles_read_as_web_map_heights_never_panic(
+        encoding in prop::sample::select(vec![HeightEncoding::TerrainRgb, HeightEncoding::Terrarium]),
+        edits in proptest::collection::vec((0.0..1.0f64, any::<u8>()), 0..10),
+    ) {
+        let mut b = fixture("rgb.png");
+        for (at, v) in edits {
+            let i = ((at * b.len() as f64) as usize).min(b.len() - 1);
+            b[i] = v;
+        }
+        read_encoded(&b, "png", encoding);
     }
 
     #[test]

@@ -71,11 +71,7 @@ impl Model {
 fn puget(dir: &Path) -> Model {
     let input =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/data/puget_sound_1k_height.png");
-    let open = OpenOptions {
-        format: None,
-        raw: None,
-        nodata: None,
-    };
+    let open = OpenOptions::default();
     let path = dir.join("puget.smdb");
     let options = BuildOptions {
         tile_size: 65,

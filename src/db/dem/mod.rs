@@ -194,8 +194,39 @@ pub struct RawLayout {
     pub header_bytes: u64,
 }
 
+/// How heights are stored in an image's pixels.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum HeightEncoding {
+    /// One gray level a height unit (or RGB with equal channels).
+    #[default]
+    Gray,
+    /// Mapbox Terrain-RGB: `-10000 + (R × 65536 + G × 256 + B) × 0.1` metres.
+    TerrainRgb,
+    /// Mapzen / AWS Terrarium: `R × 256 + G + B / 256 − 32768` metres.
+    Terrarium,
+}
+
+named_enum!(HeightEncoding, "height encoding", {
+    Gray => "gray",
+    TerrainRgb => "terrain-rgb",
+    Terrarium => "terrarium",
+});
+
+impl HeightEncoding {
+    /// The height in metres of an 8-bit pixel `rgb` (red for gray).
+    pub fn decode(self, [r, g, b]: [u8; 3]) -> f32 {
+        let (r, g, b) = (f64::from(r), f64::from(g), f64::from(b));
+        let metres = match self {
+            HeightEncoding::Gray => r,
+            HeightEncoding::TerrainRgb => -10_000.0 + (r * 65_536.0 + g * 256.0 + b) * 0.1,
+            HeightEncoding::Terrarium => r * 256.0 + g + b / 256.0 - 32_768.0,
+        };
+        metres as f32
+    }
+}
+
 /// How to read a DEM file.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct OpenOptions {
     /// The format; `None` guesses it from the extension.
     pub format: Option<DemFormat>,
@@ -203,6 +234,8 @@ pub struct OpenOptions {
     pub raw: Option<RawLayout>,
     /// A nodata value that overrides (or adds to) what the file says.
     pub nodata: Option<f32>,
+    /// How a PNG's pixels hold heights.
+    pub encoding: HeightEncoding,
 }
 
 /// Opens a DEM file for streaming, with the nodata fill applied.
@@ -221,8 +254,18 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<NodataFill<Box<dyn Dem
             ));
         }
     };
+    if options.encoding != HeightEncoding::Gray && format != DemFormat::Png {
+        return Err(Error::invalid(
+            name,
+            format!(
+                "--encoding {} is for PNG height tiles, and this is a {} file",
+                options.encoding.name(),
+                format.name()
+            ),
+        ));
+    }
     let reader: Box<dyn DemReader> = match format {
-        DemFormat::Png => Box::new(png::PngReader::open(path)?),
+        DemFormat::Png => Box::new(png::PngReader::open(path)?.with_encoding(options.encoding)?),
         DemFormat::Jpeg => Box::new(jpeg::JpegReader::open(path)?),
         DemFormat::Tiff => Box::new(geotiff::TiffReader::open(path)?),
         DemFormat::Hgt => Box::new(hgt::open(path)?),

@@ -1,5 +1,6 @@
 //! PNG height maps (8 or 16 bits), decoded a row at a time: grayscale (with or without alpha),
-//! or RGB(A) whose three colour channels are equal in every pixel; alpha is ignored.
+//! or RGB(A) whose three colour channels are equal in every pixel, or 8-bit RGB(A) tiles of
+//! the web maps' height encodings (Terrain-RGB, Terrarium); alpha is ignored.
 
 use std::fs::File;
 use std::io::{BufRead, BufReader, Cursor, Seek};
@@ -7,8 +8,9 @@ use std::path::Path;
 
 use png::{BitDepth, ColorType, Transformations};
 
-use super::{DemInfo, DemReader, check_claim, check_dimensions};
+use super::{DemInfo, DemReader, HeightEncoding, check_claim, check_dimensions};
 use crate::error::{Error, Result};
+use crate::named::Named;
 
 /// What `build` says about an 8-bit height map: 256 levels, scaled by `--vertical-scale`.
 pub(crate) const EIGHT_BIT_NOTE: &str =
@@ -29,6 +31,8 @@ pub struct PngReader<R: BufRead + Seek = BufReader<File>> {
     sixteen_bit: bool,
     /// Samples per pixel: 1 gray, 2 gray + alpha, 3 RGB, 4 RGBA.
     channels: usize,
+    /// How the pixels hold heights.
+    encoding: HeightEncoding,
     /// The whole image, for interlaced files only.
     frame: Option<Vec<u8>>,
     next_row: usize,
@@ -112,9 +116,34 @@ impl<R: BufRead + Seek> PngReader<R> {
             decoder: reader,
             sixteen_bit,
             channels,
+            encoding: HeightEncoding::Gray,
             frame,
             next_row: 0,
         })
+    }
+
+    /// Reads heights stored as `encoding` (8-bit RGB for the web maps' encodings).
+    pub fn with_encoding(mut self, encoding: HeightEncoding) -> Result<Self> {
+        if encoding != HeightEncoding::Gray {
+            if self.channels < 3 || self.sixteen_bit {
+                return Err(Error::invalid(
+                    &self.info.name,
+                    format!(
+                        "a {} PNG has 8-bit red, green and blue channels; this one has {} {}-bit channel(s)",
+                        encoding.name(),
+                        self.channels,
+                        if self.sixteen_bit { 16 } else { 8 }
+                    ),
+                ));
+            }
+            self.info.notes.retain(|n| n != EIGHT_BIT_NOTE);
+            self.info.notes.push(format!(
+                "heights decoded from {} pixels, in metres",
+                encoding.name()
+            ));
+        }
+        self.encoding = encoding;
+        Ok(self)
     }
 }
 
@@ -161,6 +190,13 @@ impl<R: BufRead + Seek> DemReader for PngReader<R> {
                 f32::from(b[0])
             }
         };
+        if self.encoding != HeightEncoding::Gray {
+            for (v, p) in row.iter_mut().zip(data.chunks_exact(pixel)) {
+                *v = self.encoding.decode([p[0], p[1], p[2]]);
+            }
+            self.next_row += 1;
+            return Ok(());
+        }
         for (i, (v, p)) in row.iter_mut().zip(data.chunks_exact(pixel)).enumerate() {
             *v = sample(p);
             if self.channels >= 3 {

@@ -565,3 +565,61 @@ fn an_encoding_on_a_gray_png_or_another_format_is_refused_by_name() {
         "{e}"
     );
 }
+
+/// The bytes of a 33 x 33 SRTM tile: `(i * 10 + j) - 50` metres.
+fn hgt_bytes() -> Vec<u8> {
+    (0..33 * 33)
+        .flat_map(|k: i16| ((k % 33) * 10 + k / 33 - 50).to_be_bytes())
+        .collect()
+}
+
+/// Writes a zip holding `entries` (name, bytes), DEFLATE-compressed.
+fn write_zip(path: &Path, entries: &[(&str, &[u8])]) {
+    use std::io::Write;
+    let mut zip = zip::ZipWriter::new(std::fs::File::create(path).unwrap());
+    let options = zip::write::SimpleFileOptions::default()
+        .compression_method(zip::CompressionMethod::Deflated);
+    for (name, bytes) in entries {
+        zip.start_file(*name, options).unwrap();
+        zip.write_all(bytes).unwrap();
+    }
+    zip.finish().unwrap();
+}
+
+#[test]
+fn a_zipped_srtm_tile_reads_as_its_hgt_and_is_placed_by_its_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let bytes = hgt_bytes();
+    let plain = dir.path().join("N46W122.hgt");
+    std::fs::write(&plain, &bytes).unwrap();
+    let zipped = dir.path().join("N46W122.SRTMGL1.hgt.zip");
+    write_zip(&zipped, &[("N46W122.hgt", &bytes)]);
+    let a = dem::open(&plain, &options()).unwrap();
+    let b = dem::open(&zipped, &options()).unwrap();
+    assert_eq!(a.info().spacing_hint, b.info().spacing_hint);
+    assert_eq!(a.info().origin_hint, b.info().origin_hint);
+    assert!(b.info().origin_hint.is_some());
+    let (a, b) = (a.read_all().unwrap(), b.read_all().unwrap());
+    assert_eq!(a.samples, b.samples);
+    assert_eq!(b.at(32, 1), 32.0 * 10.0 + 1.0 - 50.0);
+}
+
+#[test]
+fn a_zip_without_one_tile_or_with_a_short_one_is_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let two = dir.path().join("two.hgt.zip");
+    write_zip(&two, &[("N1E1.hgt", &[0; 8]), ("N2E2.hgt", &[0; 8])]);
+    let e = dem::open(&two, &options()).err().unwrap().to_string();
+    assert!(e.contains("two.hgt.zip") && e.contains("holds 2"), "{e}");
+    let odd = dir.path().join("N46W122.hgt.zip");
+    write_zip(&odd, &[("N46W122.hgt", &[0; 7])]);
+    let e = dem::open(&odd, &options()).err().unwrap().to_string();
+    assert!(
+        e.contains("N46W122.hgt.zip") && e.contains("not a square"),
+        "{e}"
+    );
+    let garbage = dir.path().join("N46W122.SRTMGL1.hgt.zip");
+    std::fs::write(&garbage, b"PK\x03\x04 not really").unwrap();
+    let e = dem::open(&garbage, &options()).err().unwrap().to_string();
+    assert!(e.contains("not a readable zip"), "{e}");
+}

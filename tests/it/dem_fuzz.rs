@@ -13,9 +13,10 @@ fn cases() -> u32 {
         .unwrap_or(48)
 }
 
-const FIXTURES: [(&str, &str); 12] = [
+const FIXTURES: [(&str, &str); 13] = [
     ("int16_deflate_pred2_nodata.tif", "tif"),
     ("scaled.tif", "tif"),
+    ("tile.hgt.zip", "hgt.zip"),
     ("uint16_lzw_tiled.tif", "tif"),
     ("int32_packbits.tif", "tif"),
     ("float32_deflate_pred3_tiled_nodata.tif", "tif"),
@@ -34,6 +35,9 @@ fn fixture(name: &str) -> Vec<u8> {
     if name == "scaled.tif" {
         return scaled_tiff(SCALED);
     }
+    if name == "tile.hgt.zip" {
+        return zipped_tile();
+    }
     let format = match name {
         "rgb.png" => Some(image::ImageFormat::Png),
         "rgb.jpg" => Some(image::ImageFormat::Jpeg),
@@ -51,6 +55,21 @@ fn fixture(name: &str) -> Vec<u8> {
             .join(name),
     )
     .unwrap()
+}
+
+/// A zipped 17 x 17 SRTM tile.
+fn zipped_tile() -> Vec<u8> {
+    use std::io::Write;
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    let mut zip = zip::ZipWriter::new(&mut bytes);
+    let options = zip::write::SimpleFileOptions::default()
+        .compression_method(zip::CompressionMethod::Deflated);
+    zip.start_file("N46W122.hgt", options).unwrap();
+    for k in 0..17 * 17i16 {
+        zip.write_all(&(k * 3 - 100).to_be_bytes()).unwrap();
+    }
+    zip.finish().unwrap();
+    bytes.into_inner()
 }
 
 /// GDAL's metadata of a band of decimetres from -200 m.

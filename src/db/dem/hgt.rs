@@ -1,12 +1,15 @@
 //! SRTM `.hgt` tiles: square grids of big-endian i16, -32768 = void; read as raw grids whose
-//! side comes from the file length. A tile spans one degree; its name (`N47W123.hgt`) gives its
-//! south-west corner, hence its latitude and the east-west spacing.
+//! side comes from the file length. A tile spans one degree; its name (`N47W123.hgt`,
+//! `N47W123.SRTMGL1.hgt.zip` as distributed) gives its south-west corner, hence its latitude
+//! and the east-west spacing.
 
+use std::fs::File;
+use std::io::{BufReader, Cursor, Read};
 use std::path::Path;
 
 use super::geographic::Geographic;
 use super::raw::RawReader;
-use super::{METRES_PER_DEGREE, RawLayout, SampleType};
+use super::{METRES_PER_DEGREE, RawLayout, SampleType, check_dimensions};
 use crate::error::{Error, Result};
 
 /// The SRTM void value.
@@ -19,26 +22,96 @@ pub fn open(path: &Path) -> Result<RawReader> {
     let len = std::fs::metadata(path)
         .map_err(|e| Error::io(&name, e))?
         .len();
-    let samples = len / 2;
-    let side = (samples as f64).sqrt().round() as u64;
-    if len % 2 != 0 || side * side != samples {
+    let side = side(&name, len)?;
+    Ok(place(RawReader::open(path, layout(side))?, side, path))
+}
+
+/// The largest side of a zipped tile, which is held whole once unzipped (100 MiB).
+const MAX_ZIPPED_SIDE: usize = 7201;
+
+/// Opens an SRTM tile as distributed, zipped (`N46W122.SRTMGL1.hgt.zip`): the one `.hgt` file
+/// inside, unzipped into memory, placed by the zip's name (or the file's inside).
+pub fn open_zip(path: &Path) -> Result<RawReader> {
+    let name = path.display().to_string();
+    let file = File::open(path).map_err(|e| Error::io(&name, e))?;
+    let bad = |e: zip::result::ZipError| Error::invalid(&name, format!("not a readable zip: {e}"));
+    let mut archive = zip::ZipArchive::new(BufReader::new(file)).map_err(bad)?;
+    let tiles: Vec<String> = archive
+        .file_names()
+        .filter(|n| n.to_ascii_lowercase().ends_with(".hgt"))
+        .map(String::from)
+        .collect();
+    let [inner] = tiles.as_slice() else {
         return Err(Error::invalid(
             &name,
+            format!(
+                "a zipped SRTM tile holds one .hgt file, this zip holds {}",
+                tiles.len()
+            ),
+        ));
+    };
+    let mut entry = archive.by_name(inner).map_err(bad)?;
+    let len = entry.size();
+    let side = self::side(&name, len)?;
+    if side > MAX_ZIPPED_SIDE {
+        return Err(Error::invalid(
+            &name,
+            format!(
+                "{inner} is {side} x {side} samples, more than a zipped tile is read whole ({MAX_ZIPPED_SIDE} x {MAX_ZIPPED_SIDE})"
+            ),
+        ));
+    }
+    let mut bytes = Vec::with_capacity(len as usize);
+    (&mut entry)
+        .take(len)
+        .read_to_end(&mut bytes)
+        .map_err(|e| Error::invalid(&name, format!("corrupt zip entry {inner}: {e}")))?;
+    if bytes.len() as u64 != len {
+        return Err(Error::invalid(
+            &name,
+            format!("{inner} ends after {} of its {len} bytes", bytes.len()),
+        ));
+    }
+    let reader = RawReader::from_read(&name, Box::new(Cursor::new(bytes)), layout(side));
+    let named = if south_west(path).is_some() {
+        path
+    } else {
+        Path::new(inner.as_str())
+    };
+    Ok(place(reader, side, named))
+}
+
+/// The side of a square grid of 16-bit samples `len` bytes long.
+fn side(name: &str, len: u64) -> Result<usize> {
+    let samples = len / 2;
+    let side = (samples as f64).sqrt().round() as u64;
+    if len % 2 != 0 || side * side != samples || side < 2 {
+        return Err(Error::invalid(
+            name,
             format!(
                 "{len} bytes is not a square grid of 16-bit samples (SRTM3 is 1201 x 1201, SRTM1 3601 x 3601)"
             ),
         ));
     }
-    let side = side as usize;
-    let layout = RawLayout {
+    check_dimensions(name, side as usize, side as usize)?;
+    Ok(side as usize)
+}
+
+/// The layout of an SRTM tile of `side` x `side` samples.
+fn layout(side: usize) -> RawLayout {
+    RawLayout {
         width: side,
         height: side,
         sample_type: SampleType::I16,
         big_endian: true,
         header_bytes: 0,
-    };
+    }
+}
+
+/// Marks SRTM voids and places the tile by the name `path` gives it.
+fn place(reader: RawReader, side: usize, path: &Path) -> RawReader {
     // 1201 samples span 1 degree at 3 arc-seconds (~90 m); 3601 at 1 arc-second (~30 m).
-    let mut reader = RawReader::open(path, layout)?.with_void(f32::from(HGT_VOID));
+    let mut reader = reader.with_void(f32::from(HGT_VOID));
     let cell = 1.0 / (side.max(2) - 1) as f64;
     let info = reader.info_mut();
     match south_west(path) {
@@ -59,7 +132,7 @@ pub fn open(path: &Path) -> Result<RawReader> {
             );
         }
     }
-    Ok(reader)
+    reader
 }
 
 /// The south-west corner (latitude, longitude) an SRTM file name such as `N47W123.hgt` gives,

@@ -160,6 +160,16 @@ impl DemFormat {
             "jpg" | "jpeg" => DemFormat::Jpeg,
             "tif" | "tiff" => DemFormat::Tiff,
             "hgt" => DemFormat::Hgt,
+            // SRTM tiles as distributed: `N46W122.SRTMGL1.hgt.zip`.
+            "zip"
+                if path
+                    .file_stem()?
+                    .to_str()?
+                    .to_ascii_lowercase()
+                    .ends_with(".hgt") =>
+            {
+                DemFormat::Hgt
+            }
             "asc" => DemFormat::Asc,
             "raw" | "bil" | "bin" | "r16" | "r32" => DemFormat::Raw,
             _ => return None,
@@ -268,6 +278,7 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<NodataFill<Box<dyn Dem
         DemFormat::Png => Box::new(png::PngReader::open(path)?.with_encoding(options.encoding)?),
         DemFormat::Jpeg => Box::new(jpeg::JpegReader::open(path)?),
         DemFormat::Tiff => Box::new(geotiff::TiffReader::open(path)?),
+        DemFormat::Hgt if is_zip(path) => Box::new(hgt::open_zip(path)?),
         DemFormat::Hgt => Box::new(hgt::open(path)?),
         DemFormat::Asc => Box::new(asc::AscReader::open(path)?),
         DemFormat::Raw => {
@@ -281,6 +292,13 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<NodataFill<Box<dyn Dem
         }
     };
     Ok(NodataFill::new(reader, options.nodata))
+}
+
+/// Whether `path` names a zip file.
+fn is_zip(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("zip"))
 }
 
 /// Opens a grayscale PNG held in the program itself (the demo's model), called `name` in

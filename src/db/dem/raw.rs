@@ -13,7 +13,7 @@ pub struct RawReader {
     layout: RawLayout,
     /// A sample value that the format itself reserves for "no data" (e.g. SRTM's -32768).
     void: Option<f32>,
-    file: BufReader<File>,
+    file: Box<dyn Read + Send>,
     buf: Vec<u8>,
 }
 
@@ -24,30 +24,46 @@ impl RawReader {
         check_dimensions(&name, layout.width, layout.height)?;
         let mut file = File::open(path).map_err(|e| Error::io(&name, e))?;
         let len = file.metadata().map_err(|e| Error::io(&name, e))?.len();
-        let expected = (layout.width as u64)
-            .checked_mul(layout.height as u64)
-            .and_then(|n| n.checked_mul(layout.sample_type.size() as u64))
-            .and_then(|n| n.checked_add(layout.header_bytes))
-            .ok_or_else(|| Error::invalid(&name, "dimensions overflow"))?;
-        if len != expected {
-            return Err(Error::invalid(
-                &name,
-                format!(
-                    "file is {len} bytes but {} x {} {:?} samples after a {}-byte header need {expected}",
-                    layout.width, layout.height, layout.sample_type, layout.header_bytes
-                ),
-            ));
-        }
+        check_length(&name, len, layout)?;
         file.seek(SeekFrom::Start(layout.header_bytes))
             .map_err(|e| Error::io(&name, e))?;
-        Ok(RawReader {
-            info: DemInfo::new(&name, layout.width, layout.height),
+        Ok(RawReader::from_read(
+            &name,
+            Box::new(BufReader::new(file)),
+            layout,
+        ))
+    }
+
+    /// Reads the samples `input` yields, called `name` in messages; the caller has checked
+    /// that it holds exactly the layout's bytes after its header (which is skipped already).
+    pub(crate) fn from_read(name: &str, input: Box<dyn Read + Send>, layout: RawLayout) -> Self {
+        RawReader {
+            info: DemInfo::new(name, layout.width, layout.height),
             layout,
             void: None,
-            file: BufReader::new(file),
+            file: input,
             buf: vec![0; layout.width * layout.sample_type.size()],
-        })
+        }
     }
+}
+
+/// Checks that `len` bytes are exactly what `layout` needs.
+pub(crate) fn check_length(name: &str, len: u64, layout: RawLayout) -> Result<()> {
+    let expected = (layout.width as u64)
+        .checked_mul(layout.height as u64)
+        .and_then(|n| n.checked_mul(layout.sample_type.size() as u64))
+        .and_then(|n| n.checked_add(layout.header_bytes))
+        .ok_or_else(|| Error::invalid(name, "dimensions overflow"))?;
+    if len != expected {
+        return Err(Error::invalid(
+            name,
+            format!(
+                "file is {len} bytes but {} x {} {:?} samples after a {}-byte header need {expected}",
+                layout.width, layout.height, layout.sample_type, layout.header_bytes
+            ),
+        ));
+    }
+    Ok(())
 }
 
 impl RawReader {

@@ -623,3 +623,41 @@ fn a_zip_without_one_tile_or_with_a_short_one_is_refused_by_name() {
     let e = dem::open(&garbage, &options()).err().unwrap().to_string();
     assert!(e.contains("not a readable zip"), "{e}");
 }
+
+/// Sets the byte count (and offset) of strip `strip` of the little-endian TIFF at `path` to 0,
+/// as GDAL's sparse files store a strip that is all nodata.
+fn empty_strip(path: &Path, strip: usize) {
+    let mut b = std::fs::read(path).unwrap();
+    let u16_at = |b: &[u8], at: usize| u16::from_le_bytes([b[at], b[at + 1]]);
+    let u32_at = |b: &[u8], at: usize| u32::from_le_bytes(b[at..at + 4].try_into().unwrap());
+    assert_eq!(&b[..4], b"II*\0");
+    let ifd = u32_at(&b, 4) as usize;
+    for e in 0..usize::from(u16_at(&b, ifd)) {
+        let entry = ifd + 2 + 12 * e;
+        if matches!(u16_at(&b, entry), 273 | 279) {
+            let size = if u16_at(&b, entry + 2) == 3 { 2 } else { 4 };
+            let at = u32_at(&b, entry + 8) as usize + strip * size;
+            b[at..at + size].fill(0);
+        }
+    }
+    std::fs::write(path, b).unwrap();
+}
+
+#[test]
+fn a_sparse_geotiff_reads_its_empty_strips_as_nodata() {
+    use tiff::encoder::{TiffEncoder, colortype::Gray16};
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("sparse.tif");
+    let (w, h) = (16u32, 12u32);
+    let data: Vec<u16> = (0..w * h).map(|k| 100 + (k % w) as u16).collect();
+    let mut encoder = TiffEncoder::new(std::fs::File::create(&path).unwrap()).unwrap();
+    let mut image = encoder.new_image::<Gray16>(w, h).unwrap();
+    image.rows_per_strip(4).unwrap();
+    image.write_data(&data).unwrap();
+    drop(encoder);
+    empty_strip(&path, 2);
+    let dem = dem::open(&path, &options()).unwrap().read_all().unwrap();
+    // Rows 8 .. 12 had no bytes: nodata, filled from the rows above.
+    assert_eq!(dem.at(5, 3), 105.0);
+    assert_eq!(dem.at(5, 11), dem.at(5, 7));
+}

@@ -20,6 +20,8 @@ pub struct TiffReader {
     nodata: Option<f64>,
     /// GDAL's scale and offset of the band: a height is `raw * scale + offset`.
     scaling: Scaling,
+    /// Per chunk, whether the file stores no bytes for it (a sparse file's nodata chunk).
+    empty: Vec<bool>,
     chunk_width: usize,
     chunk_height: usize,
     chunks_across: usize,
@@ -92,12 +94,8 @@ impl TiffReader {
             ColorType::Gray(b) => u64::from(b),
             _ => 64,
         };
-        check_claim(
-            &name,
-            width as u64 * height as u64 * bits / 8,
-            file_len,
-            MAX_EXPANSION,
-        )?;
+        // GDAL's sparse files store no bytes for a chunk that is all nodata.
+        let mut empty = Vec::new();
         for (offsets, counts) in [
             (Tag::StripOffsets, Tag::StripByteCounts),
             (Tag::TileOffsets, Tag::TileByteCounts),
@@ -111,12 +109,37 @@ impl TiffReader {
             let offsets = list(&mut decoder, offsets)?;
             let counts = list(&mut decoder, counts)?;
             check_chunks(&name, &offsets, &counts, file_len)?;
+            if !counts.is_empty() {
+                empty = counts.iter().map(|&c| c == 0).collect();
+            }
+        }
+        // The samples the stored chunks decode to must come from the file's bytes; a sparse
+        // file's empty chunks decode to nothing, but its band of rows is still allocated.
+        let stored = empty.iter().filter(|e| !**e).count() as u64;
+        let chunk_bytes = chunk_width as u64 * chunk_height as u64 * bits / 8;
+        let claimed = if stored == empty.len() as u64 {
+            width as u64 * height as u64 * bits / 8
+        } else {
+            stored * chunk_bytes
+        };
+        check_claim(&name, claimed, file_len, MAX_EXPANSION)?;
+        let band_bytes = width as u64 * chunk_height as u64 * 4;
+        if stored < empty.len() as u64 && band_bytes > MAX_SPARSE_BAND_BYTES {
+            return Err(Error::invalid(
+                &name,
+                format!(
+                    "a sparse TIFF whose rows of chunks take {} MiB each, more than the {} MiB read at a time",
+                    band_bytes >> 20,
+                    MAX_SPARSE_BAND_BYTES >> 20
+                ),
+            ));
         }
         Ok(TiffReader {
             info,
             decoder,
             nodata,
             scaling,
+            empty,
             chunk_width,
             chunk_height,
             chunks_across: width.div_ceil(chunk_width),
@@ -136,11 +159,14 @@ impl TiffReader {
         for c in 0..self.chunks_across {
             let index = u32::try_from(chunk_row * self.chunks_across + c)
                 .map_err(|_| Error::invalid(name, "too many TIFF chunks"))?;
-            let chunk = self
-                .decoder
-                .read_chunk(index)
-                .map_err(|e| Error::invalid(name, format!("corrupt TIFF chunk {index}: {e}")))?;
-            let samples = to_f32(chunk, self.nodata, self.scaling);
+            let samples = if self.empty.get(index as usize).copied().unwrap_or(false) {
+                vec![f32::NAN; self.chunk_width * rows]
+            } else {
+                let chunk = self.decoder.read_chunk(index).map_err(|e| {
+                    Error::invalid(name, format!("corrupt TIFF chunk {index}: {e}"))
+                })?;
+                to_f32(chunk, self.nodata, self.scaling)
+            };
             if c == 0 {
                 // Sized only after the decoder (and its limits) accepted a chunk of this row.
                 self.band.clear();
@@ -417,6 +443,10 @@ impl DemReader for TiffReader {
         Ok(())
     }
 }
+
+/// The largest row of chunks of a sparse TIFF held at once: its empty chunks cost no file bytes
+/// to bound it by.
+const MAX_SPARSE_BAND_BYTES: u64 = 512 << 20;
 
 /// The most a TIFF's samples may outweigh its file: LZW, the most compressing of the codecs
 /// read here, stays under 4096 to 1 (DEFLATE under 1032 to 1).

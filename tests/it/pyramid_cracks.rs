@@ -8,8 +8,7 @@ use std::collections::BTreeSet;
 use std::path::Path;
 
 use glam::DVec3;
-use stripmask::db::builder::{BuildOptions, build};
-use stripmask::db::dem::{MemoryReader, NodataFill};
+use stripmask::db::builder::BuildOptions;
 use stripmask::db::source;
 use stripmask::engine::cracks::CrackMode;
 use stripmask::engine::error_bound::ErrorBound;
@@ -17,6 +16,8 @@ use stripmask::engine::paging::PagerMode;
 use stripmask::engine::{Engine, EngineSettings, FrameReport};
 use stripmask::sim::crack_metric::{BACKGROUND, crack_pixels};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
+
+use crate::support::hills::synthetic;
 
 /// Samples per tile side: a texture of 32 texels per tile lets a tile of any level be drawn
 /// once it is under 48 pixels wide, so the pixel error decides the levels.
@@ -30,29 +31,17 @@ const SIZE: (u32, u32) = (320, 240);
 /// and the borders between levels open by as much.
 fn model(dir: &Path) -> std::path::PathBuf {
     let n = TILES * (S - 1) + 1;
-    let samples = (0..n * n)
-        .map(|k| {
-            let (i, j) = ((k % n) as f32, (k / n) as f32);
-            let furrow = if k % n % 2 == 0 { 150.0 } else { -150.0 };
-            1000.0 + 300.0 * (i * 0.031).sin() * (j * 0.023).cos() + furrow
-        })
-        .collect();
-    let reader = MemoryReader::new("pyramid-cracks", n, n, samples).unwrap();
-    let archive = dir.join("pyramid-cracks.smdb");
     let options = BuildOptions {
         tile_size: S,
         spacing: Some(SPACING),
         texture_factor: 1,
         ..BuildOptions::default()
     };
-    build(
-        NodataFill::new(reader, None),
-        &archive,
-        &options,
-        &|_, _| {},
-    )
-    .unwrap();
-    archive
+    synthetic(dir, "pyramid-cracks", (n, n), &options, |i, j| {
+        let furrow = if i % 2 == 0 { 150.0 } else { -150.0 };
+        let (i, j) = (i as f32, j as f32);
+        1000.0 + 300.0 * (i * 0.031).sin() * (j * 0.023).cos() + furrow
+    })
 }
 
 /// Eye and target of the views: over the south half, looking north and down, the top of the

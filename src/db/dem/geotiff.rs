@@ -276,10 +276,11 @@ fn to_f32(chunk: DecodingResult, nodata: Option<f64>, scaling: Scaling) -> Vec<f
         DecodingResult::F32(v) => {
             // Compare at f32 precision: GDAL writes the nodata text of the f32 value.
             let nd = nodata.map(|n| n as f32);
+            let identity = scaling == Scaling::default();
             v.into_iter()
                 .map(|x| match x {
                     x if Some(x) == nd => f32::NAN,
-                    x if scaling == Scaling::default() => x,
+                    x if identity => x,
                     x => (f64::from(x) * scaling.scale + scaling.offset) as f32,
                 })
                 .collect()

@@ -3,8 +3,9 @@
 use std::path::{Path, PathBuf};
 use stripmask::db::grid::TileId;
 
+use crate::support::tiff_writer::{Chunking, Layout, Sample, Value, raw, tiff};
 use stripmask::db::archive::ArchiveReader;
-use stripmask::db::builder::{BuildOptions, build};
+use stripmask::db::builder::{BuildOptions, build, build_file};
 use stripmask::db::dem::{self, DemFormat, OpenOptions, RawLayout, SampleType};
 use stripmask::db::source::file::FileSource;
 
@@ -660,4 +661,420 @@ fn a_sparse_geotiff_reads_its_empty_strips_as_nodata() {
     // Rows 8 .. 12 had no bytes: nodata, filled from the rows above.
     assert_eq!(dem.at(5, 3), 105.0);
     assert_eq!(dem.at(5, 11), dem.at(5, 7));
+}
+
+/// The truth grid as samples of `T`, the fixtures' holes `nodata` when given.
+fn truth_grid<T: Copy>(nodata: Option<T>, sample: impl Fn(f32) -> T) -> Vec<T> {
+    (0..W * H)
+        .map(|k| match nodata {
+            Some(n) if hole(k % W, k / W) => n,
+            _ => sample(truth(k % W, k / W)),
+        })
+        .collect()
+}
+
+/// The stored bytes of a chunk `width` samples wide after the horizontal predictor: each sample
+/// less the one before it in its row (`sub`, wrapping), in the file's byte order.
+fn horizontal_differences<T: Sample>(
+    samples: &[T],
+    width: usize,
+    sub: fn(T, T) -> T,
+    big_endian: bool,
+) -> Vec<u8> {
+    let differences: Vec<T> = samples
+        .chunks(width)
+        .flat_map(|row| {
+            (0..row.len()).map(|k| {
+                if k == 0 {
+                    row[0]
+                } else {
+                    sub(row[k], row[k - 1])
+                }
+            })
+        })
+        .collect();
+    raw(&differences, big_endian)
+}
+
+/// The stored bytes of a chunk of `f32` samples `width` wide after the floating-point predictor
+/// (libtiff's `fpDiff`): per row, the samples' bytes regrouped into planes, most significant
+/// first, then each byte less the one before it.
+fn float_differences(samples: &[f32], width: usize) -> Vec<u8> {
+    samples
+        .chunks(width)
+        .flat_map(|row| {
+            let mut planes: Vec<u8> = (0..4)
+                .flat_map(|p| row.iter().map(move |x| x.to_be_bytes()[p]))
+                .collect();
+            for i in (1..planes.len()).rev() {
+                planes[i] = planes[i].wrapping_sub(planes[i - 1]);
+            }
+            planes
+        })
+        .collect()
+}
+
+/// ZSTD of `bytes`.
+fn zstd(bytes: &[u8]) -> Vec<u8> {
+    ruzstd::encoding::compress_to_vec(bytes, ruzstd::encoding::CompressionLevel::Fastest)
+}
+
+/// A lossless LERC blob of `width x rows` samples; `valid(k)` says whether sample `k` is.
+fn lerc_blob<T: lerc::Sample>(
+    samples: &[T],
+    (width, rows): (usize, usize),
+    valid: impl Fn(usize) -> bool,
+) -> Vec<u8> {
+    let mut mask = lerc::bitmask::BitMask::all_valid(samples.len());
+    for k in (0..samples.len()).filter(|&k| !valid(k)) {
+        mask.set_invalid(k);
+    }
+    lerc::encode_slice_masked(
+        width as u32,
+        rows as u32,
+        samples,
+        &mask,
+        lerc::Precision::Lossless,
+    )
+    .unwrap()
+}
+
+/// Writes `samples` (a `W x H` grid) to `dir/name` as `layout` says, each chunk stored by
+/// `store`, and beside it the same grid uncompressed with the same tags and byte order; their
+/// paths.
+fn write_pair<T: Sample>(
+    dir: &Path,
+    name: &str,
+    samples: &[T],
+    layout: &Layout,
+    store: impl FnMut(&[T], (usize, usize)) -> Vec<u8>,
+) -> (PathBuf, PathBuf) {
+    let size = (W as u32, H as u32);
+    let path = dir.join(name);
+    std::fs::write(&path, tiff(size, samples, layout, store)).unwrap();
+    let plain_layout = Layout {
+        compression: 1,
+        predictor: 1,
+        tags: layout
+            .tags
+            .iter()
+            .filter(|(tag, _)| *tag != LERC_PARAMETERS)
+            .cloned()
+            .collect(),
+        ..layout.clone()
+    };
+    let plain = dir.join(format!("plain_{name}"));
+    let be = layout.big_endian;
+    std::fs::write(
+        &plain,
+        tiff(size, samples, &plain_layout, |s, _| raw(s, be)),
+    )
+    .unwrap();
+    (path, plain)
+}
+
+/// Asserts that `path` reads to exactly the samples of its uncompressed twin `plain`.
+fn reads_like(path: &Path, plain: &Path) {
+    let a = dem::open(path, &options()).unwrap().read_all().unwrap();
+    let b = dem::open(plain, &options()).unwrap().read_all().unwrap();
+    assert_eq!((a.width, a.height), (b.width, b.height));
+    assert!(
+        a.samples
+            .iter()
+            .zip(&b.samples)
+            .all(|(x, y)| x.to_bits() == y.to_bits()),
+        "{} reads unlike {}",
+        path.display(),
+        plain.display()
+    );
+}
+
+/// Asserts that `path` and its uncompressed twin `plain` build to the same archive bytes.
+fn builds_like(path: &Path, plain: &Path) {
+    let dir = tempfile::tempdir().unwrap();
+    let options = BuildOptions {
+        tile_size: 17,
+        ..BuildOptions::default()
+    };
+    let archives: Vec<Vec<u8>> = [path, plain]
+        .iter()
+        .map(|p| {
+            let out = dir.path().join("out.smdb");
+            build_file(p, &OpenOptions::default(), &out, &options, &|_, _| {}).unwrap();
+            std::fs::read(&out).unwrap()
+        })
+        .collect();
+    assert!(
+        archives[0] == archives[1],
+        "{} builds unlike its twin",
+        path.display()
+    );
+}
+
+/// GDAL's nodata tag holding -9999.
+fn nodata_tag() -> (u16, Value) {
+    (42113, Value::Ascii("-9999".into()))
+}
+
+/// The TIFF tag of LERC's version and additional compression.
+const LERC_PARAMETERS: u16 = 50674;
+
+#[test]
+fn geotiff_zstd_float32_float_predictor_tiled_with_nodata() {
+    let dir = tempfile::tempdir().unwrap();
+    let layout = Layout {
+        compression: 50000,
+        predictor: 3,
+        tags: vec![nodata_tag()],
+        ..Layout::new(Chunking::Tiles(16, 16))
+    };
+    let store = |s: &[f32], (w, _): (usize, usize)| zstd(&float_differences(s, w));
+    let grid = truth_grid(Some(-9999.0), |v| v);
+    let (path, plain) = write_pair(dir.path(), "zstd_f32.tif", &grid, &layout, store);
+    check(&path, &options(), true);
+    reads_like(&path, &plain);
+    builds_like(&path, &plain);
+    // Fractions and signs exercise every byte plane.
+    let fractions: Vec<f32> = (0..W * H)
+        .map(|k| (k as f32 * 0.37 - 200.0) * if k % 3 == 0 { -1.0 } else { 1.0 })
+        .collect();
+    let (path, plain) = write_pair(dir.path(), "zstd_frac.tif", &fractions, &layout, store);
+    reads_like(&path, &plain);
+}
+
+#[test]
+fn geotiff_zstd_int16_horizontal_predictor_strips_with_nodata() {
+    let dir = tempfile::tempdir().unwrap();
+    let layout = Layout {
+        compression: 50000,
+        predictor: 2,
+        tags: vec![nodata_tag()],
+        ..Layout::new(Chunking::Strips(5))
+    };
+    let store = |s: &[i16], (w, _): (usize, usize)| {
+        zstd(&horizontal_differences(s, w, i16::wrapping_sub, false))
+    };
+    let grid = truth_grid(Some(-9999), |v| v as i16);
+    let (path, plain) = write_pair(dir.path(), "zstd_i16.tif", &grid, &layout, store);
+    check(&path, &options(), true);
+    reads_like(&path, &plain);
+    // Differences that wrap.
+    let wrapping: Vec<i16> = (0..W * H)
+        .map(|k| {
+            if k % 2 == 0 {
+                30_000
+            } else {
+                -30_000 + k as i16
+            }
+        })
+        .collect();
+    let (path, plain) = write_pair(dir.path(), "zstd_wrap.tif", &wrapping, &layout, store);
+    reads_like(&path, &plain);
+}
+
+#[test]
+fn geotiff_zstd_big_endian() {
+    let dir = tempfile::tempdir().unwrap();
+    let big = |compression, predictor, chunking| Layout {
+        big_endian: true,
+        compression,
+        predictor,
+        ..Layout::new(chunking)
+    };
+    let layout = big(50000, 2, Chunking::Tiles(16, 16));
+    let store = |s: &[u16], (w, _): (usize, usize)| {
+        zstd(&horizontal_differences(s, w, u16::wrapping_sub, true))
+    };
+    let grid = truth_grid(None, |v| v as u16);
+    let (path, plain) = write_pair(dir.path(), "be_u16.tif", &grid, &layout, store);
+    check_samples(&path, &options(), false);
+    reads_like(&path, &plain);
+
+    let grid = truth_grid(None, |v| v);
+    for (name, predictor) in [("be_f32.tif", 1), ("be_f32_pred3.tif", 3)] {
+        let layout = big(50000, predictor, Chunking::Strips(4));
+        let store = |s: &[f32], (w, _): (usize, usize)| {
+            zstd(&if predictor == 3 {
+                float_differences(s, w)
+            } else {
+                raw(s, true)
+            })
+        };
+        let (path, plain) = write_pair(dir.path(), name, &grid, &layout, store);
+        check_samples(&path, &options(), false);
+        reads_like(&path, &plain);
+    }
+}
+
+#[test]
+fn geotiff_lerc_float32_tiled_with_a_mask_for_nodata() {
+    let dir = tempfile::tempdir().unwrap();
+    let layout = Layout {
+        compression: 34887,
+        tags: vec![(LERC_PARAMETERS, Value::Long(vec![4, 0]))],
+        ..Layout::new(Chunking::Tiles(16, 16))
+    };
+    // LERC's masked samples read as NaN; the uncompressed twin stores NaN there.
+    let grid = truth_grid(Some(f32::NAN), |v| v);
+    let store = |s: &[f32], dims: (usize, usize)| {
+        let zeroed: Vec<f32> = s
+            .iter()
+            .map(|x| if x.is_nan() { 0.0 } else { *x })
+            .collect();
+        lerc_blob(&zeroed, dims, |k| !s[k].is_nan())
+    };
+    let (path, plain) = write_pair(dir.path(), "lerc_f32.tif", &grid, &layout, store);
+    check(&path, &options(), true);
+    reads_like(&path, &plain);
+    builds_like(&path, &plain);
+}
+
+#[test]
+fn geotiff_lerc_inside_deflate_and_zstd() {
+    let dir = tempfile::tempdir().unwrap();
+    // LERC and DEFLATE over int16 strips, masked where the twin has GDAL's nodata.
+    let layout = Layout {
+        compression: 34887,
+        tags: vec![(LERC_PARAMETERS, Value::Long(vec![4, 1])), nodata_tag()],
+        ..Layout::new(Chunking::Strips(7))
+    };
+    let grid = truth_grid(Some(-9999i16), |v| v as i16);
+    let store = |s: &[i16], dims: (usize, usize)| {
+        let blob = lerc_blob(s, dims, |k| s[k] != -9999);
+        miniz_oxide::deflate::compress_to_vec_zlib(&blob, 6)
+    };
+    let (path, plain) = write_pair(dir.path(), "lerc_deflate.tif", &grid, &layout, store);
+    check(&path, &options(), true);
+    reads_like(&path, &plain);
+
+    // LERC and ZSTD over float32 tiles.
+    let layout = Layout {
+        compression: 34887,
+        tags: vec![(LERC_PARAMETERS, Value::Long(vec![4, 2]))],
+        ..Layout::new(Chunking::Tiles(32, 16))
+    };
+    let grid = truth_grid(None, |v: f32| v);
+    let store = |s: &[f32], dims: (usize, usize)| zstd(&lerc_blob(s, dims, |_| true));
+    let (path, plain) = write_pair(dir.path(), "lerc_zstd.tif", &grid, &layout, store);
+    check_samples(&path, &options(), false);
+    reads_like(&path, &plain);
+}
+
+#[test]
+fn corrupt_zstd_and_lerc_chunks_are_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let err = |path: &Path| match dem::open(path, &options()).and_then(|r| r.read_all()) {
+        Ok(_) => panic!("{} read", path.display()),
+        Err(e) => e.to_string(),
+    };
+    let grid = truth_grid(None, |v: f32| v);
+    let zstd_layout = Layout {
+        compression: 50000,
+        ..Layout::new(Chunking::Tiles(16, 16))
+    };
+    let lerc_layout = Layout {
+        compression: 34887,
+        ..Layout::new(Chunking::Tiles(16, 16))
+    };
+    // The fourth chunk cut short in one file, its bytes flipped in the other.
+    let mut n = 0;
+    let (zstd_path, _) = write_pair(dir.path(), "bad_zstd.tif", &grid, &zstd_layout, |s, _| {
+        n += 1;
+        let mut bytes = zstd(&raw(s, false));
+        if n == 4 {
+            bytes.truncate(bytes.len() / 2);
+        }
+        bytes
+    });
+    let e = err(&zstd_path);
+    assert!(
+        e.contains("bad_zstd.tif") && e.contains("corrupt TIFF chunk 3"),
+        "{e}"
+    );
+    let mut n = 0;
+    let (lerc_path, _) = write_pair(
+        dir.path(),
+        "bad_lerc.tif",
+        &grid,
+        &lerc_layout,
+        |s, dims| {
+            n += 1;
+            let mut bytes = lerc_blob(s, dims, |_| true);
+            if n == 4 {
+                let half = bytes.len() / 2;
+                bytes[half..].iter_mut().for_each(|b| *b ^= 0x5a);
+            }
+            bytes
+        },
+    );
+    let e = err(&lerc_path);
+    assert!(
+        e.contains("bad_lerc.tif") && e.contains("corrupt TIFF chunk 3"),
+        "{e}"
+    );
+
+    // A LERC blob of another size than its tile.
+    let (small, _) = write_pair(dir.path(), "small_lerc.tif", &grid, &lerc_layout, |s, _| {
+        lerc_blob(&s[..64], (8, 8), |_| true)
+    });
+    let e = err(&small);
+    assert!(
+        e.contains("small_lerc.tif")
+            && e.contains("8 x 8 samples")
+            && e.contains("16 x 16 expected"),
+        "{e}"
+    );
+}
+
+/// GDAL's fixture `name`, its chunks (DEFLATE over the predictor's differences) inflated and
+/// compressed again with ZSTD, the predictor and nodata kept.
+fn gdal_chunks_as_zstd<T: Sample>(name: &str, out: &Path) {
+    use tiff::decoder::{ChunkType, Decoder};
+    use tiff::tags::Tag;
+    let file = std::fs::read(fixture(name)).unwrap();
+    let mut decoder = Decoder::new(std::io::Cursor::new(&file)).unwrap();
+    let (cw, ch) = decoder.chunk_dimensions();
+    let (chunking, offsets, counts) = match decoder.get_chunk_type() {
+        ChunkType::Tile => (
+            Chunking::Tiles(cw, ch),
+            Tag::TileOffsets,
+            Tag::TileByteCounts,
+        ),
+        ChunkType::Strip => (
+            Chunking::Strips(ch),
+            Tag::StripOffsets,
+            Tag::StripByteCounts,
+        ),
+    };
+    let offsets = decoder.get_tag_u64_vec(offsets).unwrap();
+    let counts = decoder.get_tag_u64_vec(counts).unwrap();
+    let mut chunks = offsets.iter().zip(&counts).map(|(&at, &n)| {
+        let stored = &file[at as usize..(at + n) as usize];
+        zstd(&miniz_oxide::inflate::decompress_to_vec_zlib(stored).unwrap())
+    });
+    let layout = Layout {
+        compression: 50000,
+        predictor: decoder.get_tag_u32(Tag::Predictor).unwrap() as u16,
+        tags: vec![(
+            42113,
+            Value::Ascii(decoder.get_tag_ascii_string(Tag::GdalNodata).unwrap()),
+        )],
+        ..Layout::new(chunking)
+    };
+    let grid = vec![T::default(); W * H];
+    let bytes = tiff((W as u32, H as u32), &grid, &layout, |_, _| {
+        chunks.next().unwrap()
+    });
+    std::fs::write(out, bytes).unwrap();
+}
+
+#[test]
+fn gdal_predictor_chunks_recompressed_as_zstd_read_as_gdal_wrote_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let int16 = dir.path().join("gdal_i16_zstd.tif");
+    gdal_chunks_as_zstd::<i16>("int16_deflate_pred2_nodata.tif", &int16);
+    check_samples(&int16, &options(), true);
+    let float32 = dir.path().join("gdal_f32_zstd.tif");
+    gdal_chunks_as_zstd::<f32>("float32_deflate_pred3_tiled_nodata.tif", &float32);
+    check_samples(&float32, &options(), true);
 }

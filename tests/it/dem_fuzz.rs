@@ -3,8 +3,12 @@
 
 use std::path::Path;
 
+use lerc::Precision;
 use proptest::prelude::*;
+use ruzstd::encoding::{CompressionLevel, compress_to_vec};
 use stripmask::db::dem::{self, DemFormat, HeightEncoding, OpenOptions, RawLayout, SampleType};
+
+use crate::support::tiff_writer::{Chunking, Layout, Value, raw, tiff};
 
 fn cases() -> u32 {
     std::env::var("PROPTEST_CASES")
@@ -13,8 +17,10 @@ fn cases() -> u32 {
         .unwrap_or(48)
 }
 
-const FIXTURES: [(&str, &str); 13] = [
+const FIXTURES: [(&str, &str); 15] = [
     ("int16_deflate_pred2_nodata.tif", "tif"),
+    ("zstd.tif", "tif"),
+    ("lerc.tif", "tif"),
     ("scaled.tif", "tif"),
     ("tile.hgt.zip", "hgt.zip"),
     ("uint16_lzw_tiled.tif", "tif"),
@@ -30,10 +36,17 @@ const FIXTURES: [(&str, &str); 13] = [
 ];
 
 /// The bytes of fixture `name`: a file, or an image made here (`rgb.png`, `rgb.jpg`: a gray
-/// ramp in three equal channels; `scaled.tif`: UInt16 decimetres with GDAL's scale and offset).
+/// ramp in three equal channels; `scaled.tif`: UInt16 decimetres with GDAL's scale and offset;
+/// `zstd.tif`, `lerc.tif`: [`codec_tiff`]).
 fn fixture(name: &str) -> Vec<u8> {
     if name == "scaled.tif" {
         return scaled_tiff(SCALED);
+    }
+    if name == "zstd.tif" {
+        return codec_tiff(CODECS[1], |b| b);
+    }
+    if name == "lerc.tif" {
+        return codec_tiff(CODECS[2], |b| b);
     }
     if name == "tile.hgt.zip" {
         return zipped_tile();
@@ -88,6 +101,47 @@ fn scaled_tiff(metadata: &str) -> Vec<u8> {
         .unwrap();
     image.write_data(&data).unwrap();
     bytes.into_inner()
+}
+
+/// The codecs of [`codec_tiff`]: compression, predictor, and the compression around LERC.
+const CODECS: [(u16, u16, u32); 5] = [
+    (50000, 2, 0),
+    (50000, 3, 0),
+    (34887, 1, 0),
+    (34887, 1, 1),
+    (34887, 1, 2),
+];
+
+/// A 37 x 29 float32 TIFF in 16 x 16 tiles compressed with `codec` (one of [`CODECS`]), some
+/// samples masked in LERC, each tile's stored bytes passed through `garble`.
+fn codec_tiff(
+    (compression, predictor, wrap): (u16, u16, u32),
+    mut garble: impl FnMut(Vec<u8>) -> Vec<u8>,
+) -> Vec<u8> {
+    let samples: Vec<f32> = (0..37 * 29).map(|k| k as f32 * 0.75 - 100.0).collect();
+    let layout = Layout {
+        compression,
+        predictor,
+        tags: vec![(50674, Value::Long(vec![4, wrap]))],
+        ..Layout::new(Chunking::Tiles(16, 16))
+    };
+    let zstd = |b: &[u8]| compress_to_vec(b, CompressionLevel::Fastest);
+    tiff((37, 29), &samples, &layout, |s, (w, h)| {
+        let bytes = if compression == 50000 {
+            zstd(&raw(s, false))
+        } else {
+            let mut mask = lerc::bitmask::BitMask::all_valid(w * h);
+            mask.set_invalid(w + 1);
+            let blob = lerc::encode_slice_masked(w as u32, h as u32, s, &mask, Precision::Lossless)
+                .unwrap();
+            match wrap {
+                1 => miniz_oxide::deflate::compress_to_vec_zlib(&blob, 6),
+                2 => zstd(&blob),
+                _ => blob,
+            }
+        };
+        garble(bytes)
+    })
 }
 
 /// Opens `bytes` as a file with extension `ext` and reads up to 64 rows.
@@ -172,6 +226,40 @@ proptest! {
         bytes in proptest::collection::vec(any::<u8>(), 0..600),
     ) {
         read_some(&bytes, ext);
+    }
+
+    #[test]
+    fn mutated_zstd_and_lerc_chunks_never_panic(
+        codec in prop::sample::select(CODECS.to_vec()),
+        edits in proptest::collection::vec((0.0..1.0f64, any::<u8>()), 1..10),
+        cut in proptest::option::of(0.0..1.0f64),
+    ) {
+        let b = codec_tiff(codec, |mut chunk| {
+            for &(at, v) in &edits {
+                let i = ((at * chunk.len() as f64) as usize).min(chunk.len() - 1);
+                chunk[i] = v;
+            }
+            if let Some(c) = cut {
+                chunk.truncate((c * chunk.len() as f64) as usize);
+            }
+            chunk
+        });
+        read_some(&b, "tif");
+    }
+
+    #[test]
+    fn random_zstd_and_lerc_chunks_never_panic(
+        codec in prop::sample::select(CODECS.to_vec()),
+        bytes in proptest::collection::vec(any::<u8>(), 0..600),
+    ) {
+        // The codec's own first bytes, so that its header is what the random bytes garble.
+        let magic: &[u8] = match codec {
+            (50000, _, _) | (_, _, 2) => &[0x28, 0xb5, 0x2f, 0xfd],
+            (_, _, 1) => &[0x78, 0x9c],
+            _ => b"Lerc2 ",
+        };
+        let b = codec_tiff(codec, |_| [magic, &bytes].concat());
+        read_some(&b, "tif");
     }
 
     #[test]

@@ -1,13 +1,19 @@
 //! Single-band GeoTIFF (and plain TIFF) elevation grids, read one strip or one row of tiles at a
-//! time with the `tiff` crate (deflate, LZW, PackBits, predictors).
+//! time: DEFLATE, LZW and PackBits with the `tiff` crate, ZSTD and LERC (alone, or inside
+//! DEFLATE or ZSTD) with [`tiff_codecs`]; horizontal and floating-point predictors.
+
+#[path = "tiff_codecs.rs"]
+mod tiff_codecs;
 
 use std::fs::File;
 use std::io::BufReader;
 use std::path::Path;
 
 use tiff::ColorType;
-use tiff::decoder::{Decoder, DecodingResult};
-use tiff::tags::Tag;
+use tiff::decoder::{ChunkType, Decoder, DecodingResult};
+use tiff::tags::{ByteOrder, Tag};
+
+use tiff_codecs::{ChunkCodec, Codec, LERC_PARAMETERS, SampleLayout};
 
 use super::geographic::Geographic;
 use super::{DemInfo, DemReader, check_claim, check_dimensions};
@@ -22,6 +28,11 @@ pub struct TiffReader {
     scaling: Scaling,
     /// Per chunk, whether the file stores no bytes for it (a sparse file's nodata chunk).
     empty: Vec<bool>,
+    /// The decoder of chunks compressed with a codec the `tiff` crate lacks (ZSTD, LERC),
+    /// read from their stored bytes at `chunks`.
+    codec: Option<ChunkCodec>,
+    /// Per chunk, the offset and byte count of its stored bytes, when `codec` reads them.
+    chunks: Vec<(u64, u64)>,
     chunk_width: usize,
     chunk_height: usize,
     chunks_across: usize,
@@ -94,8 +105,35 @@ impl TiffReader {
             ColorType::Gray(b) => u64::from(b),
             _ => 64,
         };
+        let first_short = |decoder: &mut Decoder<BufReader<File>>, tag, default| {
+            match decoder.find_tag(tag) {
+                Ok(Some(v)) => v.into_u16_vec().ok().and_then(|v| v.first().copied()),
+                _ => None,
+            }
+            .unwrap_or(default)
+        };
+        let compression = first_short(&mut decoder, Tag::Compression, 1);
+        let predictor = first_short(&mut decoder, Tag::Predictor, 1);
+        let lerc_parameters = match decoder.find_tag(Tag::Unknown(LERC_PARAMETERS)) {
+            Ok(Some(v)) => v.into_u32_vec().map_err(bad)?,
+            _ => Vec::new(),
+        };
+        let unsupported = |e: String| Error::invalid(&name, format!("unsupported TIFF: {e}"));
+        let codec = match Codec::from_tags(compression, predictor, &lerc_parameters)
+            .map_err(unsupported)?
+        {
+            Some(codec) => {
+                let format = first_short(&mut decoder, Tag::SampleFormat, 1);
+                let big_endian = decoder.byte_order() == ByteOrder::BigEndian;
+                let layout =
+                    SampleLayout::new(format, bits as u8, big_endian).map_err(unsupported)?;
+                Some(ChunkCodec::new(codec, layout).map_err(unsupported)?)
+            }
+            None => None,
+        };
         // GDAL's sparse files store no bytes for a chunk that is all nodata.
         let mut empty = Vec::new();
+        let mut chunks = Vec::new();
         for (offsets, counts) in [
             (Tag::StripOffsets, Tag::StripByteCounts),
             (Tag::TileOffsets, Tag::TileByteCounts),
@@ -111,6 +149,9 @@ impl TiffReader {
             check_chunks(&name, &offsets, &counts, file_len)?;
             if !counts.is_empty() {
                 empty = counts.iter().map(|&c| c == 0).collect();
+                if codec.is_some() {
+                    chunks = offsets.into_iter().zip(counts).collect();
+                }
             }
         }
         // The samples the stored chunks decode to must come from the file's bytes; a sparse
@@ -122,7 +163,8 @@ impl TiffReader {
         } else {
             stored * chunk_bytes
         };
-        check_claim(&name, claimed, file_len, MAX_EXPANSION)?;
+        let expansion = codec.map_or(MAX_EXPANSION, ChunkCodec::max_expansion);
+        check_claim(&name, claimed, file_len, expansion)?;
         let band_bytes = width as u64 * chunk_height as u64 * 4;
         if stored < empty.len() as u64 && band_bytes > MAX_SPARSE_BAND_BYTES {
             return Err(Error::invalid(
@@ -140,6 +182,8 @@ impl TiffReader {
             nodata,
             scaling,
             empty,
+            codec,
+            chunks,
             chunk_width,
             chunk_height,
             chunks_across: width.div_ceil(chunk_width),
@@ -159,13 +203,29 @@ impl TiffReader {
         for c in 0..self.chunks_across {
             let index = u32::try_from(chunk_row * self.chunks_across + c)
                 .map_err(|_| Error::invalid(name, "too many TIFF chunks"))?;
-            let samples = if self.empty.get(index as usize).copied().unwrap_or(false) {
-                vec![f32::NAN; self.chunk_width * rows]
+            let corrupt = |e: &dyn std::fmt::Display| {
+                Error::invalid(name, format!("corrupt TIFF chunk {index}: {e}"))
+            };
+            let (samples, stride) = if self.empty.get(index as usize).copied().unwrap_or(false) {
+                (vec![f32::NAN; self.chunk_width * rows], self.chunk_width)
+            } else if let Some(codec) = self.codec {
+                let at = self.chunks.get(index as usize).copied();
+                let at = at.ok_or_else(|| corrupt(&"the file lists no bytes for it"))?;
+                // A tile is stored whole, a strip at its rows.
+                let stored_rows = match self.decoder.get_chunk_type() {
+                    ChunkType::Tile => self.chunk_height,
+                    ChunkType::Strip => rows,
+                };
+                let dims = (self.chunk_width, stored_rows);
+                let chunk = codec
+                    .read(self.decoder.inner(), at, dims)
+                    .map_err(|e| corrupt(&e))?;
+                (to_f32(chunk, self.nodata, self.scaling), self.chunk_width)
             } else {
-                let chunk = self.decoder.read_chunk(index).map_err(|e| {
-                    Error::invalid(name, format!("corrupt TIFF chunk {index}: {e}"))
-                })?;
-                to_f32(chunk, self.nodata, self.scaling)
+                let chunk = self.decoder.read_chunk(index).map_err(|e| corrupt(&e))?;
+                let samples = to_f32(chunk, self.nodata, self.scaling);
+                let stride = samples.len() / rows;
+                (samples, stride)
             };
             if c == 0 {
                 // Sized only after the decoder (and its limits) accepted a chunk of this row.
@@ -183,7 +243,6 @@ impl TiffReader {
                     ),
                 ));
             }
-            let stride = samples.len() / rows;
             for r in 0..rows {
                 self.band[r * width + x0..r * width + x0 + cw]
                     .copy_from_slice(&samples[r * stride..r * stride + cw]);

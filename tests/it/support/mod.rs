@@ -7,3 +7,4 @@ pub mod crack_scene;
 pub mod fake_http;
 pub mod golden;
 pub mod hills;
+pub mod tiff_writer;

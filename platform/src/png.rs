@@ -34,7 +34,7 @@ impl Presenter for PngFrames {
     fn present(&mut self, frame: &Framebuffer, hud: Option<&Overlay>) -> Result<(), PlatformError> {
         let n = self.count;
         self.count += 1;
-        if n % self.every != 0 {
+        if !n.is_multiple_of(self.every) {
             return Ok(());
         }
         let path = self.dir.join(format!("frame_{n:06}.png"));

@@ -7,7 +7,7 @@
 /// Whether mask level `level` of a tile with `tile_size` samples per side keeps grid index `index`
 /// (a column or a row); a sample `(i, j)` is kept when both its indices are.
 pub fn keeps_index(tile_size: usize, level: usize, index: usize) -> bool {
-    index % (level + 1) == 0 || index + 1 == tile_size
+    index.is_multiple_of(level + 1) || index + 1 == tile_size
 }
 
 /// The grid indices (columns or rows) that mask level `level` keeps, in increasing order.

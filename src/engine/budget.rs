@@ -459,10 +459,10 @@ pub(crate) mod tests {
         let mut controller = BudgetController::new(settings);
         (0..frames)
             .map(|f| {
-                if let Some((at, factor)) = harder {
-                    if f == at {
-                        clock.cost *= factor;
-                    }
+                if let Some((at, factor)) = harder
+                    && f == at
+                {
+                    clock.cost *= factor;
                 }
                 let budget = controller.budget();
                 let time = clock.frame(budget);

@@ -574,11 +574,10 @@ proptest! {
             p.update(at);
             check(&p);
             // With the same current tile, the complete square of the last update is still loaded.
-            if let Some((c, square)) = &before {
-                if *c == p.resident().current_tile() {
+            if let Some((c, square)) = &before
+                && *c == p.resident().current_tile() {
                     prop_assert!(square.iter().all(|&t| p.resident().get(t).is_some()));
                 }
-            }
             let square: Vec<TileId> = p
                 .resident()
                 .tiles()

@@ -176,7 +176,7 @@ impl ArchiveWriter {
         self.levels[usize::from(id.level)].row.insert(id, entry);
         let grid = self.levels[usize::from(id.level)].grid;
         let last_of_row = id.x + 1 == grid.tiles_x()
-            && ((id.y + 1) % PAGE_SIDE == 0 || id.y + 1 == grid.tiles_y());
+            && ((id.y + 1).is_multiple_of(PAGE_SIDE) || id.y + 1 == grid.tiles_y());
         if last_of_row {
             self.flush_pages(id.level)?;
         }

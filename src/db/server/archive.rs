@@ -64,10 +64,10 @@ impl Archive {
         let meta = std::fs::metadata(&self.path)?;
         let identity = Identity::of(&meta);
         let mut open = self.open.lock().unwrap_or_else(PoisonError::into_inner);
-        if let Some((known, file)) = open.as_ref() {
-            if *known == identity {
-                return Ok((Arc::clone(file), meta));
-            }
+        if let Some((known, file)) = open.as_ref()
+            && *known == identity
+        {
+            return Ok((Arc::clone(file), meta));
         }
         let file = Arc::new(File::open(&self.path)?);
         let meta = file.metadata()?;

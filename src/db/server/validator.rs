@@ -65,19 +65,19 @@ impl Validator {
             if !self.any_tag(&tags, true) {
                 return Precondition::Failed;
             }
-        } else if let Some(date) = date(headers, header::IF_UNMODIFIED_SINCE) {
-            if self.modified > date {
-                return Precondition::Failed;
-            }
+        } else if let Some(date) = date(headers, header::IF_UNMODIFIED_SINCE)
+            && self.modified > date
+        {
+            return Precondition::Failed;
         }
         if let Some(tags) = joined(headers, header::IF_NONE_MATCH) {
             if self.any_tag(&tags, false) {
                 return Precondition::NotModified;
             }
-        } else if let Some(date) = date(headers, header::IF_MODIFIED_SINCE) {
-            if self.modified <= date {
-                return Precondition::NotModified;
-            }
+        } else if let Some(date) = date(headers, header::IF_MODIFIED_SINCE)
+            && self.modified <= date
+        {
+            return Precondition::NotModified;
         }
         Precondition::Proceed {
             honour_range: self.if_range_holds(headers),

@@ -118,10 +118,10 @@ impl Pinned {
             ("ETag", &self.etag, &seen.etag),
             ("Last-Modified", &self.last_modified, &seen.last_modified),
         ] {
-            if let (Some(before), Some(now)) = (before, now) {
-                if before != now {
-                    return Some(format!("its {name} went from {before} to {now}"));
-                }
+            if let (Some(before), Some(now)) = (before, now)
+                && before != now
+            {
+                return Some(format!("its {name} went from {before} to {now}"));
             }
         }
         None

@@ -51,14 +51,14 @@ impl LinkProfile {
     /// [`Self::MIN_BANDWIDTH_KBPS`], latency and jitter up to [`Self::MAX_DELAY`], a drop rate
     /// in 0 ..= 1.
     pub fn validate(&self) -> Result<()> {
-        if let Some(b) = self.bandwidth_kbps {
-            if !(b.is_finite() && b >= Self::MIN_BANDWIDTH_KBPS) {
-                return Err(Error::setting(
-                    "--bandwidth-kbps",
-                    b,
-                    format!("a finite number of at least {}", Self::MIN_BANDWIDTH_KBPS),
-                ));
-            }
+        if let Some(b) = self.bandwidth_kbps
+            && !(b.is_finite() && b >= Self::MIN_BANDWIDTH_KBPS)
+        {
+            return Err(Error::setting(
+                "--bandwidth-kbps",
+                b,
+                format!("a finite number of at least {}", Self::MIN_BANDWIDTH_KBPS),
+            ));
         }
         for (name, d) in [("--latency-ms", self.latency), ("--jitter-ms", self.jitter)] {
             if d > Self::MAX_DELAY {

@@ -7,8 +7,8 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use stripmask::Named;
 use stripmask::db::archive::Codec;
-use stripmask::db::builder::{BuildOptions, BuildReport, build_file};
-use stripmask::db::dem::{DemFormat, HeightEncoding, OpenOptions, RawLayout, SampleType};
+use stripmask::db::builder::{BuildOptions, BuildReport, build_inputs};
+use stripmask::db::dem::{DemFormat, HeightEncoding, OpenOptions, RawLayout, SampleType, expand};
 use stripmask::error::{Error, Result};
 
 use super::args::named;
@@ -16,8 +16,10 @@ use super::args::named;
 /// `build`'s arguments: the DEM, how to read it, and what to make of it.
 #[derive(Args, Debug)]
 pub(super) struct BuildArgs {
-    /// The DEM file.
-    input: PathBuf,
+    /// The DEM: a file, a GDAL .vrt, or many files (names, folders, glob patterns) read as one
+    /// mosaic placed by their georeferencing.
+    #[arg(required = true, num_args = 1..)]
+    inputs: Vec<PathBuf>,
     /// The archive to write.
     #[arg(short, long)]
     output: PathBuf,
@@ -118,28 +120,34 @@ impl BuildArgs {
 
 /// Builds the archive with a progress bar and prints its summary (text or JSON).
 pub(super) fn run(a: BuildArgs) -> Result<()> {
-    refuse_output_over(
-        &a.output,
-        [("input", Some(&a.input)), ("texture", a.texture.as_ref())],
-    )?;
+    let inputs = expand(&a.inputs)?;
+    let read = inputs
+        .iter()
+        .map(|i| ("input", i.as_path()))
+        .chain(a.texture.iter().map(|t| ("texture", t.as_path())));
+    refuse_output_over(&a.output, read)?;
     let options = a.build_options();
     let bar = if a.quiet {
         ProgressBar::hidden()
     } else {
         ProgressBar::new(0).with_style(
-            ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} tiles {eta}")
-                .expect("valid template")
-                .progress_chars("=> "),
+            ProgressStyle::with_template(
+                "{elapsed_precise} [{bar:40}] {human_pos}/{human_len} samples, {per_sec}, {eta} left",
+            )
+            .expect("valid template")
+            .progress_chars("=> "),
         )
     };
-    let report = build_file(
-        &a.input,
+    // Every tile of every level encodes (s - 1)^2 samples' worth of work.
+    let samples = ((options.tile_size.max(2) - 1) as u64).pow(2);
+    let report = build_inputs(
+        &inputs,
         &a.open_options(),
         &a.output,
         &options,
         &|done, total| {
-            bar.set_length(total as u64);
-            bar.set_position(done as u64);
+            bar.set_length(total as u64 * samples);
+            bar.set_position(done as u64 * samples);
         },
     )?;
     bar.finish_and_clear();
@@ -179,6 +187,16 @@ fn summary(output: &std::path::Path, report: &BuildReport) -> String {
             h.spacing, h.origin_x, h.origin_y
         ),
         format!(
+            "crs         {}",
+            report.crs.as_deref().unwrap_or("none given")
+        ),
+        format!(
+            "memory      {} at peak (resident, the whole process)",
+            report
+                .peak_memory_bytes
+                .map_or("unknown".into(), |b| format!("{:.1} MB", b as f64 / 1e6))
+        ),
+        format!(
             "heights     {} .. {} m (valid samples), {} m per raw unit, in quanta of {} m",
             h.min_height, h.max_height, h.vertical_scale, h.height_quantum
         ),
@@ -196,14 +214,16 @@ fn summary(output: &std::path::Path, report: &BuildReport) -> String {
 /// Refuses an `output` that is one of the files the build reads (the DEM, the texture image):
 /// the same file through any path, symbolic link or hard link, by canonical path and, on unix,
 /// by device and inode. Nothing is read before: the build would replace its own input.
-fn refuse_output_over(output: &Path, inputs: [(&'static str, Option<&PathBuf>); 2]) -> Result<()> {
+fn refuse_output_over<'a>(
+    output: &Path,
+    inputs: impl Iterator<Item = (&'static str, &'a Path)>,
+) -> Result<()> {
     // An output that does not exist yet is no input.
     let Ok(written) = std::fs::metadata(output) else {
         return Ok(());
     };
     let canonical = std::fs::canonicalize(output).ok();
     for (role, input) in inputs {
-        let Some(input) = input else { continue };
         let Ok(read) = std::fs::metadata(input) else {
             continue;
         };

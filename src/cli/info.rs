@@ -1,15 +1,20 @@
 //! `stripmask info`: what an archive holds, and with `--check` whether every tile reads.
 
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
 use clap::Args;
 use serde::Serialize;
 use stripmask::db::archive::{ArchiveReader, CheckReport, Header, IndexEntry, VERSION};
+use stripmask::db::dem::{DemFormat, OpenOptions, expand, open_inputs};
 use stripmask::db::source;
 use stripmask::error::Result;
 
-/// `info`'s arguments: the archive and the output form.
+/// `info`'s arguments: the archive (or DEM) and the output form.
 #[derive(Args, Debug)]
 pub(super) struct InfoArgs {
-    /// An archive file or http:// URL.
+    /// An archive file or http:// URL; or a DEM (a file, a GDAL .vrt, a folder or glob
+    /// pattern of tiles) to see how `build` reads it.
     file_or_url: String,
     /// Print JSON.
     #[arg(long)]
@@ -42,18 +47,28 @@ struct InfoReport {
     check: Option<CheckReport>,
 }
 
-/// Prints the archive's report, as text or JSON.
+/// Prints the archive's (or the DEM's) report, as text or JSON.
 pub(super) fn run(a: InfoArgs) -> Result<()> {
-    let report = InfoReport::read(&a.file_or_url, a.check)?;
-    if a.json {
-        say!(
-            "{}",
-            serde_json::to_string_pretty(&report).expect("serialisable")
-        );
+    if names_a_dem(&a.file_or_url) {
+        let report = DemReport::read(&a.file_or_url, a.check)?;
+        print(&report, a.json, || report.text());
     } else {
-        say_raw!("{}", report.text());
+        let report = InfoReport::read(&a.file_or_url, a.check)?;
+        print(&report, a.json, || report.text());
     }
     Ok(())
+}
+
+/// Prints `report` as JSON, or as its `text`.
+fn print<T: Serialize>(report: &T, json: bool, text: impl Fn() -> String) {
+    if json {
+        say!(
+            "{}",
+            serde_json::to_string_pretty(report).expect("serialisable")
+        );
+    } else {
+        say_raw!("{}", text());
+    }
 }
 
 impl InfoReport {
@@ -208,4 +223,136 @@ pub(super) fn nodata_line(h: &Header) -> String {
          areas drawn flat at the lowest valid height around them",
         h.nodata_filled, h.nodata_flattened
     )
+}
+
+/// Whether `name` is a DEM rather than an archive: a folder, a glob pattern, or a file whose
+/// extension names a DEM format.
+fn names_a_dem(name: &str) -> bool {
+    let path = Path::new(name);
+    !name.contains("://")
+        && (path.is_dir()
+            || DemFormat::from_path(path).is_some()
+            || (!path.exists() && name.contains(['*', '?', '['])))
+}
+
+/// What `info` says of a DEM: how `build` would read and place it.
+#[derive(Serialize)]
+struct DemReport {
+    name: String,
+    files: usize,
+    width: usize,
+    height: usize,
+    /// The CRS as read, and its unit.
+    crs: Option<String>,
+    /// Cell size east-west and north-south, in the CRS's units.
+    cell: Option<(f64, f64)>,
+    /// CRS coordinates of the north-west sample's centre.
+    first_sample: Option<(f64, f64)>,
+    /// Metres between rows, as `build` takes them.
+    spacing_m: Option<f64>,
+    /// East-west spacing over north-south: `build` resamples columns when it is not 1.
+    east_west_scale: f64,
+    /// World position in metres of the north-west sample, as `build` stores it.
+    origin_m: Option<(f64, f64)>,
+    /// Why `build` would need `--spacing`.
+    spacing_problem: Option<String>,
+    notes: Vec<String>,
+    check: Option<DemCheck>,
+}
+
+/// What reading every row of a DEM took, with `--check`.
+#[derive(Serialize)]
+struct DemCheck {
+    seconds: f64,
+    samples_per_second: f64,
+    nodata_filled: u64,
+    nodata_flattened: u64,
+}
+
+impl DemReport {
+    /// How the DEM `name` reads; with `check`, every row read too.
+    fn read(name: &str, check: bool) -> Result<DemReport> {
+        let inputs = [PathBuf::from(name)];
+        let files = expand(&inputs)?.len();
+        let mut reader = open_inputs(&inputs, &OpenOptions::default())?;
+        let info = reader.info().clone();
+        let check = if check {
+            let started = Instant::now();
+            let mut row = vec![0.0; info.width];
+            for _ in 0..info.height {
+                reader.read_row(&mut row)?;
+            }
+            let seconds = started.elapsed().as_secs_f64();
+            let stats = reader.stats();
+            Some(DemCheck {
+                seconds,
+                samples_per_second: (info.width * info.height) as f64 / seconds.max(1e-9),
+                nodata_filled: stats.filled,
+                nodata_flattened: stats.flattened,
+            })
+        } else {
+            None
+        };
+        let p = info.placement.as_ref();
+        Ok(DemReport {
+            name: info.name.clone(),
+            files,
+            width: info.width,
+            height: info.height,
+            crs: p.map(|p| format!("{} ({})", p.crs, p.unit_name())),
+            cell: p.map(|p| p.cell),
+            first_sample: p.map(|p| p.first),
+            spacing_m: info.spacing_hint,
+            east_west_scale: info.east_west_scale,
+            origin_m: info.origin_hint,
+            spacing_problem: info.spacing_problem,
+            notes: info.notes,
+            check,
+        })
+    }
+
+    /// The report as lines of text.
+    fn text(&self) -> String {
+        let mut lines = vec![
+            format!(
+                "dem         {} ({} file{})",
+                self.name,
+                self.files,
+                if self.files == 1 { "" } else { "s" }
+            ),
+            format!("grid        {} x {} samples", self.width, self.height),
+            format!(
+                "crs         {}",
+                self.crs.as_deref().unwrap_or("none given")
+            ),
+        ];
+        if let (Some(c), Some(f)) = (self.cell, self.first_sample) {
+            lines.push(format!(
+                "placement   cells of {} x {}, north-west sample at ({}, {}), in the CRS's units",
+                c.0, c.1, f.0, f.1
+            ));
+        }
+        lines.push(match (self.spacing_m, &self.spacing_problem) {
+            (_, Some(problem)) => format!("spacing     unknown: {problem}"),
+            (Some(s), None) => format!(
+                "spacing     {s} m north-south, {} m east-west{}",
+                s * self.east_west_scale,
+                self.origin_m
+                    .map_or(String::new(), |(x, y)| format!(", origin ({x}, {y}) m"))
+            ),
+            (None, None) => "spacing     not given: `build` takes 1 m unless --spacing".into(),
+        });
+        lines.extend(self.notes.iter().map(|n| format!("note        {n}")));
+        if let Some(c) = &self.check {
+            lines.push(format!(
+                "check       every row read in {:.3} s ({:.1} M samples/s); {} nodata samples \
+                 filled, {} drawn flat",
+                c.seconds,
+                c.samples_per_second / 1e6,
+                c.nodata_filled,
+                c.nodata_flattened
+            ));
+        }
+        lines.iter().map(|l| format!("{l}\n")).collect()
+    }
 }

@@ -89,6 +89,11 @@ pub struct BuildReport {
     /// What the build assumed or chose that the user should know: the reader's reading of the
     /// file (geographic grid, degree cells, 8-bit samples), a coarser height quantum.
     pub notes: Vec<String>,
+    /// The CRS the DEM's georeferencing names, as read, and its unit.
+    pub crs: Option<String>,
+    /// The process's peak resident memory so far in bytes (Linux's `VmHWM`): for
+    /// `stripmask build`, the build's.
+    pub peak_memory_bytes: Option<u64>,
     /// Wall-clock seconds.
     pub seconds: f64,
 }
@@ -174,8 +179,21 @@ pub fn build<R: DemReader>(
         stored_payload_bytes: totals.stored_bytes,
         stored_tiles: totals.tiles,
         notes,
+        crs: info
+            .placement
+            .as_ref()
+            .map(|p| format!("{} ({})", p.crs, p.unit_name())),
+        peak_memory_bytes: peak_memory(),
         seconds: started.elapsed().as_secs_f64(),
     })
+}
+
+/// The process's peak resident memory in bytes, where the system says (Linux).
+fn peak_memory() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
 }
 
 /// Fails with [`Error::HeightRange`] once the heights read so far span more than 65535 quanta
@@ -204,6 +222,18 @@ pub fn build_file(
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<BuildReport> {
     build_opening(|| dem::open(path, open), out, options, progress)
+}
+
+/// Opens the DEM `inputs` name (one file, or a mosaic of many: [`dem::open_inputs`]) and
+/// builds `out` from it ([`build_opening`]).
+pub fn build_inputs(
+    inputs: &[PathBuf],
+    open: &OpenOptions,
+    out: &Path,
+    options: &BuildOptions,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<BuildReport> {
+    build_opening(|| dem::open_inputs(inputs, open), out, options, progress)
 }
 
 /// Builds `out` from the DEM `open` opens ([`build`]). When the height quantum is left to the
@@ -279,14 +309,14 @@ fn header(info: &DemInfo, grid: &Tiling, options: &BuildOptions) -> Result<Heade
             format!("at most {MAX_SPACING} metres"),
         ));
     }
-    if let Some((x, y)) = options.origin {
-        if !(x.is_finite() && y.is_finite()) {
-            return Err(Error::setting(
-                "origin",
-                format!("{x} {y}"),
-                "two finite numbers of metres",
-            ));
-        }
+    if let Some((x, y)) = options.origin
+        && !(x.is_finite() && y.is_finite())
+    {
+        return Err(Error::setting(
+            "origin",
+            format!("{x} {y}"),
+            "two finite numbers of metres",
+        ));
     }
     // A tile far larger than the DEM is all padding: refuse it rather than encode it (any size
     // up to the default is allowed, so the default always works).

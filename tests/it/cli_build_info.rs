@@ -90,10 +90,17 @@ fn errors_name_the_file_and_exit_1_bad_flags_exit_2() {
     assert!(err.contains("bogus.png") && err.contains("PNG"), "{err}");
     assert!(!out.exists());
 
+    // `info` reads a DEM as `build` would, and anything else as an archive.
     let o = stripmask().arg("info").arg(&bogus).output().unwrap();
     assert_eq!(o.status.code(), Some(1));
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("bogus.png") && err.contains("magic"), "{err}");
+    assert!(err.contains("bogus.png") && err.contains("PNG"), "{err}");
+    let not_archive = dir.path().join("bogus.smdb");
+    std::fs::write(&not_archive, b"\x89PNG\r\n\x1a\nnot really").unwrap();
+    let o = stripmask().arg("info").arg(&not_archive).output().unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("bogus.smdb") && err.contains("magic"), "{err}");
 
     // Bad flags: the library's check (tile size), clap's (raw layout flags go together), and
     // clap's with the library's names as the possible values (codec).

@@ -3,7 +3,9 @@
 use std::path::{Path, PathBuf};
 use stripmask::db::grid::TileId;
 
-use crate::support::tiff_writer::{Chunking, Layout, Sample, Value, raw, tiff};
+use crate::support::tiff_writer::{
+    Chunking, Layout, Sample, Tags, Value, raw, tiff, write_geotiff,
+};
 use stripmask::db::archive::ArchiveReader;
 use stripmask::db::builder::{BuildOptions, build, build_file};
 use stripmask::db::dem::{self, DemFormat, OpenOptions, RawLayout, SampleType};
@@ -320,51 +322,9 @@ fn bad_inputs_name_the_file_and_the_problem() {
     assert!(e.contains("x.dat") && e.contains("--format"), "{e}");
 }
 
-/// The tags a test GeoTIFF carries besides its samples.
-#[derive(Default)]
-struct Tags<'a> {
-    /// GDAL's metadata XML.
-    metadata: Option<&'a str>,
-    /// GDAL's nodata text.
-    nodata: Option<&'a str>,
-    /// Pixel scale (x, y) and the world position of the first pixel's corner.
-    georeference: Option<([f64; 2], [f64; 2])>,
-    /// GeoKeys `(id, value)`, short values.
-    keys: &'a [(u16, u16)],
-}
-
-/// Writes a UInt16 TIFF of `w x h` samples `raw(i, j)` with `tags`.
-fn write_u16_tiff(path: &Path, (w, h): (u32, u32), raw: impl Fn(u32, u32) -> u16, tags: &Tags) {
-    use tiff::encoder::{TiffEncoder, colortype::Gray16};
-    use tiff::tags::Tag;
-    let data: Vec<u16> = (0..w * h).map(|k| raw(k % w, k / w)).collect();
-    let mut encoder = TiffEncoder::new(std::fs::File::create(path).unwrap()).unwrap();
-    let mut image = encoder.new_image::<Gray16>(w, h).unwrap();
-    let dir = image.encoder();
-    if let Some(metadata) = tags.metadata {
-        dir.write_tag(Tag::Unknown(42112), metadata).unwrap();
-    }
-    if let Some(nodata) = tags.nodata {
-        dir.write_tag(Tag::GdalNodata, nodata).unwrap();
-    }
-    if let Some((scale, corner)) = tags.georeference {
-        dir.write_tag(Tag::ModelPixelScaleTag, &[scale[0], scale[1], 0.0][..])
-            .unwrap();
-        dir.write_tag(
-            Tag::ModelTiepointTag,
-            &[0.0, 0.0, 0.0, corner[0], corner[1], 0.0][..],
-        )
-        .unwrap();
-    }
-    if !tags.keys.is_empty() {
-        let mut directory = vec![1, 1, 0, tags.keys.len() as u16];
-        for &(id, value) in tags.keys {
-            directory.extend([id, 0, 1, value]);
-        }
-        dir.write_tag(Tag::GeoKeyDirectoryTag, &directory[..])
-            .unwrap();
-    }
-    image.write_data(&data).unwrap();
+/// Writes a UInt16 GeoTIFF of `w x h` samples `raw(i, j)` with `tags`.
+fn write_u16_tiff(path: &Path, size: (u32, u32), raw: impl Fn(u32, u32) -> u16, tags: &Tags) {
+    write_geotiff::<tiff::encoder::colortype::Gray16>(path, size, raw, tags);
 }
 
 #[test]

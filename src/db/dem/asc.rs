@@ -5,6 +5,8 @@ use std::io::{BufRead, BufReader};
 use std::path::Path;
 
 use super::geographic::Geographic;
+use super::placement::{Placement, Units};
+use super::wkt;
 use super::{DemInfo, DemReader, check_dimensions};
 use crate::error::{Error, Result};
 
@@ -92,12 +94,32 @@ impl AscReader {
         let mut info = DemInfo::new(&name, width, height);
         let cell = header.cell.filter(|c| c.is_finite() && *c > 0.0);
         let origin_hint = cell.and_then(|c| header.north_west(c, height));
-        match cell {
-            Some(c) if c < DEGREE_CELL_LIMIT => in_degrees(&mut info, c, origin_hint),
-            _ => {
-                info.spacing_hint = cell;
-                info.origin_hint = origin_hint;
+        if let Some((x, y)) = origin_hint
+            && !(x.is_finite() && y.is_finite())
+        {
+            return Err(Error::invalid(
+                &name,
+                format!("its first sample lies at ({x}, {y}): the corner is not a finite number"),
+            ));
+        }
+        let prj = sidecar_crs(path, &mut info);
+        match (cell, origin_hint, prj) {
+            (Some(c), Some(first), Some((crs, units))) => Placement {
+                crs,
+                units,
+                cell: (c, c),
+                first,
             }
+            .apply(&mut info),
+            (Some(c), _, _) if c < DEGREE_CELL_LIMIT => in_degrees(&mut info, c, origin_hint),
+            (Some(c), Some(first), None) => Placement {
+                crs: NO_CRS.into(),
+                units: Units::Linear(1.0),
+                cell: (c, c),
+                first,
+            }
+            .apply(&mut info),
+            _ => info.spacing_hint = cell,
         }
         Ok(AscReader {
             info,
@@ -201,6 +223,29 @@ fn check_file_holds(name: &str, width: usize, height: usize, file_len: u64) -> R
     Ok(())
 }
 
+/// The CRS of the `.prj` file beside `path` (its WKT, as GDAL and ArcGIS write it), when there
+/// is one; one that cannot be read is noted in `info` and ignored.
+fn sidecar_crs(path: &Path, info: &mut DemInfo) -> Option<(String, Units)> {
+    let prj = path.with_extension("prj");
+    let text = std::fs::read(&prj).ok()?;
+    if text.len() > 1 << 20 {
+        info.notes
+            .push(format!("{} is over 1 MiB: ignored", prj.display()));
+        return None;
+    }
+    match wkt::crs(&String::from_utf8_lossy(&text)) {
+        Ok(crs) => Some(crs),
+        Err(e) => {
+            info.notes
+                .push(format!("{} unreadable ({e}): ignored", prj.display()));
+            None
+        }
+    }
+}
+
+/// What an ASCII grid's CRS is called when no `.prj` file names it.
+const NO_CRS: &str = "no CRS (no .prj file beside the grid names one)";
+
 /// Describes a grid whose cell size `cell` is small enough to be degrees: geographic when the
 /// header places it on Earth (`north_west`, the centre of its first sample), else a grid whose
 /// spacing the user must give.
@@ -213,12 +258,18 @@ fn in_degrees(info: &mut DemInfo, cell: f64, north_west: Option<(f64, f64)>) {
     });
     match grid.filter(|g| g.is_plausible(info.height)) {
         Some(g) => {
+            let placement = Placement {
+                crs: NO_CRS.into(),
+                units: Units::Degrees,
+                cell: (cell, cell),
+                first: (g.west, g.north),
+            };
             info.notes.push(format!(
                 "cell size {cell} is below {DEGREE_CELL_LIMIT} and an ASCII grid gives no \
                  unit: taken as degrees, placed by the header's corner; pass --spacing METRES \
                  if the cells are metres"
             ));
-            g.apply(info);
+            placement.apply(info);
         }
         None => {
             info.spacing_problem = Some(format!(

@@ -15,7 +15,7 @@ use tiff::tags::{ByteOrder, Tag};
 
 use tiff_codecs::{ChunkCodec, Codec, LERC_PARAMETERS, SampleLayout};
 
-use super::geographic::Geographic;
+use super::placement::{FOOT, Placement, US_SURVEY_FOOT, Units, WEB_MERCATOR};
 use super::{DemInfo, DemReader, check_claim, check_dimensions};
 use crate::error::{Error, Result};
 
@@ -349,7 +349,7 @@ fn to_f32(chunk: DecodingResult, nodata: Option<f64>, scaling: Scaling) -> Vec<f
 }
 
 /// Spacing (metres) and origin from the GeoTIFF pixel-scale, tie-point and GeoKey tags, into
-/// `info`; a geographic grid (degrees) gets metres on both axes ([`Geographic`]).
+/// `info`; a geographic grid (degrees) gets metres on both axes ([`Placement`]).
 fn georeference(decoder: &mut Decoder<BufReader<File>>, info: &mut DemInfo) -> f64 {
     let scale = decoder.get_tag_f64_vec(Tag::ModelPixelScaleTag).ok();
     let tie = decoder.get_tag_f64_vec(Tag::ModelTiepointTag).ok();
@@ -369,7 +369,7 @@ fn georeference(decoder: &mut Decoder<BufReader<File>>, info: &mut DemInfo) -> f
         return vertical;
     };
     // The tie point's world position of sample (0, 0)'s centre, in the file's units.
-    let corner = match tie {
+    let first = match tie {
         Some(t) if t.len() >= 6 => {
             let half = if pixel_is_point { 0.0 } else { 0.5 };
             Some((
@@ -379,35 +379,70 @@ fn georeference(decoder: &mut Decoder<BufReader<File>>, info: &mut DemInfo) -> f
         }
         _ => None,
     };
-    if !geographic {
-        projected(info, key, scale[0], scale[1], corner);
-        return vertical;
-    }
-    let grid = corner.map(|(west, north)| Geographic {
-        cell_x: scale[0],
-        cell_y: scale[1],
-        west,
-        north,
-    });
-    match grid.filter(|g| g.is_plausible(info.height)) {
-        Some(g) => g.apply(info),
-        None => {
+    let (crs, units) = if geographic {
+        (crs_name(key(2048), "geographic"), Units::Degrees)
+    } else {
+        let crs = crs_name(key(3072), "projected");
+        let unit = key(3076).unwrap_or(9001);
+        let Some((to_metres, _)) = metres_per_unit(unit) else {
             info.spacing_problem = Some(format!(
-                "a geographic grid of {} x {} degree cells without a plausible tie point, so \
-                 its latitude (and metres east-west) is unknown; pass --spacing METRES",
-                scale[0], scale[1]
+                "{crs} in linear unit {unit} (GeoTIFF ProjLinearUnitsGeoKey), neither metres nor \
+                 feet; pass --spacing METRES"
             ));
+            return vertical;
+        };
+        match key(3072) {
+            Some(code) if WEB_MERCATOR.contains(&u32::from(code)) => {
+                (crs, Units::WebMercator(to_metres))
+            }
+            _ => (crs, Units::Linear(to_metres)),
         }
+    };
+    let cell = (scale[0], scale[1]);
+    match first {
+        Some(first) => Placement {
+            crs,
+            units,
+            cell,
+            first,
+        }
+        .apply(info),
+        None => match units {
+            Units::Degrees => {
+                info.spacing_problem = Some(format!(
+                    "a geographic grid of {} x {} degree cells without a tie point, so its \
+                     latitude (and metres east-west) is unknown; pass --spacing METRES",
+                    cell.0, cell.1
+                ));
+            }
+            Units::Linear(to_metres) | Units::WebMercator(to_metres) => {
+                info.spacing_hint = Some(cell.1 * to_metres).filter(|s| s.is_finite() && *s > 0.0);
+                if (cell.0 - cell.1).abs() > 1e-9 * cell.1 {
+                    info.east_west_scale = cell.0 / cell.1;
+                }
+            }
+        },
     }
     vertical
 }
+
+/// The CRS a GeoTIFF key names: `EPSG:code`, or a user-defined one of `kind`.
+fn crs_name(code: Option<u16>, kind: &str) -> String {
+    match code {
+        Some(c) if c != USER_DEFINED => format!("EPSG:{c}"),
+        _ => format!("a user-defined {kind} CRS"),
+    }
+}
+
+/// GeoTIFF's key value for a CRS that the file defines itself rather than by EPSG code.
+const USER_DEFINED: u16 = 32767;
 
 /// Metres per unit of the linear units GeoTIFF names by EPSG code: metre, foot, US survey foot.
 fn metres_per_unit(code: u16) -> Option<(f64, &'static str)> {
     match code {
         9001 => Some((1.0, "metres")),
-        9002 => Some((0.3048, "feet")),
-        9003 => Some((1200.0 / 3937.0, "US survey feet")),
+        9002 => Some((FOOT, "feet")),
+        9003 => Some((US_SURVEY_FOOT, "US survey feet")),
         _ => None,
     }
 }
@@ -431,57 +466,6 @@ fn vertical_unit(info: &mut DemInfo, code: Option<u16>) -> f64 {
             1.0
         }
     }
-}
-
-/// The EPSG codes of Web Mercator, whose "metres" are ground metres over the cosine of the
-/// latitude.
-const WEB_MERCATOR: [u16; 2] = [3857, 3785];
-
-/// Spacing and origin of a projected grid of `cell_x x cell_y` cells whose first sample's
-/// centre lies at `corner`, in the file's linear units: converted to metres (feet are not taken
-/// as metres), Web Mercator's scale undone at the grid's latitude, the CRS noted as read.
-fn projected(
-    info: &mut DemInfo,
-    key: impl Fn(u16) -> Option<u16>,
-    cell_x: f64,
-    cell_y: f64,
-    corner: Option<(f64, f64)>,
-) {
-    let crs = key(3072).map_or("a projected CRS".to_string(), |c| format!("EPSG:{c}"));
-    let unit = key(3076).unwrap_or(9001);
-    let Some((to_metres, unit_name)) = metres_per_unit(unit) else {
-        info.spacing_problem = Some(format!(
-            "{crs} in linear unit {unit} (GeoTIFF ProjLinearUnitsGeoKey), neither metres nor \
-             feet; pass --spacing METRES"
-        ));
-        return;
-    };
-    let mut factor = to_metres;
-    if to_metres != 1.0 {
-        info.notes.push(format!(
-            "{crs} in {unit_name}: spacing and origin converted to metres (x {to_metres:.7})"
-        ));
-    }
-    if let (Some(code), Some((_, north))) = (key(3072), corner)
-        && WEB_MERCATOR.contains(&code)
-    {
-        let centre = north - cell_y * (info.height.saturating_sub(1) as f64) / 2.0;
-        let latitude = (centre * to_metres / 6_378_137.0).sinh().atan();
-        factor *= latitude.cos();
-        info.notes.push(format!(
-            "{crs} (Web Mercator): its metres are {:.3} ground metres at the grid's latitude \
-             ({:.2}°); spacing and origin scaled to ground metres",
-            latitude.cos(),
-            latitude.to_degrees()
-        ));
-    }
-    info.spacing_hint = Some(cell_y * factor).filter(|s| s.is_finite() && *s > 0.0);
-    if (cell_x - cell_y).abs() > 1e-9 * cell_y {
-        info.east_west_scale = cell_x / cell_y;
-    }
-    info.origin_hint = corner
-        .map(|(x, y)| (x * factor, y * factor))
-        .filter(|(x, y)| x.is_finite() && y.is_finite());
 }
 
 impl DemReader for TiffReader {
@@ -508,8 +492,9 @@ impl DemReader for TiffReader {
 /// to bound it by.
 const MAX_SPARSE_BAND_BYTES: u64 = 512 << 20;
 
-/// The most a TIFF's samples may outweigh its file: LZW, the most compressing of the codecs
-/// read here, stays under 4096 to 1 (DEFLATE under 1032 to 1).
+/// The most a TIFF's samples may outweigh its file with the `tiff` crate's codecs: LZW, the
+/// most compressing of them, stays under 4096 to 1 (DEFLATE under 1032 to 1); ZSTD and LERC
+/// files have their own bounds ([`ChunkCodec`]).
 const MAX_EXPANSION: u64 = 4096;
 
 /// Refuses strips or tiles outside the file or sharing bytes: each chunk must have bytes of

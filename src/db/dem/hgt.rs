@@ -7,7 +7,7 @@ use std::fs::File;
 use std::io::{BufReader, Cursor, Read};
 use std::path::Path;
 
-use super::geographic::Geographic;
+use super::placement::{Placement, Units};
 use super::raw::RawReader;
 use super::{METRES_PER_DEGREE, RawLayout, SampleType, check_dimensions};
 use crate::error::{Error, Result};
@@ -85,7 +85,7 @@ pub fn open_zip(path: &Path) -> Result<RawReader> {
 fn side(name: &str, len: u64) -> Result<usize> {
     let samples = len / 2;
     let side = (samples as f64).sqrt().round() as u64;
-    if len % 2 != 0 || side * side != samples || side < 2 {
+    if !len.is_multiple_of(2) || side * side != samples || side < 2 {
         return Err(Error::invalid(
             name,
             format!(
@@ -115,11 +115,12 @@ fn place(reader: RawReader, side: usize, path: &Path) -> RawReader {
     let cell = 1.0 / (side.max(2) - 1) as f64;
     let info = reader.info_mut();
     match south_west(path) {
-        Some((south, west)) => Geographic {
-            cell_x: cell,
-            cell_y: cell,
-            west,
-            north: south + 1.0,
+        // SRTM heights are on WGS 84.
+        Some((south, west)) => Placement {
+            crs: "EPSG:4326".into(),
+            units: Units::Degrees,
+            cell: (cell, cell),
+            first: (west, south + 1.0),
         }
         .apply(info),
         None => {

@@ -10,13 +10,19 @@ mod geographic;
 mod geotiff;
 mod hgt;
 mod jpeg;
+mod mosaic;
+mod placement;
 mod png;
 mod raw;
 mod resample;
+mod vrt;
+mod wkt;
 
 use std::collections::VecDeque;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
+pub use mosaic::{Mosaic, expand};
+pub use placement::{Placement, Units};
 pub use resample::EastWest;
 
 use crate::error::{Error, Result};
@@ -44,6 +50,8 @@ pub struct DemInfo {
     pub spacing_problem: Option<String>,
     /// What the reader assumed about the file, for `build` to print.
     pub notes: Vec<String>,
+    /// Where the grid lies in its own CRS, when the file says: what a mosaic places it by.
+    pub placement: Option<Placement>,
 }
 
 impl DemInfo {
@@ -58,6 +66,7 @@ impl DemInfo {
             east_west_scale: 1.0,
             spacing_problem: None,
             notes: Vec::new(),
+            placement: None,
         }
     }
 }
@@ -149,6 +158,8 @@ pub enum DemFormat {
     Asc,
     /// Headerless raw samples or BIL (needs width, height and sample type).
     Raw,
+    /// A GDAL virtual mosaic (`.vrt`) of files of the other formats.
+    Vrt,
 }
 
 impl DemFormat {
@@ -172,8 +183,15 @@ impl DemFormat {
             }
             "asc" => DemFormat::Asc,
             "raw" | "bil" | "bin" | "r16" | "r32" => DemFormat::Raw,
+            "vrt" => DemFormat::Vrt,
             _ => return None,
         })
+    }
+
+    /// Whether a folder given to `build` contributes files of this format to its mosaic: the
+    /// formats whose files say where they lie (a VRT is a mosaic of its own, given alone).
+    pub fn found_in_folders(self) -> bool {
+        matches!(self, DemFormat::Tiff | DemFormat::Hgt | DemFormat::Asc)
     }
 }
 
@@ -184,6 +202,7 @@ named_enum!(DemFormat, "DEM format", {
     Hgt => "hgt",
     Asc => "asc",
     Raw => "raw",
+    Vrt => "vrt",
 });
 
 /// Metres per degree of latitude, to turn a geographic sample size into an approximate spacing.
@@ -248,8 +267,39 @@ pub struct OpenOptions {
     pub encoding: HeightEncoding,
 }
 
-/// Opens a DEM file for streaming, with the nodata fill applied.
+/// Opens a DEM file (or a GDAL VRT mosaic) for streaming, with the nodata fill applied.
 pub fn open(path: &Path, options: &OpenOptions) -> Result<NodataFill<Box<dyn DemReader>>> {
+    Ok(NodataFill::new(
+        open_reader(path, options, 0)?,
+        options.nodata,
+    ))
+}
+
+/// Opens what `build`'s inputs name as one DEM, with the nodata fill applied: one file as
+/// [`open`] does, or many (files, folders, glob patterns; see [`expand`]) as a mosaic placed by
+/// their georeferencing ([`Mosaic`]).
+pub fn open_inputs(
+    inputs: &[PathBuf],
+    options: &OpenOptions,
+) -> Result<NodataFill<Box<dyn DemReader>>> {
+    let files = expand(inputs)?;
+    let reader: Box<dyn DemReader> = match files.as_slice() {
+        [] => return Err(Error::invalid("build", "no input DEM given")),
+        [one] => open_reader(one, options, 0)?,
+        many => Box::new(Mosaic::placed(many, options, 0)?),
+    };
+    Ok(NodataFill::new(reader, options.nodata))
+}
+
+/// How many VRTs deep a source may lie (a VRT listing VRTs); deeper is a loop, or a mistake.
+const MAX_VRT_DEPTH: usize = 4;
+
+/// Opens one DEM file without the nodata fill, `depth` VRTs deep.
+pub(crate) fn open_reader(
+    path: &Path,
+    options: &OpenOptions,
+    depth: usize,
+) -> Result<Box<dyn DemReader>> {
     let name = path.display().to_string();
     let format = match options.format.or_else(|| DemFormat::from_path(path)) {
         Some(f) => f,
@@ -274,7 +324,7 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<NodataFill<Box<dyn Dem
             ),
         ));
     }
-    let reader: Box<dyn DemReader> = match format {
+    Ok(match format {
         DemFormat::Png => Box::new(png::PngReader::open(path)?.with_encoding(options.encoding)?),
         DemFormat::Jpeg => Box::new(jpeg::JpegReader::open(path)?),
         DemFormat::Tiff => Box::new(geotiff::TiffReader::open(path)?),
@@ -290,8 +340,21 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<NodataFill<Box<dyn Dem
             })?;
             Box::new(raw::RawReader::open(path, layout)?)
         }
-    };
-    Ok(NodataFill::new(reader, options.nodata))
+        DemFormat::Vrt if depth >= MAX_VRT_DEPTH => {
+            return Err(Error::invalid(
+                name,
+                format!("a VRT more than {MAX_VRT_DEPTH} VRTs deep (do they list each other?)"),
+            ));
+        }
+        DemFormat::Vrt => {
+            // A VRT's sources are read as their extensions say, whatever --format forced.
+            let sources = OpenOptions {
+                format: None,
+                ..*options
+            };
+            Box::new(vrt::open(path, &sources, depth)?)
+        }
+    })
 }
 
 /// Whether `path` names a zip file.

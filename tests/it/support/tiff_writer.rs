@@ -115,6 +115,22 @@ pub fn tiff<T: Sample>(
     (width, height): (u32, u32),
     samples: &[T],
     layout: &Layout,
+    store: impl FnMut(&[T], (usize, usize)) -> Vec<u8>,
+) -> Vec<u8> {
+    tiff_of(
+        (width, height),
+        |i, j| samples[(j * width + i) as usize],
+        layout,
+        store,
+    )
+}
+
+/// [`tiff`] of the grid whose sample `(i, j)` is `sample(i, j)`, never held whole: a grid
+/// larger than memory, most of whose chunks `store` leaves empty (a sparse file).
+pub fn tiff_of<T: Sample>(
+    (width, height): (u32, u32),
+    sample: impl Fn(u32, u32) -> T,
+    layout: &Layout,
     mut store: impl FnMut(&[T], (usize, usize)) -> Vec<u8>,
 ) -> Vec<u8> {
     let be = layout.big_endian;
@@ -135,7 +151,7 @@ pub fn tiff<T: Sample>(
             for j in y0..y0 + rows {
                 for i in x0..x0 + cw {
                     chunk.push(if i < width && j < height {
-                        samples[(j * width + i) as usize]
+                        sample(i, j)
                     } else {
                         T::default()
                     });
@@ -197,4 +213,60 @@ pub fn tiff<T: Sample>(
     out[4..8].copy_from_slice(&at);
     out.extend(ifd);
     out
+}
+
+/// The tags a test GeoTIFF carries besides its samples.
+#[derive(Default)]
+pub struct Tags<'a> {
+    /// GDAL's metadata XML.
+    pub metadata: Option<&'a str>,
+    /// GDAL's nodata text.
+    pub nodata: Option<&'a str>,
+    /// Pixel scale (x, y) and the world position of the first pixel's corner.
+    pub georeference: Option<([f64; 2], [f64; 2])>,
+    /// GeoKeys `(id, value)`, short values.
+    pub keys: &'a [(u16, u16)],
+}
+
+/// Writes a TIFF of `w x h` samples `sample(i, j)` of the `tiff` encoder's colour type `C`
+/// with `tags`.
+pub fn write_geotiff<C>(
+    path: &std::path::Path,
+    (w, h): (u32, u32),
+    sample: impl Fn(u32, u32) -> C::Inner,
+    tags: &Tags,
+) where
+    C: tiff::encoder::colortype::ColorType,
+    [C::Inner]: tiff::encoder::TiffValue,
+{
+    use tiff::encoder::TiffEncoder;
+    use tiff::tags::Tag;
+    let data: Vec<C::Inner> = (0..w * h).map(|k| sample(k % w, k / w)).collect();
+    let mut encoder = TiffEncoder::new(std::fs::File::create(path).unwrap()).unwrap();
+    let mut image = encoder.new_image::<C>(w, h).unwrap();
+    let dir = image.encoder();
+    if let Some(metadata) = tags.metadata {
+        dir.write_tag(Tag::Unknown(42112), metadata).unwrap();
+    }
+    if let Some(nodata) = tags.nodata {
+        dir.write_tag(Tag::GdalNodata, nodata).unwrap();
+    }
+    if let Some((scale, corner)) = tags.georeference {
+        dir.write_tag(Tag::ModelPixelScaleTag, &[scale[0], scale[1], 0.0][..])
+            .unwrap();
+        dir.write_tag(
+            Tag::ModelTiepointTag,
+            &[0.0, 0.0, 0.0, corner[0], corner[1], 0.0][..],
+        )
+        .unwrap();
+    }
+    if !tags.keys.is_empty() {
+        let mut directory = vec![1, 1, 0, tags.keys.len() as u16];
+        for &(id, value) in tags.keys {
+            directory.extend([id, 0, 1, value]);
+        }
+        dir.write_tag(Tag::GeoKeyDirectoryTag, &directory[..])
+            .unwrap();
+    }
+    image.write_data(&data).unwrap();
 }

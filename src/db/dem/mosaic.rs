@@ -174,7 +174,6 @@ struct Active {
     /// of the one after.
     columns: Vec<(usize, usize, f32)>,
     open: Option<Open>,
-    done: bool,
 }
 
 /// Reads many files as one grid, row by row.
@@ -184,6 +183,12 @@ pub struct Mosaic {
     /// How deep in VRTs the sources lie (a VRT may list VRTs, a few deep).
     depth: usize,
     lanes: Vec<Active>,
+    /// The lanes by their first row, and how many of them the rows have reached.
+    by_start: Vec<usize>,
+    started: usize,
+    /// The lanes under the current row, in listed order: a row visits these only, however
+    /// many files the mosaic has.
+    under: Vec<usize>,
     next_row: usize,
 }
 
@@ -197,7 +202,7 @@ impl Mosaic {
         depth: usize,
     ) -> Mosaic {
         let (width, height) = (info.width, info.height);
-        let lanes = lanes
+        let lanes: Vec<Active> = lanes
             .into_iter()
             .filter_map(|lane| {
                 let rows = lane.y.covered(height)?;
@@ -213,15 +218,19 @@ impl Mosaic {
                     rows,
                     columns,
                     open: None,
-                    done: false,
                 })
             })
             .collect();
+        let mut by_start: Vec<usize> = (0..lanes.len()).collect();
+        by_start.sort_by_key(|&k| lanes[k].rows.0);
         Mosaic {
             info,
             options,
             depth,
             lanes,
+            by_start,
+            started: 0,
+            under: Vec::new(),
             next_row: 0,
         }
     }
@@ -428,16 +437,24 @@ impl DemReader for Mosaic {
             return Err(Error::invalid(&self.info.name, "read past the last row"));
         }
         row.fill(f32::NAN);
-        for active in self.lanes.iter_mut().rev() {
-            if active.done || j < active.rows.0 {
-                continue;
-            }
-            active.paint(j, row, &self.options, self.depth)?;
-            if j == active.rows.1 {
-                active.open = None;
-                active.done = true;
-            }
+        while let Some(&k) = self.by_start.get(self.started)
+            && self.lanes[k].rows.0 <= j
+        {
+            let at = self.under.partition_point(|&u| u < k);
+            self.under.insert(at, k);
+            self.started += 1;
         }
+        for &k in self.under.iter().rev() {
+            self.lanes[k].paint(j, row, &self.options, self.depth)?;
+        }
+        let lanes = &mut self.lanes;
+        self.under.retain(|&k| {
+            let ended = lanes[k].rows.1 == j;
+            if ended {
+                lanes[k].open = None;
+            }
+            !ended
+        });
         self.next_row += 1;
         Ok(())
     }

@@ -626,3 +626,63 @@ fn a_cloud_optimized_geotiff_reads_its_full_resolution_image_not_its_overviews_o
     assert_eq!((dem.width, dem.height), (16, 12));
     assert_eq!(dem.at(15, 11), height(15, 11));
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
+    /// Any grid cut into pieces at any columns and rows, overlapping their neighbours by any
+    /// few samples and listed in any order, reads back as the grid, sample for sample.
+    #[test]
+    fn any_cut_of_a_grid_reads_back_as_the_grid(
+        (w, h) in (3u32..40, 3u32..40),
+        cuts_x in proptest::collection::vec(1u32..39, 0..3),
+        cuts_y in proptest::collection::vec(1u32..39, 0..3),
+        overlap in 0u32..3,
+        order in any::<u64>(),
+    ) {
+        use stripmask::db::dem::DemReader;
+        let dir = tempfile::tempdir().unwrap();
+        let spans = |n: u32, cuts: &[u32]| {
+            let mut at: Vec<u32> = cuts.iter().map(|c| c % (n - 1) + 1).collect();
+            at.extend([0, n]);
+            at.sort();
+            at.dedup();
+            at.windows(2)
+                .map(|p| (p[0].saturating_sub(overlap), (p[1] + overlap).min(n)))
+                .filter(|(a, b)| b - a >= 2)
+                .collect::<Vec<_>>()
+        };
+        let mut paths = Vec::new();
+        for (y0, y1) in spans(h, &cuts_y) {
+            for (x0, x1) in spans(w, &cuts_x) {
+                let path = dir.path().join(format!("p{x0}_{y0}.tif"));
+                let corner = [500_000.0 + f64::from(x0) * 10.0, 5_200_000.0 - f64::from(y0) * 10.0];
+                let f = |i, j| height(i + x0, j + y0);
+                write_tiff(&path, (x1 - x0, y1 - y0), f, corner, [10.0, 10.0], UTM10, None);
+                paths.push(path);
+            }
+        }
+        prop_assume!(!paths.is_empty());
+        // A seeded shuffle of the listing order.
+        let mut seed = order;
+        for k in (1..paths.len()).rev() {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            paths.swap(k, (seed >> 33) as usize % (k + 1));
+        }
+        let mut reader = dem::Mosaic::placed(&paths, &OpenOptions::default(), 0).unwrap();
+        let (mw, mh) = (reader.info().width, reader.info().height);
+        // Where the mosaic starts in the grid: pieces narrower than 2 samples are not written,
+        // so it may start past the grid's first row or column, and their samples are nodata.
+        let first = reader.info().placement.as_ref().unwrap().first;
+        let i0 = ((first.0 - 500_005.0) / 10.0).round() as u32;
+        let j0 = ((5_199_995.0 - first.1) / 10.0).round() as u32;
+        let mut row = vec![0.0; mw];
+        for j in 0..mh {
+            reader.read_row(&mut row).unwrap();
+            for (i, v) in row.iter().enumerate() {
+                let want = height(i as u32 + i0, j as u32 + j0);
+                prop_assert!(v.is_nan() || *v == want, "({}, {}) {} not {}", i, j, v, want);
+            }
+        }
+    }
+}

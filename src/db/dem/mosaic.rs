@@ -238,6 +238,9 @@ impl Mosaic {
     /// The files `paths` placed by their georeferencing on the grid of the finest cells among
     /// them, at VRT depth `depth`. They must all be placed and share one CRS.
     pub fn placed(paths: &[PathBuf], options: &OpenOptions, depth: usize) -> Result<Self> {
+        if paths.is_empty() {
+            return Err(Error::invalid("a mosaic", "no files to place"));
+        }
         let mut placed: Vec<(PathBuf, DemInfo, Placement)> = Vec::with_capacity(paths.len());
         for path in paths {
             // Opened for its header only, and closed again until the rows reach it.

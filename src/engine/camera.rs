@@ -14,6 +14,9 @@ pub struct Camera {
     pub position: DVec3,
     /// Unit viewing direction.
     pub forward: DVec3,
+    /// Bank about the viewing direction, radians: positive rolls the camera clockwise as seen
+    /// from behind (an aircraft banking right), so the horizon tilts the other way on screen.
+    pub roll: f64,
     /// Vertical field of view, radians.
     pub fov_y: f64,
     /// Near plane distance, metres.
@@ -28,6 +31,7 @@ impl Camera {
         Camera {
             position,
             forward: (target - position).normalize_or(DVec3::NEG_Z),
+            roll: 0.0,
             fov_y: 60f64.to_radians(),
             near: 1.0,
             far: 1e5,
@@ -37,10 +41,19 @@ impl Camera {
     /// The view matrix with the eye at the origin (eye-relative world to camera space).
     pub fn view_from_eye(&self) -> DMat4 {
         // An up vector parallel to the view direction has no meaning: fall back to north.
-        let up = if self.forward.cross(DVec3::Y).length_squared() < 1e-12 {
+        let level = if self.forward.cross(DVec3::Y).length_squared() < 1e-12 {
             DVec3::NEG_Z
         } else {
             DVec3::Y
+        };
+        let up = if self.roll == 0.0 {
+            level
+        } else {
+            // The level camera's up turned towards its right by the roll.
+            let right = self.forward.cross(level).normalize();
+            let up = right.cross(self.forward);
+            let (sin, cos) = self.roll.sin_cos();
+            up * cos + right * sin
         };
         glam::dcamera::rh::view::look_at_mat4(DVec3::ZERO, self.forward, up)
     }
@@ -71,6 +84,31 @@ impl Camera {
 mod tests {
     use super::*;
     use glam::DVec4;
+
+    /// Normalised device x and y of the eye-relative point `p`.
+    fn screen(cam: &Camera, p: DVec3) -> (f64, f64) {
+        let c = cam.view_projection(1.0) * DVec4::from((p, 1.0));
+        (c.x / c.w, c.y / c.w)
+    }
+
+    #[test]
+    fn banking_right_tilts_the_world_counter_clockwise_on_screen() {
+        let level = Camera::looking_at(DVec3::ZERO, DVec3::new(0.0, 0.0, -10.0));
+        let above = DVec3::new(0.0, 1.0, -10.0);
+        let (x, y) = screen(&level, above);
+        assert!(x.abs() < 1e-12 && y > 0.0);
+        let banked = Camera {
+            roll: 90f64.to_radians(),
+            ..level
+        };
+        // What is above the eye shows on the left; what is to the right, above.
+        let (x, y) = screen(&banked, above);
+        assert!(x < 0.0 && y.abs() < 1e-12, "{x} {y}");
+        let (x, y) = screen(&banked, DVec3::new(1.0, 0.0, -10.0));
+        assert!(x.abs() < 1e-12 && y > 0.0, "{x} {y}");
+        let (a, b) = (screen(&Camera { roll: 1e-300, ..level }, above), screen(&level, above));
+        assert!((a.0 - b.0).abs() < 1e-12 && (a.1 - b.1).abs() < 1e-12);
+    }
 
     #[test]
     fn the_target_projects_to_the_centre_at_any_distance_from_the_origin() {

@@ -54,7 +54,7 @@ pub fn floor_div(n: i64, d: i64) -> i64 {
 }
 
 /// Shift that brings a positive `v` into `[2^30, 2^31)`, as `(v normalised, shift)` where
-/// `v ≈ normalised * 2^shift`. Used to take reciprocals with one 64-bit division.
+/// `v ≈ normalised * 2^shift`. Used to take reciprocals (`reciprocal`).
 #[inline]
 pub fn normalise_positive(v: i128) -> (i64, i32) {
     debug_assert!(v > 0);
@@ -62,6 +62,64 @@ pub fn normalise_positive(v: i128) -> (i64, i32) {
     let shift = bits - 31;
     let n = if shift >= 0 { v >> shift } else { v << -shift };
     (n as i64, shift)
+}
+
+/// `2^62 / n` rounded down, for a normalised `n` in `[2^30, 2^31)` (`normalise_positive`): the
+/// reciprocal of `w` in the projection and of the area in set-up, in `(2^31, 2^32]`. One
+/// division where the CPU divides 64-bit integers; a 32-bit core has no such instruction (its
+/// library call takes hundreds), so there it is `reciprocal_by_table`, the same integer.
+#[inline(always)]
+pub(crate) fn reciprocal(n: i64) -> i64 {
+    debug_assert!((1 << 30..1 << 31).contains(&n));
+    #[cfg(target_pointer_width = "64")]
+    let r = ((1u64 << 62) / n as u64) as i64;
+    #[cfg(not(target_pointer_width = "64"))]
+    let r = reciprocal_by_table(n as u32);
+    r
+}
+
+/// Seeds of `reciprocal_by_table`: for `m` in `256..512`, `2^25 / (2m + 1)`, about
+/// `2^40 / (m + 1/2)` shifted down by 16, the reciprocal of the middle of the `n` whose top 9
+/// bits are `m`.
+#[cfg(any(test, not(target_pointer_width = "64")))]
+const RECIPROCAL_SEEDS: [u16; 256] = {
+    let mut t = [0u16; 256];
+    let mut i = 0;
+    while i < 256 {
+        t[i] = ((1u32 << 25) / (2 * (256 + i as u32) + 1)) as u16;
+        i += 1;
+    }
+    t
+};
+
+/// `reciprocal` in 32x32-bit products, as the paper's era took reciprocals: a seed from a table
+/// of 256 (within `2^-8.9` of `2^62 / n`), two Newton steps `x + x (2^62 - n x) / 2^62`
+/// (each squares the relative error and truncates by at most 2: within `2^15`, then 3), and a
+/// last step by the remainder `2^62 - n x`, taken until it lies in `0..n`: then `x` is the
+/// rounded-down quotient itself, whatever the estimate was, so the result is exact by
+/// construction (and tested against the division).
+#[cfg(any(test, not(target_pointer_width = "64")))]
+#[inline]
+pub(crate) fn reciprocal_by_table(n: u32) -> i64 {
+    debug_assert!((1 << 30..1 << 31).contains(&n));
+    let n64 = n as u64;
+    let mut x = (RECIPROCAL_SEEDS[(n >> 22) as usize - 256] as u64) << 16;
+    for _ in 0..2 {
+        // `|e| < 2^62 / 2^8`: `e >> 30` fits in 32 bits, the product in 64.
+        let e = (1i64 << 62).wrapping_sub((n64 * x) as i64);
+        x = x.wrapping_add((((e >> 30) as i32 as i64 * x as i64) >> 32) as u64);
+    }
+    // The remainder is exact in wrapping arithmetic: its true value is within a few `n` of 0.
+    let mut r = (1i64 << 62).wrapping_sub((n64 * x) as i64);
+    while r < 0 {
+        x -= 1;
+        r += n as i64;
+    }
+    while r >= n as i64 {
+        x += 1;
+        r -= n as i64;
+    }
+    x as i64
 }
 
 /// Shift `v` right by `s` when `s > 0` and left by `-s` otherwise, rounding to nearest.
@@ -103,6 +161,34 @@ mod tests {
             } else {
                 assert!((n as i128) << s <= v && v < ((n as i128 + 1) << s));
             }
+        }
+    }
+
+    /// The seed and Newton steps against the division: at the ends of the range, around
+    /// every seed's boundary, and at a stride through the whole range.
+    #[test]
+    fn the_reciprocal_by_table_is_the_division() {
+        let division = |n: u32| ((1u64 << 62) / n as u64) as i64;
+        let check = |n: u32| assert_eq!(reciprocal_by_table(n), division(n), "{n}");
+        for m in 256u32..=512 {
+            let edge = m << 22;
+            for d in [0u32, 1, 2, 3, 1 << 21, (1 << 22) - 1] {
+                for n in [edge.wrapping_sub(d + 1), edge.wrapping_add(d)] {
+                    if (1 << 30..1 << 31).contains(&n) {
+                        check(n);
+                    }
+                }
+            }
+        }
+        for n in ((1u32 << 30)..(1 << 31)).step_by(4099) {
+            check(n);
+        }
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn random_reciprocals_by_table_are_the_division(n in (1u32 << 30)..1 << 31) {
+            proptest::prop_assert_eq!(reciprocal_by_table(n), ((1u64 << 62) / n as u64) as i64);
         }
     }
 

@@ -1,14 +1,14 @@
 //! The integer pipeline: what a device without an FPU runs, and the fast path everywhere.
 //!
-//! Vertex stage: exact i64 transform (see `matrix`), outcodes, projection with one 64-bit division
-//! per vertex (a normalised reciprocal of `w`). Triangle setup: attribute planes from one reciprocal
-//! of the area. Pixels: monomorphised row loops that step i64 accumulators.
+//! Vertex stage: exact i64 transform (see `matrix`), outcodes, projection with one reciprocal per
+//! vertex (of a normalised `w`, `fixed_point::reciprocal`). Triangle setup: attribute planes from
+//! one reciprocal of the area. Pixels: monomorphised row loops that step i64 accumulators.
 
 use crate::clip::{ClipVertex, Plane, outcode_by_planes};
 use crate::edge::Coverage;
 use crate::fixed_point::{
     ATTR_FRAC_BITS, DEPTH_ONE, GUARD_BAND_PX, MAX_DIMENSION, Q_BITS, SUBPIXEL_BITS, SUBPIXEL_HALF,
-    SUBPIXEL_ONE, TEXCOORD_LIMIT, normalise_positive, saturate_i64, shift_round,
+    SUBPIXEL_ONE, TEXCOORD_LIMIT, normalise_positive, reciprocal, saturate_i64, shift_round,
 };
 use crate::matrix::{FixedMat4, Transform};
 use crate::pipeline::{Attributes, Pipeline, Setup, TexMode, Viewport};
@@ -353,7 +353,7 @@ fn project_narrow(clip: [i64; 4], w: i64, vp: &Viewport) -> Option<Projected> {
     if (x.unsigned_abs() | y.unsigned_abs()) >> LIMIT != 0 {
         return None;
     }
-    let inv_w = ((1u64 << 62) / wn as u64) as i64; // (2^31, 2^32]: a 64-bit division
+    let inv_w = reciprocal(wn); // (2^31, 2^32]
     let half_w = vp.width as i64 * SUBPIXEL_HALF;
     let half_h = vp.height as i64 * SUBPIXEL_HALF;
     let offset = |c: i64, half: i64| ((c * half) as i128 * inv_w as i128 + (1 << 61)) >> 62;
@@ -370,7 +370,7 @@ fn project_wide(clip: [i64; 4], vp: &Viewport) -> Projected {
     let w = w.max(1);
     let (wn, shift) = normalise_positive(w);
     let scale = |c: i128| if shift > 0 { c >> shift } else { c << -shift };
-    let inv_w = ((1u64 << 62) / wn as u64) as i64; // (2^31, 2^32]: a 64-bit division
+    let inv_w = reciprocal(wn); // (2^31, 2^32]
     let half_w = vp.width as i128 * SUBPIXEL_HALF as i128;
     let half_h = vp.height as i128 * SUBPIXEL_HALF as i128;
     // Inside the guard band |x'| < 2^48, so the products stay below 2^100.
@@ -535,7 +535,7 @@ impl Geometry {
         Self {
             d1,
             d2,
-            inv_area: ((1u64 << 62) / an as u64) as i64,
+            inv_area: reciprocal(an),
             shift,
             // The shift lies in 8..=32 for a small triangle (see `SMALL_EDGE`).
             half: if small { 1 << ((shift - 1) & 63) } else { 0 },

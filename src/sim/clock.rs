@@ -13,8 +13,7 @@
 //! so that in flight time (which runs `slowdown` times faster than the wall) it has the
 //! profile's bandwidth and latency.
 
-use std::sync::Arc;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, PoisonError};
 
 use crate::db::source::TileSource;
 use crate::db::source::throttle::{DropDice, LatencyDice, LinkProfile, SimulatedLink};
@@ -185,19 +184,24 @@ impl Clock {
 /// transfer time, in whole nanoseconds so that sums never depend on order or rounding.
 #[derive(Debug, Default)]
 pub struct LinkMeter {
-    nanos: AtomicU64,
+    // Locked per tile read and per backlog query, never contended: a `Mutex`, not an
+    // `AtomicU64`, which ARMv5TE lacks (and an `AtomicU32` of nanoseconds ends at 4.3 s).
+    nanos: Mutex<u64>,
 }
 
 impl LinkMeter {
+    fn nanos(&self) -> std::sync::MutexGuard<'_, u64> {
+        self.nanos.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
     fn add(&self, seconds: f64) {
-        self.nanos
-            .fetch_add((seconds * 1e9).round() as u64, Ordering::Relaxed);
+        *self.nanos() += (seconds * 1e9).round() as u64;
     }
 }
 
 impl TransferClock for LinkMeter {
     fn busy_seconds(&self) -> f64 {
-        self.nanos.load(Ordering::Relaxed) as f64 * 1e-9
+        *self.nanos() as f64 * 1e-9
     }
 }
 

@@ -4,7 +4,7 @@ use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::{BufWriter, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Mutex, PoisonError};
 
 use super::index::{Directory, encode_page, encode_table, page_grid, page_tiles};
 use super::partial::partial_path;
@@ -62,7 +62,8 @@ impl ArchiveWriter {
     /// builds to the same path at once never write into each other's file; the last to finish
     /// wins, whole.
     pub fn create(path: &Path, header: Header) -> Result<Self> {
-        static WRITERS: AtomicU64 = AtomicU64::new(0);
+        // A lock taken once per archive, not an `AtomicU64`, which ARMv5TE lacks.
+        static WRITERS: Mutex<u64> = Mutex::new(0);
         // What the writer counts and places itself.
         let header = Header {
             absent_tiles: 0,
@@ -78,12 +79,13 @@ impl ArchiveWriter {
                 "is a directory, not an archive file",
             ));
         }
-        let partial = partial_path(
-            path,
-            std::process::id(),
-            WRITERS.fetch_add(1, Ordering::Relaxed),
-        )
-        .ok_or_else(|| Error::invalid(&shown, "names no file"))?;
+        let n = {
+            let mut writers = WRITERS.lock().unwrap_or_else(PoisonError::into_inner);
+            *writers += 1;
+            *writers - 1
+        };
+        let partial = partial_path(path, std::process::id(), n)
+            .ok_or_else(|| Error::invalid(&shown, "names no file"))?;
         let name = partial.display().to_string();
         let file = File::options()
             .write(true)

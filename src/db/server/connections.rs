@@ -13,7 +13,7 @@ use std::convert::Infallible;
 use std::future::Future;
 use std::io;
 use std::pin::Pin;
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use std::task::{Context, Poll};
 use std::time::Duration;
@@ -58,9 +58,16 @@ enum State {
 pub(super) struct Connections {
     /// Open at once, at most.
     cap: usize,
-    open: Mutex<HashMap<u64, Arc<watch::Sender<State>>>>,
-    next_id: AtomicU64,
+    open: Mutex<Open>,
     refusing: AtomicUsize,
+}
+
+/// The open connections by id, and the next id, under one lock.
+#[derive(Default)]
+struct Open {
+    by_id: HashMap<u64, Arc<watch::Sender<State>>>,
+    // Under the lock that admitting takes anyway, not an `AtomicU64`, which ARMv5TE lacks.
+    next_id: u64,
 }
 
 impl Connections {
@@ -68,13 +75,12 @@ impl Connections {
     pub(super) fn new(cap: usize) -> Self {
         Connections {
             cap,
-            open: Mutex::new(HashMap::new()),
-            next_id: AtomicU64::new(0),
+            open: Mutex::new(Open::default()),
             refusing: AtomicUsize::new(0),
         }
     }
 
-    fn open(&self) -> MutexGuard<'_, HashMap<u64, Arc<watch::Sender<State>>>> {
+    fn open(&self) -> MutexGuard<'_, Open> {
         self.open.lock().unwrap_or_else(PoisonError::into_inner)
     }
 
@@ -82,21 +88,23 @@ impl Connections {
     /// longest for a request head when all are taken; `None` when every one is answering.
     fn admit(self: &Arc<Self>) -> Option<Slot> {
         let mut open = self.open();
-        if open.len() >= self.cap {
+        if open.by_id.len() >= self.cap {
             let (_, oldest) = open
+                .by_id
                 .iter()
                 .filter_map(|(id, state)| match *state.borrow() {
                     State::Waiting(since) => Some((since, *id)),
                     _ => None,
                 })
                 .min()?;
-            if let Some(state) = open.remove(&oldest) {
+            if let Some(state) = open.by_id.remove(&oldest) {
                 state.send_replace(State::Evicted);
             }
         }
-        let id = self.next_id.fetch_add(1, Ordering::Relaxed);
+        let id = open.next_id;
+        open.next_id += 1;
         let state = Arc::new(watch::channel(State::Waiting(Instant::now())).0);
-        open.insert(id, Arc::clone(&state));
+        open.by_id.insert(id, Arc::clone(&state));
         Some(Slot {
             id,
             state,
@@ -127,7 +135,7 @@ impl Slot {
 
 impl Drop for Slot {
     fn drop(&mut self) {
-        self.connections.open().remove(&self.id);
+        self.connections.open().by_id.remove(&self.id);
     }
 }
 

@@ -2,8 +2,7 @@
 //! archive changed under it, so that a run that read a damaged or replaced archive can say so
 //! and end with an error instead of ending as if nothing had happened.
 
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, OnceLock};
+use std::sync::{Arc, Mutex, OnceLock, PoisonError};
 
 use super::{CancelToken, TileSource};
 use crate::error::{Error, Result};
@@ -11,14 +10,16 @@ use crate::error::{Error, Result};
 /// What [`Watched`] has seen; shared with whoever reports on the run.
 #[derive(Debug, Default)]
 pub struct Watch {
-    refused: AtomicU64,
+    // Locked once per refused read and once per report: a `Mutex`, not an `AtomicU64`,
+    // which ARMv5TE lacks.
+    refused: Mutex<u64>,
     changed: OnceLock<String>,
 }
 
 impl Watch {
     /// Reads whose bytes failed their checksums so far.
     pub fn refused(&self) -> u64 {
-        self.refused.load(Ordering::Relaxed)
+        *self.refused.lock().unwrap_or_else(PoisonError::into_inner)
     }
 
     /// What showed that the archive changed, once a read or a check did.
@@ -81,7 +82,11 @@ impl<S: TileSource> TileSource for Watched<S> {
     }
 
     fn checksum_failed(&self) -> Result<()> {
-        self.watch.refused.fetch_add(1, Ordering::Relaxed);
+        *self
+            .watch
+            .refused
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner) += 1;
         self.watch.note(self.inner.checksum_failed())
     }
 }

@@ -7,6 +7,8 @@ use stripmask::error::Result;
 #[cfg(any(feature = "window", all(feature = "fbdev", target_os = "linux")))]
 use stripmask::sim::viewer::{ViewerOptions, ViewerSummary};
 
+use stripmask::sim::pose::PoseSource;
+
 use super::args::SceneArgs;
 
 /// What `view` and `fb` show: a window, or the Linux framebuffer.
@@ -20,6 +22,12 @@ pub(super) struct ViewArgs {
     /// Start with the HUD off (H toggles it).
     #[arg(long)]
     no_hud: bool,
+    /// Steer the camera from a feed of poses: `stdin`, `udp:HOST:PORT` (one pose a datagram),
+    /// or a recording to replay (a file). One pose a line: `TIME EAST NORTH ALTITUDE HEADING
+    /// PITCH ROLL` (seconds; the archive's coordinates, metres; degrees clockwise from north, up,
+    /// right wing down).
+    #[arg(long, value_name = "SOURCE")]
+    pose_from: Option<PoseSource>,
     #[command(flatten)]
     scene: SceneArgs,
 }
@@ -44,6 +52,7 @@ pub(super) fn viewer_options(a: &ViewArgs) -> Result<ViewerOptions> {
         flight: scene.flight,
         frames: a.frames,
         clock: scene.clock,
+        poses: a.pose_from.clone(),
     })
 }
 

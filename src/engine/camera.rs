@@ -106,7 +106,16 @@ mod tests {
         assert!(x < 0.0 && y.abs() < 1e-12, "{x} {y}");
         let (x, y) = screen(&banked, DVec3::new(1.0, 0.0, -10.0));
         assert!(x.abs() < 1e-12 && y > 0.0, "{x} {y}");
-        let (a, b) = (screen(&Camera { roll: 1e-300, ..level }, above), screen(&level, above));
+        let (a, b) = (
+            screen(
+                &Camera {
+                    roll: 1e-300,
+                    ..level
+                },
+                above,
+            ),
+            screen(&level, above),
+        );
         assert!((a.0 - b.0).abs() < 1e-12 && (a.1 - b.1).abs() < 1e-12);
     }
 

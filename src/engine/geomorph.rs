@@ -785,6 +785,7 @@ mod tests {
                 heights: (-100.0, 100.0),
                 origin: DVec3::new(1e7, 0.0, -3e6),
                 source_samples: (4 * 16 + 1, 4 * 16 + 1),
+                archive_origin: (0.0, 0.0),
             };
             let eye = terrain.origin + DVec3::new(eye.0, eye.1, eye.2);
             let camera = Camera::looking_at(eye, eye + DVec3::X);
@@ -836,6 +837,7 @@ mod tests {
             heights: (0.0, 100.0),
             origin: DVec3::new(1e7, 0.0, -3e6),
             source_samples: (33, 33),
+            archive_origin: (0.0, 0.0),
         };
         let mut camera = Camera::looking_at(terrain.origin, terrain.origin + DVec3::X);
         camera.fov_y = 90f64.to_radians();

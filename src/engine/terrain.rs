@@ -28,6 +28,9 @@ pub struct TerrainFrame {
     /// Samples per row and rows of the model itself: the grid of whole tiles is padded east and
     /// south beyond them, and the padding is never drawn or flown over.
     pub source_samples: (u32, u32),
+    /// The archive's own coordinates (east, north) of the north-west sample, as `build` stored
+    /// them (projected metres, say): where a position given in those coordinates lands.
+    pub archive_origin: (f64, f64),
 }
 
 impl TerrainFrame {
@@ -42,6 +45,7 @@ impl TerrainFrame {
             heights: (f64::from(header.min_height), f64::from(header.max_height)),
             origin: DVec3::ZERO,
             source_samples: (header.source_width, header.source_height),
+            archive_origin: (header.origin_x, header.origin_y),
         }
     }
 
@@ -164,6 +168,7 @@ mod tests {
             heights: (-40.0, 120.0),
             origin: DVec3::new(1000.0, 7.0, -500.0),
             source_samples: (3 * (s as u32 - 1) + 1, 2 * (s as u32 - 1) + 1),
+            archive_origin: (0.0, 0.0),
         };
         for levels in 1..=whole.levels {
             let tile = whole.truncated(levels);

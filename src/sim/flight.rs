@@ -253,6 +253,7 @@ mod tests {
             origin: DVec3::ZERO,
             // 16 x 8 tiles of 64 cells padded around 700 x 300 samples.
             source_samples: (700, 300),
+            archive_origin: (0.0, 0.0),
         }
     }
 

@@ -78,6 +78,7 @@ pub fn hud_info(engine: &Engine, report: &FrameReport, fps: f64) -> HudInfo {
             importance: Some(importance),
             extent: Some(((ex - f64::from(x0)) as f32, (ey - f64::from(y0)) as f32)),
         }),
+        status: None,
     }
 }
 

@@ -10,6 +10,7 @@ pub mod fly;
 pub mod holes;
 pub mod hud;
 pub mod popping;
+pub mod pose;
 pub mod report;
 pub mod stats;
 pub mod stream_compare;

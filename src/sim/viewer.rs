@@ -22,6 +22,7 @@ use crate::error::Result;
 use crate::sim::clock::Clock;
 use crate::sim::flight::Flight;
 use crate::sim::hud::hud_info;
+use crate::sim::pose::{PoseFeed, PoseSource};
 
 /// What the viewer shows and how.
 #[derive(Clone, Debug)]
@@ -47,6 +48,9 @@ pub struct ViewerOptions {
     /// [`PagerMode::Simulated`](crate::engine::paging::PagerMode::Simulated)
     /// ([`Clock::pager_mode`]) for tiles to arrive at reproducible frames too.
     pub clock: Clock,
+    /// A feed of poses that steers the camera instead of the flight and the keys; the HUD says
+    /// how old its pose is.
+    pub poses: Option<PoseSource>,
 }
 
 /// What a session did.
@@ -193,6 +197,7 @@ pub fn run(presenter: &mut dyn Presenter, o: &ViewerOptions) -> Result<ViewerSum
     let mut engine = Engine::new(source::open(&o.source)?, o.engine, h)?;
     let mut hud = Hud::new(o.hud);
     let mut pilot = Pilot::new(engine.terrain().tile_metres());
+    let feed = o.poses.as_ref().map(PoseFeed::open).transpose()?;
     let mut frames = 0u64;
     let started = Instant::now();
     let mut last = Instant::now();
@@ -218,13 +223,23 @@ pub fn run(presenter: &mut dyn Presenter, o: &ViewerOptions) -> Result<ViewerSum
             last.elapsed().as_secs_f64()
         };
         last = Instant::now();
-        let camera = pilot.camera(&engine, &o.flight, &input, dt);
+        // The feed's time: the simulated clock's, or the wall clock's since the start.
+        let now = if o.clock.is_simulated() {
+            simulated_t
+        } else {
+            started.elapsed().as_secs_f64()
+        };
+        let camera = match feed.as_ref().and_then(|f| f.at(now)) {
+            Some((pose, _)) => pose.camera(&engine),
+            None => pilot.camera(&engine, &o.flight, &input, dt),
+        };
         let frame_start = Instant::now();
         if o.clock.is_simulated() {
             engine.set_time(simulated_t);
         }
         let report = engine.render(&camera, &mut fb)?;
-        let info = hud_info(&engine, &report, 1.0 / dt.max(1e-6));
+        let mut info = hud_info(&engine, &report, 1.0 / dt.max(1e-6));
+        info.status = feed.as_ref().map(|f| f.status(now));
         let overlay = hud.render(&info, w, h);
         presenter.present(&fb, overlay)?;
         let seconds = if o.clock.is_simulated() {
@@ -284,15 +299,14 @@ mod tests {
         }
     }
 
-    #[test]
-    fn input_steers_the_view_toggles_the_hud_resizes_and_quits() {
-        let dir = tempfile::tempdir().unwrap();
+    /// A 129² archive of waves, 20 m apart, in 33-sample tiles, in `dir`; and its frame.
+    fn waves(dir: &std::path::Path) -> (std::path::PathBuf, crate::engine::terrain::TerrainFrame) {
         let n = 129;
         let samples = (0..n * n)
             .map(|k| 200.0 + 120.0 * ((k % n) as f32 * 0.1).sin() * ((k / n) as f32 * 0.08).cos())
             .collect();
         let reader = MemoryReader::new("waves", n, n, samples).unwrap();
-        let path = dir.path().join("waves.smdb");
+        let path = dir.join("waves.smdb");
         let options = BuildOptions {
             tile_size: 33,
             spacing: Some(20.0),
@@ -306,7 +320,82 @@ mod tests {
             .unwrap()
             .header(),
         );
+        (path, terrain)
+    }
 
+    /// The options of a viewer of `path` at 160x120 with a stepped pager and one thread.
+    fn options(
+        path: &std::path::Path,
+        terrain: &crate::engine::terrain::TerrainFrame,
+    ) -> ViewerOptions {
+        ViewerOptions {
+            source: path.display().to_string(),
+            size: (160, 120),
+            color: ColorFormat::Rgb565,
+            depth: DepthFormat::D16,
+            engine: EngineSettings {
+                pager_mode: PagerMode::Stepped {
+                    fetches_per_update: 64,
+                },
+                threads: 1,
+                ..EngineSettings::default()
+            },
+            hud: true,
+            flight: Flight::builtin(Builtin::Overview, terrain),
+            frames: None,
+            clock: Clock::default(),
+            poses: None,
+        }
+    }
+
+    #[test]
+    fn a_recording_of_poses_steers_the_camera_and_a_roll_banks_the_view() {
+        let dir = tempfile::tempdir().unwrap();
+        let (path, terrain) = waves(dir.path());
+        // Over the middle of the 2,560 m square, 600 m up, looking north-east and down.
+        let fly = |name: &str, lines: &str| {
+            let poses = dir.path().join(name);
+            std::fs::write(&poses, lines).unwrap();
+            let mut script = Script {
+                inputs: std::iter::repeat_n(Input::default(), 4).collect(),
+                shown: Vec::new(),
+            };
+            let o = ViewerOptions {
+                poses: Some(super::PoseSource::File(poses)),
+                ..options(&path, &terrain)
+            };
+            run(&mut script, &o).unwrap();
+            script.shown
+        };
+        let sky = [150u8, 180, 215];
+        let ground = |pixels: &[u8]| {
+            pixels
+                .chunks_exact(4)
+                .filter(|p| p[..3].iter().zip(sky).any(|(&a, b)| a.abs_diff(b) > 8))
+                .count()
+        };
+        let down = fly("down.txt", "0 1280 -1280 600 45 -60 0\n");
+        let again = fly(
+            "again.txt",
+            "0 1280 -1280 600 45 -60 0\n3600 1280 -1280 600 45 -60 0\n",
+        );
+        let banked = fly("banked.txt", "0 1280 -1280 600 45 -60 40\n");
+        let up = fly("up.txt", "0 1280 -1280 600 45 60 0\n");
+        assert_eq!(down.len(), 4);
+        assert!(down.iter().all(|s| s.2), "the HUD shows the feed's state");
+        assert_eq!(down[3].3, again[3].3, "the same pose draws the same frame");
+        assert_ne!(down[3].3, banked[3].3, "a roll banks the view");
+        assert!(
+            ground(&down[3].3) > 160 * 120 * 9 / 10,
+            "looking down: ground"
+        );
+        assert!(ground(&up[3].3) < 160 * 120 / 10, "looking up: sky");
+    }
+
+    #[test]
+    fn input_steers_the_view_toggles_the_hud_resizes_and_quits() {
+        let dir = tempfile::tempdir().unwrap();
+        let (path, terrain) = waves(dir.path());
         let idle = Input::default();
         let forward = Input {
             motion: Motion {
@@ -337,23 +426,7 @@ mod tests {
             .into(),
             shown: Vec::new(),
         };
-        let options = ViewerOptions {
-            source: path.display().to_string(),
-            size: (160, 120),
-            color: ColorFormat::Rgb565,
-            depth: DepthFormat::D16,
-            engine: EngineSettings {
-                pager_mode: PagerMode::Stepped {
-                    fetches_per_update: 64,
-                },
-                threads: 1,
-                ..EngineSettings::default()
-            },
-            hud: true,
-            flight: Flight::builtin(Builtin::Overview, &terrain),
-            frames: None,
-            clock: Clock::default(),
-        };
+        let options = options(&path, &terrain);
         let summary = run(&mut script, &options).unwrap();
         assert_eq!(summary.frames, 8, "the ninth poll quits");
         let shown = &script.shown;

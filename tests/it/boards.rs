@@ -185,6 +185,7 @@ fn viewer_on_host(
         flight,
         frames: Some(frames),
         clock,
+        poses: None,
     };
     run(&mut script, &options).unwrap();
     script.shown

@@ -54,6 +54,7 @@ fn terrain() -> TerrainFrame {
         heights: (0.0, 120.0),
         origin: DVec3::ZERO,
         source_samples: (TILES * (S as u32 - 1) + 1, TILES * (S as u32 - 1) + 1),
+        archive_origin: (0.0, 0.0),
     }
 }
 

@@ -41,14 +41,16 @@ pub struct HudInfo {
     pub bound: &'static str,
     /// The belts around the viewer, if the engine has them.
     pub minimap: Option<Minimap>,
+    /// A last line, when there is something more to say (a pose feed's state).
+    pub status: Option<String>,
 }
 
 impl HudInfo {
     /// The statistics panel's lines.
-    fn lines(&self) -> [String; 5] {
+    fn lines(&self) -> Vec<String> {
         // MB of 10^6 bytes, as the command line counts them.
         const MB: f64 = 1e6;
-        [
+        let mut lines = vec![
             format!("FPS {:.1} / {:.0}", self.fps, self.target_fps),
             format!("TRIS {} / {}", self.triangles, self.budget),
             format!(
@@ -71,7 +73,9 @@ impl HudInfo {
                 self.max_error_px,
                 self.bound.to_uppercase()
             ),
-        ]
+        ];
+        lines.extend(self.status.clone());
+        lines
     }
 }
 

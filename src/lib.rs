@@ -22,6 +22,42 @@
 //! `stripmask_raster::Framebuffer`, or run a whole recorded flight with [`fly`]. The layer
 //! modules stay public for tools and tests that reach into one algorithm (the belts, the
 //! masks, the budget); their other items follow the code, not a compatibility promise.
+//!
+//! An application draws terrain into its own framebuffer with its own camera
+//! (`examples/embed.rs` is the same as a program):
+//!
+//! ```
+//! use glam::DVec3;
+//! use stripmask::{Camera, Engine, EngineSettings, PagerMode, open_source};
+//! use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
+//! # use stripmask::db::dem::{MemoryReader, NodataFill};
+//! # let dir = tempfile::tempdir()?;
+//! # let path = dir.path().join("hills.smdb");
+//! # let hills = (0..129 * 129).map(|k| 300.0 * ((k % 129) as f32 / 20.0).sin()).collect();
+//! # let options = stripmask::BuildOptions { tile_size: 33, spacing: Some(30.0), ..Default::default() };
+//! # let hills = NodataFill::new(MemoryReader::new("hills", 129, 129, hills)?, None);
+//! # stripmask::build(hills, &path, &options, &|_, _| {})?;
+//! # let archive = path.to_str().unwrap();
+//! // An engine for a viewport 240 pixels tall; tiles fetched a few a frame on this thread.
+//! let settings = EngineSettings {
+//!     pager_mode: PagerMode::Stepped { fetches_per_update: 16 },
+//!     ..EngineSettings::default()
+//! };
+//! let mut engine = Engine::new(open_source(archive)?, settings, 240)?;
+//! let mut frame = Framebuffer::new(320, 240, ColorFormat::Rgb565, DepthFormat::D16)?;
+//! // The caller's camera: 2 km above the model's north-west corner, looking south-east.
+//! let eye = DVec3::new(0.0, 2000.0, 0.0);
+//! let camera = Camera { fov_y: settings.fov_y, ..Camera::looking_at(eye, DVec3::new(2000.0, 0.0, 2000.0)) };
+//! for _ in 0..4 {
+//!     let started = std::time::Instant::now();
+//!     let report = engine.render(&camera, &mut frame)?;
+//!     // The budget holds the target frame rate from the frame times it is told.
+//!     engine.record_frame(started.elapsed().as_secs_f64(), report.draw.triangles as usize);
+//! }
+//! let report = engine.render(&camera, &mut frame)?;
+//! assert!(report.rendered_tiles > 0 && report.holes == 0);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 pub mod db;
 pub mod engine;

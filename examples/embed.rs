@@ -38,6 +38,7 @@ fn main() -> Result<()> {
     let (east, south) = engine.terrain().source_extent();
     let centre = engine.terrain().origin + DVec3::new(east / 2.0, 0.0, south / 2.0);
     let (_, highest) = engine.terrain().heights;
+    let (mut ready, mut settled) = (None, None);
     for k in 0..FRAMES {
         let camera = circling(
             centre,
@@ -54,6 +55,10 @@ fn main() -> Result<()> {
             report.draw.triangles as usize,
         );
         std::thread::sleep(PERIOD.saturating_sub(started.elapsed()));
+        // The first frame without sky where terrain belongs, and the first as the engine
+        // wants it (the camera moves, so later frames may wait for tiles again).
+        ready = ready.or(report.ready().then_some(k + 1));
+        settled = settled.or(report.settled().then_some(k + 1));
         if k % 10 == 9 {
             println!(
                 "frame {:2}: {} tiles, {} triangles, worst error {:.1} px, {} holes; next budget {budget}",
@@ -65,6 +70,7 @@ fn main() -> Result<()> {
             );
         }
     }
+    println!("first ready frame {ready:?}, first settled frame {settled:?}");
     frame.to_rgba_image().save(png)?;
     println!("{png}: the last frame");
     Ok(())

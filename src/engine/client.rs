@@ -149,6 +149,9 @@ pub struct FrameReport {
     /// in view with no resident copy and nothing resident over or under them (none once the
     /// top is resident).
     pub holes: usize,
+    /// Tiles the view wants that are not resident yet, drawn meanwhile from a coarser tile
+    /// over them: none once the view has settled.
+    pub waiting: usize,
     /// What the rasterizer did.
     pub draw: DrawStats,
     /// What the wireframe's lines did (zero when it is off).
@@ -163,6 +166,19 @@ pub struct FrameReport {
     pub draw_seconds: f64,
     /// The pager's counters after this frame's update.
     pub pager: PagerStats,
+}
+
+impl FrameReport {
+    /// Whether the frame drew terrain wherever the view meets some: no holes. Until the first
+    /// such frame an engine draws sky where the tiles have not arrived.
+    pub fn ready(&self) -> bool {
+        self.holes == 0
+    }
+
+    /// Whether the frame drew the view as the engine wants it: ready, and no tile waiting.
+    pub fn settled(&self) -> bool {
+        self.ready() && self.waiting == 0
+    }
 }
 
 /// One drawn tile.
@@ -520,7 +536,7 @@ impl Engine {
             aspect,
         );
         let rendered = plan.rendered();
-        let holes = plan.holes;
+        let (holes, waiting) = (plan.holes, plan.cut.missing.len());
         let mut draws = plan.draws(self.terrain.tile_size);
         let bookkeeping_seconds = started.elapsed().as_secs_f64();
 
@@ -569,6 +585,7 @@ impl Engine {
             max_error_px,
             rendered,
             holes,
+            waiting,
             draw: drawn.triangles,
             wireframe: drawn.lines,
             paging_seconds,

@@ -6,7 +6,7 @@
 use std::io::{ErrorKind, Read, Write};
 use std::net::{SocketAddr, TcpStream};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
@@ -33,7 +33,7 @@ pub enum Kind {
 /// `count` connections of one kind to a server, kept open by one thread.
 pub struct Attack {
     stop: Arc<AtomicBool>,
-    reconnects: Arc<AtomicU64>,
+    reconnects: Arc<AtomicU32>,
     thread: Option<JoinHandle<()>>,
 }
 
@@ -42,7 +42,7 @@ impl Attack {
     /// stopped; returns once all are open (or could not be).
     pub fn start(addr: SocketAddr, path: &str, kind: Kind, count: usize) -> Attack {
         let stop = Arc::new(AtomicBool::new(false));
-        let reconnects = Arc::new(AtomicU64::new(0));
+        let reconnects = Arc::new(AtomicU32::new(0));
         let head = format!("GET {path} HTTP/1.1\r\nHost: attacker\r\n");
         let mut conns: Vec<Option<Conn>> =
             (0..count).map(|_| Conn::open(addr, kind, &head)).collect();
@@ -76,7 +76,7 @@ impl Attack {
 
     /// Connections the server closed, which were opened again.
     pub fn reconnects(&self) -> u64 {
-        self.reconnects.load(Ordering::Relaxed)
+        u64::from(self.reconnects.load(Ordering::Relaxed))
     }
 }
 

@@ -4,7 +4,7 @@
 //! (and the simulated link what is on its way), the memory limit holds through any flight, and
 //! cancelling never loses a tile.
 
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{Arc, Mutex};
 
 use proptest::prelude::*;
@@ -34,7 +34,7 @@ struct Held {
 /// Loads nothing but keeps the contract: levels arrive in order, bytes as predicted.
 #[derive(Default)]
 struct Synthetic {
-    fetched: Arc<AtomicU64>,
+    fetched: Arc<AtomicU32>,
     /// Tiles whose fetches fail.
     broken: Mutex<Vec<TileId>>,
 }
@@ -329,14 +329,14 @@ fn a_tile_oscillating_across_a_level_boundary_asks_once() {
 }
 
 /// A simulated link on which every fetch takes the same seconds.
-struct PerFetch(Arc<AtomicU64>, f64);
+struct PerFetch(Arc<AtomicU32>, f64);
 
 /// Seconds a fetch takes on the slow link most tests use.
 const SECONDS_PER_FETCH: f64 = 3.0;
 
 impl TransferClock for PerFetch {
     fn busy_seconds(&self) -> f64 {
-        self.1 * self.0.load(Ordering::Relaxed) as f64
+        self.1 * f64::from(self.0.load(Ordering::Relaxed))
     }
 }
 

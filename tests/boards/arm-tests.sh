@@ -1,24 +1,27 @@
 #!/usr/bin/env bash
 # The same bytes on every CPU: builds the rasterizer's tests, golden images included, for 32-bit
-# ARM with NEON (thumbv7neon-unknown-linux-gnueabihf, static glibc) and 64-bit ARM
-# (aarch64-unknown-linux-musl): the integration tests, in the `suite` profile, and runs them under
-# QEMU user-mode emulation. The golden PNGs (raster/tests/golden/) were made
+# ARM with NEON (thumbv7neon-unknown-linux-gnueabihf, static glibc), 64-bit ARM
+# (aarch64-unknown-linux-musl) and ARMv5TE with soft float (armv5te-unknown-linux-gnueabi, static
+# glibc, run as QEMU's XScale PXA255): the integration tests, in the `suite` profile, and runs them
+# under QEMU user-mode emulation. The golden PNGs (raster/tests/golden/) were made
 # on x86-64 and the tests compare byte for byte, so passing here means byte-identical pictures on
 # ARM in both precisions. Whole engine frames on ARM are the board tests' job (tests/it/boards.rs
 # compares stripmask fb on the emulated vexpress-a9 with the host, byte for byte).
 #
-#   tests/boards/arm-tests.sh [TARGET...]     # default: both
+#   tests/boards/arm-tests.sh [TARGET...]     # default: all three
 #   STRIPMASK_ARM_TESTS=all tests/boards/arm-tests.sh   # the unit tests too
 #
 # Installs with apt-get when missing: qemu-user-static, gcc-arm-linux-gnueabihf and
-# libc6-dev-armhf-cross (32-bit ARM; aarch64 needs no C toolchain); adds the Rust targets with rustup.
-# Settings: tests/boards/cross.sh.
+# libc6-dev-armhf-cross (armv7), gcc-arm-linux-gnueabi and libc6-dev-armel-cross (ARMv5TE; aarch64
+# needs no C toolchain); adds the Rust targets with rustup, or where rustup serves no standard
+# library for a target (ARMv5TE) builds it from source. Settings: tests/boards/cross.sh.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
 profile=${STRIPMASK_BOARDS_PROFILE:-suite}
 targets=("$@")
-[ "${#targets[@]}" -gt 0 ] || targets=(thumbv7neon-unknown-linux-gnueabihf aarch64-unknown-linux-musl)
+[ "${#targets[@]}" -gt 0 ] ||
+    targets=(thumbv7neon-unknown-linux-gnueabihf aarch64-unknown-linux-musl armv5te-unknown-linux-gnueabi)
 
 say() { echo "arm-tests: $*" >&2; }
 die() {
@@ -32,7 +35,8 @@ for target in "${targets[@]}"; do
     case "$target" in
     thumbv7neon-unknown-linux-gnueabihf) packages+=(gcc-arm-linux-gnueabihf libc6-dev-armhf-cross) ;;
     aarch64-unknown-linux-musl) ;;
-    *) die "unknown target '$target' (thumbv7neon-unknown-linux-gnueabihf, aarch64-unknown-linux-musl)" ;;
+    armv5te-unknown-linux-gnueabi) packages+=(gcc-arm-linux-gnueabi libc6-dev-armel-cross) ;;
+    *) die "unknown target '$target' (thumbv7neon-unknown-linux-gnueabihf, aarch64-unknown-linux-musl, armv5te-unknown-linux-gnueabi)" ;;
     esac
 done
 missing=()
@@ -49,14 +53,18 @@ fi
 
 # shellcheck source=tests/boards/cross.sh
 . "$here/cross.sh"
-installed=$(rustup target list --installed)
 cd "$root"
 target_args=()
+from_source=()
 for target in "${targets[@]}"; do
-    grep -qx "$target" <<<"$installed" || rustup target add "$target"
     runner=CARGO_TARGET_$(tr 'a-z-' 'A-Z_' <<<"$target")_RUNNER
-    say "$target: run by ${!runner}"
-    target_args+=(--target "$target")
+    if rustup_std "$target"; then
+        say "$target: run by ${!runner}"
+        target_args+=(--target "$target")
+    else
+        say "$target: run by ${!runner}; its standard library built from source"
+        from_source+=("$target")
+    fi
 done
 # The integration tests (golden images, watertightness, determinism, extremes) check every
 # drawing path byte for byte, which is what can differ on ARM: 32-bit ARM composes its 64- and
@@ -67,6 +75,12 @@ all) which=() ;;
 *) which=(--test it) ;;
 esac
 # One cargo call for all targets: their builds share the two cores where one alone leaves a
-# core idle.
+# core idle. A standard library built from source is built for every target of its call, so
+# those targets have their own.
 say "the rasterizer's tests (${which[*]:-all})"
-cargo test --profile "$profile" "${target_args[@]}" -p stripmask-raster "${which[@]}"
+if [ "${#target_args[@]}" -gt 0 ]; then
+    cargo test --profile "$profile" "${target_args[@]}" -p stripmask-raster "${which[@]}"
+fi
+for target in "${from_source[@]}"; do
+    std_from_source test --profile "$profile" --target "$target" -p stripmask-raster "${which[@]}"
+done

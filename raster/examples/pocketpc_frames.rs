@@ -8,8 +8,10 @@
 //! triangles over the same pixels, the few larger triangles of the engine's own PocketPC frames
 //! (about 2,600), which take the general row step rather than the small-triangle loop. With
 //! `--big` it draws scene B of the peer benchmark instead: 1280x720, a 470 x 470 grid (439,922
-//! triangles), far terrain as slivers. With `--baseline` its hot loops keep to the build
-//! target's baseline instructions (`InstructionSet::Baseline`) even where the CPU has AVX2.
+//! triangles), far terrain as slivers. With `--size WxH` it draws the same scene into a
+//! framebuffer of that size (`--size 800x480`: the LCD of today's 32-bit boards). With
+//! `--baseline` its hot loops keep to the build target's baseline instructions
+//! (`InstructionSet::Baseline`) even where the CPU has AVX2.
 //!
 //! ```sh
 //! cargo build --release -p stripmask-raster --example pocketpc_frames
@@ -17,6 +19,7 @@
 //! valgrind --tool=callgrind target/release/examples/pocketpc_frames 10 --peers
 //! valgrind --tool=callgrind target/release/examples/pocketpc_frames 10 --grid 34
 //! valgrind --tool=callgrind target/release/examples/pocketpc_frames 10 --baseline
+//! valgrind --tool=callgrind target/release/examples/pocketpc_frames 10 --size 800x480
 //! target/release/examples/pocketpc_frames 2000
 //! valgrind --tool=callgrind target/release/examples/pocketpc_frames 4 --big
 //! ```
@@ -46,6 +49,13 @@ fn main() {
             "--baseline" => set = InstructionSet::Baseline,
             "--big" => (grid, size) = (470, (1280, 720)),
             "--grid" => grid = number("the grid size after --grid", args.next()).max(1),
+            "--size" => {
+                let v = args.next();
+                let wh = v.as_deref().and_then(|v| v.split_once('x'));
+                let side =
+                    |s: Option<&str>| number("the size after --size (WxH)", s.map(str::to_owned));
+                size = (side(wh.map(|p| p.0)), side(wh.map(|p| p.1)));
+            }
             _ => frames = number("the frame count", Some(a)),
         }
     }

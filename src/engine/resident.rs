@@ -140,11 +140,12 @@ impl ResidentTile {
         let step = stride * scale as usize;
         let level_spacing =
             |g: usize| spacing * f64::from(scale) * ((tile.tile_size - 1) >> g) as f64;
+        let shading = Shading::new(light);
         let normals = normals(tile, tile.levels - 1, level_spacing(tile.levels - 1));
         let coarse_shades = (0..tile.levels - 1)
             .map(|g| {
                 let normals = self::normals(tile, g, level_spacing(g));
-                normals.iter().map(|&n| shade(n, light)).collect()
+                normals.iter().map(|&n| shading.of(n)).collect()
             })
             .collect();
         let at = |i: usize| texture_coordinate(i * stride, tile.tile_size, tile.texture_size);
@@ -155,7 +156,7 @@ impl ResidentTile {
                 Vertex::new(
                     [(i * step) as i32, tile.quanta(i, j), (j * step) as i32],
                     uv,
-                    [shade(normals[k], light); 3],
+                    [shading.of(normals[k]); 3],
                 )
             })
             .collect();
@@ -434,13 +435,33 @@ fn normals(tile: &Tile, level: usize, spacing: f64) -> Vec<[i8; 3]> {
         .collect()
 }
 
-/// The intensity, 0 ..= 255, of a surface with packed normal `normal` under `light`.
-fn shade(normal: [i8; 3], light: &Light) -> u8 {
-    let towards = light.direction.normalize_or(DVec3::Y);
-    let n = DVec3::from_array(normal.map(|c| f64::from(c) / 127.0));
-    let lit = n.dot(towards).max(0.0);
-    let intensity = (light.ambient + (1.0 - light.ambient) * lit).clamp(0.0, 1.0);
-    (intensity * 255.0).round() as u8
+/// The intensities of packed normals under one light. The light's direction is normalised
+/// once and a normal's components are looked up rather than divided (the same numbers
+/// `c / 127.0` gives): on a core without an FPU each division is a library call, and a tile's
+/// vertices are shaded whenever one of its levels becomes resident.
+struct Shading {
+    towards: DVec3,
+    ambient: f64,
+    /// `c / 127.0` for every packed component `c`, at index `c + 128`.
+    unit: [f64; 256],
+}
+
+impl Shading {
+    fn new(light: &Light) -> Shading {
+        Shading {
+            towards: light.direction.normalize_or(DVec3::Y),
+            ambient: light.ambient,
+            unit: std::array::from_fn(|k| (k as f64 - 128.0) / 127.0),
+        }
+    }
+
+    /// The intensity, 0 ..= 255, of a surface with packed normal `normal`.
+    fn of(&self, normal: [i8; 3]) -> u8 {
+        let n = DVec3::from_array(normal.map(|c| self.unit[(i16::from(c) + 128) as usize]));
+        let lit = n.dot(self.towards).max(0.0);
+        let intensity = (self.ambient + (1.0 - self.ambient) * lit).clamp(0.0, 1.0);
+        (intensity * 255.0).round() as u8
+    }
 }
 
 /// The texture chain of `tile` from archive mip `base` (one the tile holds) down.
@@ -501,6 +522,25 @@ mod tests {
         let dark = ResidentTile::new(&tile, 0, 2.0, &east, CrackMode::None).vertices[40].color[0];
         assert_eq!(lit, 255);
         assert_eq!(dark, (0.2f64 * 255.0).round() as u8);
+    }
+
+    #[test]
+    fn shading_gives_every_packed_normal_the_intensity_of_its_divided_components() {
+        let light = Light {
+            direction: DVec3::new(-0.3, 1.0, 0.7),
+            ambient: 0.3,
+        };
+        let shading = Shading::new(&light);
+        let towards = light.direction.normalize_or(DVec3::Y);
+        for a in -128..=127i16 {
+            for b in (-128..=127i16).step_by(3) {
+                let normal = [a as i8, b as i8, (a ^ b) as i8];
+                let n = DVec3::from_array(normal.map(|c| f64::from(c) / 127.0));
+                let lit = n.dot(towards).max(0.0);
+                let want = (light.ambient + (1.0 - light.ambient) * lit).clamp(0.0, 1.0);
+                assert_eq!(shading.of(normal), (want * 255.0).round() as u8, "{normal:?}");
+            }
+        }
     }
 
     #[test]

@@ -10,6 +10,14 @@
 //! per-pixel test. Two triangles sharing an edge see it with opposite `dy`, so each centre on it
 //! belongs to exactly one of them.
 
+#[cfg(any(
+    test,
+    any(
+        target_feature = "sse2",
+        all(target_arch = "aarch64", target_feature = "neon"),
+        target_feature = "simd128"
+    )
+))]
 use wide::i32x4;
 
 use crate::fixed_point::{SUBPIXEL_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE, ceil_div, floor_div};
@@ -224,6 +232,31 @@ impl Coverage {
     /// `SmallRows`): the walk of `walk_small` for a caller that wants the row loop inline.
     #[inline(always)]
     pub fn small_rows(&self, from: i64, to: i64) -> SmallRows {
+        #[cfg(any(
+            target_feature = "sse2",
+            all(target_arch = "aarch64", target_feature = "neon"),
+            target_feature = "simd128"
+        ))]
+        return self.lane_rows(from, to);
+        #[cfg(not(any(
+            target_feature = "sse2",
+            all(target_arch = "aarch64", target_feature = "neon"),
+            target_feature = "simd128"
+        )))]
+        return self.column_rows(from, to);
+    }
+
+    /// `small_rows` in lanes (`LaneRows`).
+    #[cfg(any(
+        test,
+        any(
+            target_feature = "sse2",
+            all(target_arch = "aarch64", target_feature = "neon"),
+            target_feature = "simd128"
+        )
+    ))]
+    #[inline(always)]
+    fn lane_rows(&self, from: i64, to: i64) -> LaneRows {
         debug_assert!(self.small);
         let r = self.rect;
         let (start, end) = ((r.y0 as i64).max(from), (r.y1 as i64).min(to));
@@ -235,7 +268,7 @@ impl Coverage {
         let yc = start as i32 * one + SUBPIXEL_HALF as i32;
         let v = self.v;
         let groups = ((width + 3) / 4) as usize;
-        let mut rows = SmallRows {
+        let mut rows = LaneRows {
             lanes: [[i32x4::ZERO; 3]; 4],
             step: [i32x4::ZERO; 3],
             groups,
@@ -265,6 +298,48 @@ impl Coverage {
             for (i, &s) in s[..3].iter().enumerate() {
                 rows.lanes[g][i] = rows.lanes[0][i] + i32x4::splat(4 * g as i32 * s);
             }
+        }
+        rows
+    }
+
+    /// `small_rows` in scalar registers (`ColumnRows`).
+    #[cfg(any(
+        test,
+        not(any(
+            target_feature = "sse2",
+            all(target_arch = "aarch64", target_feature = "neon"),
+            target_feature = "simd128"
+        ))
+    ))]
+    #[inline(always)]
+    fn column_rows(&self, from: i64, to: i64) -> ColumnRows {
+        debug_assert!(self.small);
+        let r = self.rect;
+        let (start, end) = ((r.y0 as i64).max(from), (r.y1 as i64).min(to));
+        let width = r.x1 - r.x0;
+        debug_assert!((1..=SMALL as i32).contains(&width));
+        // In i32 throughout, as `lane_rows`.
+        let one = SUBPIXEL_ONE as i32;
+        let xc = r.x0 * one + SUBPIXEL_HALF as i32;
+        let yc = start as i32 * one + SUBPIXEL_HALF as i32;
+        let v = self.v;
+        let mut rows = ColumnRows {
+            row: [0; 3],
+            across: [0; 3],
+            down: [0; 3],
+            width: width as u32,
+            columns: (1u32 << width) - 1,
+            x0: r.x0 as i64,
+            y: start,
+            end,
+        };
+        for i in 0..3 {
+            let (a, b) = (v[i], v[(i + 1) % 3]);
+            let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+            let top_left = dy < 0 || (dy == 0 && dx > 0);
+            rows.row[i] = dx * (yc - a[1]) - dy * (xc - a[0]) + top_left as i32 - 1;
+            rows.across[i] = -dy * one;
+            rows.down[i] = dx * one;
         }
         rows
     }
@@ -366,11 +441,39 @@ fn owns_a_pixel_of_row(v: &[[i64; 2]; 3], y: i64, x0: i64, x1: i64) -> bool {
     false
 }
 
+/// A small triangle's rows, one mask of owned columns at a time (`next_mask`), with `x0` its
+/// first column, `y` the current row and `end` the row past the last: in lanes where `wide`'s
+/// `i32x4` is a vector (SSE2, NEON on aarch64, wasm's simd128), else in scalar registers, a
+/// column at a time (`wide` builds an `i32x4` from four scalars there, 32-bit ARM among them,
+/// and four scalars in memory per lane cost such a core more: `pocketpc_frames` on 32-bit ARM
+/// in docs/raster.md).
+#[cfg(any(
+    target_feature = "sse2",
+    all(target_arch = "aarch64", target_feature = "neon"),
+    target_feature = "simd128"
+))]
+pub(crate) type SmallRows = LaneRows;
+/// See the other `SmallRows`.
+#[cfg(not(any(
+    target_feature = "sse2",
+    all(target_arch = "aarch64", target_feature = "neon"),
+    target_feature = "simd128"
+)))]
+pub(crate) type SmallRows = ColumnRows;
+
 /// A small triangle's rows, one mask of owned columns at a time: the edge functions of a row's
 /// pixels in groups of 4 `i32x4` lanes (one vector on SSE2 and NEON; a terrain triangle's
 /// rectangle is mostly within 4 columns), stepped down the rows lane by lane (see
 /// `Coverage::walk_small` for the bounds).
-pub(crate) struct SmallRows {
+#[cfg(any(
+    test,
+    any(
+        target_feature = "sse2",
+        all(target_arch = "aarch64", target_feature = "neon"),
+        target_feature = "simd128"
+    )
+))]
+pub(crate) struct LaneRows {
     /// `E + bias - 1` of the three edges at the current row's columns `4g..4g + 4` in group `g`:
     /// negative (sign bit set) where the pixel is outside.
     lanes: [[i32x4; 3]; 4],
@@ -388,7 +491,15 @@ pub(crate) struct SmallRows {
     pub end: i64,
 }
 
-impl SmallRows {
+#[cfg(any(
+    test,
+    any(
+        target_feature = "sse2",
+        all(target_arch = "aarch64", target_feature = "neon"),
+        target_feature = "simd128"
+    )
+))]
+impl LaneRows {
     /// The owned columns of the current row as bits (bit `k` is column `x0 + k`), and a step to
     /// the next row. A pixel is owned when no edge's sign bit is set: one `or` of the three
     /// edges and one `movemask` per group of 4 columns.
@@ -412,6 +523,61 @@ impl SmallRows {
                     out |= outside(g3) << 12;
                 }
             }
+        }
+        self.y += 1;
+        !out & self.columns
+    }
+}
+
+/// A small triangle's rows in scalar registers: the edge functions at the row's first column,
+/// stepped across the row column by column (see `Coverage::walk_small` for the bounds).
+#[cfg(any(
+    test,
+    not(any(
+        target_feature = "sse2",
+        all(target_arch = "aarch64", target_feature = "neon"),
+        target_feature = "simd128"
+    ))
+))]
+pub(crate) struct ColumnRows {
+    /// `E + bias - 1` of the three edges at the current row's first column: negative (sign bit
+    /// set) where the pixel is outside.
+    row: [i32; 3],
+    /// What each edge changes by from a column to the next, and from a row to the next.
+    across: [i32; 3],
+    down: [i32; 3],
+    /// Columns of the rectangle, `1..=SMALL`.
+    width: u32,
+    /// The rectangle's columns as bits.
+    columns: u32,
+    /// First column of the rectangle: bit `k` of a mask is column `x0 + k`.
+    pub x0: i64,
+    /// The current row.
+    pub y: i64,
+    /// The row past the last.
+    pub end: i64,
+}
+
+#[cfg(any(
+    test,
+    not(any(
+        target_feature = "sse2",
+        all(target_arch = "aarch64", target_feature = "neon"),
+        target_feature = "simd128"
+    ))
+))]
+impl ColumnRows {
+    /// `LaneRows::next_mask`: one `or` of the three edges and a shift per column.
+    #[inline(always)]
+    pub fn next_mask(&mut self) -> u32 {
+        let [mut a, mut b, mut c] = self.row;
+        let mut out = 0;
+        for k in 0..self.width {
+            out |= ((a | b | c) as u32 >> 31) << k;
+            (a, b, c) = (a + self.across[0], b + self.across[1], c + self.across[2]);
+        }
+        for (e, d) in self.row.iter_mut().zip(self.down) {
+            *e += d;
         }
         self.y += 1;
         !out & self.columns
@@ -535,9 +701,31 @@ mod tests {
         Some((small, dda))
     }
 
+    /// Rows' first columns and masks of owned columns.
+    type Masks = Vec<(i64, u32)>;
+
+    /// The owned columns of each row of the small triangle `v` (oriented), as masks: in lanes
+    /// and in scalar registers.
+    fn masks(v: [[i64; 2]; 3]) -> Option<(Masks, Masks)> {
+        let c = Coverage::new(oriented(v), WINDOW).filter(|c| c.is_small())?;
+        let (mut lanes, mut columns) = (
+            c.lane_rows(i64::MIN, i64::MAX),
+            c.column_rows(i64::MIN, i64::MAX),
+        );
+        let (mut a, mut b) = (vec![], vec![]);
+        while lanes.y < lanes.end {
+            a.push((lanes.x0, lanes.next_mask()));
+        }
+        while columns.y < columns.end {
+            b.push((columns.x0, columns.next_mask()));
+        }
+        Some((a, b))
+    }
+
     proptest::proptest! {
         /// The small-triangle path (edge functions in i32 lanes) and the general path (exact
-        /// DDAs in i64) give the same runs for every triangle small enough for both.
+        /// DDAs in i64) give the same runs for every triangle small enough for both, and the
+        /// rows in scalar registers the masks of the rows in lanes.
         #[test]
         fn the_small_walk_equals_the_dda(
             base in (-60 * S..60 * S, -60 * S..60 * S),
@@ -548,6 +736,9 @@ mod tests {
             proptest::prop_assume!(area != 0);
             if let Some((small, dda)) = walks(v) {
                 proptest::prop_assert_eq!(small, dda);
+            }
+            if let Some((lanes, columns)) = masks(v) {
+                proptest::prop_assert_eq!(lanes, columns);
             }
         }
 

@@ -61,7 +61,7 @@ pub(crate) fn small_triangle<
         _ => TEX_AFFINE,
     };
     debug_assert!(!F::ENABLED || p.tex_mode != TexMode::Off);
-    let in_range = t.bounded
+    let mut in_range = t.bounded
         && (texes != TEX_PERSPECTIVE || {
             // The perspective planes at the first row here, and the last column and row the
             // triangle may own, from there.
@@ -69,32 +69,43 @@ pub(crate) fn small_triangle<
             let (w, h) = ((rect.x1 - rect.x0 - 1) as i64, end - y0 - 1);
             quotients_in_range(&p.tex, &start, w, h)
         });
+    // Where runs step texture coordinates in words, the offsets of their words, over the same
+    // rows and columns; the i64 steps where they spread too far.
+    let mut offsets = [0; 2];
+    if WORDS && in_range && texes == TEX_AFFINE {
+        let start = |q: &AttrPlane| q.at_pixel(0, y0 - rect.y0 as i64);
+        let (w, h) = ((rect.x1 - rect.x0 - 1) as i64, end - y0 - 1);
+        match word_offsets(&p.tex, w, h, start) {
+            Some(o) => offsets = o,
+            None => in_range = false,
+        }
+    }
     // The branch on the constant `F::ENABLED` keeps the compiler from building the textured row
     // loops for untextured runs and the untextured one for textured runs, which no draw can
     // reach.
     if !F::ENABLED {
         return match in_range {
-            false => {
-                rows_of::<D, SHADE, GREY, FOG, TEX_OFF, true>(p, t, tile, depth, frags, flush, test)
-            }
+            false => rows_of::<D, SHADE, GREY, FOG, TEX_OFF, true>(
+                p, t, offsets, tile, depth, frags, flush, test,
+            ),
             true => rows_of::<D, SHADE, GREY, FOG, TEX_OFF, false>(
-                p, t, tile, depth, frags, flush, test,
+                p, t, offsets, tile, depth, frags, flush, test,
             ),
         };
     }
     match (texes, in_range) {
         (TEX_PERSPECTIVE, false) => rows_of::<D, SHADE, GREY, FOG, TEX_PERSPECTIVE, true>(
-            p, t, tile, depth, frags, flush, test,
+            p, t, offsets, tile, depth, frags, flush, test,
         ),
         (TEX_PERSPECTIVE, true) => rows_of::<D, SHADE, GREY, FOG, TEX_PERSPECTIVE, false>(
-            p, t, tile, depth, frags, flush, test,
+            p, t, offsets, tile, depth, frags, flush, test,
         ),
-        (_, false) => {
-            rows_of::<D, SHADE, GREY, FOG, TEX_AFFINE, true>(p, t, tile, depth, frags, flush, test)
-        }
-        (_, true) => {
-            rows_of::<D, SHADE, GREY, FOG, TEX_AFFINE, false>(p, t, tile, depth, frags, flush, test)
-        }
+        (_, false) => rows_of::<D, SHADE, GREY, FOG, TEX_AFFINE, true>(
+            p, t, offsets, tile, depth, frags, flush, test,
+        ),
+        (_, true) => rows_of::<D, SHADE, GREY, FOG, TEX_AFFINE, false>(
+            p, t, offsets, tile, depth, frags, flush, test,
+        ),
     }
 }
 
@@ -130,12 +141,63 @@ const TEX_OFF: usize = 0;
 const TEX_AFFINE: usize = 2;
 const TEX_PERSPECTIVE: usize = 3;
 
+/// Whether runs without clamps step colour, fog and texture coordinates in 32-bit words
+/// (`rows_of`): on 32-bit cores. A 64-bit core steps them as cheaply in i64, in lanes where it
+/// has them, and the words' offsets cost it more than they save (`pocketpc_frames` on x86-64:
+/// 4% more instructions).
+const WORDS: bool = cfg!(target_pointer_width = "32");
+
+/// Values a run steps in words: none where runs take no words.
+const WORD_VALUES: usize = if WORDS { VALUES } else { 0 };
+
 /// Values a run steps at most: depth, three colour channels, fog, three perspective planes.
 const VALUES: usize = 8;
 
+/// Offsets that put the affine texture planes `tex` (`u, v`) in 32-bit words at every pixel
+/// `(col, row)`, `col <= w`, `row <= h` (where a plane's value at `(0, 0)` is `start(q)`): for
+/// each, its least value there (an affine function over a rectangle is extreme at its corners)
+/// rounded down to a multiple of `2^16`, when its greatest lies less than `2^31` above that;
+/// `None` where a plane spreads further (half a repeat of the texture or more).
+///
+/// At such a pixel the plane's value `c` lies in `o..o + 2^31`, so the word `c - o` is exact
+/// in i32 wrapping arithmetic (which computes every integer modulo 2^32), and, `o` being a
+/// multiple of `2^16`, `c >> 16` is `((c - o) >> 16) + (o >> 16)`: that sum in wrapping i32 is
+/// exact too, as `c >> 16` itself lies within the texture-coordinate range at a pixel a bounded
+/// triangle owns (`FixedTriangle::bounded`).
+fn word_offsets(
+    tex: &[AttrPlane; 3],
+    w: i64,
+    h: i64,
+    start: impl Fn(&AttrPlane) -> i64,
+) -> Option<[i64; 2]> {
+    let offset = |q: &AttrPlane| {
+        let (lo, hi) = extremes(q, start(q), w, h);
+        let o = lo & !((1 << 16) - 1);
+        (hi - o < 1 << 31).then_some(o)
+    };
+    Some([offset(&tex[0])?, offset(&tex[1])?])
+}
+
+/// A plane's value at pixel `(col, row)` minus `offset`, in i32 wrapping arithmetic: the
+/// integer itself wherever it lies in i32 (see `word_offsets`).
+#[inline(always)]
+fn word_at(q: &AttrPlane, offset: i64, col: i32, row: i32) -> i32 {
+    let base = q.at_pixel(0, 0).wrapping_sub(offset) as i32;
+    base.wrapping_add((q.dx as i32).wrapping_mul(col))
+        .wrapping_add((q.dy as i32).wrapping_mul(row))
+}
+
 /// The row loop of `small_triangle`: `TEX` texture planes (`TEX_OFF`, `TEX_AFFINE` or
 /// `TEX_PERSPECTIVE`); `CLAMP` false when every value, and every quotient of the perspective
-/// division, is known to be in range.
+/// division, is known to be in range, and the affine texture planes' words are `offsets` from
+/// their values (`word_offsets`).
+///
+/// Without clamps and perspective, colour, fog and texture coordinates step in 32-bit words:
+/// at a pixel the triangle owns, a colour or fog value (16 fraction bits) lies in its range,
+/// below 2^25, and i32 wrapping arithmetic, exact modulo 2^32, gives that integer itself
+/// wherever the i64 steps would (texture coordinates: `word_offsets`); depth (0.32 with 16
+/// fraction bits) stays in i64. On a 32-bit core that halves the adds and the registers a pixel
+/// needs.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn rows_of<
@@ -148,6 +210,7 @@ fn rows_of<
 >(
     p: &NarrowPlanes,
     t: &FixedTriangle,
+    offsets: [i64; 2],
     tile: PixelRect,
     depth: Option<&mut TileBuf<D::Value>>,
     frags: &mut Fragments,
@@ -158,10 +221,18 @@ fn rows_of<
         Some(d) if D::ENABLED => d.pixels(),
         _ => &mut [],
     };
+    // Colour, fog and texture coordinates in words (see above).
+    let words = WORDS && !CLAMP && TEX != TEX_PERSPECTIVE;
     let mut rows = t.coverage.small_rows(tile.y0 as i64, tile.y1 as i64);
     // Where each kind of value sits among the run's stepped values: the planes' own order.
     let (color_at, fog_at, tex_at) = plane_offsets::<D, SHADE, GREY, FOG>();
     let channels = fog_at - color_at;
+    // What the words of `u, v` add back: `o >> 16` (see `word_offsets`).
+    let uv_offsets = if words {
+        offsets.map(|o| (o >> 16) as i32)
+    } else {
+        [0; 2]
+    };
     // The tile's columns as bits of the rows' masks (a small triangle spans at most 16).
     let lo = (tile.x0 as i64 - rows.x0).clamp(0, 32);
     let hi = (tile.x1 as i64 - rows.x0).clamp(0, 32);
@@ -186,25 +257,46 @@ fn rows_of<
             let mut k = frags.held();
             let start = |q: &AttrPlane| q.at_pixel(first as i64, row);
             // Every value the run steps, in one array: depth, the colour channels, fog, the
-            // texture's (or the perspective accumulators).
+            // texture's (or the perspective accumulators); in words, all but depth.
             let mut acc = [0i64; VALUES];
             let mut step = [0i64; VALUES];
-            let mut put = |index: usize, q: &AttrPlane| {
-                acc[index] = start(q);
-                step[index] = q.dx;
+            let mut word = [0i32; WORD_VALUES];
+            let mut word_step = [0i32; WORD_VALUES];
+            // `put(index, q, None)` for depth, `Some(offset)` for the values words may hold.
+            let mut put = |index: usize, q: &AttrPlane, offset: Option<i64>| match offset {
+                Some(offset) if words => {
+                    word[index] = word_at(q, offset, first as i32, row as i32);
+                    word_step[index] = q.dx as i32;
+                }
+                _ => {
+                    acc[index] = start(q);
+                    step[index] = q.dx;
+                }
             };
             if D::ENABLED {
-                put(0, &p.z);
+                put(0, &p.z, None);
             }
             for (ch, q) in p.c.iter().enumerate().take(channels) {
-                put(color_at + ch, q);
+                put(color_at + ch, q, Some(0));
             }
             if FOG {
-                put(fog_at, &p.f);
+                put(fog_at, &p.f, Some(0));
             }
             for (plane, q) in p.tex.iter().enumerate().take(TEX) {
-                put(tex_at + plane, q);
+                put(
+                    tex_at + plane,
+                    q,
+                    Some(offsets.get(plane).copied().unwrap_or(0)),
+                );
             }
+            // A value's integer part (its 16 fraction bits dropped), from its word or its i64.
+            let whole = |acc: &[i64; VALUES], word: &[i32; WORD_VALUES], index: usize| {
+                if words {
+                    (word[index] >> ATTR_FRAC_BITS) as i64
+                } else {
+                    acc[index] >> ATTR_FRAC_BITS
+                }
+            };
             // The run's depth values, sliced once: indexed by `j < n`, they need no check per
             // pixel. A fragment takes its slot `k` only when it passes (`Fragments`).
             let depth_row: &mut [D::Value] = if D::ENABLED {
@@ -229,14 +321,20 @@ fn rows_of<
                     true
                 };
                 for ch in 0..channels {
-                    let v = acc[color_at + ch] >> ATTR_FRAC_BITS;
+                    let v = whole(&acc, &word, color_at + ch);
                     frags.c[ch][i] = if CLAMP { v.clamp(0, 255) } else { v } as u16;
                 }
                 if FOG {
-                    let v = acc[fog_at] >> ATTR_FRAC_BITS;
+                    let v = whole(&acc, &word, fog_at);
                     frags.f[i] = if CLAMP { v.clamp(0, 256) } else { v } as u16;
                 }
                 match TEX {
+                    TEX_AFFINE if words => {
+                        let coord = |plane: usize| {
+                            (word[tex_at + plane] >> 16).wrapping_add(uv_offsets[plane])
+                        };
+                        (frags.u[i], frags.v[i]) = (coord(0), coord(1));
+                    }
                     TEX_AFFINE => {
                         let coord = |c: i64| {
                             if CLAMP {
@@ -262,6 +360,9 @@ fn rows_of<
                     _ => {}
                 }
                 for (a, d) in acc.iter_mut().zip(&step) {
+                    *a = a.wrapping_add(*d);
+                }
+                for (a, d) in word.iter_mut().zip(&word_step) {
                     *a = a.wrapping_add(*d);
                 }
                 k += pass as usize;

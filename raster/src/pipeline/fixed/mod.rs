@@ -2,7 +2,8 @@
 //!
 //! Vertex stage: exact i64 transform (see `matrix`), outcodes, projection with one reciprocal per
 //! vertex (of a normalised `w`, `fixed_point::reciprocal`). Triangle setup: attribute planes from
-//! one reciprocal of the area. Pixels: monomorphised row loops that step i64 accumulators.
+//! one reciprocal of the area. Pixels: monomorphised row loops that step i64 accumulators (a
+//! small triangle's in 32-bit words on a 32-bit core, `small::rows_of`).
 
 use crate::clip::{ClipVertex, Plane, outcode_by_planes};
 use crate::edge::Coverage;
@@ -572,9 +573,13 @@ impl Geometry {
         let s = self.shift as u32 & 63;
         let half = self.half as i128;
         let inv = self.inv_area as i128;
-        let scaled = |n: i64| i64::try_from((n as i128 * inv + half) >> s);
-        match (scaled(nx), scaled(ny)) {
-            (Ok(dx), Ok(dy)) => (dx, dy),
+        let wide = |n: i64| i64::try_from((n as i128 * inv + half) >> s).ok();
+        // A 32-bit core builds the 128-bit product from many words: there the gradients come
+        // from 32x32-bit products where they lie below 2^62 (all but the steepest).
+        #[cfg(not(target_pointer_width = "64"))]
+        let wide = |n: i64| scale_in_words(n, self.inv_area, s).or_else(|| wide(n));
+        match (wide(nx), wide(ny)) {
+            (Some(dx), Some(dy)) => (dx, dy),
             _ => (0, 0),
         }
     }
@@ -598,6 +603,33 @@ impl Geometry {
             _ => (0, 0),
         }
     }
+}
+
+/// `(n * inv + 2^(s - 1)) >> s`, `plane_small`'s rounded product, in 32x32-bit products, for
+/// `|n| < 2^60`, `inv` in `(2^31, 2^32]` (`Geometry::inv_area`) and `s` in `8..=32`, where the
+/// result lies within `2^62` (`None` otherwise).
+///
+/// With `inv = 2^32 - c` (`c < 2^31`) and `n = 2^32 hi + lo` (`lo` its low word, unsigned),
+/// `n inv + 2^(s - 1) = 2^32 h + l` with `h = n - hi c` and `l = 2^(s - 1) - lo c`: two products
+/// of words (`hi c` below 2^59, `lo c` below 2^63), `|h| < 2^61`. As `s <= 32`, `2^s` divides
+/// `2^32 h`, so the shifted sum is exactly `h 2^(32 - s) + (l >> s)`; where `|h| < 2^(30 + s)`
+/// the first term lies within 2^62 and the second below 2^55, so neither the terms nor the sum
+/// leave i64.
+#[cfg(any(test, not(target_pointer_width = "64")))]
+#[inline(always)]
+fn scale_in_words(n: i64, inv: i64, s: u32) -> Option<i64> {
+    debug_assert!(n.unsigned_abs() < 1 << 60 && (1 << 31) < inv && inv <= 1 << 32);
+    debug_assert!((8..=32).contains(&s));
+    let c = ((1i64 << 32) - inv) as i32;
+    let (hi, lo) = ((n >> 32) as i32, n as u32);
+    let h = n - hi as i64 * c as i64;
+    let l = (1i64 << (s - 1)) - (lo as u64 * c as u64) as i64;
+    // `|h| < 2^(30 + s)` read off its high word (`2^32` divides `2^(30 + s)`).
+    let top = (h >> 32) as i32;
+    // Shifts by less than 32 (masked so that the compiler knows it): a few instructions on
+    // a 32-bit core, where a shift by any amount below 64 takes a dozen.
+    let within = (top.wrapping_add(1 << ((s - 2) & 31)) as u32) < 1 << ((s - 1) & 31);
+    within.then(|| (h << ((32 - s) & 31)) + ((l >> 1) >> ((s - 1) & 31)))
 }
 
 /// A triangle ready for its rows: 64 bytes, with its attribute planes beside it in the set-up
@@ -978,6 +1010,64 @@ mod tests {
     const MAX_ATTR: i64 = 1 << 45;
     /// The last sub-pixel of the 17 pixel columns (rows) a small triangle's vertices lie in.
     const EDGE: i64 = 17 * SUBPIXEL_ONE - 1;
+
+    /// `scale_in_words` against the 128-bit product, where it gives a value.
+    fn check_scale(n: i64, inv: i64, s: u32) -> bool {
+        let wide = i64::try_from((n as i128 * inv as i128 + (1i128 << (s - 1))) >> s).ok();
+        let words = scale_in_words(n, inv, s);
+        if words.is_some() {
+            assert_eq!(words, wide, "{n} {inv} {s}");
+        }
+        words.is_some()
+    }
+
+    #[test]
+    fn products_in_words_equal_128_bit_products_at_the_bounds() {
+        let (mut given, mut all) = (0, 0);
+        let top = (1i64 << 60) - 1;
+        for s in 8..=32 {
+            // Around the words' bound on `h` (about `n`), and the ends.
+            let bound = 1i64 << (30 + s);
+            let ns = [
+                0,
+                1,
+                2,
+                (1 << 31) - 1,
+                1 << 31,
+                1 << 32,
+                bound - 1,
+                bound,
+                bound + 1,
+                top,
+            ];
+            for n in ns.iter().flat_map(|&n| [n.min(top), -n.min(top)]) {
+                for inv in [
+                    (1i64 << 31) + 1,
+                    (1 << 31) + 12345,
+                    3 << 30,
+                    (1 << 32) - 1,
+                    1 << 32,
+                ] {
+                    given += check_scale(n, inv, s) as u32;
+                    all += 1;
+                }
+            }
+        }
+        assert!(given * 4 > all * 3 && given < all, "{given} of {all}");
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn products_in_words_equal_128_bit_products(
+            n in -(1i64 << 60) + 1..1 << 60,
+            inv in (1i64 << 31) + 1..=1 << 32,
+            s in 8u32..=32,
+            bits in 0u32..61,
+        ) {
+            check_scale(n, inv, s);
+            check_scale(n >> bits, inv, s);
+        }
+    }
 
     #[test]
     fn small_planes_equal_wide_planes_at_the_bounds() {

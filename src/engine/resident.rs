@@ -538,7 +538,11 @@ mod tests {
                 let n = DVec3::from_array(normal.map(|c| f64::from(c) / 127.0));
                 let lit = n.dot(towards).max(0.0);
                 let want = (light.ambient + (1.0 - light.ambient) * lit).clamp(0.0, 1.0);
-                assert_eq!(shading.of(normal), (want * 255.0).round() as u8, "{normal:?}");
+                assert_eq!(
+                    shading.of(normal),
+                    (want * 255.0).round() as u8,
+                    "{normal:?}"
+                );
             }
         }
     }

@@ -18,6 +18,8 @@
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
+# shellcheck source=tests/boards/apt.sh
+. "$here/apt.sh"
 profile=${STRIPMASK_BOARDS_PROFILE:-suite}
 targets=("$@")
 [ "${#targets[@]}" -gt 0 ] ||
@@ -47,7 +49,7 @@ if [ "${#missing[@]}" -gt 0 ]; then
     command -v apt-get >/dev/null || die "apt-get not found; install ${missing[*]} by hand"
     say "apt-get install ${missing[*]}"
     export DEBIAN_FRONTEND=noninteractive
-    "${sudo[@]}" apt-get update -qq
+    apt_update "${sudo[@]}" apt-get
     "${sudo[@]}" apt-get install -y -qq --no-install-recommends --no-upgrade "${missing[@]}" >/dev/null
 fi
 

@@ -7,7 +7,7 @@
 # 32-bit ARM, hard float, NEON (Cortex-A7/A8/A9/A15 with NEON, Raspberry Pi 2 and later): Debian's
 # cross gcc links against glibc, statically (packages gcc-arm-linux-gnueabihf and
 # libc6-dev-armhf-cross). The thumbv7neon target rather than armv7, which assumes no NEON: with it
-# the rasterizer's lanes are vectors, 21% fewer instructions a PocketPC frame (docs/platforms.md).
+# the compiler vectorises where it can, 4% fewer instructions a PocketPC frame (docs/platforms.md).
 export CARGO_TARGET_THUMBV7NEON_UNKNOWN_LINUX_GNUEABIHF_LINKER=arm-linux-gnueabihf-gcc
 export CARGO_TARGET_THUMBV7NEON_UNKNOWN_LINUX_GNUEABIHF_RUSTFLAGS="-C target-feature=+crt-static"
 # Test binaries are static; doctests are linked by rustdoc without the flags above, so the

@@ -33,6 +33,8 @@
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
+# shellcheck source=tests/boards/apt.sh
+. "$here/apt.sh"
 out=${STRIPMASK_BOARDS_DIR:-$root/target/boards}
 profile=${STRIPMASK_BOARDS_PROFILE:-suite}
 boards=("$@")
@@ -79,7 +81,7 @@ install_missing() {
     say "apt-get install ${missing[*]}"
     export DEBIAN_FRONTEND=noninteractive
     if [ ! -e "$out/.apt-updated" ]; then
-        "${sudo[@]}" apt-get update -qq
+        apt_update "${sudo[@]}" apt-get
         touch "$out/.apt-updated"
     fi
     "${sudo[@]}" apt-get install -y -qq --no-install-recommends --no-upgrade "${missing[@]}" >/dev/null
@@ -110,7 +112,7 @@ apt_opts=(
     install_missing debian-archive-keyring
 if [ -z "$(find "$apt_dir/lists" -name '*_Packages*' -mmin -1440 2>/dev/null | head -n 1)" ]; then
     say "apt-get update (private lists in $apt_dir)"
-    apt-get "${apt_opts[@]}" update -qq || die "apt-get update failed (no network to the Debian mirror?)"
+    apt_update apt-get "${apt_opts[@]}"
 fi
 
 # The newest version of a package, as a .deb in $out/debs; prints its path.
@@ -121,7 +123,7 @@ fetch_deb() {
     [ "$arch" = "$spec" ] && arch=amd64
     version=$(apt-cache "${apt_opts[@]}" show --no-all-versions "$name:$arch" 2>/dev/null |
         awk '/^Version:/ { print $2; exit }')
-    [ -n "$version" ] || die "package $name:$arch not found in the Debian lists"
+    [ -n "$version" ] || die "package $name:$arch not found in the Debian lists (did apt-get update reach the mirror?)"
     file=$(ls "$out/debs/${name}_"*"_$arch.deb" "$out/debs/${name}_"*"_all.deb" 2>/dev/null |
         grep -F "_${version//:/%3a}_" | head -n 1 || true)
     if [ -z "$file" ]; then
@@ -208,7 +210,7 @@ done
 if [ "${#target_args[@]}" -gt 0 ]; then
     say "cargo build stripmask for ${target_args[*]} (--profile $profile, fbdev, no window)"
     (cd "$root" && cargo build --bin stripmask --quiet --profile "$profile" "${target_args[@]}" \
-        -p stripmask --no-default-features --features fbdev) ||
+        -p stripmask --no-default-features --features cli,fbdev) ||
         die "building stripmask for ${target_args[*]} failed"
 fi
 

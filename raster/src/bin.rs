@@ -9,10 +9,7 @@ use crate::edge::PixelRect;
 
 /// Tile side in pixels: fewer triangles straddle two tiles and are walked twice than at 64,
 /// fewer tiles are loaded and stored, and the tile (64 to 128 KiB) still sits in a level-2
-/// cache. On the PocketPC frame 2% fewer instructions and 2-4% faster than 64 on one thread; on
-/// the 1280x720 frame 0-3% faster on one thread, and 3% on two (the median of ten interleaved
-/// comparisons, from 1% slower to 7% faster); 256 is slower in the peers' state
-/// (`examples/tile_size.rs`, docs/raster.md).
+/// cache, where one of 256 does not (`examples/tile_size.rs`, measured in docs/raster.md).
 pub(crate) const TILE_SIZE: u32 = 128;
 
 /// Tile side in pixels when tiles of `TILE_SIZE` would leave threads too few to share out

@@ -159,9 +159,8 @@ impl Coverage {
 
     /// True when the triangle `v` (its vertices, as given to `new`) is small, has one row and
     /// owns no pixel of it (`owns_a_pixel_of_row`); a triangle of several rows is not tested.
-    /// The vertices are passed in because the set-up loop holds them in registers: read back
-    /// from `self` (a version that filtered `new`'s result), the PocketPC frame cost 0.08M more
-    /// instructions (callgrind).
+    /// The vertices are passed in because the set-up loop holds them in registers, where reading
+    /// them back from `self` costs more (docs/optimisation-notes.md).
     ///
     /// Terrain far from the eye is slivers: on the peer benchmark's 1280x720 frame a fifth of
     /// the triangles with a row own no pixel, three quarters of those within one row. Dropped
@@ -412,8 +411,8 @@ impl Coverage {
 /// True when the triangle `v` (small, positive orientation) owns a pixel of row `y` between
 /// columns `x0` and `x1`: some column where no edge function is negative, found column by
 /// column. The edges are `Coverage::small_rows`' (in i32: see `Coverage::walk_small`), written
-/// out again: shared through a helper, `small_rows` cost 0.07M more instructions per PocketPC
-/// frame (`pocketpc_frames`, callgrind). Out of line: only triangles of one row ask.
+/// out again, as a helper shared with `small_rows` makes the small loop dearer
+/// (docs/optimisation-notes.md). Out of line: only triangles of one row ask.
 #[inline(never)]
 fn owns_a_pixel_of_row(v: &[[i64; 2]; 3], y: i64, x0: i64, x1: i64) -> bool {
     let one = SUBPIXEL_ONE as i32;

@@ -68,4 +68,54 @@ pub enum RasterError {
         /// Framebuffer height.
         height: u32,
     },
+    /// Memory lent as a surface cannot hold its pixels (see [`SurfaceError`]).
+    #[error("surface refused: {0}")]
+    Surface(#[from] SurfaceError),
+}
+
+/// Why memory was refused as a surface.
+#[derive(Debug, Error, Clone, PartialEq, Eq)]
+pub enum SurfaceError {
+    /// The row stride does not hold a row of pixels.
+    #[error("stride of {stride} bytes is shorter than a row of {row} bytes")]
+    StrideTooSmall {
+        /// Stride given.
+        stride: usize,
+        /// Bytes of one row's pixels.
+        row: usize,
+    },
+    /// The row stride would start rows between pixels.
+    #[error("stride of {stride} bytes is not a multiple of the {pixel}-byte pixel")]
+    StrideNotWhole {
+        /// Stride given.
+        stride: usize,
+        /// Bytes per pixel.
+        pixel: usize,
+    },
+    /// The memory ends before the last row's last pixel.
+    #[error("{got} bytes of memory are fewer than the {needed} its rows reach")]
+    TooShort {
+        /// Bytes needed: `stride * (height - 1) + width * bytes per pixel`.
+        needed: usize,
+        /// Bytes given.
+        got: usize,
+    },
+    /// The memory does not start at a multiple of the layout's word size.
+    #[error(
+        "memory at address {address:#x} is not aligned to the {align}-byte words of the layout"
+    )]
+    Misaligned {
+        /// Address of the first byte.
+        address: usize,
+        /// Alignment needed.
+        align: usize,
+    },
+    /// The depth buffer is not one value per pixel.
+    #[error("depth buffer holds {got} values, expected {expected} (one per pixel)")]
+    DepthSize {
+        /// Values needed.
+        expected: usize,
+        /// Values given.
+        got: usize,
+    },
 }

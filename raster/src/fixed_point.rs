@@ -68,8 +68,9 @@ pub fn normalise_positive(v: i128) -> (i64, i32) {
 /// reciprocal of `w` in the projection and of the area in set-up, in `(2^31, 2^32]`. One
 /// division where the CPU divides 64-bit integers; a 32-bit core has no such instruction (its
 /// library call takes hundreds), so there it is `reciprocal_by_table`, the same integer.
+/// The engine's normals take their one quotient a sample from it too.
 #[inline(always)]
-pub(crate) fn reciprocal(n: i64) -> i64 {
+pub fn reciprocal(n: i64) -> i64 {
     debug_assert!((1 << 30..1 << 31).contains(&n));
     #[cfg(target_pointer_width = "64")]
     let r = ((1u64 << 62) / n as u64) as i64;
@@ -109,17 +110,26 @@ pub(crate) fn reciprocal_by_table(n: u32) -> i64 {
         let e = (1i64 << 62).wrapping_sub((n64 * x) as i64);
         x = x.wrapping_add((((e >> 30) as i32 as i64 * x as i64) >> 32) as u64);
     }
-    // The remainder is exact in wrapping arithmetic: its true value is within a few `n` of 0.
-    let mut r = (1i64 << 62).wrapping_sub((n64 * x) as i64);
-    while r < 0 {
-        x -= 1;
-        r += n as i64;
+    // The remainder's true value is within a few `n` of 0.
+    corrected_quotient(x, 1 << 62, n64) as i64
+}
+
+/// `estimate` of `numerator / divisor` (rounded down) corrected by the remainder until it lies
+/// in `0..divisor`: exact whatever the estimate, as long as the estimate's remainder lies within
+/// 2^63 of 0 (it is computed in wrapping arithmetic) and `divisor < 2^63`.
+#[cfg(any(test, not(target_pointer_width = "64")))]
+#[inline]
+pub(crate) fn corrected_quotient(mut estimate: u64, numerator: u64, divisor: u64) -> u64 {
+    let mut rest = numerator.wrapping_sub(estimate.wrapping_mul(divisor)) as i64;
+    while rest < 0 {
+        estimate -= 1;
+        rest += divisor as i64;
     }
-    while r >= n as i64 {
-        x += 1;
-        r -= n as i64;
+    while rest >= divisor as i64 {
+        estimate += 1;
+        rest -= divisor as i64;
     }
-    x as i64
+    estimate
 }
 
 /// Shift `v` right by `s` when `s > 0` and left by `-s` otherwise, rounding to nearest.

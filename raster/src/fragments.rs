@@ -8,15 +8,18 @@
 //! over everything held in lanes of 8 (texel addressing, the filter, modulation, fog, packing;
 //! only the texel reads are scalar) and writes each colour to its pixel. Terrain triangles own a
 //! few pixels per row, so the buffer gathers the rows of several triangles into each group of
-//! lanes.
+//! lanes. Where `wide`'s lanes are not vectors (32-bit ARM; `lanes::VECTORS`), the colour step
+//! runs one fragment at a time instead (`one_by_one`).
 //!
 //! The bytes are those of shading each pixel on its own: every lane function equals its scalar
 //! twin exactly (tested), and the colour is written in the order the fragments arrived, so a
 //! later triangle's pixel still lands over an earlier one's.
 
+mod one_by_one;
+
+use crate::attributes::Attributes;
 use crate::isa::{Cpu, v3_twin};
-use crate::lanes::{LANES, Rgb8s, load_i32, load_u16};
-use crate::pipeline::Attributes;
+use crate::lanes::{LANES, Rgb8s, VECTORS, load_i32, load_u16};
 use crate::pixel::PixelFormat;
 use crate::sampler::{Filtering, LevelView};
 use crate::tile_view::TileBuf;
@@ -119,7 +122,7 @@ impl Fragments {
     ///
     /// Not inlined: it runs once per full buffer, and inlined at every call site it built the
     /// colour stage again in each of the row loops' specialisations. Runs the x86-64-v3 twin
-    /// where `cpu` allows (on the PocketPC frame 1.81M instructions instead of 3.00M).
+    /// where `cpu` allows (what each costs: docs/raster.md, *Where the time goes*).
     #[inline(never)]
     pub fn finish<P: PixelFormat, F: Filtering, const SHADE: bool, const FOG: bool>(
         &mut self,
@@ -167,10 +170,11 @@ impl Fragments {
         }
         let view = views.get(self.level);
         let pixels = color.pixels();
-        if SHADE && self.grey {
-            self.colour::<P, F, SHADE, true, FOG, V3>(view, a, pixels)
-        } else {
-            self.colour::<P, F, SHADE, false, FOG, V3>(view, a, pixels)
+        match (VECTORS, SHADE && self.grey) {
+            (true, true) => self.colour::<P, F, SHADE, true, FOG, V3>(view, a, pixels),
+            (true, false) => self.colour::<P, F, SHADE, false, FOG, V3>(view, a, pixels),
+            (false, true) => self.colour_one_by_one::<P, F, SHADE, true, FOG>(view, a, pixels),
+            (false, false) => self.colour_one_by_one::<P, F, SHADE, false, FOG>(view, a, pixels),
         }
         self.written += self.len as u64;
         self.len = 0;
@@ -235,9 +239,8 @@ impl Fragments {
                 rgb = crate::lanes::fog_blend(rgb, a.fog_color, load_u16(&self.f, g));
             }
             let (packed, at) = (P::pack_lanes(rgb), &self.at[g..g + LANES]);
-            // A full group's stores with a constant count, which the compiler unrolls (indexed:
-            // zipped iterators were 0.05M instructions a PocketPC frame dearer); only the last
-            // group may be part-filled.
+            // A full group's stores with a constant count, which the compiler unrolls (indexed,
+            // as zipped iterators cost more on x86-64); only the last group may be part-filled.
             if g + LANES <= self.len {
                 for l in 0..LANES {
                     store(at[l], packed[l]);

@@ -1,10 +1,12 @@
-//! Colour and depth buffers, and readback for PNG output.
+//! A framebuffer that owns its colour and depth buffers, and readback for PNG output.
 
 use image::RgbaImage;
 
 use crate::RasterError;
-use crate::fixed_point::MAX_DIMENSION;
+use crate::depth_buffer::{DepthBuffer, DepthFormat};
+use crate::layout::PixelLayout;
 use crate::pixel::{PixelFormat, Rgb565, Rgba8888};
+use crate::surface::{AsSurface, ColorMut, DepthMut, Rows, Surface, check_size};
 
 /// Colour-buffer format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -13,17 +15,6 @@ pub enum ColorFormat {
     Rgb565,
     /// 32-bit, bytes R, G, B, A.
     Rgba8888,
-}
-
-/// Depth-buffer format.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum DepthFormat {
-    /// No depth buffer.
-    None,
-    /// 16 bits: half the memory traffic, visible z-fighting at grazing angles far away.
-    D16,
-    /// 32 bits.
-    D32,
 }
 
 /// Colour storage.
@@ -35,18 +26,9 @@ pub enum ColorBuffer {
     Rgba8888(Vec<[u8; 4]>),
 }
 
-/// Depth storage; 0 is the near plane, the maximum the far plane.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum DepthBuffer {
-    /// None.
-    None,
-    /// 16-bit values.
-    D16(Vec<u16>),
-    /// 32-bit values.
-    D32(Vec<u32>),
-}
-
-/// A render target: colour plus optional depth, `width * height` pixels, row-major, top row first.
+/// A render target that owns its memory: colour plus optional depth, `width * height` pixels,
+/// row-major, top row first. The rasterizer draws into it through the [`crate::Surface`] it
+/// lends ([`crate::AsSurface`]).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Framebuffer {
     width: u32,
@@ -63,19 +45,13 @@ impl Framebuffer {
         color: ColorFormat,
         depth: DepthFormat,
     ) -> Result<Self, RasterError> {
-        if width == 0 || height == 0 || width > MAX_DIMENSION || height > MAX_DIMENSION {
-            return Err(RasterError::FramebufferSize { width, height });
-        }
+        check_size(width, height)?;
         let n = width as usize * height as usize;
         let color = match color {
             ColorFormat::Rgb565 => ColorBuffer::Rgb565(vec![0; n]),
             ColorFormat::Rgba8888 => ColorBuffer::Rgba8888(vec![[0, 0, 0, 255]; n]),
         };
-        let depth = match depth {
-            DepthFormat::None => DepthBuffer::None,
-            DepthFormat::D16 => DepthBuffer::D16(vec![u16::MAX; n]),
-            DepthFormat::D32 => DepthBuffer::D32(vec![u32::MAX; n]),
-        };
+        let depth = DepthBuffer::new(width, height, depth);
         Ok(Self {
             width,
             height,
@@ -121,31 +97,19 @@ impl Framebuffer {
         &self.depth
     }
 
-    pub(crate) fn buffers_mut(&mut self) -> (&mut ColorBuffer, &mut DepthBuffer) {
-        (&mut self.color, &mut self.depth)
-    }
-
     /// Fills the colour buffer.
     pub fn clear_color(&mut self, c: [u8; 3]) {
-        match &mut self.color {
-            ColorBuffer::Rgb565(p) => p.fill(Rgb565::pack(c)),
-            ColorBuffer::Rgba8888(p) => p.fill(Rgba8888::pack(c)),
-        }
+        self.as_surface().clear_color(c);
     }
 
     /// Resets depth to the far plane.
     pub fn clear_depth(&mut self) {
-        match &mut self.depth {
-            DepthBuffer::None => {}
-            DepthBuffer::D16(d) => d.fill(u16::MAX),
-            DepthBuffer::D32(d) => d.fill(u32::MAX),
-        }
+        self.as_surface().clear_depth();
     }
 
     /// Clears colour and depth.
     pub fn clear(&mut self, c: [u8; 3]) {
-        self.clear_color(c);
-        self.clear_depth();
+        self.as_surface().clear(c);
     }
 
     /// Colour of one pixel.
@@ -173,9 +137,41 @@ impl Framebuffer {
     }
 }
 
+impl From<ColorFormat> for PixelLayout {
+    fn from(f: ColorFormat) -> Self {
+        match f {
+            ColorFormat::Rgb565 => Self::Rgb565,
+            ColorFormat::Rgba8888 => Self::Rgba8888,
+        }
+    }
+}
+
+impl AsSurface for Framebuffer {
+    fn as_surface(&mut self) -> Surface<'_> {
+        let stride = self.width as usize;
+        let color = match &mut self.color {
+            ColorBuffer::Rgb565(p) => ColorMut::Rgb565(Rows { pixels: p, stride }),
+            ColorBuffer::Rgba8888(p) => ColorMut::Rgba8888(Rows { pixels: p, stride }),
+        };
+        Surface::from_parts(
+            self.width,
+            self.height,
+            color,
+            DepthMut::of(&mut self.depth),
+        )
+    }
+}
+
+impl<'a> From<&'a mut Framebuffer> for Surface<'a> {
+    fn from(fb: &'a mut Framebuffer) -> Self {
+        fb.as_surface()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fixed_point::MAX_DIMENSION;
 
     #[test]
     fn sizes_outside_the_supported_range_are_refused() {

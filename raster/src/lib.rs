@@ -1,7 +1,8 @@
 //! A fixed-point triangle-strip rasterizer for CPUs without a GPU (or an FPU), with an f32
 //! reference twin behind the same API.
 //!
-//! Think of it as a tiny OpenGL ES 1.x that draws indexed triangle strips into a [`Framebuffer`]:
+//! Think of it as a tiny OpenGL ES 1.x that draws indexed triangle strips into a [`Framebuffer`],
+//! or into memory the caller owns (a mapped `/dev/fb0`, a toolkit's buffer) as a [`Surface`]:
 //! build a [`Transform`] from the host's f64 matrix once per draw, describe the vertices and
 //! indices as a [`Mesh`], name the features the draw uses in a [`RenderState`], and call
 //! [`Rasterizer::draw`]. The state picks a specialised inner loop, so depth, texture, shading or
@@ -29,10 +30,11 @@
 //! assert_eq!(stats.fragments, 64 * 64);
 //! ```
 
+mod attributes;
 mod batch;
 mod bin;
 mod clip;
-mod draw;
+mod depth_buffer;
 mod edge;
 mod error;
 pub mod fixed_point;
@@ -40,32 +42,39 @@ mod fragments;
 mod framebuffer;
 mod isa;
 mod lanes;
+mod layout;
 mod lines;
 mod matrix;
+mod pending;
 mod pipeline;
 mod pixel;
+mod rasterizer;
 mod sampler;
 mod setup;
 mod shade;
 mod small;
 mod state;
+mod surface;
 mod target;
 mod texture;
 mod tile_view;
 mod vertex;
 
 pub use batch::Batch;
-pub use draw::{DrawStats, Rasterizer};
-pub use error::RasterError;
-pub use framebuffer::{ColorBuffer, ColorFormat, DepthBuffer, DepthFormat, Framebuffer};
+pub use depth_buffer::{DepthBuffer, DepthFormat};
+pub use error::{RasterError, SurfaceError};
+pub use framebuffer::{ColorBuffer, ColorFormat, Framebuffer};
 pub use isa::InstructionSet;
+pub use layout::PixelLayout;
 pub use lines::{LineDepth, LineState, LineStats};
 pub use matrix::{FixedMat4, MAX_ORIGIN, Transform};
 pub use pixel::{rgb_to_rgb565, rgb565_to_rgb};
+pub use rasterizer::{DrawStats, Rasterizer};
 pub use state::{
     Compare, CullMode, DepthMode, Fog, FrontFace, Perspective, Precision, Rect, RenderState,
     Shading, TextureBinding,
 };
+pub use surface::{AsSurface, Surface};
 pub use target::{DrawBatch, DrawTarget, RasterTarget, count_triangles};
 pub use texture::{
     Filter, MipFilter, MipLevel, Sampler, Texels, Texture, TextureFormat, Wrap, box_mip_chain,

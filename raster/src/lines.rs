@@ -17,14 +17,15 @@
 
 use crate::RasterError;
 use crate::clip::{ClipVertex, PLANES};
-use crate::draw::Rasterizer;
 use crate::fixed_point::{SUBPIXEL_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE, ceil_div, floor_div};
-use crate::framebuffer::{ColorBuffer, DepthBuffer, Framebuffer};
+use crate::layout::{rgba_to_xbgr, rgba_to_xrgb, swap_565};
 use crate::matrix::Transform;
 use crate::pipeline::Viewport;
 use crate::pipeline::fixed::{FixedClip, FixedScreen, FixedSpace};
-use crate::pixel::{Depth16, Depth32, DepthFormat, NoDepth, PixelFormat, Rgb565, Rgba8888};
+use crate::pixel::{Depth16, Depth32, DepthStorage, NoDepth, PixelFormat, Rgb565, Rgba8888};
+use crate::rasterizer::Rasterizer;
 use crate::state::Rect;
+use crate::surface::{AsSurface, ColorMut, DepthMut, Surface};
 use crate::vertex::{Mesh, Vertex, assemble};
 
 /// How a line draw uses the depth buffer. Lines never write depth: a wireframe does not hide
@@ -98,16 +99,18 @@ struct Endpoint {
 }
 
 impl Rasterizer {
-    /// Draws the segments `lines` (pairs of indices into `vertices`) into `fb`. Vertex uv and
-    /// colour are ignored: every line has `state.color`.
+    /// Draws the segments `lines` (pairs of indices into `vertices`) into `fb` (a
+    /// [`crate::Framebuffer`] or a [`Surface`]). Vertex uv and colour are ignored: every line
+    /// has `state.color`.
     pub fn draw_lines(
         &mut self,
-        fb: &mut Framebuffer,
+        fb: &mut impl AsSurface,
         vertices: &[Vertex],
         lines: &[[u32; 2]],
         transform: &Transform,
         state: &LineState,
     ) -> Result<LineStats, RasterError> {
+        let mut fb = fb.as_surface();
         let scissor = Rect::scissor_on(state.scissor, fb.width(), fb.height())?;
         for (k, line) in lines.iter().enumerate() {
             if let Some(&v) = line.iter().find(|&&v| v as usize >= vertices.len()) {
@@ -138,7 +141,7 @@ impl Rasterizer {
             .collect();
         stats.rasterized = segments.len() as u64;
         if scissor.x0 < scissor.x1 && scissor.y0 < scissor.y1 {
-            stats.fragments = rasterize(fb, &segments, scissor, state);
+            stats.fragments = rasterize(&mut fb, &segments, scissor, state);
         }
         Ok(stats)
     }
@@ -147,7 +150,7 @@ impl Rasterizer {
     /// assembled as [`Rasterizer::draw`] assembles it, degenerate triangles dropped.
     pub fn draw_edges(
         &mut self,
-        fb: &mut Framebuffer,
+        fb: &mut impl AsSurface,
         mesh: &Mesh,
         transform: &Transform,
         state: &LineState,
@@ -197,47 +200,50 @@ fn project(c: &FixedClip, vp: &Viewport) -> Endpoint {
     }
 }
 
-/// Picks the pixel and depth formats of the target and draws every segment.
-fn rasterize(fb: &mut Framebuffer, segments: &[[Endpoint; 2]], r: Rect, state: &LineState) -> u64 {
+/// Picks the pixel layout and depth format of the target and draws every segment.
+fn rasterize(fb: &mut Surface, segments: &[[Endpoint; 2]], r: Rect, state: &LineState) -> u64 {
     let width = fb.width() as usize;
     let bias = match state.depth {
         LineDepth::Always => None,
         LineDepth::Biased(b) => Some(i64::from(b)),
     };
-    let (color, depth) = fb.buffers_mut();
+    let (rgb565, rgba) = (Rgb565::pack(state.color), Rgba8888::pack(state.color));
     macro_rules! go {
-        ($p:ty, $c:expr) => {
-            match (depth, bias) {
-                (DepthBuffer::D16(d), Some(b)) => {
-                    draw_all::<$p, Depth16>($c, d, width, segments, r, state.color, b)
+        ($c:expr, $pixel:expr) => {{
+            let color = (&mut *$c.pixels, $c.stride, $pixel);
+            match (&mut fb.depth, bias) {
+                (DepthMut::D16(d), Some(b)) => {
+                    draw_all::<_, Depth16>(color, d, width, segments, r, b)
                 }
-                (DepthBuffer::D32(d), Some(b)) => {
-                    draw_all::<$p, Depth32>($c, d, width, segments, r, state.color, b)
+                (DepthMut::D32(d), Some(b)) => {
+                    draw_all::<_, Depth32>(color, d, width, segments, r, b)
                 }
-                _ => draw_all::<$p, NoDepth>($c, &mut [], width, segments, r, state.color, 0),
+                _ => draw_all::<_, NoDepth>(color, &mut [], width, segments, r, 0),
             }
-        };
+        }};
     }
-    match color {
-        ColorBuffer::Rgb565(c) => go!(Rgb565, c),
-        ColorBuffer::Rgba8888(c) => go!(Rgba8888, c),
+    match &mut fb.color {
+        ColorMut::Rgb565(c) => go!(c, rgb565),
+        ColorMut::Bgr565(c) => go!(c, swap_565(rgb565)),
+        ColorMut::Xrgb8888(c) => go!(c, rgba_to_xrgb(rgba)),
+        ColorMut::Xbgr8888(c) => go!(c, rgba_to_xbgr(rgba)),
+        ColorMut::Rgba8888(c) => go!(c, rgba),
     }
 }
 
-/// Draws `segments` in order into `color` (and tests against `depth`), within `r`.
-fn draw_all<P: PixelFormat, D: DepthFormat>(
-    color: &mut [P::Pixel],
+/// Draws `segments` in order as `pixel` into `color` (its rows `stride` apart), testing against
+/// `depth` (`width` to a row), within `r`.
+fn draw_all<T: Copy, D: DepthStorage>(
+    (color, stride, pixel): (&mut [T], usize, T),
     depth: &mut [D::Value],
     width: usize,
     segments: &[[Endpoint; 2]],
     r: Rect,
-    rgb: [u8; 3],
     bias: i64,
 ) -> u64
 where
     D::Value: Into<u64>,
 {
-    let pixel = P::pack(rgb);
     let height = if D::ENABLED { depth.len() / width } else { 0 };
     let mut fragments = 0;
     for &[a, b] in segments {
@@ -264,7 +270,7 @@ where
                     return;
                 }
             }
-            color[i] = pixel;
+            color[y as usize * stride + x as usize] = pixel;
             fragments += 1;
         });
     }

@@ -77,8 +77,10 @@ impl PixelFormat for Rgba8888 {
     }
 }
 
-/// A depth-buffer format (or none). Depth arrives as unsigned 0.32.
-pub trait DepthFormat: Send + Sync + 'static {
+/// How a depth buffer stores depth, as a type (or that there is none), so that the inner loop
+/// is compiled once per storage; [`crate::DepthFormat`] names the same choice at run time. Depth
+/// arrives as unsigned 0.32.
+pub trait DepthStorage: Send + Sync + 'static {
     /// Stored value.
     type Value: Copy + Ord + Send + Sync + 'static;
     /// False for the no-depth format: the test and the write compile away.
@@ -101,7 +103,7 @@ pub struct Depth16;
 /// 32-bit depth.
 pub struct Depth32;
 
-impl DepthFormat for NoDepth {
+impl DepthStorage for NoDepth {
     type Value = u8;
     const ENABLED: bool = false;
     #[inline]
@@ -122,7 +124,7 @@ impl DepthFormat for NoDepth {
     }
 }
 
-impl DepthFormat for Depth16 {
+impl DepthStorage for Depth16 {
     type Value = u16;
     const ENABLED: bool = true;
     #[inline]
@@ -145,7 +147,7 @@ impl DepthFormat for Depth16 {
     }
 }
 
-impl DepthFormat for Depth32 {
+impl DepthStorage for Depth32 {
     type Value = u32;
     const ENABLED: bool = true;
     #[inline]

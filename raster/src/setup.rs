@@ -110,8 +110,8 @@ pub(crate) fn set_up<P: Pipeline>(
 /// Sets up one triangle of draw `draw` (projected, inside the guard band) into `out`, unless it
 /// has no area, is culled or owns no pixel inside the scissor `clip_rect`.
 ///
-/// Always inlined: called once per triangle, the call itself cost 0.24M instructions per
-/// PocketPC frame (`pocketpc_frames`, callgrind).
+/// Always inlined: it is called once per triangle, where the call itself would be a
+/// noticeable share of the set-up (docs/optimisation-notes.md).
 #[inline(always)]
 fn setup_one<P: Pipeline>(
     s: [&P::Screen; 3],

@@ -10,7 +10,7 @@ use crate::pipeline::fixed::{
 };
 use crate::pipeline::float::{self, FloatPipeline};
 use crate::pipeline::{Attributes, Pipeline, Setup, TexMode};
-use crate::pixel::{Depth16, Depth32, DepthFormat, NoDepth, PixelFormat, Rgb565, Rgba8888};
+use crate::pixel::{Depth16, Depth32, DepthStorage, NoDepth, PixelFormat, Rgb565, Rgba8888};
 use crate::sampler::{Bilinear, Filtering, Nearest, NoTexture, TexViews, ViewOf};
 use crate::setup::ChunkOut;
 use crate::small::small_triangle;
@@ -95,9 +95,9 @@ pub(crate) trait Shade: Pipeline + Sized {
 /// Draws tile `t` from the chunks' lists, in submission order. Returns the fragments written.
 ///
 /// The triangles of one draw go to the pixel stage in one call whatever the chunks they were
-/// set up in: on several threads a pass is set up in many chunks, and a call per chunk cost
-/// the tiles of scene B's big draw 11% more instructions than on one thread (callgrind), most
-/// of it colour stages run on part-filled fragment buffers.
+/// set up in: on several threads a pass is set up in many chunks, and a call per chunk would run
+/// a colour stage on a part-filled fragment buffer at the end of each
+/// (docs/optimisation-notes.md).
 pub(crate) fn raster_tile<P: Shade>(
     t: usize,
     chunks: &[ChunkOut<P>],
@@ -167,7 +167,7 @@ macro_rules! with_formats {
 /// Walks the spans of `stretch`'s triangles inside `rect` and hands each, cut to the tile, to
 /// `row` with the planes of the triangle's chunk.
 #[inline(always)]
-fn spans<P: PixelFormat, D: DepthFormat, S: Shade>(
+fn spans<P: PixelFormat, D: DepthStorage, S: Shade>(
     rect: PixelRect,
     color: &mut TileBuf<P::Pixel>,
     mut depth: Option<&mut TileBuf<D::Value>>,
@@ -210,7 +210,7 @@ impl Shade for FixedPipeline {
 }
 
 /// Chooses the texture filter and texel type.
-fn fixed_texture<'r, P: PixelFormat, D: DepthFormat>(
+fn fixed_texture<'r, P: PixelFormat, D: DepthStorage>(
     rect: PixelRect,
     color: &'r mut TileBuf<P::Pixel>,
     depth: Option<&'r mut TileBuf<D::Value>>,
@@ -237,16 +237,16 @@ fn fixed_texture<'r, P: PixelFormat, D: DepthFormat>(
 type FixedArgs<'r, 'v, 'c, 'x, P, D> = (
     PixelRect,
     &'r mut TileBuf<<P as PixelFormat>::Pixel>,
-    Option<&'r mut TileBuf<<D as DepthFormat>::Value>>,
+    Option<&'r mut TileBuf<<D as DepthStorage>::Value>>,
     &'r DrawShade<'c, 'x>,
     &'r Stretch<'r, FixedPipeline>,
 );
 
 /// Chooses the shading and fog specialisation and runs the spans.
-fn fixed_flags<P: PixelFormat, D: DepthFormat, F: Filtering>(
+fn fixed_flags<P: PixelFormat, D: DepthStorage, F: Filtering>(
     args: FixedArgs<'_, '_, '_, '_, P, D>,
 ) -> u64 {
-    fn run<P: PixelFormat, D: DepthFormat, F: Filtering, const SHADE: bool, const FOG: bool>(
+    fn run<P: PixelFormat, D: DepthStorage, F: Filtering, const SHADE: bool, const FOG: bool>(
         (rect, color, mut depth, draw, stretch): FixedArgs<'_, '_, '_, '_, P, D>,
     ) -> u64 {
         let views = F::Texel::select(draw.views);
@@ -298,7 +298,7 @@ fn fixed_flags<P: PixelFormat, D: DepthFormat, F: Filtering>(
 type TrianglesArgs<'r, 't, D> = (
     PixelRect,
     PixelRect,
-    Option<&'r mut TileBuf<<D as DepthFormat>::Value>>,
+    Option<&'r mut TileBuf<<D as DepthStorage>::Value>>,
     &'r Attributes<'t>,
     &'r [FixedTriangle],
     &'r [AttrPlane],
@@ -309,10 +309,9 @@ type TrianglesArgs<'r, 't, D> = (
 /// the colour stage, the only part that depends on the colour format. Behind that call, these
 /// loops are built once for both colour formats (compile time and code size: `cargo llvm-lines
 /// -p stripmask-raster`); the call runs once per full buffer. Runs the x86-64-v3 twin where
-/// `cpu` allows (on the PocketPC frame 6.03M instructions instead of 6.19M, the colour stage
-/// left out).
+/// `cpu` allows (what each costs: docs/raster.md, *Where the time goes*).
 #[inline(never)]
-fn triangles<D: DepthFormat, F: Filtering, const SHADE: bool, const FOG: bool>(
+fn triangles<D: DepthStorage, F: Filtering, const SHADE: bool, const FOG: bool>(
     args: TrianglesArgs<'_, '_, D>,
     frags: &mut Fragments,
     flush: &mut dyn FnMut(&mut Fragments),
@@ -328,7 +327,7 @@ fn triangles<D: DepthFormat, F: Filtering, const SHADE: bool, const FOG: bool>(
 
 v3_twin! {
     /// `triangles` built for x86-64-v3 (see `crate::isa`).
-    fn triangles_v3<D: DepthFormat, F: Filtering, const SHADE: bool, const FOG: bool>(
+    fn triangles_v3<D: DepthStorage, F: Filtering, const SHADE: bool, const FOG: bool>(
         args: TrianglesArgs<'_, '_, D>,
         frags: &mut Fragments,
         flush: &mut dyn FnMut(&mut Fragments),
@@ -339,7 +338,7 @@ v3_twin! {
 
 /// The triangle loop of `triangles`, built into each of its twins.
 #[inline(always)]
-fn triangles_in<D: DepthFormat, F: Filtering, const SHADE: bool, const FOG: bool>(
+fn triangles_in<D: DepthStorage, F: Filtering, const SHADE: bool, const FOG: bool>(
     (rect, tile, mut depth, attrs, tris, planes, list): TrianglesArgs<'_, '_, D>,
     frags: &mut Fragments,
     flush: &mut dyn FnMut(&mut Fragments),
@@ -366,7 +365,7 @@ fn triangles_in<D: DepthFormat, F: Filtering, const SHADE: bool, const FOG: bool
 type TriangleArgs<'r, D> = (
     PixelRect,
     PixelRect,
-    Option<&'r mut TileBuf<<D as DepthFormat>::Value>>,
+    Option<&'r mut TileBuf<<D as DepthStorage>::Value>>,
     &'r [AttrPlane],
     fixed::DepthTest,
 );
@@ -375,7 +374,7 @@ type TriangleArgs<'r, D> = (
 /// in pieces that fit the buffer), the colour stage (`flush`) whenever the buffer is full.
 #[inline(always)]
 fn triangle<
-    D: DepthFormat,
+    D: DepthStorage,
     F: Filtering,
     const SHADE: bool,
     const GREY: bool,
@@ -402,11 +401,10 @@ fn triangle<
 /// that fit the buffer.
 ///
 /// Not inlined: out of the triangle loop, which is then a small triangle's set-up and row loop
-/// and little else (callgrind, `pocketpc_frames`: inlined here it costs 0.06M more instructions
-/// per frame, 0.10M in the peers' state).
+/// and little else, and runs in fewer instructions (docs/optimisation-notes.md).
 #[inline(never)]
 fn spans_of<
-    D: DepthFormat,
+    D: DepthStorage,
     F: Filtering,
     const SHADE: bool,
     const GREY: bool,
@@ -456,7 +454,7 @@ impl Shade for FloatPipeline {
     }
 }
 
-fn float_spans<P: PixelFormat, D: DepthFormat>(
+fn float_spans<P: PixelFormat, D: DepthStorage>(
     rect: PixelRect,
     color: &mut TileBuf<P::Pixel>,
     depth: Option<&mut TileBuf<D::Value>>,

@@ -23,7 +23,7 @@ use crate::pipeline::TexMode;
 use crate::pipeline::fixed::{
     AttrPlane, DepthTest, FixedTriangle, NarrowPlanes, divide, divide_in_range, plane_offsets,
 };
-use crate::pixel::DepthFormat;
+use crate::pixel::DepthStorage;
 use crate::sampler::{Filtering, clamp_coord};
 use crate::tile_view::TileBuf;
 
@@ -32,7 +32,7 @@ use crate::tile_view::TileBuf;
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub(crate) fn small_triangle<
-    D: DepthFormat,
+    D: DepthStorage,
     F: Filtering,
     const SHADE: bool,
     const GREY: bool,
@@ -143,8 +143,8 @@ const TEX_PERSPECTIVE: usize = 3;
 
 /// Whether runs without clamps step colour, fog and texture coordinates in 32-bit words
 /// (`rows_of`): on 32-bit cores. A 64-bit core steps them as cheaply in i64, in lanes where it
-/// has them, and the words' offsets cost it more than they save (`pocketpc_frames` on x86-64:
-/// 4% more instructions).
+/// has them, and the words' offsets would cost it more than they save
+/// (docs/optimisation-notes.md).
 const WORDS: bool = cfg!(target_pointer_width = "32");
 
 /// Values a run steps in words: none where runs take no words.
@@ -201,7 +201,7 @@ fn word_at(q: &AttrPlane, offset: i64, col: i32, row: i32) -> i32 {
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn rows_of<
-    D: DepthFormat,
+    D: DepthStorage,
     const SHADE: bool,
     const GREY: bool,
     const FOG: bool,

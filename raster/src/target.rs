@@ -9,11 +9,11 @@
 
 use crate::RasterError;
 use crate::batch::Batch;
-use crate::draw::{DrawStats, Rasterizer};
-use crate::framebuffer::Framebuffer;
 use crate::lines::{LineState, LineStats};
 use crate::matrix::Transform;
+use crate::rasterizer::{DrawStats, Rasterizer};
 use crate::state::RenderState;
+use crate::surface::Surface;
 use crate::vertex::{Mesh, assemble};
 
 /// Something that draws meshes into a picture of a fixed size.
@@ -131,20 +131,21 @@ impl<'t> DrawBatch<'t> for Batch<'_, 't> {
     }
 }
 
-/// The CPU rasterizer drawing into a framebuffer.
+/// The CPU rasterizer drawing into a [`crate::Framebuffer`] or into a [`Surface`] of memory the
+/// caller owns.
 #[derive(Debug)]
 pub struct RasterTarget<'a> {
     /// The picture.
-    pub framebuffer: &'a mut Framebuffer,
+    pub surface: Surface<'a>,
     /// The rasterizer with its scratch buffers.
     pub rasterizer: &'a mut Rasterizer,
 }
 
 impl<'a> RasterTarget<'a> {
-    /// `rasterizer` drawing into `framebuffer`.
-    pub fn new(framebuffer: &'a mut Framebuffer, rasterizer: &'a mut Rasterizer) -> Self {
+    /// `rasterizer` drawing into `picture`: `&mut Framebuffer` or a [`Surface`].
+    pub fn new(picture: impl Into<Surface<'a>>, rasterizer: &'a mut Rasterizer) -> Self {
         Self {
-            framebuffer,
+            surface: picture.into(),
             rasterizer,
         }
     }
@@ -154,11 +155,11 @@ impl DrawTarget for RasterTarget<'_> {
     type Error = RasterError;
 
     fn size(&self) -> (u32, u32) {
-        (self.framebuffer.width(), self.framebuffer.height())
+        (self.surface.width(), self.surface.height())
     }
 
     fn clear(&mut self, color: [u8; 3]) {
-        self.framebuffer.clear(color);
+        self.surface.clear(color);
     }
 
     fn draw(
@@ -168,7 +169,7 @@ impl DrawTarget for RasterTarget<'_> {
         state: &RenderState,
     ) -> Result<DrawStats, RasterError> {
         self.rasterizer
-            .draw(self.framebuffer, mesh, transform, state)
+            .draw(&mut self.surface, mesh, transform, state)
     }
 
     fn draw_edges(
@@ -178,7 +179,7 @@ impl DrawTarget for RasterTarget<'_> {
         state: &LineState,
     ) -> Result<LineStats, RasterError> {
         self.rasterizer
-            .draw_edges(self.framebuffer, mesh, transform, state)
+            .draw_edges(&mut self.surface, mesh, transform, state)
     }
 
     /// The draws go into one [`Batch`]: set up and binned across draws, their tiles drawn when
@@ -187,7 +188,7 @@ impl DrawTarget for RasterTarget<'_> {
         &mut self,
         draws: impl FnOnce(&mut dyn DrawBatch<'t, Error = RasterError>) -> Result<R, RasterError>,
     ) -> Result<(R, DrawStats), RasterError> {
-        let mut batch = self.rasterizer.batch(self.framebuffer);
+        let mut batch = self.rasterizer.batch(&mut self.surface);
         let r = draws(&mut batch)?;
         Ok((r, batch.finish()))
     }
@@ -209,7 +210,7 @@ pub fn count_triangles(mesh: &Mesh) -> Result<u64, RasterError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{ColorFormat, DepthFormat, Indices, Shading, Topology, Vertex};
+    use crate::{ColorFormat, DepthFormat, Framebuffer, Indices, Shading, Topology, Vertex};
 
     fn square() -> [Vertex; 4] {
         [

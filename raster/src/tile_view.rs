@@ -11,10 +11,10 @@ use std::marker::PhantomData;
 use crate::bin::TileGrid;
 use crate::edge::PixelRect;
 
-/// The pixels of one tile of a row-major `width`-wide buffer.
+/// The pixels of one tile of a row-major buffer whose rows start `stride` elements apart.
 pub(crate) struct TileView<'a, T> {
     base: *mut T,
-    width: usize,
+    stride: usize,
     rect: PixelRect,
     _buffer: PhantomData<&'a mut [T]>,
 }
@@ -35,7 +35,7 @@ impl<T> TileView<'_, T> {
                 && x1 <= r.x1 as i64,
             "row {y}, columns {x0}..{x1} outside the tile {r:?}"
         );
-        let start = y as usize * self.width + x0 as usize;
+        let start = y as usize * self.stride + x0 as usize;
         // SAFETY: the asserted range lies inside this view's rectangle, which `split` checked to
         // lie inside the buffer; rectangles of views from one split are disjoint, and `&mut self`
         // lets the caller hold one row of this view at a time, so the slice aliases nothing.
@@ -66,6 +66,35 @@ impl<T: Copy> TileView<'_, T> {
         assert_eq!(tile.rect, r, "a tile goes back where it came from");
         for (y, src) in (r.y0 as i64..r.y1 as i64).zip(tile.pixels.chunks_exact(tile.width)) {
             self.row(y, r.x0 as i64, r.x1 as i64).copy_from_slice(src);
+        }
+        tile.pixels
+    }
+
+    /// `load` converting each element to the format the tile is drawn in.
+    pub fn load_as<P>(&mut self, mut pixels: Vec<P>, convert: impl Fn(T) -> P) -> TileBuf<P> {
+        let r = self.rect;
+        pixels.clear();
+        pixels.reserve(((r.x1 - r.x0) * (r.y1 - r.y0)) as usize);
+        for y in r.y0 as i64..r.y1 as i64 {
+            let row = self.row(y, r.x0 as i64, r.x1 as i64);
+            pixels.extend(row.iter().map(|&p| convert(p)));
+        }
+        TileBuf {
+            width: (r.x1 - r.x0) as usize,
+            rect: r,
+            pixels,
+        }
+    }
+
+    /// `store` of a tile loaded by `load_as`, converting each pixel back.
+    pub fn store_as<P: Copy>(&mut self, tile: TileBuf<P>, convert: impl Fn(P) -> T) -> Vec<P> {
+        let r = self.rect;
+        assert_eq!(tile.rect, r, "a tile goes back where it came from");
+        for (y, src) in (r.y0 as i64..r.y1 as i64).zip(tile.pixels.chunks_exact(tile.width)) {
+            let row = self.row(y, r.x0 as i64, r.x1 as i64);
+            for (d, &s) in row.iter_mut().zip(src) {
+                *d = convert(s);
+            }
         }
         tile.pixels
     }
@@ -119,16 +148,24 @@ impl<T> TileBuf<T> {
     }
 }
 
-/// Splits `buffer` (the row-major pixels of `grid`'s framebuffer) into one view per tile, in
-/// tile order.
-pub(crate) fn split<'a, T>(buffer: &'a mut [T], grid: &TileGrid) -> Vec<TileView<'a, T>> {
+/// Splits `buffer` (the row-major pixels of `grid`'s framebuffer, rows `stride` elements
+/// apart) into one view per tile, in tile order. Elements between rows belong to no view.
+pub(crate) fn split<'a, T>(
+    buffer: &'a mut [T],
+    stride: usize,
+    grid: &TileGrid,
+) -> Vec<TileView<'a, T>> {
     let (width, height) = grid.size();
-    assert_eq!(buffer.len(), width as usize * height as usize);
+    assert!(
+        width as usize <= stride && buffer.len() >= stride * (height as usize - 1) + width as usize,
+        "{width}x{height} pixels, rows {stride} apart, in {} elements",
+        buffer.len()
+    );
     let base = buffer.as_mut_ptr();
     (0..grid.len())
         .map(|t| TileView {
             base,
-            width: width as usize,
+            stride,
             rect: grid.rect(t),
             _buffer: PhantomData,
         })
@@ -143,7 +180,7 @@ mod tests {
     fn every_element_belongs_to_exactly_one_tile_row() {
         let grid = TileGrid::new(150, 70, crate::bin::SMALL_TILE_SIZE);
         let mut buffer = vec![0u32; 150 * 70];
-        let mut views = split(&mut buffer, &grid);
+        let mut views = split(&mut buffer, 150, &grid);
         for (t, view) in views.iter_mut().enumerate() {
             let r = grid.rect(t);
             for y in r.y0 as i64..r.y1 as i64 {
@@ -164,10 +201,30 @@ mod tests {
     }
 
     #[test]
+    fn views_of_padded_rows_never_reach_the_padding() {
+        let grid = TileGrid::new(150, 70, crate::bin::SMALL_TILE_SIZE);
+        let stride = 157;
+        let mut buffer = vec![0u32; stride * 69 + 150];
+        let mut views = split(&mut buffer, stride, &grid);
+        for view in &mut views {
+            let tile = view.load_as(Vec::new(), |p| p as u64);
+            let filled = TileBuf {
+                pixels: vec![9u64; tile.pixels.len()],
+                ..tile
+            };
+            view.store_as(filled, |p| p as u32 + 1);
+        }
+        drop(views);
+        for (i, &p) in buffer.iter().enumerate() {
+            assert_eq!(p, if i % stride < 150 { 10 } else { 0 }, "element {i}");
+        }
+    }
+
+    #[test]
     fn a_loaded_tile_goes_back_unchanged_or_changed_where_drawn() {
         let grid = TileGrid::new(150, 70, crate::bin::SMALL_TILE_SIZE);
         let mut buffer: Vec<u32> = (0..150 * 70).collect();
-        let mut views = split(&mut buffer, &grid);
+        let mut views = split(&mut buffer, 150, &grid);
         for (t, view) in views.iter_mut().enumerate() {
             let r = grid.rect(t);
             let mut tile = view.load(Vec::new());
@@ -196,7 +253,7 @@ mod tests {
     fn a_run_past_a_loaded_tile_is_refused() {
         let grid = TileGrid::new(150, 70, crate::bin::SMALL_TILE_SIZE);
         let mut buffer = vec![0u8; 150 * 70];
-        let mut views = split(&mut buffer, &grid);
+        let mut views = split(&mut buffer, 150, &grid);
         views[0].load(Vec::new()).row(0, 60, 65);
     }
 
@@ -205,7 +262,7 @@ mod tests {
     fn a_row_outside_the_tile_is_refused() {
         let grid = TileGrid::new(150, 70, crate::bin::SMALL_TILE_SIZE);
         let mut buffer = vec![0u8; 150 * 70];
-        let mut views = split(&mut buffer, &grid);
+        let mut views = split(&mut buffer, 150, &grid);
         views[0].row(0, 60, 65);
     }
 }

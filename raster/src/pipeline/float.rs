@@ -10,7 +10,7 @@ use crate::fixed_point::{GUARD_BAND_PX, SUBPIXEL_ONE, TEXCOORD_LIMIT};
 use crate::matrix::Transform;
 use crate::pipeline::fixed::Span;
 use crate::pipeline::{Attributes, Pipeline, Setup, TexMode, Viewport};
-use crate::pixel::{DepthFormat, PixelFormat, fog_blend, modulate};
+use crate::pixel::{DepthStorage, PixelFormat, fog_blend, modulate};
 use crate::sampler::{Bilinear, Filtering, Nearest, ViewOf};
 use crate::state::{Compare, Fog};
 use crate::texture::{Filter, MipLevel, Sampler, Texels};
@@ -328,7 +328,7 @@ fn to_q16(u: f32) -> i64 {
 
 /// Shades a span of a row (see `fixed::run_fragments`: values depend on the run `x0..x1`, not on
 /// the part drawn). Returns the fragments that passed the depth test.
-pub(crate) fn shade_row<P: PixelFormat, D: DepthFormat>(
+pub(crate) fn shade_row<P: PixelFormat, D: DepthStorage>(
     tri: &FloatTriangle,
     span: Span<'_, P, D>,
     texture: Option<(&MipLevel, Sampler)>,

@@ -50,6 +50,16 @@ impl<T: ViewOf> Filtering for Bilinear<T> {
         };
         T::blend_lanes(quad, narrow(fx), fy)
     }
+
+    /// As `sample_lanes` with each texel of the block read on its own: the wrapped pair of
+    /// columns blends to what `neighbour_columns_lanes`' pair does.
+    #[inline(always)]
+    fn sample_one(view: &LevelView<'_, T>, u: i32, v: i32) -> [u8; 3] {
+        let (su, sv) = view.scale_one(u, v);
+        let (tu, tv) = (su - (1 << 15), sv - (1 << 15));
+        let (fx, fy) = ((tu >> 8) & 255, (tv >> 8) & 255);
+        T::blend(view.quad_one(tu >> 16, tv >> 16), fx as u32, fy as u32)
+    }
 }
 
 #[cfg(test)]
@@ -72,9 +82,9 @@ mod tests {
         assert!(mid.iter().all(|&c| (120..=136).contains(&c)), "{mid:?}");
     }
 
-    /// `sample_lanes` at eight points against `sample` at each of them, on levels whose texels
-    /// all differ; where the CPU runs the x86-64-v3 twins, their lanes (an AVX2 gather of the
-    /// texel pairs) against the baseline's.
+    /// `sample_lanes` at eight points against `sample` and `sample_one` at each of them, on
+    /// levels whose texels all differ; where the CPU runs the x86-64-v3 twins, their lanes (an
+    /// AVX2 gather of the texel pairs) against the baseline's.
     fn lanes_match_samples<T: ViewOf>(texels: &[T], w: u32, h: u32, points: &[(i32, i32)]) {
         let v3 = Cpu::new(InstructionSet::Detected).v3();
         for wrap in [Wrap::Clamp, Wrap::Repeat] {
@@ -93,6 +103,8 @@ mod tests {
                 for (k, &(u, v)) in p.iter().enumerate() {
                     let one = Bilinear::<T>::sample(&view, u as i64, v as i64);
                     assert_eq!(lanes.lane(k), one, "{w}x{h} {wrap:?} at ({u}, {v})");
+                    let scalar = Bilinear::<T>::sample_one(&view, u, v);
+                    assert_eq!(scalar, one, "one by one, {w}x{h} {wrap:?} at ({u}, {v})");
                     if let Some(twin) = &twin {
                         assert_eq!(twin.lane(k), one, "AVX2, {w}x{h} {wrap:?} at ({u}, {v})");
                     }

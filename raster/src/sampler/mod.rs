@@ -144,9 +144,9 @@ impl Texel for u16 {
         halves(u32x8::new(t.map(|[a, b]| a as u32 | (b as u32) << 16)))
     }
 
-    /// The eight pairs as one `vpgatherdd` of 32-bit words at `texels + 2 * index`: the
-    /// compiler's scalar reads of the twin took some 24 instructions a group of pairs (each
-    /// index taken out of its lane, widened, read and put back), 0.3M a PocketPC frame.
+    /// The eight pairs as one `vpgatherdd` of 32-bit words at `texels + 2 * index`: for scalar
+    /// reads the compiler takes each index out of its lane, widens it, reads the pair and puts
+    /// it back, some 24 instructions a row of a group.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     unsafe fn gather_pairs_avx2(texels: &[u16], index: i32x8) -> Option<(u16x8, u16x8)> {
@@ -464,6 +464,60 @@ fn pair_lanes(i: i32x8, side: i32, wrap: Wrap) -> (i32x8, i32x8) {
     }
 }
 
+/// `fold` of one coordinate.
+#[inline(always)]
+fn fold_one(c: i32, wrap: Wrap) -> i32 {
+    match wrap {
+        Wrap::Repeat => c & 0xFFFF,
+        Wrap::Clamp => c.clamp(0, 0xFFFF),
+    }
+}
+
+/// `pair_lanes` of one index.
+#[inline(always)]
+fn pair_one(i: i32, side: i32, wrap: Wrap) -> (i32, i32) {
+    match wrap {
+        Wrap::Repeat => (i & (side - 1), (i + 1) & (side - 1)),
+        Wrap::Clamp => (i.max(0), (i + 1).min(side - 1)),
+    }
+}
+
+/// The lanes' addressing for one fragment, in 32-bit integers: the colour stage's where lanes
+/// are not vectors (`crate::lanes::VECTORS`), on 32-bit cores where `fetch` and `quad`'s 64-bit
+/// arithmetic costs two instructions for one.
+impl<'a, T: Texel> LevelView<'a, T> {
+    /// `scale_lanes` of one fragment's coordinates.
+    #[inline(always)]
+    pub fn scale_one(&self, u: i32, v: i32) -> (i32, i32) {
+        (
+            fold_one(u, self.wrap) << self.width_shift,
+            fold_one(v, self.wrap) << self.height_shift,
+        )
+    }
+
+    /// The texel at column `x`, row `y`, both inside the level.
+    #[inline(always)]
+    pub fn texel(&self, x: i32, y: i32) -> T {
+        let i = (y << self.width_shift) + x;
+        debug_assert!((0..self.texels.len() as i64).contains(&(i as i64)));
+        // SAFETY: the callers' columns and rows lie in `0..width` and `0..height`: the nearest
+        // filter's come from folded coordinates, `quad_one`'s from `pair_one`; and `new`
+        // checked that the view holds `width * height` texels with `width == 1 << width_shift`.
+        unsafe { *self.texels.get_unchecked(i as usize) }
+    }
+
+    /// The 2x2 texels whose top-left is column `x`, row `y`, for `x` in `-1..width` and `y` in
+    /// `-1..height` (what bilinear addressing of a folded coordinate gives), wrapped as
+    /// `column_pair_lanes` and `row_pair_lanes` wrap them: `[top-left, top-right, bottom-left,
+    /// bottom-right]`.
+    #[inline(always)]
+    pub fn quad_one(&self, x: i32, y: i32) -> [T; 4] {
+        let (x0, x1) = pair_one(x, self.width as i32, self.wrap);
+        let (y0, y1) = pair_one(y, self.height as i32, self.wrap);
+        [(x0, y0), (x1, y0), (x0, y1), (x1, y1)].map(|(x, y)| self.texel(x, y))
+    }
+}
+
 /// Borrows a level's texels in the storage type `T`; `None` when the level holds another type.
 pub(crate) trait ViewOf: Texel {
     fn view(level: &MipLevel, wrap: Wrap) -> Option<LevelView<'_, Self>>;
@@ -547,6 +601,8 @@ pub(crate) trait Filtering: Send + Sync + 'static {
     /// called from an x86-64-v3 twin (`crate::isa`).
     fn sample_lanes<const V3: bool>(view: &LevelView<'_, Self::Texel>, u: i32x8, v: i32x8)
     -> Rgb8s;
+    /// One lane of `sample_lanes`, in 32-bit integers (`LevelView::scale_one`).
+    fn sample_one(view: &LevelView<'_, Self::Texel>, u: i32, v: i32) -> [u8; 3];
 }
 
 /// Texturing off.
@@ -562,5 +618,43 @@ impl Filtering for NoTexture {
     #[inline]
     fn sample_lanes<const V3: bool>(_: &LevelView<'_, u16>, _: i32x8, _: i32x8) -> Rgb8s {
         Rgb8s::splat([255; 3])
+    }
+    #[inline]
+    fn sample_one(_: &LevelView<'_, u16>, _: i32, _: i32) -> [u8; 3] {
+        [255; 3]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `blend` of each lane's block against `blend_lanes`, with the weights the lanes get
+    /// (`fx` 256 from a clamped edge, `Bilinear::sample_lanes`).
+    fn blends_agree<T: Texel>(
+        t: [[T; 4]; LANES],
+        fx: [u16; LANES],
+        fy: [u16; LANES],
+    ) -> Result<(), proptest::test_runner::TestCaseError> {
+        let quad = [0, 1, 2, 3].map(|c| T::lanes(t.map(|q| q[c])));
+        let lanes = T::blend_lanes(quad, u16x8::new(fx), u16x8::new(fy));
+        for k in 0..LANES {
+            let one = T::blend(t[k], fx[k] as u32, fy[k] as u32);
+            proptest::prop_assert_eq!(lanes.lane(k), one, "lane {}", k);
+        }
+        Ok(())
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn blending_one_block_equals_blending_lanes(
+            rgb565 in proptest::array::uniform8(proptest::array::uniform4(proptest::num::u16::ANY)),
+            rgba in proptest::array::uniform8(proptest::array::uniform4(proptest::array::uniform4(0u8..=255))),
+            fx in proptest::array::uniform8(0u16..=256),
+            fy in proptest::array::uniform8(0u16..=255),
+        ) {
+            blends_agree(rgb565, fx, fy)?;
+            blends_agree(rgba, fx, fy)?;
+        }
     }
 }

@@ -25,4 +25,10 @@ impl<T: ViewOf> Filtering for Nearest<T> {
         let (su, sv) = view.scale_lanes(u, v);
         T::rgb_lanes(view.gather(view.index_lanes(su >> 16, sv >> 16)))
     }
+
+    #[inline(always)]
+    fn sample_one(view: &LevelView<'_, T>, u: i32, v: i32) -> [u8; 3] {
+        let (su, sv) = view.scale_one(u, v);
+        view.texel(su >> 16, sv >> 16).rgb()
+    }
 }

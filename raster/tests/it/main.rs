@@ -9,4 +9,5 @@ mod extremes;
 mod finest_level;
 mod golden;
 mod lines;
+mod surface;
 mod watertight;

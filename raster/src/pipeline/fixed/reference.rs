@@ -3,8 +3,10 @@
 
 use std::cell::Cell;
 
+use super::division::{advance, div_small};
 use super::*;
-use crate::fixed_point::SUBPIXEL_ONE;
+use crate::fixed_point::{ATTR_FRAC_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE};
+use crate::pipeline::TexMode;
 use crate::pixel::{fog_blend, modulate};
 use crate::sampler::{Filtering, LevelView};
 use crate::state::Compare;
@@ -32,7 +34,7 @@ pub fn with<R>(f: impl FnOnce() -> R) -> R {
 #[inline]
 pub(crate) fn shade_row<
     P: PixelFormat,
-    D: DepthFormat,
+    D: DepthStorage,
     T: Filtering,
     const SHADE: bool,
     const FOG: bool,
@@ -59,7 +61,7 @@ pub(crate) fn shade_row<
 #[inline(always)]
 fn shade_span<
     P: PixelFormat,
-    D: DepthFormat,
+    D: DepthStorage,
     T: Filtering,
     const SHADE: bool,
     const GREY: bool,

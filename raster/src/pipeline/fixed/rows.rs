@@ -2,11 +2,12 @@
 //! integers, and the values its colour needs (texture coordinates, shading, fog), stored in the
 //! fragment buffer for the colour stage (`crate::fragments`).
 
-use super::{AttrPlane, FixedTriangle, advance, div_small, divide};
+use super::division::{advance, div_small, divide};
+use super::{AttrPlane, FixedTriangle};
 use crate::fixed_point::{ATTR_FRAC_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE};
 use crate::fragments::Fragments;
 use crate::pipeline::{Attributes, TexMode};
-use crate::pixel::DepthFormat;
+use crate::pixel::DepthStorage;
 use crate::sampler::{Filtering, clamp_coord};
 use crate::state::Compare;
 
@@ -47,7 +48,7 @@ impl DepthTest {
     /// Tests depth `d` against `*stored`, writes it if it passes and the draw writes depth;
     /// returns whether it passed.
     #[inline(always)]
-    pub fn apply<D: DepthFormat>(self, d: D::Value, stored: &mut D::Value) -> bool {
+    pub fn apply<D: DepthStorage>(self, d: D::Value, stored: &mut D::Value) -> bool {
         let s = *stored;
         let pass = D::widen(d) < D::widen(s) + self.bias;
         *stored = if pass && self.write { d } else { s };
@@ -59,7 +60,7 @@ impl DepthTest {
 /// depth (if tested), colour (one plane when `GREY`, none without shading), fog, texture.
 #[inline(always)]
 pub(crate) fn plane_offsets<
-    D: DepthFormat,
+    D: DepthStorage,
     const SHADE: bool,
     const GREY: bool,
     const FOG: bool,
@@ -106,7 +107,7 @@ impl<const GREY: bool> Stepped<GREY> {
 /// `AttrPlane::at_pixel` (see `FixedTriangle::narrow`).
 #[inline(always)]
 pub(crate) fn run_fragments<
-    D: DepthFormat,
+    D: DepthStorage,
     T: Filtering,
     const SHADE: bool,
     const GREY: bool,
@@ -280,7 +281,7 @@ impl NarrowPlanes {
     /// The planes of `tri` (narrow: `FixedTriangle::narrow`), in the order of `run_fragments`.
     #[inline(always)]
     pub fn new<
-        D: DepthFormat,
+        D: DepthStorage,
         T: Filtering,
         const SHADE: bool,
         const GREY: bool,

@@ -11,59 +11,27 @@
 //! pixel's bytes depend only on the triangles that cover it, in that order: neither the thread
 //! count nor the batching changes a byte.
 
-use std::ops::Range;
-
-use rayon::prelude::*;
+mod flush;
+mod loans;
+mod tiles;
+mod vertex_stage;
 
 use crate::RasterError;
-use crate::bin::{TileGrid, tile_size};
-use crate::clip::ClipVertex;
-use crate::draw::{DrawStats, Rasterizer, Stages};
-use crate::framebuffer::{ColorBuffer, DepthBuffer, Framebuffer};
-use crate::isa::{Cpu, v3_twin};
+use crate::bin::tile_size;
 use crate::lines::{LineState, LineStats};
 use crate::matrix::Transform;
 use crate::pipeline::fixed::FixedPipeline;
 use crate::pipeline::float::FloatPipeline;
-use crate::pipeline::{Attributes, Pipeline, TexMode, Viewport};
+use crate::pipeline::{Attributes, TexMode};
+use crate::rasterizer::{DrawStats, Rasterizer};
 use crate::sampler::TexViews;
-use crate::setup::{ChunkOut, DrawSetup, Transformed, by_draw, set_up};
-use crate::shade::{ColorTile, DepthTile, DrawShade, Shade, TileTarget, raster_tile};
 use crate::state::{Precision, Rect, RenderState};
-use crate::tile_view::{TileView, split};
-use crate::vertex::{Assembly, Mesh, Vertex, indices_in_range};
+use crate::surface::{AsSurface, DepthMut, Surface};
+use crate::vertex::{Mesh, Vertex, indices_in_range};
+use flush::{Source, flush_with};
 
 /// Pending triangles that trigger a flush after a draw.
 const FLUSH_TRIANGLES: usize = 1 << 16;
-/// Triangles set up and drawn per pass of a flush. A pass ends when its last tile is drawn, and
-/// on several threads its last tiles leave the other threads waiting, once per pass: on scene
-/// B's big draw, passes of 64k instead of 16k triangles make two threads 7-11% faster and one
-/// thread no slower (`examples/pass_size.rs`, docs/raster.md). What they cost is memory: the
-/// set-up data of two passes (the one drawn and the next, set up beside it), some 200 bytes a
-/// triangle, 13 MB a pass at this size.
-pub(crate) const PASS_TRIANGLES: usize = 64 * 1024;
-/// Triangles per unit of parallel set-up work (or fewer, to give every thread two units). Each
-/// unit bins its triangles into lists of its own, one per tile, which every tile then reads: on
-/// scene B's passes of 64k triangles, units of 4,096 instead of 1,024 made two threads 2-7%
-/// faster; 16,384 was level with 4,096 (docs/raster.md).
-const SETUP_CHUNK: usize = 4096;
-/// Vertices per unit of parallel vertex work.
-const VERTEX_CHUNK: usize = 2048;
-/// Below this many vertices the vertex stage runs on the calling thread.
-const PARALLEL_MIN: usize = 4096;
-/// Below this many triangles a flush is drawn on the calling thread: handing a smaller flush to
-/// a second thread costs more than the thread saves (`examples/split_threshold.rs`, measured in
-/// docs/raster.md: on a quiet machine a second thread lost below about 2,200 triangles at
-/// 320x240 and paid 1.21x from 4,418).
-pub(crate) const SPLIT_TRIANGLES: usize = 4096;
-
-/// The geometry of the pending draws: copies of the vertices they use, and their triangles as
-/// indices into those copies.
-#[derive(Debug, Default)]
-pub(crate) struct Pending {
-    pub vertices: Vec<Vertex>,
-    pub triangles: Vec<[u32; 3]>,
-}
 
 /// One pending draw: its state and where its vertices and triangles start.
 struct PendingDraw<'t> {
@@ -76,7 +44,7 @@ struct PendingDraw<'t> {
     first_triangle: usize,
 }
 
-/// Draws into one framebuffer that are rasterized together (see the module documentation).
+/// Draws into one surface that are rasterized together (see the module documentation).
 ///
 /// Made by [`Rasterizer::batch`]. Each [`Batch::draw`] returns the triangles it assembled;
 /// the triangles rasterized and the fragments written are counted when the batch ends
@@ -84,7 +52,7 @@ struct PendingDraw<'t> {
 /// until then.
 pub struct Batch<'r, 't> {
     rasterizer: &'r mut Rasterizer,
-    fb: &'r mut Framebuffer,
+    fb: Surface<'r>,
     draws: Vec<PendingDraw<'t>>,
     /// The vertices of the batch's only draw when it reads them where they are instead of a
     /// copy (`Batch::draw_in_place`).
@@ -96,18 +64,38 @@ pub struct Batch<'r, 't> {
 }
 
 impl Rasterizer {
-    /// Starts a batch of draws into `fb`: the draws of a frame (the engine's tiles) rasterized
-    /// together, with the same bytes as drawing them one by one.
-    pub fn batch<'r, 't>(&'r mut self, fb: &'r mut Framebuffer) -> Batch<'r, 't> {
+    /// Starts a batch of draws into `fb` (a [`crate::Framebuffer`] or a [`Surface`]): the
+    /// draws of a frame (the engine's tiles) rasterized together, with the same bytes as
+    /// drawing them one by one.
+    pub fn batch<'r, 't>(&'r mut self, fb: &'r mut impl AsSurface) -> Batch<'r, 't> {
         Batch {
             rasterizer: self,
-            fb,
+            fb: fb.as_surface(),
             draws: Vec::new(),
             in_place: None,
             deferred: None,
             precision: Precision::Fixed,
             done: DrawStats::default(),
         }
+    }
+
+    /// Draws `mesh` into `fb` (a [`crate::Framebuffer`] or a [`crate::Surface`]). A mesh with
+    /// no more vertices than indices is drawn from its own vertices, not from a copy.
+    pub fn draw(
+        &mut self,
+        fb: &mut impl AsSurface,
+        mesh: &Mesh,
+        transform: &Transform,
+        state: &RenderState,
+    ) -> Result<DrawStats, RasterError> {
+        let mut batch = self.batch(fb);
+        let drawn = batch.draw_in_place(mesh, transform, state)?;
+        let done = batch.finish();
+        // A draw assembled pass by pass counts its triangles in the flush.
+        Ok(DrawStats {
+            triangles: drawn.triangles + done.triangles,
+            ..done
+        })
     }
 }
 
@@ -177,7 +165,7 @@ impl<'t> Batch<'_, 't> {
             return Ok(stats);
         }
         self.deferred = deferred;
-        let has_depth = !matches!(self.fb.depth(), DepthBuffer::None);
+        let has_depth = !matches!(self.fb.depth, DepthMut::None);
         let attrs = Attributes::new(state, has_depth);
         let views = match state.texture {
             Some(b) if attrs.tex != TexMode::Off => TexViews::new(b.texture, b.sampler.wrap),
@@ -210,7 +198,8 @@ impl<'t> Batch<'_, 't> {
         state: &LineState,
     ) -> Result<LineStats, RasterError> {
         self.flush();
-        self.rasterizer.draw_edges(self.fb, mesh, transform, state)
+        self.rasterizer
+            .draw_edges(&mut self.fb, mesh, transform, state)
     }
 
     /// Draws what is pending and returns what the batch's draws rasterized: the triangles
@@ -246,7 +235,7 @@ impl<'t> Batch<'_, 't> {
                 &mut r.fixed,
                 geometry,
                 &self.draws,
-                self.fb,
+                &mut self.fb,
                 threads,
                 (tile, pass, r.cpu),
             ),
@@ -254,7 +243,7 @@ impl<'t> Batch<'_, 't> {
                 &mut r.float,
                 geometry,
                 &self.draws,
-                self.fb,
+                &mut self.fb,
                 threads,
                 (tile, pass, r.cpu),
             ),
@@ -275,390 +264,11 @@ impl Drop for Batch<'_, '_> {
     }
 }
 
-/// Where a flush's triangles come from: the batch's assembled triangles, or the mesh of a lone
-/// draw, assembled pass by pass (`Batch::draw_in_place`).
-#[derive(Clone, Copy)]
-enum Source<'a> {
-    Ready(&'a [[u32; 3]]),
-    Mesh(Mesh<'a>),
-}
-
-/// Set-up and tiles pass by pass: while the tiles draw one pass, the next pass's vertices are
-/// transformed and its triangles set up beside them (and, for a `Source::Mesh`, assembled), so
-/// a thread that runs out of tiles works on the next pass instead of waiting. Only the first
-/// pass's vertex stage and set-up run before any tile. Returns the triangles assembled in the
-/// flush (those of a `Source::Mesh`), the triangles rasterized and the fragments written.
-fn flush_with<P: Shade>(
-    stages: &mut Stages<P>,
-    (vertices, source): (&[Vertex], Source<'_>),
-    draws: &[PendingDraw],
-    fb: &mut Framebuffer,
-    threads: usize,
-    (tile, pass, cpu): (u32, usize, Cpu),
-) -> (u64, u64, u64) {
-    let vp = Viewport {
-        width: fb.width(),
-        height: fb.height(),
-    };
-    let consts: Vec<P::Consts> = draws
-        .iter()
-        .map(|d| P::consts(&d.transform, &vp, d.state.fog))
-        .collect();
-    let grid = TileGrid::new(vp.width, vp.height, tile);
-    let setups: Vec<DrawSetup> = draws
-        .iter()
-        .map(|d| DrawSetup {
-            state: &d.state,
-            attrs: &d.attrs,
-            scissor: d.scissor,
-        })
-        .collect();
-    let shades: Vec<DrawShade> = draws
-        .iter()
-        .map(|d| DrawShade {
-            state: &d.state,
-            attrs: &d.attrs,
-            views: &d.views,
-            cpu,
-        })
-        .collect();
-    // Every element is written by the vertex stage before set-up reads it: only the elements a
-    // longer flush adds are filled first, not the whole buffer on the calling thread.
-    let Stages {
-        transformed,
-        passes,
-        assembled,
-    } = stages;
-    transformed.truncate(vertices.len());
-    transformed.resize(vertices.len(), Transformed::default());
-    // The vertices before `done` are transformed. A pass needs those its triangles use: all
-    // below one past the largest index of its and the earlier passes' triangles. A strip or a
-    // list over a grid uses its vertices in order, so each pass transforms its own band of them.
-    // Only worth its scan when later passes' vertices can be transformed beside the tiles.
-    let overlap = threads > 1
-        && match source {
-            Source::Ready(t) => t.len() > pass,
-            Source::Mesh(_) => true,
-        };
-    let mut done = 0;
-    // The next pass's first triangle, and where a mesh's assembly stands.
-    let (mut start, mut assembly) = (0, Assembly::default());
-    // Takes the next pass's triangles (assembling them from a mesh), transforms the vertices
-    // they use, then sets them up into `chunks` (as many as it needs, each a range of its own on
-    // its own thread). Returns the chunks used and whether another pass follows.
-    let mut prepare_pass = |chunks: &mut Vec<ChunkOut<P>>| -> (usize, bool) {
-        // The pass is `range` of `tris`: of the ready triangles, or of the mesh's pass just
-        // assembled (its only draw starts at 0).
-        let (tris, range, more) = next_pass(source, start, pass, &mut assembly, assembled);
-        start += range.len();
-        if range.is_empty() {
-            // A mesh's last indices may make only degenerate triangles.
-            return (0, more);
-        }
-        let needed = if overlap {
-            tris[range.clone()]
-                .iter()
-                .fold(done, |m, t| m.max(t[0].max(t[1]).max(t[2]) as usize + 1))
-        } else {
-            vertices.len()
-        };
-        if needed > done {
-            vertex_stage::<P>(
-                &mut transformed[done..needed],
-                done,
-                vertices,
-                draws,
-                &consts,
-                (threads, cpu),
-            );
-            done = needed;
-        }
-        let transformed = &transformed[..done];
-        let pieces = if threads > 1 {
-            range
-                .len()
-                .div_ceil(SETUP_CHUNK)
-                .max(2 * threads)
-                .min(range.len())
-        } else {
-            1
-        };
-        if chunks.len() < pieces {
-            chunks.resize_with(pieces, ChunkOut::default);
-        }
-        let piece = range.len().div_ceil(pieces);
-        let set_up_piece = |k: usize, out: &mut ChunkOut<P>| {
-            out.tris.clear();
-            out.planes.clear();
-            out.bins.reset(&grid);
-            let from = range.start + k * piece;
-            let part = from..(from + piece).min(range.end);
-            by_draw(
-                draws.len(),
-                |d| draws[d].first_triangle,
-                part,
-                |d, part| {
-                    set_up::<P>(
-                        &tris[part],
-                        (vertices, transformed),
-                        d as u32,
-                        &setups[d],
-                        &consts[d],
-                        &grid,
-                        out,
-                    )
-                },
-            );
-        };
-        if pieces > 1 {
-            chunks[..pieces]
-                .par_iter_mut()
-                .enumerate()
-                .for_each(|(k, out)| set_up_piece(k, out));
-        } else {
-            set_up_piece(0, &mut chunks[0]);
-        }
-        (pieces, more)
-    };
-    let [front, back] = passes;
-    let (mut ready, mut next) = (front, back);
-    let (mut used, mut more) = prepare_pass(ready);
-    let (mut rasterized, mut fragments) = (0, 0);
-    loop {
-        let chunks = &ready[..used];
-        rasterized += chunks.iter().map(|c| c.tris.len() as u64).sum::<u64>();
-        let draw = |fb: &mut Framebuffer| raster_tiles::<P>(fb, chunks, &shades, &grid, threads);
-        if !more {
-            fragments += draw(fb);
-            break;
-        }
-        let (drawn, set) = if threads > 1 {
-            rayon::join(|| draw(fb), || prepare_pass(next))
-        } else {
-            (draw(fb), prepare_pass(next))
-        };
-        fragments += drawn;
-        (used, more) = set;
-        std::mem::swap(&mut ready, &mut next);
-    }
-    let assembled = match source {
-        Source::Ready(_) => 0,
-        Source::Mesh(_) => start as u64,
-    };
-    (assembled, rasterized, fragments)
-}
-
-/// The triangles of the pass that starts at triangle `start` (at most `pass`) as a range of a
-/// slice, and whether another pass follows: a range of the ready triangles, or the next
-/// triangles of a mesh, assembled into `assembled`.
-fn next_pass<'a>(
-    source: Source<'a>,
-    start: usize,
-    pass: usize,
-    assembly: &mut Assembly,
-    assembled: &'a mut Vec<[u32; 3]>,
-) -> (&'a [[u32; 3]], Range<usize>, bool) {
-    match source {
-        Source::Ready(t) => {
-            let end = (start + pass).min(t.len());
-            (t, start..end, end < t.len())
-        }
-        Source::Mesh(mesh) => {
-            assembled.clear();
-            // Checked in `Batch::add` (`indices_in_range`): no index is out of range.
-            let checked = assembly.resume(&mesh, |t| {
-                assembled.push(t);
-                assembled.len() < pass
-            });
-            debug_assert!(checked.is_ok());
-            let more = checked.is_ok() && !assembly.done(&mesh);
-            (&assembled[..], 0..assembled.len(), more)
-        }
-    }
-}
-
-/// The vertex stage of `vertices` (of one draw, its constants `c`) into `outs`. Runs the
-/// x86-64-v3 twin where `cpu` allows (0.16M instructions less per PocketPC frame: its 128-bit
-/// products and shifts take BMI2's forms).
-fn transform<P: Pipeline>(
-    c: &P::Consts,
-    outs: &mut [Transformed<P>],
-    vertices: &[Vertex],
-    cpu: Cpu,
-) {
-    if cpu.v3() {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: `cpu.v3()` holds only where the CPU has every feature the twin is built for.
-        return unsafe { transform_v3::<P>(c, outs, vertices) };
-    }
-    transform_in::<P>(c, outs, vertices)
-}
-
-v3_twin! {
-    /// `transform` built for x86-64-v3 (see `crate::isa`).
-    fn transform_v3<P: Pipeline>(c: &P::Consts, outs: &mut [Transformed<P>], vertices: &[Vertex]) {
-        transform_in::<P>(c, outs, vertices)
-    }
-}
-
-/// The loop of `transform`, built into each of its twins.
-#[inline(always)]
-fn transform_in<P: Pipeline>(c: &P::Consts, outs: &mut [Transformed<P>], vertices: &[Vertex]) {
-    for (o, v) in outs.iter_mut().zip(vertices) {
-        let clip = P::clip(c, v);
-        let outcode = clip.outcode(P::space(c));
-        let screen = if outcode == 0 {
-            P::project(c, &clip)
-        } else {
-            P::Screen::default()
-        };
-        *o = Transformed { outcode, screen };
-    }
-}
-
-/// Runs the vertex stage over the pending vertices from `start` on into `out` (as many as it
-/// holds), each with its draw's transform.
-fn vertex_stage<P: Pipeline>(
-    out: &mut [Transformed<P>],
-    start: usize,
-    vertices: &[Vertex],
-    draws: &[PendingDraw],
-    consts: &[P::Consts],
-    (threads, cpu): (usize, Cpu),
-) {
-    let work = |start: usize, chunk: &mut [Transformed<P>]| {
-        by_draw(
-            draws.len(),
-            |d| draws[d].first_vertex,
-            start..start + chunk.len(),
-            |d, part| {
-                let outs = &mut chunk[part.start - start..part.end - start];
-                transform::<P>(&consts[d], outs, &vertices[part], cpu);
-            },
-        )
-    };
-    if threads > 1 && out.len() >= PARALLEL_MIN {
-        out.par_chunks_mut(VERTEX_CHUNK)
-            .enumerate()
-            .for_each(|(k, chunk)| work(start + k * VERTEX_CHUNK, chunk));
-    } else {
-        work(start, out);
-    }
-}
-
-/// Draws every tile that has triangles, in parallel, each thread reusing its tile buffers.
-/// Returns the fragments written.
-fn raster_tiles<P: Shade>(
-    fb: &mut Framebuffer,
-    chunks: &[ChunkOut<P>],
-    draws: &[DrawShade],
-    grid: &TileGrid,
-    threads: usize,
-) -> u64 {
-    let (color, depth) = fb.buffers_mut();
-    let colors: Vec<ColorView> = match color {
-        ColorBuffer::Rgb565(c) => split(c, grid).into_iter().map(ColorView::Rgb565).collect(),
-        ColorBuffer::Rgba8888(c) => split(c, grid)
-            .into_iter()
-            .map(ColorView::Rgba8888)
-            .collect(),
-    };
-    let depths: Vec<DepthView> = match depth {
-        DepthBuffer::None => (0..grid.len()).map(|_| DepthView::None).collect(),
-        DepthBuffer::D16(d) => split(d, grid).into_iter().map(DepthView::D16).collect(),
-        DepthBuffer::D32(d) => split(d, grid).into_iter().map(DepthView::D32).collect(),
-    };
-    let tiles = colors
-        .into_iter()
-        .zip(depths)
-        .enumerate()
-        .filter(|(t, _)| chunks.iter().any(|c| !c.bins.list(*t).is_empty()));
-    let draw = |spare: &mut TileBuffers,
-                (t, (mut color, mut depth)): (usize, (ColorView, DepthView))| {
-        let mut target = TileTarget {
-            rect: grid.rect(t),
-            color: color.load(spare),
-            depth: depth.load(spare),
-        };
-        let fragments = raster_tile::<P>(t, chunks, draws, &mut target);
-        color.store(target.color, spare);
-        depth.store(target.depth, spare);
-        fragments
-    };
-    if threads > 1 {
-        let tiles: Vec<_> = tiles.collect();
-        tiles
-            .into_par_iter()
-            .map_init(TileBuffers::default, draw)
-            .sum()
-    } else {
-        let mut spare = TileBuffers::default();
-        tiles.map(|tile| draw(&mut spare, tile)).sum()
-    }
-}
-
-/// The allocations of the tiles a thread has drawn, for the next tile it loads.
-#[derive(Default)]
-struct TileBuffers {
-    u16s: Vec<u16>,
-    rgba: Vec<[u8; 4]>,
-    u32s: Vec<u32>,
-}
-
-/// A tile of the colour buffer in the framebuffer's format.
-enum ColorView<'a> {
-    Rgb565(TileView<'a, u16>),
-    Rgba8888(TileView<'a, [u8; 4]>),
-}
-
-impl ColorView<'_> {
-    fn load(&mut self, spare: &mut TileBuffers) -> ColorTile {
-        match self {
-            ColorView::Rgb565(v) => ColorTile::Rgb565(v.load(std::mem::take(&mut spare.u16s))),
-            ColorView::Rgba8888(v) => ColorTile::Rgba8888(v.load(std::mem::take(&mut spare.rgba))),
-        }
-    }
-
-    fn store(&mut self, tile: ColorTile, spare: &mut TileBuffers) {
-        match (self, tile) {
-            (ColorView::Rgb565(v), ColorTile::Rgb565(t)) => spare.u16s = v.store(t),
-            (ColorView::Rgba8888(v), ColorTile::Rgba8888(t)) => spare.rgba = v.store(t),
-            _ => unreachable!("a tile goes back to its own buffer"),
-        }
-    }
-}
-
-/// A tile of the depth buffer in the framebuffer's format, if it has one.
-enum DepthView<'a> {
-    None,
-    D16(TileView<'a, u16>),
-    D32(TileView<'a, u32>),
-}
-
-impl DepthView<'_> {
-    fn load(&mut self, spare: &mut TileBuffers) -> DepthTile {
-        match self {
-            DepthView::None => DepthTile::None,
-            DepthView::D16(v) => DepthTile::D16(v.load(std::mem::take(&mut spare.u16s))),
-            DepthView::D32(v) => DepthTile::D32(v.load(std::mem::take(&mut spare.u32s))),
-        }
-    }
-
-    fn store(&mut self, tile: DepthTile, spare: &mut TileBuffers) {
-        match (self, tile) {
-            (DepthView::None, DepthTile::None) => {}
-            (DepthView::D16(v), DepthTile::D16(t)) => spare.u16s = v.store(t),
-            (DepthView::D32(v), DepthTile::D32(t)) => spare.u32s = v.store(t),
-            _ => unreachable!("a tile goes back to its own buffer"),
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use glam::{DMat4, DVec3};
 
-    use super::{PASS_TRIANGLES, SPLIT_TRIANGLES};
+    use crate::rasterizer::{PASS_TRIANGLES, SPLIT_TRIANGLES};
     use crate::{
         ColorFormat, DepthFormat, Fog, Framebuffer, Indices, Mesh, Perspective, Precision,
         Rasterizer, RenderState, Sampler, Shading, Texture, TextureBinding, Topology, Transform,

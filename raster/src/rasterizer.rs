@@ -1,22 +1,30 @@
-//! The rasterizer and its draw call: a draw is a batch of one (see `batch`), so a single draw
-//! and a frame of many take the same path: assembly, the vertex stage once per vertex, set-up
-//! in chunks that bin triangles into screen tiles, and tiles drawn in parallel.
+//! The rasterizer: its settings (threads, tiles, passes, instruction set), the scratch buffers
+//! it reuses from draw to draw, and what a draw reports. Its draw calls are in `batch`: a draw
+//! is a batch of one, so a single draw and a frame of many take the same path: assembly, the
+//! vertex stage once per vertex, set-up in chunks that bin triangles into screen tiles, and
+//! tiles drawn in parallel.
 //!
 //! Determinism: every pixel is computed from its triangles' set-up data alone (coverage, and
 //! attribute planes evaluated exactly at the pixel), and each tile draws its triangles in
 //! submission order, so any thread count and any batching give the same bytes.
 
-use crate::RasterError;
-use crate::batch::{PASS_TRIANGLES, Pending, SPLIT_TRIANGLES};
-use crate::framebuffer::Framebuffer;
 use crate::isa::{Cpu, InstructionSet};
-use crate::matrix::Transform;
+use crate::pending::{Gather, Pending};
 use crate::pipeline::Pipeline;
 use crate::pipeline::fixed::FixedPipeline;
 use crate::pipeline::float::FloatPipeline;
 use crate::setup::{ChunkOut, Transformed};
-use crate::state::RenderState;
-use crate::vertex::{Mesh, assemble};
+
+/// Triangles set up and drawn per pass of a flush. A pass ends when its last tile is drawn, and
+/// on several threads its last tiles leave the other threads waiting, once per pass, so bigger
+/// passes wait fewer times (`examples/pass_size.rs`, docs/raster.md). What they cost is memory: the
+/// set-up data of two passes (the one drawn and the next, set up beside it), some 200 bytes a
+/// triangle, 13 MB a pass at this size.
+pub(crate) const PASS_TRIANGLES: usize = 64 * 1024;
+/// Below this many triangles a flush is drawn on the calling thread: handing a smaller flush to
+/// a second thread costs more than the thread saves (`examples/split_threshold.rs`, measured in
+/// docs/raster.md).
+pub(crate) const SPLIT_TRIANGLES: usize = 4096;
 
 /// What a draw did, for statistics and benchmarks.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -169,109 +177,5 @@ impl Rasterizer {
             .unwrap_or_else(rayon::current_num_threads)
             .min(rayon::current_num_threads())
             .max(1)
-    }
-
-    /// Draws `mesh` into `fb`. A mesh with no more vertices than indices is drawn from its own
-    /// vertices, not from a copy.
-    pub fn draw(
-        &mut self,
-        fb: &mut Framebuffer,
-        mesh: &Mesh,
-        transform: &Transform,
-        state: &RenderState,
-    ) -> Result<DrawStats, RasterError> {
-        let mut batch = self.batch(fb);
-        let drawn = batch.draw_in_place(mesh, transform, state)?;
-        let done = batch.finish();
-        // A draw assembled pass by pass counts its triangles in the flush.
-        Ok(DrawStats {
-            triangles: drawn.triangles + done.triangles,
-            ..done
-        })
-    }
-}
-
-/// Triangle assembly, copying the vertices a draw uses.
-#[derive(Debug, Default)]
-pub(crate) struct Gather {
-    /// Per-vertex stamp of the draw that last referenced it.
-    stamp: Vec<u32>,
-    /// Per-vertex position in the pending vertices, valid where the stamp is current.
-    slot: Vec<u32>,
-    generation: u32,
-}
-
-impl Gather {
-    /// Assembles `mesh`'s triangles into `pending`, copying its vertices (all of them, or the
-    /// used ones once each when the mesh has more vertices than indices). With `in_place` (only
-    /// into an empty `pending`, for a draw that is flushed before its mesh goes), a mesh whose
-    /// vertices would all be copied is not: its triangles index `mesh.vertices` itself. Returns
-    /// the number of triangles and whether the vertices were left in place; on an index out of
-    /// range, `pending` is left as it was.
-    pub fn append(
-        &mut self,
-        mesh: &Mesh,
-        pending: &mut Pending,
-        in_place: bool,
-    ) -> Result<(usize, bool), RasterError> {
-        debug_assert!(!in_place || pending.vertices.is_empty() && pending.triangles.is_empty());
-        let n = mesh.vertices.len();
-        let (first_vertex, first_triangle) = (pending.vertices.len(), pending.triangles.len());
-        let all = n <= mesh.indices.len() && first_vertex + n <= u32::MAX as usize;
-        let result = if all {
-            // No more vertices than indices (a strip or list over its own grid): copying them
-            // all costs less than finding the used ones, and the vertex stage's extra work is
-            // bounded by the assembly's.
-            if !in_place {
-                pending.vertices.extend_from_slice(mesh.vertices);
-            }
-            let base = first_vertex as u32;
-            let triangles = &mut pending.triangles;
-            assemble(mesh, |t| triangles.push(t.map(|v| base + v)))
-        } else {
-            self.append_used(mesh, pending)
-        };
-        match result {
-            Ok(()) => Ok((pending.triangles.len() - first_triangle, all && in_place)),
-            Err((position, value)) => {
-                pending.vertices.truncate(first_vertex);
-                pending.triangles.truncate(first_triangle);
-                Err(RasterError::IndexOutOfRange {
-                    position,
-                    value,
-                    vertices: n,
-                })
-            }
-        }
-    }
-
-    /// `append` copying only the vertices the triangles use, each once.
-    fn append_used(&mut self, mesh: &Mesh, pending: &mut Pending) -> Result<(), (usize, u32)> {
-        let n = mesh.vertices.len();
-        if self.stamp.len() < n {
-            self.stamp.resize(n, 0);
-            self.slot.resize(n, 0);
-        }
-        self.generation = self.generation.wrapping_add(1);
-        if self.generation == 0 {
-            self.stamp.fill(0);
-            self.generation = 1;
-        }
-        let (stamp, slot, generation) = (&mut self.stamp, &mut self.slot, self.generation);
-        let Pending {
-            vertices,
-            triangles,
-        } = pending;
-        assemble(mesh, |t| {
-            triangles.push(t.map(|v| {
-                let v = v as usize;
-                if stamp[v] != generation {
-                    stamp[v] = generation;
-                    slot[v] = vertices.len() as u32;
-                    vertices.push(mesh.vertices[v]);
-                }
-                slot[v]
-            }))
-        })
     }
 }

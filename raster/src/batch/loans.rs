@@ -1,0 +1,82 @@
+//! A surface's tiles lent to the threads: each tile's colour and depth copied into a buffer
+//! the thread reuses, converted to the format the inner loops draw, and back.
+
+use crate::layout::{rgba_to_xbgr, rgba_to_xrgb, swap_565, xbgr_to_rgba, xrgb_to_rgba};
+use crate::shade::{ColorTile, DepthTile};
+use crate::tile_view::TileView;
+
+/// The allocations of the tiles a thread has drawn, for the next tile it loads.
+#[derive(Default)]
+pub(super) struct TileBuffers {
+    u16s: Vec<u16>,
+    rgba: Vec<[u8; 4]>,
+    u32s: Vec<u32>,
+}
+
+/// A tile of the colour memory in the surface's layout. A tile is drawn as RGB565 words or
+/// RGBA bytes; the other layouts are converted on the way in and out (see `crate::layout`).
+pub(super) enum ColorView<'a> {
+    Rgb565(TileView<'a, u16>),
+    Bgr565(TileView<'a, u16>),
+    Xrgb8888(TileView<'a, u32>),
+    Xbgr8888(TileView<'a, u32>),
+    Rgba8888(TileView<'a, [u8; 4]>),
+}
+
+impl ColorView<'_> {
+    pub(super) fn load(&mut self, spare: &mut TileBuffers) -> ColorTile {
+        use std::mem::take;
+        match self {
+            ColorView::Rgb565(v) => ColorTile::Rgb565(v.load(take(&mut spare.u16s))),
+            ColorView::Bgr565(v) => ColorTile::Rgb565(v.load_as(take(&mut spare.u16s), swap_565)),
+            ColorView::Xrgb8888(v) => {
+                ColorTile::Rgba8888(v.load_as(take(&mut spare.rgba), xrgb_to_rgba))
+            }
+            ColorView::Xbgr8888(v) => {
+                ColorTile::Rgba8888(v.load_as(take(&mut spare.rgba), xbgr_to_rgba))
+            }
+            ColorView::Rgba8888(v) => ColorTile::Rgba8888(v.load(take(&mut spare.rgba))),
+        }
+    }
+
+    pub(super) fn store(&mut self, tile: ColorTile, spare: &mut TileBuffers) {
+        match (self, tile) {
+            (ColorView::Rgb565(v), ColorTile::Rgb565(t)) => spare.u16s = v.store(t),
+            (ColorView::Bgr565(v), ColorTile::Rgb565(t)) => spare.u16s = v.store_as(t, swap_565),
+            (ColorView::Xrgb8888(v), ColorTile::Rgba8888(t)) => {
+                spare.rgba = v.store_as(t, rgba_to_xrgb)
+            }
+            (ColorView::Xbgr8888(v), ColorTile::Rgba8888(t)) => {
+                spare.rgba = v.store_as(t, rgba_to_xbgr)
+            }
+            (ColorView::Rgba8888(v), ColorTile::Rgba8888(t)) => spare.rgba = v.store(t),
+            _ => unreachable!("a tile goes back to its own buffer"),
+        }
+    }
+}
+
+/// A tile of the depth buffer in the framebuffer's format, if it has one.
+pub(super) enum DepthView<'a> {
+    None,
+    D16(TileView<'a, u16>),
+    D32(TileView<'a, u32>),
+}
+
+impl DepthView<'_> {
+    pub(super) fn load(&mut self, spare: &mut TileBuffers) -> DepthTile {
+        match self {
+            DepthView::None => DepthTile::None,
+            DepthView::D16(v) => DepthTile::D16(v.load(std::mem::take(&mut spare.u16s))),
+            DepthView::D32(v) => DepthTile::D32(v.load(std::mem::take(&mut spare.u32s))),
+        }
+    }
+
+    pub(super) fn store(&mut self, tile: DepthTile, spare: &mut TileBuffers) {
+        match (self, tile) {
+            (DepthView::None, DepthTile::None) => {}
+            (DepthView::D16(v), DepthTile::D16(t)) => spare.u16s = v.store(t),
+            (DepthView::D32(v), DepthTile::D32(t)) => spare.u32s = v.store(t),
+            _ => unreachable!("a tile goes back to its own buffer"),
+        }
+    }
+}

@@ -1,0 +1,203 @@
+//! The colour stage one fragment at a time, for build targets whose lanes are not vectors
+//! (`crate::lanes::VECTORS`: 32-bit ARM, ARMv5TE as the PocketPC's XScale and ARMv7 with or
+//! without NEON). There `wide`'s vectors are arrays worked element by element (with NEON the
+//! compiler makes vectors of some of that work again), a group's channels, 8 fragments of
+//! 16-bit lanes, outgrow the registers and go through memory, and the bilinear RGB565 filter
+//! takes 6 multiplications per channel. One fragment's colour in scalar 32-bit integers stays
+//! in registers, and the filter runs in the packed form (`Texel::blend`), 6 multiplications for
+//! the three channels.
+//!
+//! The bytes are those of the lanes: each step is the scalar twin of a lane step (the sampler's,
+//! `modulate`, `fog_blend`, `pack`), and the tests below hold the two stages to equal pixels.
+
+use super::Fragments;
+use crate::attributes::Attributes;
+use crate::pixel::{PixelFormat, fog_blend, modulate};
+use crate::sampler::{Filtering, LevelView};
+use crate::texture::Wrap;
+
+impl Fragments {
+    /// `colour` one fragment at a time: the held fragments' colours, each written to its pixel
+    /// in the order they arrived.
+    #[inline(always)]
+    pub(super) fn colour_one_by_one<
+        P: PixelFormat,
+        F: Filtering,
+        const SHADE: bool,
+        const GREY: bool,
+        const FOG: bool,
+    >(
+        &self,
+        view: Option<&LevelView<'_, F::Texel>>,
+        a: &Attributes,
+        pixels: &mut [P::Pixel],
+    ) {
+        // A loop for each wrap, each in a view whose wrap the compiler sees as a constant: one
+        // branch a buffer instead of two a fragment.
+        let known = |wrap| {
+            let mut v = *view.filter(|_| F::ENABLED)?;
+            v.wrap = wrap;
+            Some(v)
+        };
+        let mut each = |view: Option<LevelView<'_, F::Texel>>| {
+            self.colour_each::<P, F, SHADE, GREY, FOG>(view.as_ref(), a, pixels)
+        };
+        match view.map(|v| v.wrap) {
+            Some(Wrap::Repeat) => each(known(Wrap::Repeat)),
+            Some(Wrap::Clamp) => each(known(Wrap::Clamp)),
+            None => each(None),
+        }
+    }
+
+    /// `colour_one_by_one` in a view of a known wrap.
+    #[inline(always)]
+    fn colour_each<
+        P: PixelFormat,
+        F: Filtering,
+        const SHADE: bool,
+        const GREY: bool,
+        const FOG: bool,
+    >(
+        &self,
+        view: Option<&LevelView<'_, F::Texel>>,
+        a: &Attributes,
+        pixels: &mut [P::Pixel],
+    ) {
+        let n = self.len;
+        // Every array cut to the fragments held, so that indexing them needs no check.
+        let (at, u, v, f) = (&self.at[..n], &self.u[..n], &self.v[..n], &self.f[..n]);
+        let (r, g, b) = (&self.c[0][..n], &self.c[1][..n], &self.c[2][..n]);
+        let view = view.filter(|_| F::ENABLED);
+        for k in 0..n {
+            // Shading channels are 0..=255 (`Fragments::c`).
+            let mut rgb = if !SHADE {
+                a.flat
+            } else if GREY {
+                [r[k] as u8; 3]
+            } else {
+                [r[k] as u8, g[k] as u8, b[k] as u8]
+            };
+            if F::ENABLED {
+                let view = view.expect("texture view bound with texturing on");
+                rgb = modulate(F::sample_one(view, u[k], v[k]), rgb);
+            }
+            if FOG {
+                rgb = fog_blend(rgb, a.fog_color, f[k] as u32);
+            }
+            pixels[at[k] as usize] = P::pack(rgb);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::fmt::Debug;
+
+    use proptest::prelude::*;
+
+    use super::*;
+    use crate::fixed_point::TEXCOORD_LIMIT;
+    use crate::fragments::CAPACITY;
+    use crate::pixel::{Rgb565, Rgba8888};
+    use crate::sampler::{Bilinear, Nearest, NoTexture};
+    use crate::state::{Fog, RenderState, Shading};
+    use crate::texture::Wrap;
+
+    /// Pixels of the tile the fragments land in.
+    const TILE: usize = 48;
+
+    /// The held fragments coloured by the lanes and one by one, into tiles of equal pixels:
+    /// the tiles must stay equal.
+    fn stages_agree<
+        P: PixelFormat,
+        F: Filtering,
+        const SHADE: bool,
+        const GREY: bool,
+        const FOG: bool,
+    >(
+        frags: &Fragments,
+        view: &LevelView<'_, F::Texel>,
+        a: &Attributes,
+    ) -> Result<(), TestCaseError>
+    where
+        P::Pixel: PartialEq + Debug,
+    {
+        let mut lanes = vec![P::pack([1, 2, 3]); TILE];
+        let mut one = lanes.clone();
+        frags.colour::<P, F, SHADE, GREY, FOG, false>(Some(view), a, &mut lanes);
+        frags.colour_one_by_one::<P, F, SHADE, GREY, FOG>(Some(view), a, &mut one);
+        prop_assert_eq!(lanes, one, "SHADE {} GREY {} FOG {}", SHADE, GREY, FOG);
+        Ok(())
+    }
+
+    /// `stages_agree` with and without shading (coloured and grey) and fog.
+    fn every_state<P: PixelFormat, F: Filtering>(
+        frags: &Fragments,
+        view: &LevelView<'_, F::Texel>,
+        a: &Attributes,
+    ) -> Result<(), TestCaseError>
+    where
+        P::Pixel: PartialEq + Debug,
+    {
+        stages_agree::<P, F, false, false, false>(frags, view, a)?;
+        stages_agree::<P, F, false, false, true>(frags, view, a)?;
+        stages_agree::<P, F, true, false, false>(frags, view, a)?;
+        stages_agree::<P, F, true, true, true>(frags, view, a)
+    }
+
+    /// A fragment: its pixel, texture coordinates (near the level or anywhere within the limit),
+    /// shading colour and fog share.
+    fn fragment() -> impl Strategy<Value = (u32, [i32; 2], [u16; 3], u16)> {
+        let limit = TEXCOORD_LIMIT as i32;
+        let coordinate = prop_oneof![-(1i32 << 17)..1 << 17, -limit..=limit];
+        (
+            0..TILE as u32,
+            [coordinate.clone(), coordinate],
+            [0u16..=255, 0u16..=255, 0u16..=255],
+            0u16..=256,
+        )
+    }
+
+    proptest! {
+        #[test]
+        fn one_by_one_gives_the_bytes_of_the_lanes(
+            held in proptest::collection::vec(fragment(), 1..=CAPACITY),
+            sides in (0u32..6, 0u32..6),
+            rgb565 in proptest::collection::vec(proptest::num::u16::ANY, 1 << 10),
+            rgba in proptest::collection::vec(proptest::array::uniform4(0u8..=255), 1 << 10),
+            repeat in proptest::bool::ANY,
+            (flat, fog) in (proptest::array::uniform3(0u8..=255), proptest::array::uniform3(0u8..=255)),
+        ) {
+            let mut frags = Fragments::new();
+            for (k, &(at, [u, v], c, f)) in held.iter().enumerate() {
+                let i = Fragments::slot(k);
+                (frags.at[i], frags.u[i], frags.v[i], frags.f[i]) = (at, u, v, f);
+                for (channel, &c) in frags.c.iter_mut().zip(&c) {
+                    channel[i] = c;
+                }
+            }
+            frags.keep(held.len());
+            let state = RenderState {
+                shading: Shading::Flat(flat),
+                fog: Some(Fog { color: fog, start: 1.0, end: 2.0 }),
+                ..RenderState::default()
+            };
+            let a = Attributes::new(&state, false);
+            let (w, h) = (1u32 << sides.0, 1u32 << sides.1);
+            let n = (w * h) as usize;
+            let wrap = if repeat { Wrap::Repeat } else { Wrap::Clamp };
+            let v565 = LevelView::new(&rgb565[..n], w, h, wrap);
+            let v8888 = LevelView::new(&rgba[..n], w, h, wrap);
+            every_state::<Rgb565, NoTexture>(&frags, &v565, &a)?;
+            every_state::<Rgb565, Nearest<u16>>(&frags, &v565, &a)?;
+            every_state::<Rgb565, Bilinear<u16>>(&frags, &v565, &a)?;
+            every_state::<Rgb565, Nearest<[u8; 4]>>(&frags, &v8888, &a)?;
+            every_state::<Rgb565, Bilinear<[u8; 4]>>(&frags, &v8888, &a)?;
+            every_state::<Rgba8888, NoTexture>(&frags, &v565, &a)?;
+            every_state::<Rgba8888, Nearest<u16>>(&frags, &v565, &a)?;
+            every_state::<Rgba8888, Bilinear<u16>>(&frags, &v565, &a)?;
+            every_state::<Rgba8888, Nearest<[u8; 4]>>(&frags, &v8888, &a)?;
+            every_state::<Rgba8888, Bilinear<[u8; 4]>>(&frags, &v8888, &a)?;
+        }
+    }
+}

@@ -1,0 +1,145 @@
+//! The divisions of the row loops: perspective quotients by one reciprocal, span lengths by a
+//! table, and plane accumulators advanced by a product.
+
+use crate::fixed_point::{TEXCOORD_LIMIT, saturate_i64};
+#[cfg(any(test, not(target_pointer_width = "64")))]
+use crate::fixed_point::{corrected_quotient, reciprocal_by_table};
+
+/// `2^63 / q` rounded down, for `q >= 1`: the perspective quotients' reciprocal. One division
+/// where the CPU divides 64-bit integers; a 32-bit core has no such instruction (its library
+/// call takes hundreds), so there it is `quotient_by_table`, the same integer.
+#[inline(always)]
+fn reciprocal_63(q: u64) -> u64 {
+    debug_assert!(q >= 1);
+    #[cfg(target_pointer_width = "64")]
+    let r = (1u64 << 63) / q;
+    #[cfg(not(target_pointer_width = "64"))]
+    let r = quotient_by_table(q);
+    r
+}
+
+/// `reciprocal_63` in 32x32-bit products: the reciprocal of `q`'s top 31 bits from the seed
+/// table and Newton steps (`reciprocal_by_table`), scaled, and corrected by the remainder until
+/// it lies in `0..q`, so the result is the rounded-down quotient whatever the estimate was.
+#[cfg(any(test, not(target_pointer_width = "64")))]
+fn quotient_by_table(q: u64) -> u64 {
+    const TOP: u64 = 1 << 63;
+    let bits = 64 - q.leading_zeros();
+    if q > 1 << 61 {
+        // A quotient of at most 3.
+        let (mut rest, mut quotient) = (TOP, 0);
+        while rest >= q {
+            rest -= q;
+            quotient += 1;
+        }
+        quotient
+    } else if bits > 31 {
+        // q = n 2^k with n in [2^30, 2^31): the quotient is 2^62 / n scaled by 2^(1 - k), within
+        // a few units, below 2^33.
+        let k = bits - 31;
+        let estimate = (reciprocal_by_table((q >> k) as u32) as u64) >> (k - 1);
+        corrected_quotient(estimate, TOP, q)
+    } else {
+        // q = m / 2^s with m in [2^30, 2^31): 2^63 / q = R 2^(1+s) + (2^62 - m R) 2^(1+s) / m
+        // for R = 2^62 / m rounded down, the second quotient below 2^(1+s) and estimated by R.
+        let s = 31 - bits;
+        let m = q << s;
+        let r = reciprocal_by_table(m as u32) as u64;
+        let rest = (1u64 << 62) - m * r;
+        let low = corrected_quotient((rest * r) >> (61 - s), rest << (1 + s), m);
+        (r << (1 + s)) + low
+    }
+}
+
+/// `(u, v)` in 16.32 at a point from the perspective accumulators: one division per call.
+/// Clamped to the texture-coordinate range, which extrapolation past a span end can leave.
+#[inline]
+pub(crate) fn divide(s: i64, t: i64, q: i64) -> (i64, i64) {
+    let r = reciprocal_63(q.max(1) as u64) as i128;
+    let limit = (TEXCOORD_LIMIT as i128) << 16;
+    let uv = |a: i64| ((a as i128 * r) >> 47).clamp(-limit, limit) as i64;
+    (uv(s), uv(t))
+}
+
+/// `divide` where the quotients are known to be inside the range (`q >= 2` and
+/// `|s|, |t| <= q * TEXCOORD_LIMIT`, so `|s| * 2^16 / q <= TEXCOORD_LIMIT << 16`): the same
+/// values without the clamps, each a 64x64-bit product and a shift (`q >= 2` keeps the
+/// reciprocal below 2^63, in i64).
+#[inline(always)]
+pub(crate) fn divide_in_range(s: i64, t: i64, q: i64) -> (i64, i64) {
+    debug_assert!(
+        q >= 2
+            && s.unsigned_abs().max(t.unsigned_abs()) as u128 <= q as u128 * TEXCOORD_LIMIT as u128
+    );
+    let r = reciprocal_63(q as u64) as i64;
+    let uv = |a: i64| ((a as i128 * r as i128) >> 47) as i64;
+    let out = (uv(s), uv(t));
+    debug_assert_eq!(out, divide(s, t, q));
+    out
+}
+
+/// `2^32 / n` for span lengths `n` in `1..=64`, rounded up.
+const RECIPROCALS: [i64; 65] = {
+    let mut t = [0i64; 65];
+    let mut n = 1;
+    while n <= 64 {
+        t[n] = ((1i64 << 32) + n as i64 - 1) / n as i64;
+        n += 1;
+    }
+    t
+};
+
+/// `d / n` for a span length `n <= 64` by a multiplication: a division per span would cost more
+/// than the span's pixels. Exact for the `|d| < 2^41` of texture-coordinate differences.
+#[inline]
+pub(super) fn div_small(d: i64, n: i64) -> i64 {
+    ((d as i128 * RECIPROCALS[n as usize] as i128) >> 32) as i64
+}
+
+/// A plane's accumulator `k` chunks of `step` after `start`, as repeated saturating additions
+/// would leave it (the steps share one sign, so the sum saturates once and stays there).
+#[inline]
+pub(super) fn advance(start: i64, step: i64, k: i64) -> i64 {
+    saturate_i64(start as i128 + step as i128 * k as i128)
+}
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+
+    use super::*;
+
+    #[test]
+    fn the_table_quotient_is_the_division_at_every_magnitude() {
+        for bits in 0..63 {
+            for q in [
+                1u64 << bits,
+                (1 << bits) + 1,
+                (2 << bits) - 1,
+                3 << bits >> 1,
+            ] {
+                let q = q.max(1);
+                assert_eq!(quotient_by_table(q), (1 << 63) / q, "{q}");
+            }
+        }
+        for q in [
+            (1 << 63) - 1,
+            1 << 63,
+            (1 << 62) + 1,
+            (1 << 61) + 1,
+            3,
+            5,
+            7,
+        ] {
+            assert_eq!(quotient_by_table(q), (1 << 63) / q, "{q}");
+        }
+    }
+
+    proptest! {
+        #[test]
+        fn any_divisor_has_the_divisions_quotient(q in 1u64..=1 << 63, shift in 0u32..63) {
+            let q = (q >> shift).max(1);
+            prop_assert_eq!(quotient_by_table(q), (1 << 63) / q);
+        }
+    }
+}

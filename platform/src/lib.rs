@@ -41,12 +41,24 @@ pub use png::PngFrames;
 #[cfg(feature = "window")]
 pub use window::WindowPresenter;
 
-use stripmask_raster::Framebuffer;
+use stripmask_raster::{DepthBuffer, Framebuffer, Surface};
 
 /// A destination for finished frames.
 pub trait Presenter {
     /// Shows (or stores) one frame, with the HUD overlay composited over it when there is one.
     fn present(&mut self, frame: &Framebuffer, hud: Option<&Overlay>) -> Result<(), PlatformError>;
+
+    /// The screen's own memory as a [`Surface`] to draw the next frame straight into, its size
+    /// the screen's and `depth` (the caller's, kept from frame to frame) its depth buffer; the
+    /// frame shows as it is drawn and needs no `present`. `None` (what presenters without
+    /// drawable memory give, and what a depth buffer of another size than the screen gets)
+    /// means frames go through [`Presenter::present`].
+    fn surface<'a>(
+        &'a mut self,
+        _depth: &'a mut DepthBuffer,
+    ) -> Result<Option<Surface<'a>>, PlatformError> {
+        Ok(None)
+    }
 
     /// What the user did since the last call. Presenters without input devices report nothing.
     fn poll_input(&mut self) -> Input {

@@ -1,5 +1,6 @@
-//! The Linux framebuffer presenter: frames written straight into `/dev/fb*` through an mmap,
-//! in whatever pixel format the screen has.
+//! The Linux framebuffer presenter: frames drawn straight into `/dev/fb*`'s mapped memory when
+//! the screen's pixel format is one the rasterizer draws ([`Presenter::surface`]), otherwise
+//! converted into it from our framebuffer ([`Presenter::present`]).
 
 mod console;
 mod evdev;
@@ -15,7 +16,7 @@ pub use screen_info::{Bitfield, ScreenInfo};
 use std::fs::File;
 use std::path::{Path, PathBuf};
 
-use stripmask_raster::Framebuffer;
+use stripmask_raster::{DepthBuffer, Framebuffer, Surface};
 
 use crate::compose::RowReader;
 use crate::fit::Placement;
@@ -44,6 +45,8 @@ pub struct FbPresenter {
     sigint: Option<SigintGuard>,
     /// A keyboard, if one was given.
     input: Option<EvdevInput>,
+    /// Whether frames may be drawn straight into the visible screen ([`Presenter::surface`]).
+    in_place: bool,
 }
 
 impl FbPresenter {
@@ -125,6 +128,7 @@ impl FbPresenter {
             console: None,
             sigint: None,
             input: None,
+            in_place: false,
         })
     }
 
@@ -192,6 +196,15 @@ impl FbPresenter {
         self.input = Some(input);
         self
     }
+
+    /// Lends the visible screen's memory to draw frames straight into ([`Presenter::surface`]):
+    /// no frame-sized buffer and no copy, but the screen shows each frame as it is drawn (near
+    /// tiles first, then the far ones), so a reader of the screen may catch a frame half drawn.
+    /// Off, frames are drawn aside and copied whole.
+    pub fn with_in_place(mut self, on: bool) -> Self {
+        self.in_place = on;
+        self
+    }
 }
 
 impl Presenter for FbPresenter {
@@ -223,6 +236,39 @@ impl Presenter for FbPresenter {
             map.bytes_mut()[at..at + row.len()].copy_from_slice(row);
         }
         Ok(())
+    }
+
+    /// The visible screen memory, when the screen's pixel format is one the rasterizer draws
+    /// (RGB565, BGR565, XRGB8888, XBGR8888; a 32-bit X or alpha byte is written as 0xFF) and
+    /// its rows are whole pixels apart: no buffer of ours and no copy. Other formats give `None`
+    /// and go through [`Presenter::present`], converted.
+    fn surface<'a>(
+        &'a mut self,
+        depth: &'a mut DepthBuffer,
+    ) -> Result<Option<Surface<'a>>, PlatformError> {
+        if !self.in_place {
+            return Ok(None);
+        }
+        let bpp = self.layout.bytes();
+        let layout = self.layout.drawable();
+        let Some(layout) = layout.filter(|_| (self.info.line_length as usize).is_multiple_of(bpp))
+        else {
+            return Ok(None);
+        };
+        let (width, height) = (self.info.width, self.info.height);
+        let pixels = width as usize * height as usize;
+        if depth.len_for(pixels) != pixels {
+            // Frames of another size than the screen are placed by `present`.
+            return Ok(None);
+        }
+        // The next `present` places its frame again and clears around it.
+        self.placement = None;
+        let start = offset(&self.info, bpp, 0, 0);
+        let stride = self.info.line_length as usize;
+        let memory = &mut self.map.bytes_mut()[start..];
+        Ok(Some(
+            Surface::new(memory, width, height, stride, layout)?.with_depth(depth)?,
+        ))
     }
 
     fn poll_input(&mut self) -> Input {

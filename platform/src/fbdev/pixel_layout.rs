@@ -1,5 +1,7 @@
 //! Packing 8-bit RGB into the screen's pixel format, derived once from its bitfields.
 
+use stripmask_raster::PixelLayout as Drawable;
+
 use super::ScreenInfo;
 
 /// A validated pixel format: how many bytes a pixel takes and where each channel goes.
@@ -73,6 +75,19 @@ impl PixelLayout {
     /// Bytes per pixel.
     pub fn bytes(&self) -> usize {
         self.bytes
+    }
+
+    /// The rasterizer's layout of the same bytes, when there is one: then frames are drawn
+    /// straight into screen memory. Its X byte is written as 0xFF, so a 32-bit format qualifies
+    /// only without alpha or with 8 bits of it at the top.
+    pub fn drawable(&self) -> Option<Drawable> {
+        match (self.bytes, self.channels, self.opaque) {
+            (2, [(3, 11), (2, 5), (3, 0)], 0) => Some(Drawable::Rgb565),
+            (2, [(3, 0), (2, 5), (3, 11)], 0) => Some(Drawable::Bgr565),
+            (4, [(0, 16), (0, 8), (0, 0)], 0 | 0xFF00_0000) => Some(Drawable::Xrgb8888),
+            (4, [(0, 0), (0, 8), (0, 16)], 0 | 0xFF00_0000) => Some(Drawable::Xbgr8888),
+            _ => None,
+        }
     }
 
     /// Writes `c` as one pixel into `out` (`bytes()` long), in the machine's byte order.
@@ -159,5 +174,30 @@ mod tests {
         let mut out = [0u8; 2];
         bgr565.write([0xFF, 0x00, 0x80], &mut out);
         assert_eq!(u16::from_ne_bytes(out), (0x10 << 11) | 0x1F);
+    }
+
+    #[test]
+    fn the_rasterizers_layouts_are_recognised_and_others_are_not() {
+        let rgb = [(16, 8), (8, 8), (0, 8)];
+        let bgr = [(0, 8), (8, 8), (16, 8)];
+        let drawable = |bpp, channels, transp| {
+            PixelLayout::new(&info(bpp, channels, transp))
+                .unwrap()
+                .drawable()
+        };
+        assert_eq!(drawable(32, rgb, (0, 0)), Some(Drawable::Xrgb8888));
+        assert_eq!(drawable(32, rgb, (24, 8)), Some(Drawable::Xrgb8888));
+        assert_eq!(drawable(32, bgr, (0, 0)), Some(Drawable::Xbgr8888));
+        assert_eq!(
+            drawable(16, [(11, 5), (5, 6), (0, 5)], (0, 0)),
+            Some(Drawable::Rgb565)
+        );
+        assert_eq!(
+            drawable(16, [(0, 5), (5, 6), (11, 5)], (0, 0)),
+            Some(Drawable::Bgr565)
+        );
+        assert_eq!(drawable(32, rgb, (24, 4)), None);
+        assert_eq!(drawable(24, rgb, (0, 0)), None);
+        assert_eq!(drawable(16, [(10, 5), (5, 5), (0, 5)], (15, 1)), None);
     }
 }

@@ -10,7 +10,10 @@ use std::io::Write;
 use stripmask_platform::{
     Bitfield, FbPresenter, Fit, Hud, HudInfo, PlatformError, Presenter, ScreenInfo, compose_rgba,
 };
-use stripmask_raster::{ColorFormat, Framebuffer};
+use stripmask_raster::{
+    ColorFormat, DepthBuffer, DepthFormat, Framebuffer, Indices, Mesh, Rasterizer, RenderState,
+    Shading, Topology, Transform, Vertex,
+};
 
 /// What the file holds before the presenter writes: bytes outside the visible area keep it.
 const UNTOUCHED: u8 = 0xA5;
@@ -182,6 +185,90 @@ fn check(f: &Format, screen: &Screen, fit: Fit, frame: &Framebuffer) {
             first / info.line_length as usize,
             first % info.line_length as usize,
         );
+    }
+}
+
+/// A quad of four colours drawn over a clear, into `target`.
+fn draw_quad(target: &mut impl stripmask_raster::AsSurface) {
+    let v = [
+        Vertex::new([-1, -1, 0], [0.0, 0.0], [255, 0, 0]),
+        Vertex::new([1, -1, 0], [1.0, 0.0], [0, 255, 0]),
+        Vertex::new([-1, 1, 0], [0.0, 1.0], [0, 0, 255]),
+        Vertex::new([1, 1, 0], [1.0, 1.0], [255, 255, 255]),
+    ];
+    let mesh = Mesh {
+        vertices: &v,
+        indices: Indices::U16(&[0, 1, 2, 3]),
+        topology: Topology::TriangleStrip,
+    };
+    let m = glam::dcamera::rh::proj::directx::orthographic(-1.2, 0.9, -1.1, 1.3, -1.0, 1.0);
+    let state = RenderState {
+        shading: Shading::Gouraud,
+        ..RenderState::default()
+    };
+    Rasterizer::with_threads(1)
+        .draw(target, &mesh, &Transform::new(m).unwrap(), &state)
+        .unwrap();
+}
+
+/// Screens whose format the rasterizer draws lend their memory: a frame drawn into it gets
+/// the bytes the format's definition gives the same frame drawn into our buffer (an X or alpha
+/// byte 0xFF), and nothing outside the visible area is written. Other formats lend nothing.
+#[test]
+fn drawable_formats_are_drawn_straight_into_screen_memory() {
+    let screen = Screen {
+        width: 23,
+        height: 17,
+        xoffset: 3,
+        yoffset: 2,
+        padding: 8,
+    };
+    for f in FORMATS {
+        let info = screen.info(f);
+        let len = (info.line_length * (screen.yoffset + screen.height)) as usize;
+        let mut file = tempfile::NamedTempFile::new().unwrap();
+        file.write_all(&vec![UNTOUCHED; len]).unwrap();
+        let mut p = FbPresenter::with_screen_info(file.path(), info, Fit::Center).unwrap();
+        let mut depth = DepthBuffer::new(screen.width, screen.height, DepthFormat::D16);
+        assert!(
+            p.surface(&mut depth).unwrap().is_none(),
+            "lent only when asked"
+        );
+        let mut p = p.with_in_place(true);
+        let Some(mut surface) = p.surface(&mut depth).unwrap() else {
+            assert_eq!(f.bpp, 24, "{} is drawn through a copy", f.name);
+            continue;
+        };
+        surface.clear([9, 99, 199]);
+        draw_quad(&mut surface);
+        drop(p);
+
+        let format = if f.bpp == 16 {
+            ColorFormat::Rgb565
+        } else {
+            ColorFormat::Rgba8888
+        };
+        let mut ours =
+            Framebuffer::new(screen.width, screen.height, format, DepthFormat::D16).unwrap();
+        ours.clear([9, 99, 199]);
+        draw_quad(&mut ours);
+        let bytes = std::fs::read(file.path()).unwrap();
+        let bpp = (f.bpp / 8) as usize;
+        let mut expected = vec![UNTOUCHED; len];
+        for sy in 0..screen.height {
+            for sx in 0..screen.width {
+                let mut px = pixel_bytes(f, ours.pixel(sx, sy));
+                if bpp == 4 {
+                    px = (u32::from_ne_bytes(px.try_into().unwrap()) | 0xFF00_0000)
+                        .to_ne_bytes()
+                        .to_vec();
+                }
+                let at = ((screen.yoffset + sy) * info.line_length) as usize
+                    + (screen.xoffset + sx) as usize * bpp;
+                expected[at..at + bpp].copy_from_slice(&px);
+            }
+        }
+        assert!(bytes == expected, "{}", f.name);
     }
 }
 

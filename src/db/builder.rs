@@ -23,6 +23,7 @@ use crate::db::archive::{
     ArchiveWriter, Codec, Header, MAX_SPACING, compress, partial, pyramid_levels,
 };
 use crate::db::dem::{self, DemInfo, DemReader, EastWest, NodataFill, OpenOptions};
+use crate::db::georef::Georef;
 use crate::db::grid::TileId;
 use crate::db::pyramid::{Assembly, ChildInfo, combined_errors, level_tilings, parent_texture};
 use crate::db::texture_gen::{ImageTexture, shaded};
@@ -135,7 +136,10 @@ pub fn build<R: DemReader>(
     }
     let width = columns.map_or(info.width, |c| c.width());
     let grid = Tiling::new(width, info.height, options.tile_size)?;
-    let header = header(&info, &grid, options)?;
+    let header = Header {
+        georef: georef(&info, columns),
+        ..header(&info, &grid, options)?
+    };
     let image = match &options.texture_image {
         Some(path) => Some(ImageTexture::open(path, grid.width, info.height)?),
         None => None,
@@ -363,11 +367,25 @@ fn header(info: &DemInfo, grid: &Tiling, options: &BuildOptions) -> Result<Heade
         top_offset: 0,
         top_len: 0,
         archive_len: 0,
+        georef: None,
     };
     // Everything else a reader checks (tile counts, index size, extent), before anything is
     // read or written.
     header.validate(&info.name)?;
     Ok(header)
+}
+
+/// Where the archive's samples lie in the DEM's CRS, when it has one: its placement, with
+/// columns `columns` resampled as much closer together as they are.
+fn georef(info: &DemInfo, columns: Option<EastWest>) -> Option<Georef> {
+    let p = info.placement.as_ref().filter(|p| p.named)?;
+    let step = columns.map_or(1.0, |_| 1.0 / info.east_west_scale);
+    Some(Georef {
+        crs: p.crs.clone(),
+        units: p.units,
+        first: p.first,
+        cell: (p.cell.0 * step, p.cell.1),
+    })
 }
 
 /// What encoding a tile reads besides its band: the archive's header, the texture image,

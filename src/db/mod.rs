@@ -5,11 +5,13 @@ pub mod archive;
 pub mod backoff;
 pub mod builder;
 pub mod dem;
+pub mod georef;
 pub mod grid;
 pub mod level_error;
 pub mod mask_level;
 pub mod pyramid;
 pub mod rgb565;
+#[cfg(feature = "server")]
 pub mod server;
 pub mod source;
 pub mod texture_gen;

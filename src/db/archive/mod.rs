@@ -7,7 +7,9 @@
 //! * header, [`HEADER_LEN`] bytes: magic, version, the level-0 grid (tiles across/down, tile
 //!   size, texture size), payload codec, source dimensions, the top's place, spacing, vertical
 //!   scale, origin, height range of the valid samples, the nodata the build filled, the absent
-//!   tiles, the archive's length, crc32;
+//!   tiles, the archive's length, crc32; then, for an archive built from a georeferenced
+//!   DEM, the georeferencing ([`Georef`]: the CRS and where the samples lie in it), which the
+//!   header's length counts;
 //! * the directory: per pyramid level the offset of its page table, then the index entries of
 //!   the top's tiles, then a crc32 ([`index::Directory`]);
 //! * the payloads: each present tile's progressive chunks ([`crate::db::tile`]), coarse first,
@@ -22,8 +24,10 @@
 //! chunk and one page, each cached), its levels with one more range request.
 
 mod check;
+mod georef_block;
 mod index;
 mod index_cache;
+mod locate;
 pub mod partial;
 mod reader;
 mod writer;
@@ -32,6 +36,7 @@ use std::ops::Range;
 
 use serde::Serialize;
 
+use crate::db::georef::Georef;
 use crate::db::grid::Pyramid;
 use crate::db::tile::{MAX_TEXTURE_SIZE, level_payload_size, progressive_levels};
 use crate::db::tiling::is_valid_tile_size;
@@ -43,6 +48,7 @@ pub use index::{
     Directory, IndexEntry, LevelEntry, PageRef, PageSlot, TABLE_CHUNK_ENTRIES, page_count, page_of,
     page_tiles, parse_page, parse_table_chunk, table_chunk,
 };
+pub use locate::Located;
 pub use reader::{ArchiveReader, DEFAULT_ATTEMPTS, LevelBytes, RETRY_BACKOFF};
 pub use writer::ArchiveWriter;
 
@@ -64,8 +70,10 @@ fn older_version(version: u32) -> Option<&'static str> {
         _ => None,
     }
 }
-/// Bytes in the header.
+/// Bytes in the header's fixed part: the whole header of an archive without georeferencing.
 pub const HEADER_LEN: usize = 156;
+/// The most bytes a header may have: the fixed part and the longest georeferencing.
+pub const MAX_HEADER_LEN: usize = HEADER_LEN + georef_block::MAX_LEN;
 /// Tiles per side of the block one index page holds.
 pub const PAGE_SIDE: u32 = 8;
 /// The most tiles the top may hold: the root and three levels below it.
@@ -173,6 +181,9 @@ pub struct Header {
     pub top_len: u64,
     /// Bytes of the whole archive: a file of another length is truncated or grown.
     pub archive_len: u64,
+    /// Where the samples lie on the Earth, when the build's DEM said: stored after the fixed
+    /// part of the header.
+    pub georef: Option<Georef>,
 }
 
 impl Header {
@@ -209,6 +220,12 @@ impl Header {
             .sum()
     }
 
+    /// Bytes of the header: the fixed part and the georeferencing after it. The directory
+    /// follows.
+    pub fn header_len(&self) -> usize {
+        HEADER_LEN + self.georef.as_ref().map_or(0, georef_block::len)
+    }
+
     /// Bytes of the directory: the page tables' offsets, the top's entries and a crc32.
     pub fn directory_len(&self) -> usize {
         8 * self.pyramid_levels() + self.top_tiles() * self.index_entry_len() + 4
@@ -217,7 +234,8 @@ impl Header {
     /// Offset of the first payload byte: after the header and the room the directory may
     /// take (a top of [`TOP_MAX_TILES`] tiles).
     pub fn payload_start(&self) -> u64 {
-        (HEADER_LEN + 8 * self.pyramid_levels() + TOP_MAX_TILES * self.index_entry_len() + 4) as u64
+        (self.header_len() + 8 * self.pyramid_levels() + TOP_MAX_TILES * self.index_entry_len() + 4)
+            as u64
     }
 
     /// Uncompressed bytes of progressive chunk `level` of every tile.
@@ -230,13 +248,13 @@ impl Header {
         (0..self.levels()).map(|g| self.level_payload_size(g)).sum()
     }
 
-    /// Serialises the header.
-    pub fn to_bytes(&self) -> [u8; HEADER_LEN] {
-        let mut b = Vec::with_capacity(HEADER_LEN);
+    /// Serialises the header: [`Header::header_len`] bytes.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut b = Vec::with_capacity(self.header_len());
         b.extend_from_slice(&MAGIC);
         for v in [
             VERSION,
-            HEADER_LEN as u32,
+            self.header_len() as u32,
             self.tiles_x,
             self.tiles_y,
             self.tile_size,
@@ -274,7 +292,10 @@ impl Header {
         }
         let crc = crc32fast::hash(&b);
         b.extend_from_slice(&crc.to_le_bytes());
-        b.try_into().expect("header is HEADER_LEN bytes")
+        if let Some(g) = &self.georef {
+            b.extend_from_slice(&georef_block::to_bytes(g));
+        }
+        b
     }
 
     /// Checks every number of the header against what a reader (and the engine after it) can
@@ -392,8 +413,34 @@ impl Header {
         Ok(())
     }
 
-    /// Parses and validates a header; `name` labels errors.
+    /// Parses and validates a whole header (its [`Header::header_len`] bytes, or more);
+    /// `name` labels errors.
     pub fn parse(bytes: &[u8], name: &str) -> Result<Header> {
+        let (header, georef_len) = Header::parse_fixed(bytes, name)?;
+        let end = HEADER_LEN + georef_len;
+        if bytes.len() < end {
+            return Err(Error::invalid(
+                name,
+                format!("truncated header: {} of {end} bytes", bytes.len()),
+            ));
+        }
+        header.with_georef(&bytes[HEADER_LEN..end], name)
+    }
+
+    /// This header with the georeferencing `block` holds (nothing when it is empty),
+    /// validated again with it; `name` labels errors.
+    pub fn with_georef(mut self, block: &[u8], name: &str) -> Result<Header> {
+        if !block.is_empty() {
+            self.georef = Some(georef_block::parse(block).map_err(|p| Error::invalid(name, p))?);
+        }
+        self.validate(name)?;
+        Ok(self)
+    }
+
+    /// Parses and validates the header's fixed part (the first [`HEADER_LEN`] bytes of
+    /// `bytes`), and returns it without georeferencing with the bytes of the georeferencing
+    /// that follows it ([`Header::with_georef`] reads them); `name` labels errors.
+    pub fn parse_fixed(bytes: &[u8], name: &str) -> Result<(Header, usize)> {
         let bad = |p: String| Error::invalid(name, p);
         let n = bytes.len().min(MAGIC.len());
         if bytes[..n] != MAGIC[..n] {
@@ -423,8 +470,16 @@ impl Header {
         let f = |k: usize| f64::from_le_bytes(bytes[k..k + 8].try_into().expect("8 bytes"));
         let g = |k: usize| f32::from_le_bytes(bytes[k..k + 4].try_into().expect("4 bytes"));
         let l = |k: usize| u64::from_le_bytes(bytes[k..k + 8].try_into().expect("8 bytes"));
-        if u(12) as usize != HEADER_LEN {
-            return Err(bad(format!("header length {} is not {HEADER_LEN}", u(12))));
+        let len = u(12) as usize;
+        let georef_len = len.wrapping_sub(HEADER_LEN);
+        if len != HEADER_LEN
+            && !(HEADER_LEN + georef_block::MIN_LEN..=MAX_HEADER_LEN).contains(&len)
+        {
+            return Err(bad(format!(
+                "header length {len} is neither {HEADER_LEN} nor {} ..= {MAX_HEADER_LEN} (with \
+                 georeferencing)",
+                HEADER_LEN + georef_block::MIN_LEN
+            )));
         }
         let crc = crc32fast::hash(&bytes[..HEADER_LEN - 4]);
         if crc != u(HEADER_LEN - 4) {
@@ -460,6 +515,7 @@ impl Header {
             top_offset: l(128),
             top_len: l(136),
             archive_len: l(144),
+            georef: None,
         };
         // The grid first: the top's size below is computed from it.
         h.check_layout_grid().map_err(&bad)?;
@@ -477,7 +533,7 @@ impl Header {
             )));
         }
         h.validate(name)?;
-        Ok(h)
+        Ok((h, if len == HEADER_LEN { 0 } else { georef_len }))
     }
 
     /// The part of [`Header::check_layout`] that the top's size depends on.

@@ -86,9 +86,9 @@ impl<S: TileSource> ArchiveReader<S> {
         let name = source.name().to_string();
         let file_len = source.size()?;
         let remote = source.is_remote();
-        let header = retry(attempts, remote, 0, |_| {
+        let (header, georef_len) = retry(attempts, remote, 0, |_| {
             let bytes = source.read_range(0, file_len.min(HEADER_LEN as u64))?;
-            Header::parse(&bytes, &name)
+            Header::parse_fixed(&bytes, &name)
         })?;
         if file_len < header.archive_len {
             return Err(Error::invalid(
@@ -99,9 +99,14 @@ impl<S: TileSource> ArchiveReader<S> {
                 ),
             ));
         }
-        let directory = retry(attempts, remote, HEADER_LEN as u64, |_| {
-            let bytes = source.read_range(HEADER_LEN as u64, header.directory_len() as u64)?;
-            Directory::parse(&bytes, &header, &name)
+        // The georeferencing (when there is one) and the directory, in one read.
+        let (header, directory) = retry(attempts, remote, HEADER_LEN as u64, |_| {
+            let len = georef_len + header.directory_len();
+            let bytes = source.read_range(HEADER_LEN as u64, len as u64)?;
+            let (georef, directory) = bytes.split_at(georef_len);
+            let header = header.clone().with_georef(georef, &name)?;
+            let directory = Directory::parse(directory, &header, &name)?;
+            Ok((header, directory))
         })?;
         let top = directory
             .top
@@ -146,7 +151,7 @@ impl<S: TileSource> ArchiveReader<S> {
 
     /// Bytes an open reads: the header and the directory.
     pub fn opening_bytes(&self) -> u64 {
-        (HEADER_LEN + self.header.directory_len()) as u64
+        (self.header.header_len() + self.header.directory_len()) as u64
     }
 
     /// The source's size in bytes.

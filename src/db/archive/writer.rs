@@ -8,9 +8,7 @@ use std::sync::{Mutex, PoisonError};
 
 use super::index::{Directory, encode_page, encode_table, page_grid, page_tiles};
 use super::partial::partial_path;
-use super::{
-    HEADER_LEN, Header, IndexEntry, LevelEntry, PAGE_SIDE, PageRef, TOP_BYTES, TOP_MAX_TILES,
-};
+use super::{Header, IndexEntry, LevelEntry, PAGE_SIDE, PageRef, TOP_BYTES, TOP_MAX_TILES};
 use crate::db::dem::FillStats;
 use crate::db::grid::{Grid, Pyramid, TileId};
 use crate::error::{Error, Result};
@@ -342,7 +340,9 @@ impl ArchiveWriter {
         self.header.archive_len = self.position;
         self.header.validate(&name)?;
         let directory = directory.to_bytes();
-        debug_assert!(HEADER_LEN as u64 + directory.len() as u64 <= self.header.payload_start());
+        debug_assert!(
+            self.header.header_len() as u64 + directory.len() as u64 <= self.header.payload_start()
+        );
         let io = |e| Error::io(&name, e);
         // From here the file is ours to remove on every failure (`Drop` no longer sees it),
         // after the file is closed: the guard is dropped after it.

@@ -106,6 +106,7 @@ impl AscReader {
         match (cell, origin_hint, prj) {
             (Some(c), Some(first), Some((crs, units))) => Placement {
                 crs,
+                named: true,
                 units,
                 cell: (c, c),
                 first,
@@ -114,6 +115,7 @@ impl AscReader {
             (Some(c), _, _) if c < DEGREE_CELL_LIMIT => in_degrees(&mut info, c, origin_hint),
             (Some(c), Some(first), None) => Placement {
                 crs: NO_CRS.into(),
+                named: false,
                 units: Units::Linear(1.0),
                 cell: (c, c),
                 first,
@@ -260,6 +262,7 @@ fn in_degrees(info: &mut DemInfo, cell: f64, north_west: Option<(f64, f64)>) {
         Some(g) => {
             let placement = Placement {
                 crs: NO_CRS.into(),
+                named: false,
                 units: Units::Degrees,
                 cell: (cell, cell),
                 first: (g.west, g.north),

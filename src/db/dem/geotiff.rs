@@ -402,6 +402,7 @@ fn georeference(decoder: &mut Decoder<BufReader<File>>, info: &mut DemInfo) -> f
     match first {
         Some(first) => Placement {
             crs,
+            named: [1024, 2048, 3072].into_iter().any(|id| key(id).is_some()),
             units,
             cell,
             first,

@@ -118,6 +118,7 @@ fn place(reader: RawReader, side: usize, path: &Path) -> RawReader {
         // SRTM heights are on WGS 84.
         Some((south, west)) => Placement {
             crs: "EPSG:4326".into(),
+            named: true,
             units: Units::Degrees,
             cell: (cell, cell),
             first: (west, south + 1.0),

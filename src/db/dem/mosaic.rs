@@ -296,6 +296,7 @@ impl Mosaic {
         let mut info = DemInfo::new(&name, width, height);
         Placement {
             crs: base.crs.clone(),
+            named: base.named,
             units: base.units,
             cell,
             first: (west, north),

@@ -4,11 +4,13 @@
 //! units (degrees, metres, feet); [`Placement::apply`] turns it into the spacing and origin in
 //! metres the build uses, and a mosaic lines its files up by their placements.
 
+use serde::Serialize;
+
 use super::DemInfo;
 use super::geographic::Geographic;
 
 /// How a CRS's coordinates become ground metres.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub enum Units {
     /// Longitude and latitude in degrees.
     Degrees,
@@ -24,6 +26,10 @@ pub enum Units {
 pub struct Placement {
     /// The CRS as the file names it (`EPSG:4326`, or its name when it has no code).
     pub crs: String,
+    /// Whether the file names its CRS (an EPSG code, GeoKeys, a WKT text): a grid placed by
+    /// a corner alone (an `.asc` without `.prj`, a VRT without `SRS`, a GeoTIFF without
+    /// GeoKeys) has coordinates in no known CRS, and its archive stores no georeferencing.
+    pub named: bool,
     /// How its coordinates become metres.
     pub units: Units,
     /// Cell size east-west and north-south, in the CRS's units.
@@ -131,6 +137,7 @@ mod tests {
     fn feet_become_metres_and_oblong_cells_keep_their_aspect() {
         let p = Placement {
             crs: "EPSG:2927".into(),
+            named: true,
             units: Units::Linear(0.3048),
             cell: (20.0, 10.0),
             first: (1000.0, 2000.0),
@@ -148,6 +155,7 @@ mod tests {
     fn degrees_off_the_earth_ask_for_the_spacing() {
         let p = Placement {
             crs: "EPSG:4326".into(),
+            named: true,
             units: Units::Degrees,
             cell: (0.001, 0.001),
             first: (10.0, 95.0),

@@ -166,10 +166,12 @@ impl Plan {
                          positive east and negative north"
                     ));
                 }
+                let named = crs.is_some();
                 let (crs, units) = crs
                     .unwrap_or_else(|| ("no CRS (the VRT names none)".into(), Units::Linear(1.0)));
                 Some(Placement {
                     crs,
+                    named,
                     units,
                     cell: (dx, -dy),
                     first: (x0 + dx / 2.0, y0 + dy / 2.0),

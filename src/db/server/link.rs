@@ -21,17 +21,17 @@ use super::body::{Answer, Body, text};
 use crate::db::source::throttle::{DropDice, LatencyDice, LinkProfile};
 
 /// `S` behind the simulated link of a [`LinkProfile`].
-pub(super) struct Link<S> {
+pub(super) struct LinkLayer<S> {
     inner: Arc<S>,
     bytes_per_second: Option<f64>,
     drops: DropDice,
     delays: LatencyDice,
 }
 
-impl<S> Link<S> {
+impl<S> LinkLayer<S> {
     /// `inner` behind `profile`'s link.
     pub(super) fn new(inner: S, profile: &LinkProfile) -> Self {
-        Link {
+        LinkLayer {
             inner: Arc::new(inner),
             bytes_per_second: profile.bytes_per_second(),
             drops: DropDice::new(profile.drop_rate, profile.seed),
@@ -40,7 +40,7 @@ impl<S> Link<S> {
     }
 }
 
-impl<S> Service<Request<Incoming>> for Link<S>
+impl<S> Service<Request<Incoming>> for LinkLayer<S>
 where
     S: Service<Request<Incoming>, Response = Response<Body>, Error = Infallible>
         + Send

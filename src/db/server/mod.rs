@@ -36,7 +36,7 @@ pub use range::{RangeRequest, parse_range};
 
 use self::archive::Archive;
 use self::connections::Connections;
-use self::link::Link;
+use self::link::LinkLayer;
 use crate::db::archive::ArchiveReader;
 use crate::db::source::file::FileSource;
 use crate::db::source::throttle::LinkProfile;
@@ -132,7 +132,7 @@ pub struct Server {
 
 /// What every connection reads: the archive behind its link, the limits, the open connections.
 struct Shared {
-    service: Link<Archive>,
+    service: LinkLayer<Archive>,
     profile: LinkProfile,
     limits: Limits,
     connections: Arc<Connections>,
@@ -169,7 +169,7 @@ impl Server {
         let addr = listener.local_addr().map_err(|e| cannot("listen", e))?;
         let cap = limits.max_connections.min(descriptor_room());
         let shared = Arc::new(Shared {
-            service: Link::new(
+            service: LinkLayer::new(
                 Archive::new(archive.to_path_buf(), format!("/{file_name}")),
                 &profile,
             ),

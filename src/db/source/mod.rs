@@ -2,8 +2,9 @@
 //!
 //! [`TileSource`] reads byte ranges of an archive; [`crate::db::archive::ArchiveReader`] turns them
 //! into a header, an index and verified tiles. [`file::FileSource`] reads a local file with
-//! positioned reads, [`http::HttpSource`] fetches the same file with HTTP range requests from any
-//! static server, and [`throttle::SimulatedLink`] wraps either with latency, bandwidth and drops.
+//! positioned reads, `http::HttpSource` (the `http` feature) fetches the same file with HTTP range
+//! requests from any static server, and [`throttle::SimulatedLink`] wraps either with latency,
+//! bandwidth and drops.
 //! A read can be cancelled while it runs ([`CancelToken`]): an HTTP range stops downloading.
 //! Both sources pin the archive they opened: a file or URL whose archive changed under them
 //! fails every read after with [`Error::ArchiveChanged`], and [`watch::Watched`] counts what
@@ -91,8 +92,8 @@ pub fn cancelled(name: &str, offset: u64, len: u64, received: u64) -> Error {
     }
 }
 
-/// Opens a local path or an `http://` URL (`https://` with the `https` feature) as a source,
-/// with the default [`http::HttpOptions`].
+/// Opens a local path or an `http://` URL (with the `http` feature; `https://` with the `https`
+/// feature) as a source, with the default [`http::HttpOptions`].
 pub fn open(file_or_url: &str) -> Result<Box<dyn TileSource>> {
     open_with(file_or_url, http::HttpOptions::default())
 }
@@ -100,16 +101,44 @@ pub fn open(file_or_url: &str) -> Result<Box<dyn TileSource>> {
 /// [`open`], with `http` bounding the time of requests when it is a URL.
 pub fn open_with(file_or_url: &str, http: http::HttpOptions) -> Result<Box<dyn TileSource>> {
     if file_or_url.starts_with("https://") && !cfg!(feature = "https") {
-        return Err(Error::Http {
-            url: file_or_url.to_string(),
-            problem: "https:// needs stripmask built with `--features https`".into(),
-        });
+        return Err(needs_feature(file_or_url, "https"));
     }
     if file_or_url.starts_with("http://") || file_or_url.starts_with("https://") {
-        Ok(Box::new(http::HttpSource::with_options(file_or_url, http)))
+        remote(file_or_url, http)
     } else {
         Ok(Box::new(file::FileSource::open(std::path::Path::new(
             file_or_url,
         ))?))
+    }
+}
+
+/// The archive at `url`, read with HTTP range requests.
+#[cfg(feature = "http")]
+fn remote(url: &str, options: http::HttpOptions) -> Result<Box<dyn TileSource>> {
+    Ok(Box::new(http::HttpSource::with_options(url, options)))
+}
+
+/// Without the HTTP client, a URL is refused.
+#[cfg(not(feature = "http"))]
+fn remote(url: &str, _: http::HttpOptions) -> Result<Box<dyn TileSource>> {
+    Err(needs_feature(url, "http"))
+}
+
+/// The error of a URL whose scheme needs a cargo feature this build lacks.
+fn needs_feature(url: &str, feature: &str) -> Error {
+    let scheme = url.split_once("://").map_or(url, |(scheme, _)| scheme);
+    Error::Http {
+        url: url.to_string(),
+        problem: format!("{scheme}:// needs stripmask built with `--features {feature}`"),
+    }
+}
+
+#[cfg(all(test, not(feature = "http")))]
+mod tests {
+    #[test]
+    fn a_url_without_the_http_client_names_the_url_and_the_feature() {
+        let url = "http://example.invalid/a.smdb";
+        let e = super::open(url).err().expect("refused").to_string();
+        assert!(e.contains(url) && e.contains("--features http"), "{e}");
     }
 }

@@ -30,17 +30,20 @@ pub struct LinkProfile {
 
 impl Default for LinkProfile {
     fn default() -> Self {
-        LinkProfile {
-            bandwidth_kbps: None,
-            latency: Duration::ZERO,
-            jitter: Duration::ZERO,
-            drop_rate: 0.0,
-            seed: 1,
-        }
+        Self::UNLIMITED
     }
 }
 
 impl LinkProfile {
+    /// No bandwidth cap, no latency, no drops (seed 1): tiles come as from the source itself.
+    pub const UNLIMITED: LinkProfile = LinkProfile {
+        bandwidth_kbps: None,
+        latency: Duration::ZERO,
+        jitter: Duration::ZERO,
+        drop_rate: 0.0,
+        seed: 1,
+    };
+
     /// The slowest bandwidth a link may have, kbit/s: slower, one tile would take days, and
     /// transfer times overflow what a clock can wait.
     pub const MIN_BANDWIDTH_KBPS: f64 = 0.1;
@@ -77,6 +80,14 @@ impl LinkProfile {
             ));
         }
         Ok(())
+    }
+
+    /// Whether the link changes nothing: no bandwidth cap, no delay, no drops.
+    pub fn is_unlimited(&self) -> bool {
+        self.bandwidth_kbps.is_none()
+            && self.latency.is_zero()
+            && self.jitter.is_zero()
+            && self.drop_rate == 0.0
     }
 
     /// Bytes per second, or `None` when unlimited.

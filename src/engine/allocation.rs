@@ -77,6 +77,44 @@ impl TileErrors<'_> {
             None => f64::INFINITY,
         }
     }
+
+    /// Whether [`Self::key`] may order this tile's levels by their errors in metres: for a
+    /// normal positive pixels per metre whose products with `f32`s neither overflow nor fall
+    /// to subnormals, two distinct errors (2^-24 apart at least) stay apart after the product
+    /// rounds (by 2^-53).
+    fn ordered_by_metres(&self) -> bool {
+        (1e-200..=1e200).contains(&self.pixels_per_metre)
+    }
+
+    /// An integer that orders this tile's levels as [`Self::pixels`] orders them: with
+    /// `by_metres` ([`Self::ordered_by_metres`]) the bits of the error in metres, no product
+    /// of floats (on a core without an FPU each is a library call), else the bits of the
+    /// pixels.
+    fn key(&self, level: usize, by_metres: bool) -> i64 {
+        if !by_metres {
+            return order_key(self.pixels(level));
+        }
+        // On the bits alone: comparing floats is a library call there too.
+        const INFINITE: u32 = 0x7F80_0000;
+        let Some(bits) = self.metres.get(level).map(|e| e.to_bits()) else {
+            return i64::MAX;
+        };
+        let magnitude = bits & !(1 << 31);
+        if magnitude >= INFINITE && (magnitude > INFINITE || bits >> 31 == 0) {
+            i64::MAX // NaN or +∞: an infinite error, as `pixels` reads them
+        } else if magnitude == 0 || bits >> 31 == 1 {
+            0 // no error, or below none
+        } else {
+            i64::from(bits)
+        }
+    }
+}
+
+/// An integer that orders errors (never NaN) as `<` orders them: the bits of a float ordered
+/// as [`f64::total_cmp`] orders them, with -0 read as 0, which `<` does not tell apart.
+fn order_key(px: f64) -> i64 {
+    let bits = if px == 0.0 { 0 } else { px.to_bits() as i64 };
+    bits ^ (((bits >> 63) as u64) >> 1) as i64
 }
 
 impl Allocation {
@@ -161,32 +199,37 @@ pub fn allocate_by_error(
     let mut pool = budget.saturating_sub(n * floor);
     // The levels of the set, coarsest first.
     let levels: Vec<usize> = masks.levels().iter().rev().copied().collect();
+    let by_metres: Vec<bool> = errors.iter().map(TileErrors::ordered_by_metres).collect();
+    let key = |t: usize, level: usize| errors[t].key(level, by_metres[t]);
     // The cheapest move that lowers tile `t`'s error from level `from`: the fewest triangles
     // of a finer level with a smaller error, and of the levels with that count the smallest
     // error (the finest of equals), so that moves between levels of equal cost are one move.
     let next = |t: usize, from: usize| -> Option<Move> {
-        let now = errors[t].pixels(from);
-        let mut best: Option<(usize, f64, usize)> = None;
+        let now = key(t, from);
+        let mut best: Option<(usize, i64, usize)> = None;
         for &l in levels.iter().filter(|&&l| l < from && l >= finest[t]) {
             let count = masks.triangle_count(l);
             if best.is_some_and(|(_, _, c)| count != c) {
                 break;
             }
-            let e = errors[t].pixels(l);
+            let e = key(t, l);
             if e < now && best.is_none_or(|(_, least, _)| e <= least) {
                 best = Some((l, e, count));
             }
         }
-        best.map(|(to, _, _)| Move {
-            // A move no finer than the kept level is one the tile made before.
-            error_px: if errors[t].kept.is_some_and(|k| to >= k) {
-                now * (1.0 + KEEP_BONUS)
-            } else {
-                now
-            },
-            rank: 0,
-            tile: t,
-            to,
+        best.map(|(to, _, _)| {
+            let now = errors[t].pixels(from);
+            Move {
+                // A move no finer than the kept level is one the tile made before.
+                error_px: if errors[t].kept.is_some_and(|k| to >= k) {
+                    now * (1.0 + KEEP_BONUS)
+                } else {
+                    now
+                },
+                rank: 0,
+                tile: t,
+                to,
+            }
         })
     };
     let mut heap = BinaryHeap::with_capacity(n);
@@ -216,12 +259,12 @@ pub fn allocate_by_error(
     }
     for &t in &importance.order {
         let current = tiles[t];
-        let now = errors[t].pixels(current.level);
+        let now = key(t, current.level);
         let finer = levels.iter().rev().copied().find(|&l| {
             l >= finest[t]
                 && l < current.level
                 && masks.triangle_count(l) <= current.triangles + pool
-                && errors[t].pixels(l) <= now
+                && key(t, l) <= now
         });
         if let Some(level) = finer {
             let triangles = masks.triangle_count(level);
@@ -400,6 +443,30 @@ mod tests {
     }
 
     proptest! {
+        #[test]
+        fn level_keys_order_as_the_pixels(
+            metres in prop::collection::vec(prop_oneof![
+                Just(0.0f32), Just(-0.0), Just(-1.0), Just(f32::INFINITY), Just(f32::NEG_INFINITY),
+                Just(f32::NAN), Just(-f32::NAN),
+                Just(f32::MIN_POSITIVE / 8.0), Just(f32::MAX), any::<f32>(), 0f32..100.0,
+            ], 2..6),
+            pixels_per_metre in prop_oneof![
+                Just(0.0), Just(1e-200), Just(1e200), Just(f64::INFINITY), Just(f64::NAN),
+                Just(-3.0), any::<f64>(), 1e-6f64..1e6,
+            ],
+        ) {
+            let tile = TileErrors { metres: &metres, pixels_per_metre, kept: None };
+            let by_metres = tile.ordered_by_metres();
+            for a in 0..=metres.len() {
+                for b in 0..=metres.len() {
+                    let (ka, kb) = (tile.key(a, by_metres), tile.key(b, by_metres));
+                    let (pa, pb) = (tile.pixels(a), tile.pixels(b));
+                    prop_assert_eq!(ka < kb, pa < pb, "{} {}", a, b);
+                    prop_assert_eq!(ka <= kb, pa <= pb, "{} {}", a, b);
+                }
+            }
+        }
+
         #[test]
         fn within_the_budget_and_the_caps_and_never_worse_than_importance_at_its_worst(
             (s, set, tiles) in frame(),

@@ -4,10 +4,16 @@
 //! terrain's north-west sample (see [`crate::engine::terrain::TerrainFrame`] for placing the terrain
 //! elsewhere). Matrices never contain the eye's absolute position: the view matrix looks from the
 //! origin, and the renderer subtracts the eye from positions in f64 before anything is rounded.
+//!
+//! The caller gives a [`Camera`] (a pose); the engine was made for one [`Viewport`] (the
+//! screen and the field of view, given once); a frame is drawn from the [`View`] they make with
+//! the depth range the engine fits to the terrain.
 
 use glam::{DMat4, DVec3};
 
-/// A perspective camera.
+use crate::engine::viewport::Viewport;
+
+/// Where the eye is and where it looks: a pose.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
     /// Eye position, world metres.
@@ -17,24 +23,27 @@ pub struct Camera {
     /// Bank about the viewing direction, radians: positive rolls the camera clockwise as seen
     /// from behind (an aircraft banking right), so the horizon tilts the other way on screen.
     pub roll: f64,
-    /// Vertical field of view, radians.
-    pub fov_y: f64,
-    /// Near plane distance, metres.
-    pub near: f64,
-    /// Far plane distance, metres.
-    pub far: f64,
 }
 
 impl Camera {
-    /// A camera at `position` looking at `target` with a 60° vertical field of view.
+    /// A level camera at `position` looking at `target`.
     pub fn looking_at(position: DVec3, target: DVec3) -> Camera {
         Camera {
             position,
             forward: (target - position).normalize_or(DVec3::NEG_Z),
             roll: 0.0,
-            fov_y: 60f64.to_radians(),
-            near: 1.0,
-            far: 1e5,
+        }
+    }
+
+    /// A camera at `position` with an aircraft's attitude, radians: `heading` clockwise from
+    /// north, `pitch` up from the horizon, `roll` banking right.
+    pub fn from_attitude(position: DVec3, heading: f64, pitch: f64, roll: f64) -> Camera {
+        let (sh, ch) = heading.sin_cos();
+        let (sp, cp) = pitch.sin_cos();
+        Camera {
+            position,
+            forward: DVec3::new(sh * cp, sp, -ch * cp),
+            roll,
         }
     }
 
@@ -58,25 +67,56 @@ impl Camera {
         glam::dcamera::rh::view::look_at_mat4(DVec3::ZERO, self.forward, up)
     }
 
-    /// The projection to the rasterizer's clip space (depth 0 ..= 1) for `aspect` = width / height.
-    pub fn projection(&self, aspect: f64) -> DMat4 {
-        glam::dcamera::rh::proj::directx::perspective(self.fov_y, aspect, self.near, self.far)
-    }
-
-    /// Projection times eye-relative view: maps `world - position` to clip space.
-    pub fn view_projection(&self, aspect: f64) -> DMat4 {
-        self.projection(aspect) * self.view_from_eye()
-    }
-
     /// Heading in radians, clockwise from north, of the viewing direction.
     pub fn heading(&self) -> f64 {
         self.forward.x.atan2(-self.forward.z)
     }
+}
 
-    /// Pixels per metre at distance `d` for a viewport `height` pixels tall: the scale that turns a
-    /// geometric error in metres into a screen-space error.
-    pub fn pixels_per_metre(&self, d: f64, height: u32) -> f64 {
-        f64::from(height) / (2.0 * (self.fov_y / 2.0).tan() * d.max(self.near))
+/// A camera seen through a viewport between two depth planes: what a frame is drawn from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct View {
+    /// The pose.
+    pub camera: Camera,
+    /// The screen and the field of view.
+    pub viewport: Viewport,
+    /// Near plane distance, metres.
+    pub near: f64,
+    /// Far plane distance, metres.
+    pub far: f64,
+}
+
+impl View {
+    /// `camera` through `viewport` between `near` and `far` metres.
+    pub fn new(camera: Camera, viewport: Viewport, near: f64, far: f64) -> View {
+        View {
+            camera,
+            viewport,
+            near,
+            far,
+        }
+    }
+
+    /// The projection to the rasterizer's clip space (depth 0 ..= 1).
+    pub fn projection(&self) -> DMat4 {
+        glam::dcamera::rh::proj::directx::perspective(
+            self.viewport.fov_y,
+            self.viewport.aspect(),
+            self.near,
+            self.far,
+        )
+    }
+
+    /// Projection times eye-relative view: maps `world - position` to clip space.
+    pub fn view_projection(&self) -> DMat4 {
+        self.projection() * self.camera.view_from_eye()
+    }
+
+    /// Pixels per metre at distance `d`: the scale that turns a geometric error in metres
+    /// into a screen-space error.
+    pub fn pixels_per_metre(&self, d: f64) -> f64 {
+        let v = &self.viewport;
+        f64::from(v.height) / (2.0 * (v.fov_y / 2.0).tan() * d.max(self.near))
     }
 }
 
@@ -85,9 +125,14 @@ mod tests {
     use super::*;
     use glam::DVec4;
 
+    /// The view-projection of `cam` on a `width` x `height` screen, 60° tall, 1 m to 100 km.
+    fn through(cam: &Camera, width: u32, height: u32) -> DMat4 {
+        View::new(*cam, Viewport::new(width, height), 1.0, 1e5).view_projection()
+    }
+
     /// Normalised device x and y of the eye-relative point `p`.
     fn screen(cam: &Camera, p: DVec3) -> (f64, f64) {
-        let c = cam.view_projection(1.0) * DVec4::from((p, 1.0));
+        let c = through(cam, 100, 100) * DVec4::from((p, 1.0));
         (c.x / c.w, c.y / c.w)
     }
 
@@ -125,7 +170,7 @@ mod tests {
             let base = DVec3::new(offset, 0.0, -offset);
             let cam = Camera::looking_at(base + DVec3::new(0.0, 500.0, 800.0), base);
             let rel = base - cam.position;
-            let c = cam.view_projection(4.0 / 3.0) * DVec4::from((rel, 1.0));
+            let c = through(&cam, 400, 300) * DVec4::from((rel, 1.0));
             assert!(
                 c.x.abs() / c.w < 1e-12 && c.y.abs() / c.w < 1e-12,
                 "{offset}: {c}"
@@ -137,7 +182,7 @@ mod tests {
     #[test]
     fn looking_straight_down_still_has_a_view_matrix() {
         let cam = Camera::looking_at(DVec3::new(0.0, 100.0, 0.0), DVec3::ZERO);
-        let m = cam.view_projection(1.0);
+        let m = through(&cam, 100, 100);
         assert!(m.to_cols_array().iter().all(|v| v.is_finite()));
         // North (-z) is up on screen.
         let north = m * DVec4::new(0.0, -100.0, -10.0, 1.0);
@@ -150,5 +195,15 @@ mod tests {
         assert!(at(0.0, -1.0).abs() < 1e-12);
         assert!((at(1.0, 0.0) - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
         assert!((at(0.0, 1.0).abs() - std::f64::consts::PI).abs() < 1e-12);
+    }
+
+    #[test]
+    fn an_attitude_looks_where_its_heading_and_pitch_say() {
+        let eye = DVec3::new(5.0, 100.0, -7.0);
+        let east_and_down =
+            Camera::from_attitude(eye, 90f64.to_radians(), -45f64.to_radians(), 0.0);
+        let gaze = Camera::looking_at(eye, eye + DVec3::new(1.0, -1.0, 0.0));
+        assert!((east_and_down.forward - gaze.forward).length() < 1e-12);
+        assert!((east_and_down.heading() - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
     }
 }

@@ -21,7 +21,7 @@ use std::collections::HashMap;
 use glam::DVec3;
 
 use crate::db::grid::{Pyramid, TileId};
-use crate::engine::camera::Camera;
+use crate::engine::camera::View;
 use crate::engine::frustum::{Aabb, Frustum};
 use crate::engine::paging::Residency;
 use crate::engine::resident::ResidentTile;
@@ -51,8 +51,6 @@ pub struct CutSettings {
     /// When the last frame's budget capped its detail, the largest error on screen it left
     /// (see the module's documentation); `None` when it did not.
     pub water_px: Option<f64>,
-    /// The screen's height, pixels.
-    pub height: u32,
     /// No tile is seen from nearer than this (the eye's clearance), metres.
     pub clearance: f64,
 }
@@ -128,15 +126,14 @@ pub struct Cut<'p> {
     pub through: Vec<TileId>,
 }
 
-/// The cut of the view of `camera` at `aspect` through the tiles `resident` holds.
+/// The cut of `view` through the tiles `resident` holds.
 /// `last` is what the last frame drew, which matters when `settings.water_px` says its budget
 /// capped it.
 pub fn cut<'p>(
     resident: &'p (impl Holdings + ?Sized),
     terrain: &TerrainFrame,
     pyramid: &Pyramid,
-    camera: &Camera,
-    aspect: f64,
+    view: &View,
     settings: &CutSettings,
     last: &LastFrame,
 ) -> Cut<'p> {
@@ -144,10 +141,10 @@ pub fn cut<'p>(
         resident,
         terrain,
         pyramid,
-        camera,
+        view,
         settings,
         last,
-        frustum: Frustum::from_view_projection(&camera.view_projection(aspect)),
+        frustum: Frustum::from_view_projection(&view.view_projection()),
         out: Cut::default(),
         above: Vec::new(),
     };
@@ -160,7 +157,7 @@ struct Walk<'p, 'w, H: Holdings + ?Sized> {
     resident: &'p H,
     terrain: &'w TerrainFrame,
     pyramid: &'w Pyramid,
-    camera: &'w Camera,
+    view: &'w View,
     settings: &'w CutSettings,
     last: &'w LastFrame,
     frustum: Frustum,
@@ -173,7 +170,7 @@ impl<'p, H: Holdings + ?Sized> Walk<'p, '_, H> {
     /// Visits tile `id` under the passed tile `parent` (an index in `out.passed`); returns
     /// false when part of it in view has nothing to draw (its holes are in `out.holes`).
     fn visit(&mut self, id: TileId, parent: Option<usize>) -> bool {
-        let eye = self.camera.position;
+        let eye = self.view.camera.position;
         let tile = self.resident.tile(id);
         // An absent tile has no heights: it is boxed like a tile not yet loaded.
         let (lo, hi) = match tile {
@@ -204,7 +201,7 @@ impl<'p, H: Holdings + ?Sized> Walk<'p, '_, H> {
             return true;
         }
         let distance = aabb.distance(DVec3::ZERO);
-        let shown = shown_px(tile, id, distance, self.camera, self.terrain, self.settings);
+        let shown = shown_px(tile, id, distance, self.view, self.terrain, self.settings);
         let refine = id.level > 0
             && self
                 .settings
@@ -261,7 +258,7 @@ impl<'p, H: Holdings + ?Sized> Walk<'p, '_, H> {
         parent: Option<usize>,
         priority: f64,
     ) -> bool {
-        let eye = self.camera.position;
+        let eye = self.view.camera.position;
         // The children in view: their heights lie within the tile's finest error of its own
         // range, its samples being some of theirs.
         let margin = f64::from(tile.level_errors.first().copied().unwrap_or(0.0));
@@ -329,11 +326,11 @@ fn shown_px(
     tile: &ResidentTile,
     id: TileId,
     distance: f64,
-    camera: &Camera,
+    view: &View,
     terrain: &TerrainFrame,
     settings: &CutSettings,
 ) -> Shown {
-    let ppm = camera.pixels_per_metre(distance.max(settings.clearance), settings.height);
+    let ppm = view.pixels_per_metre(distance.max(settings.clearance));
     let texels = ((tile.texture.levels()[0].width() as usize) << tile.texture_base).max(2);
     let texel = terrain.level_metres(id.level) / (texels - 1) as f64;
     Shown {
@@ -344,83 +341,15 @@ fn shown_px(
 
 #[cfg(test)]
 mod tests {
-    use std::collections::{HashMap, HashSet};
+    use std::collections::HashSet;
 
     use proptest::prelude::*;
 
     use super::*;
-    use crate::db::archive::Header;
-    use crate::db::tile::Tile;
-    use crate::engine::cracks::CrackMode;
-    use crate::engine::resident::Light;
-
-    const S: usize = 5;
-    const SPACING: f64 = 10.0;
-
-    /// Resident tiles by id, and how many resident tiles lie under each.
-    #[derive(Default)]
-    struct Fake {
-        tiles: HashMap<TileId, ResidentTile>,
-        covered: HashMap<TileId, u32>,
-    }
-
-    impl Holdings for Fake {
-        fn tile(&self, id: TileId) -> Option<&ResidentTile> {
-            self.tiles.get(&id)
-        }
-
-        fn covered(&self, id: TileId) -> u32 {
-            self.covered.get(&id).copied().unwrap_or(0)
-        }
-    }
-
-    /// A tile spanning heights 0 ..= 100 m like every other, so that every box in view at the
-    /// archive's height range is in view at its own too.
-    fn tile(id: TileId) -> ResidentTile {
-        let mut heights = vec![50.0; S * S];
-        (heights[0], heights[S * S - 1]) = (0.0, 100.0);
-        let t = Tile::new(&heights, S, 0.25, &[[90, 120, 80]; 16], 4).unwrap();
-        ResidentTile::of_level(&t, id.level, 0, SPACING, &Light::default(), CrackMode::None)
-    }
-
-    fn terrain(tiles_x: u32, tiles_y: u32) -> TerrainFrame {
-        let cells = (S - 1) as u32;
-        TerrainFrame::new(&Header {
-            tiles_x,
-            tiles_y,
-            tile_size: S as u32,
-            texture_size: 4,
-            codec: crate::db::archive::Codec::None,
-            source_width: tiles_x * cells + 1,
-            source_height: tiles_y * cells + 1,
-            spacing: SPACING,
-            vertical_scale: 1.0,
-            origin_x: 0.0,
-            origin_y: 0.0,
-            min_height: 0.0,
-            max_height: 100.0,
-            height_quantum: 0.25,
-            nodata_filled: 0,
-            nodata_flattened: 0,
-            absent_tiles: 0,
-            top_level: 0,
-            top_offset: 0,
-            top_len: 0,
-            archive_len: 0,
-        })
-    }
-
-    /// A holding of the resident copies of `ids` in `pyramid`.
-    fn holding(pyramid: &Pyramid, ids: impl Iterator<Item = TileId>) -> Fake {
-        let mut fake = Fake::default();
-        for id in ids {
-            fake.tiles.insert(id, tile(id));
-            for level in id.level + 1..pyramid.levels() as u8 {
-                *fake.covered.entry(id.ancestor(level)).or_default() += 1;
-            }
-        }
-        fake
-    }
+    use crate::engine::camera::Camera;
+    use crate::engine::fake_holdings::{Fake, S, SPACING, holding, terrain, tile};
+    use crate::engine::shading::Light;
+    use crate::engine::viewport::Viewport;
 
     /// The cut of 4 x 4 tiles seen whole from high above, at full resolution.
     fn from_above(fake: &Fake) -> Cut<'_> {
@@ -430,25 +359,14 @@ mod tests {
     /// The same after a frame that drew `last`, whose budget left `water_px` on screen.
     fn from_above_after<'p>(fake: &'p Fake, water_px: Option<f64>, last: &LastFrame) -> Cut<'p> {
         let terrain = terrain(4, 4);
-        let mut camera =
-            Camera::looking_at(DVec3::new(80.0, 400.0, 81.0), DVec3::new(80.0, 0.0, 80.0));
-        camera.near = 1.0;
-        camera.far = 10_000.0;
+        let camera = Camera::looking_at(DVec3::new(80.0, 400.0, 81.0), DVec3::new(80.0, 0.0, 80.0));
+        let view = View::new(camera, Viewport::new(120, 120), 1.0, 10_000.0);
         let settings = CutSettings {
             max_error_px: None,
             water_px,
-            height: 120,
             clearance: 1.0,
         };
-        cut(
-            fake,
-            &terrain,
-            &terrain.pyramid(),
-            &camera,
-            1.0,
-            &settings,
-            last,
-        )
+        cut(fake, &terrain, &terrain.pyramid(), &view, &settings, last)
     }
 
     #[test]
@@ -584,19 +502,17 @@ mod tests {
                     *fake.covered.entry(id.ancestor(level)).or_default() += 1;
                 }
             }
-            let mut camera = Camera::looking_at(
+            let camera = Camera::looking_at(
                 DVec3::new(eye.0, eye.1, eye.2),
                 DVec3::new(target.0, 0.0, target.1),
             );
-            camera.near = 1.0;
-            camera.far = 10_000.0;
+            let view = View::new(camera, Viewport::new(160, 120), 1.0, 10_000.0);
             let settings = CutSettings {
                 max_error_px: tau,
                 water_px: None,
-                height: 120,
                 clearance: 1.0,
             };
-            let cut = cut(&fake, &terrain, &pyramid, &camera, 4.0 / 3.0, &settings, &LastFrame::default());
+            let cut = cut(&fake, &terrain, &pyramid, &view, &settings, &LastFrame::default());
             let drawn: HashSet<TileId> = cut.tiles.iter().map(|t| t.0).collect();
             prop_assert_eq!(drawn.len(), cut.tiles.len(), "a tile drawn twice");
             for &(id, copy, _) in &cut.tiles {
@@ -609,7 +525,7 @@ mod tests {
                 .chain(cut.holes.iter().copied())
                 .chain(cut.absent.iter().copied())
                 .collect();
-            let frustum = Frustum::from_view_projection(&camera.view_projection(4.0 / 3.0));
+            let frustum = Frustum::from_view_projection(&view.view_projection());
             for l in pyramid.tiles().filter(|id| id.level == 0) {
                 let (lo, hi) = terrain.tile_box(l, 0.0, 100.0);
                 let seen = frustum

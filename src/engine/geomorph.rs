@@ -50,7 +50,7 @@ use stripmask_raster::Vertex;
 
 use crate::db::grid::TileId;
 use crate::db::mask_level::keeps_index;
-use crate::engine::camera::Camera;
+use crate::engine::camera::View;
 use crate::engine::partial_meshes::compact_level;
 use crate::engine::terrain::TerrainFrame;
 use crate::named::Named;
@@ -344,12 +344,12 @@ pub struct MorphView {
 }
 
 impl MorphView {
-    /// The distance morph with threshold `pixels` ([`Geomorph::Distance`]) for `camera` over
-    /// `terrain` on a screen `height` pixels tall.
-    pub fn new(pixels: f64, camera: &Camera, terrain: &TerrainFrame, height: u32) -> MorphView {
-        let focal = f64::from(height) / (2.0 * (camera.fov_y / 2.0).tan());
+    /// The distance morph with threshold `pixels` ([`Geomorph::Distance`]) for `view` over
+    /// `terrain`.
+    pub fn new(pixels: f64, view: &View, terrain: &TerrainFrame) -> MorphView {
+        let focal = view.viewport.focal_px();
         MorphView {
-            eye: camera.position - terrain.origin,
+            eye: view.camera.position - terrain.origin,
             spacing: terrain.spacing,
             quantum: terrain.quantum,
             tile_cells: terrain.tile_size as i64 - 1,
@@ -489,8 +489,8 @@ impl Morpher {
     }
 
     /// This frame's view of the morph.
-    pub fn view(&self, camera: &Camera, terrain: &TerrainFrame, height: u32) -> MorphView {
-        MorphView::new(self.pixels, camera, terrain, height)
+    pub fn view(&self, view: &View, terrain: &TerrainFrame) -> MorphView {
+        MorphView::new(self.pixels, view, terrain)
     }
 
     /// Tile `(x, y)`'s `vertices` morphed for `view`, in [`SUBDIVISION`] units, as far as a
@@ -532,6 +532,8 @@ mod tests {
     use super::*;
     use crate::db::grid::TileId;
     use crate::db::mask_level::keeps_index;
+    use crate::engine::camera::Camera;
+    use crate::engine::viewport::Viewport;
 
     fn grid(s: usize, height: impl Fn(usize, usize) -> i32) -> Vec<Vertex> {
         (0..s * s)
@@ -790,7 +792,7 @@ mod tests {
             let eye = terrain.origin + DVec3::new(eye.0, eye.1, eye.2);
             let camera = Camera::looking_at(eye, eye + DVec3::X);
             let mut morpher = Morpher::new(Geomorph::Distance { pixels }, s).unwrap();
-            let view = morpher.view(&camera, &terrain, 240);
+            let view = morpher.view(&View::new(camera, Viewport::new(320, 240), 1.0, 1e5), &terrain);
             let vertices = grid(s, bumpy);
             let tree = MorphTree::new(s).unwrap();
             let (gx0, gz0) = (i64::from(x) * 16, i64::from(y) * 16);
@@ -839,10 +841,10 @@ mod tests {
             source_samples: (33, 33),
             archive_origin: (0.0, 0.0),
         };
-        let mut camera = Camera::looking_at(terrain.origin, terrain.origin + DVec3::X);
-        camera.fov_y = 90f64.to_radians();
+        let camera = Camera::looking_at(terrain.origin, terrain.origin + DVec3::X);
+        let viewport = Viewport::new(200, 200).with_fov_y(90f64.to_radians());
         // focal = 100 px on a 200 px screen; a 1-sample step (10 m) spans 4 px at 250 m.
-        let view = MorphView::new(4.0, &camera, &terrain, 200);
+        let view = MorphView::new(4.0, &View::new(camera, viewport, 1.0, 1e5), &terrain);
         assert_eq!(view.factor(12, 0, 0, 1), 0, "120 m: 8.3 px");
         assert_eq!(view.factor(25, 0, 0, 1), FACTOR_ONE, "250 m: 4 px");
         assert_eq!(view.factor(50, 0, 0, 1), FACTOR_ONE);

@@ -16,7 +16,7 @@ use stripmask_raster::{
 
 use crate::db::grid::TileId;
 use crate::db::tile::PartialGrid;
-use crate::engine::camera::Camera;
+use crate::engine::camera::View;
 use crate::engine::cracks::{CrackMode, TileIndices, shadow};
 use crate::engine::geomorph::{self, MorphView, Morpher};
 use crate::engine::masks::{FRONT_FACE, MaskSet};
@@ -142,23 +142,18 @@ pub struct FrameTransform {
 }
 
 impl FrameTransform {
-    /// The matrix for `camera` over `terrain` at `aspect` = width / height, for vertices in
-    /// grid steps and height quanta.
-    pub fn new(
-        camera: &Camera,
-        terrain: &TerrainFrame,
-        aspect: f64,
-    ) -> Result<FrameTransform, RasterError> {
-        FrameTransform::subdivided(camera, terrain, aspect, 1)
+    /// The matrix for `view` over `terrain`, for vertices in grid steps and height quanta.
+    pub fn new(view: &View, terrain: &TerrainFrame) -> Result<FrameTransform, RasterError> {
+        FrameTransform::subdivided(view, terrain, 1)
     }
 
     /// The same for vertices in `1 / subdivision` of a grid step and of a height quantum.
     pub fn subdivided(
-        camera: &Camera,
+        view: &View,
         terrain: &TerrainFrame,
-        aspect: f64,
         subdivision: i32,
     ) -> Result<FrameTransform, RasterError> {
+        let camera = &view.camera;
         let unit = 1.0 / f64::from(subdivision);
         let (px, py) = terrain.tile_position(camera.position);
         let clamp = |v: f64, n: u32| (v.floor().max(0.0) as i64).min(i64::from(n) - 1);
@@ -169,7 +164,7 @@ impl FrameTransform {
                 DVec3::new(terrain.spacing, terrain.quantum, terrain.spacing) * unit,
             );
         Ok(FrameTransform {
-            base: Transform::new(camera.view_projection(aspect) * model)?,
+            base: Transform::new(view.view_projection() * model)?,
             anchor,
             cells: (terrain.tile_size as i64 - 1) * i64::from(subdivision),
         })
@@ -216,16 +211,14 @@ pub struct TilesDrawn {
 /// [`DrawTarget`], with the same draws.
 pub fn draw_tiles<T: DrawTarget>(
     target: &mut T,
-    camera: &Camera,
+    view: &View,
     terrain: &TerrainFrame,
     tiles: &mut [TileDraw<'_>],
     meshes: TileMeshes<'_>,
     settings: &RenderSettings,
 ) -> Result<TilesDrawn, T::Error> {
     target.clear(settings.sky);
-    let (width, height) = target.size();
-    let aspect = f64::from(width) / f64::from(height);
-    let transform = FrameTransform::new(camera, terrain, aspect)?;
+    let transform = FrameTransform::new(view, terrain)?;
     if settings.depth_test {
         tiles.sort_by(|a, b| a.distance.total_cmp(&b.distance));
     } else {
@@ -233,8 +226,8 @@ pub fn draw_tiles<T: DrawTarget>(
     }
     let fog = settings.fog.then_some(Fog {
         color: settings.sky,
-        start: settings.fog_start * camera.far,
-        end: camera.far,
+        start: settings.fog_start * view.far,
+        end: view.far,
     });
     let shadows = meshes.cracks.mode() == CrackMode::Shadow;
     let wire = settings.wireframe.lines(settings.depth_test);
@@ -246,12 +239,12 @@ pub fn draw_tiles<T: DrawTarget>(
         let mut stats = DrawStats::default();
         let mut lines = LineStats::default();
         if shadows && !settings.depth_test {
-            stats += draw_shadows(target, camera, terrain, tiles, aspect, settings, fog)?;
+            stats += draw_shadows(target, view, terrain, tiles, settings, fog)?;
         }
         let mut morph = match meshes.morph {
             Some(morpher) => Some((
-                morpher.view(camera, terrain, height),
-                FrameTransform::subdivided(camera, terrain, aspect, geomorph::SUBDIVISION)?,
+                morpher.view(view, terrain),
+                FrameTransform::subdivided(view, terrain, geomorph::SUBDIVISION)?,
                 morpher,
             )),
             None => None,
@@ -284,7 +277,7 @@ pub fn draw_tiles<T: DrawTarget>(
             }
         }
         if shadows && settings.depth_test {
-            stats += draw_shadows(target, camera, terrain, tiles, aspect, settings, fog)?;
+            stats += draw_shadows(target, view, terrain, tiles, settings, fog)?;
         }
         Ok((stats, lines))
     })?;
@@ -355,14 +348,14 @@ fn drawn_vertices<'v>(t: &TileDraw<'v>, lit: bool, scratch: &'v mut Vec<Vertex>)
 /// reach is skipped.
 fn draw_shadows<'t, E: From<RasterError>>(
     target: &mut dyn DrawBatch<'t, Error = E>,
-    camera: &Camera,
+    view: &View,
     terrain: &TerrainFrame,
     tiles: &[TileDraw<'t>],
-    aspect: f64,
     settings: &RenderSettings,
     fog: Option<Fog>,
 ) -> Result<DrawStats, E> {
-    let fine = FrameTransform::subdivided(camera, terrain, aspect, shadow::SUBDIVISION)?;
+    let camera = &view.camera;
+    let fine = FrameTransform::subdivided(view, terrain, shadow::SUBDIVISION)?;
     let mut stats = DrawStats::default();
     let mut relit = Vec::new();
     for t in tiles {

@@ -15,7 +15,7 @@
 //! vertices they share alike (no line along their border), and a partial tile draws exactly
 //! the whole tile's pixels at the same level.
 
-use glam::DVec3;
+use stripmask_raster::fixed_point::TexCoord;
 use stripmask_raster::{Texels, Texture, Vertex};
 
 use crate::db::rgb565::mip_count;
@@ -24,25 +24,8 @@ use crate::db::tile::{
     texture_coordinate, texture_coordinate_at,
 };
 use crate::engine::cracks::{CrackMode, skirts};
-
-/// Light shared by every tile: a direction towards the light and an ambient floor.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Light {
-    /// Direction towards the light, world axes (x east, y up, z south); normalised on use.
-    pub direction: DVec3,
-    /// Intensity of a surface facing away from the light, 0 ..= 1.
-    pub ambient: f64,
-}
-
-impl Default for Light {
-    /// Late-afternoon sun from the north-west, as cartographers light relief.
-    fn default() -> Self {
-        Light {
-            direction: DVec3::new(-1.0, 1.4, -1.0),
-            ambient: 0.35,
-        }
-    }
-}
+use crate::engine::normals::SlopeNormals;
+use crate::engine::shading::{Light, Shading};
 
 /// One loaded tile, whole or holding only its first progressive levels ([`Tile::levels`]).
 ///
@@ -135,6 +118,40 @@ impl ResidentTile {
         light: &Light,
         cracks: CrackMode,
     ) -> ResidentTile {
+        ResidentTile::lit_over(None, tile, level, texture_base, spacing, light, cracks)
+    }
+
+    /// [`ResidentTile::of_level`] of `tile` refined from `held`, the resident form of its first
+    /// levels: the levels `held` lit under the same light keep their shades. A tile's levels
+    /// arrive one after another, and each arrival would light them all again.
+    pub fn refined(
+        held: &ResidentTile,
+        tile: &Tile,
+        level: u8,
+        texture_base: usize,
+        spacing: f64,
+        light: &Light,
+        cracks: CrackMode,
+    ) -> ResidentTile {
+        let same_grid = !held.absent
+            && held.light == *light
+            && held.spacing == spacing
+            && held.scale == 1 << level
+            && held.levels <= tile.levels;
+        let held = same_grid.then_some(held);
+        ResidentTile::lit_over(held, tile, level, texture_base, spacing, light, cracks)
+    }
+
+    /// [`ResidentTile::of_level`], the shades of the levels `held` lit taken from it.
+    fn lit_over(
+        held: Option<&ResidentTile>,
+        tile: &Tile,
+        level: u8,
+        texture_base: usize,
+        spacing: f64,
+        light: &Light,
+        cracks: CrackMode,
+    ) -> ResidentTile {
         let scale = 1u32 << level;
         let (side, stride) = (tile.side(), tile.stride());
         let step = stride * scale as usize;
@@ -143,21 +160,33 @@ impl ResidentTile {
         let shading = Shading::new(light);
         let normals = normals(tile, tile.levels - 1, level_spacing(tile.levels - 1));
         let coarse_shades = (0..tile.levels - 1)
-            .map(|g| {
-                let normals = self::normals(tile, g, level_spacing(g));
-                normals.iter().map(|&n| shading.of(n)).collect()
+            .map(|g| match held {
+                Some(held) if g + 1 < held.levels => held.coarse_shades[g].clone(),
+                Some(held) if g + 1 == held.levels => {
+                    held.normals.iter().map(|&n| shading.of(n)).collect()
+                }
+                _ => {
+                    let normals = self::normals(tile, g, level_spacing(g));
+                    normals.iter().map(|&n| shading.of(n)).collect()
+                }
             })
             .collect();
-        let at = |i: usize| texture_coordinate(i * stride, tile.tile_size, tile.texture_size);
+        // One texture coordinate per column (and row), converted once: on a core without an
+        // FPU each is a few library calls.
+        let coords: Vec<TexCoord> = (0..side)
+            .map(|i| {
+                let c = texture_coordinate(i * stride, tile.tile_size, tile.texture_size);
+                TexCoord::saturating_from_num(c)
+            })
+            .collect();
         let mut vertices: Vec<Vertex> = (0..side * side)
             .map(|k| {
                 let (i, j) = (k % side, k / side);
-                let uv = [at(i), at(j)];
-                Vertex::new(
-                    [(i * step) as i32, tile.quanta(i, j), (j * step) as i32],
-                    uv,
-                    [shading.of(normals[k]); 3],
-                )
+                Vertex {
+                    position: [(i * step) as i32, tile.quanta(i, j), (j * step) as i32],
+                    uv: [coords[i], coords[j]],
+                    color: [shading.of(normals[k]); 3],
+                }
             })
             .collect();
         if cracks == CrackMode::Skirts {
@@ -420,48 +449,30 @@ fn resident_bytes(vertices: usize, normals: usize, levels: usize, other_bytes: u
 /// metres between its samples; across the tile border the other side is that level's apron.
 fn normals(tile: &Tile, level: usize, spacing: f64) -> Vec<[i8; 3]> {
     let s = level_side(level);
-    let quantum = f64::from(tile.quantum);
-    let h = |i: usize, j: usize, di: isize, dj: isize| {
-        tile.quanta_around(level, i as isize + di, j as isize + dj) as f64 * quantum
-    };
-    (0..s * s)
-        .map(|k| {
-            let (i, j) = (k % s, k / s);
-            let dhdx = (h(i, j, 1, 0) - h(i, j, -1, 0)) / (2.0 * spacing);
-            let dhdz = (h(i, j, 0, 1) - h(i, j, 0, -1)) / (2.0 * spacing);
-            let n = DVec3::new(-dhdx, 1.0, -dhdz).normalize();
-            n.to_array().map(|c| (c * 127.0).round() as i8)
-        })
-        .collect()
-}
-
-/// The intensities of packed normals under one light. The light's direction is normalised
-/// once and a normal's components are looked up rather than divided (the same numbers
-/// `c / 127.0` gives): on a core without an FPU each division is a library call, and a tile's
-/// vertices are shaded whenever one of its levels becomes resident.
-struct Shading {
-    towards: DVec3,
-    ambient: f64,
-    /// `c / 127.0` for every packed component `c`, at index `c + 128`.
-    unit: [f64; 256],
-}
-
-impl Shading {
-    fn new(light: &Light) -> Shading {
-        Shading {
-            towards: light.direction.normalize_or(DVec3::Y),
-            ambient: light.ambient,
-            unit: std::array::from_fn(|k| (k as f64 - 128.0) / 127.0),
+    let slopes = SlopeNormals::new(tile.quantum, spacing);
+    // The level's heights framed by its apron, each read once (a sample's four neighbours are
+    // then loads); the frame's corners are never read.
+    let w = s + 2;
+    let mut framed = vec![0; w * w];
+    for j in -1..=s as isize {
+        for i in -1..=s as isize {
+            let corner = (i == -1 || i == s as isize) && (j == -1 || j == s as isize);
+            if !corner {
+                framed[(j + 1) as usize * w + (i + 1) as usize] = tile.quanta_around(level, i, j);
+            }
         }
     }
-
-    /// The intensity, 0 ..= 255, of a surface with packed normal `normal`.
-    fn of(&self, normal: [i8; 3]) -> u8 {
-        let n = DVec3::from_array(normal.map(|c| self.unit[(i16::from(c) + 128) as usize]));
-        let lit = n.dot(self.towards).max(0.0);
-        let intensity = (self.ambient + (1.0 - self.ambient) * lit).clamp(0.0, 1.0);
-        (intensity * 255.0).round() as u8
-    }
+    (0..s * s)
+        .map(|k| {
+            let at = (k / s + 1) * w + k % s + 1;
+            slopes.packed(
+                framed[at - 1],
+                framed[at + 1],
+                framed[at - w],
+                framed[at + w],
+            )
+        })
+        .collect()
 }
 
 /// The texture chain of `tile` from archive mip `base` (one the tile holds) down.
@@ -480,6 +491,8 @@ fn chain_from(tile: &Tile, base: usize) -> Texture {
 
 #[cfg(test)]
 mod tests {
+    use glam::DVec3;
+
     use super::*;
 
     fn sloped_tile() -> Tile {
@@ -522,29 +535,6 @@ mod tests {
         let dark = ResidentTile::new(&tile, 0, 2.0, &east, CrackMode::None).vertices[40].color[0];
         assert_eq!(lit, 255);
         assert_eq!(dark, (0.2f64 * 255.0).round() as u8);
-    }
-
-    #[test]
-    fn shading_gives_every_packed_normal_the_intensity_of_its_divided_components() {
-        let light = Light {
-            direction: DVec3::new(-0.3, 1.0, 0.7),
-            ambient: 0.3,
-        };
-        let shading = Shading::new(&light);
-        let towards = light.direction.normalize_or(DVec3::Y);
-        for a in -128..=127i16 {
-            for b in (-128..=127i16).step_by(3) {
-                let normal = [a as i8, b as i8, (a ^ b) as i8];
-                let n = DVec3::from_array(normal.map(|c| f64::from(c) / 127.0));
-                let lit = n.dot(towards).max(0.0);
-                let want = (light.ambient + (1.0 - light.ambient) * lit).clamp(0.0, 1.0);
-                assert_eq!(
-                    shading.of(normal),
-                    (want * 255.0).round() as u8,
-                    "{normal:?}"
-                );
-            }
-        }
     }
 
     #[test]
@@ -678,6 +668,37 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_refined_tile_is_the_tile_loaded_with_its_levels() {
+        let tile = rough_tile().with_apron(|i, j| Some(12.0 * ((i * 3 + j * 5) as f32).sin()));
+        let (light, cracks) = (Light::default(), CrackMode::Skirts);
+        let load = |t: &Tile, light: &Light| ResidentTile::of_level(t, 1, 0, 2.0, light, cracks);
+        let same = |a: &ResidentTile, b: &ResidentTile, why: &str| {
+            assert_eq!(a.vertices, b.vertices, "{why}");
+            assert_eq!(a.normals, b.normals, "{why}");
+            assert_eq!(a.coarse_shades, b.coarse_shades, "{why}");
+        };
+        for held in 1..=tile.levels {
+            let before = load(&tile.truncated(held), &light);
+            for levels in held..=tile.levels {
+                let t = tile.truncated(levels);
+                let refined = ResidentTile::refined(&before, &t, 1, 0, 2.0, &light, cracks);
+                same(&refined, &load(&t, &light), &format!("{held} to {levels}"));
+            }
+        }
+        let other = Light {
+            direction: DVec3::new(1.0, 1.0, 0.0),
+            ambient: 0.1,
+        };
+        let before = load(&tile.truncated(2), &light);
+        let relit = ResidentTile::refined(&before, &tile, 1, 0, 2.0, &other, cracks);
+        same(
+            &relit,
+            &load(&tile, &other),
+            "another light lights every level",
+        );
     }
 
     #[test]

@@ -49,6 +49,13 @@ impl TerrainFrame {
         }
     }
 
+    /// The world point at `east` and `north` in the archive's own coordinates
+    /// ([`Self::archive_origin`]'s) and `altitude` metres up.
+    pub fn from_archive(&self, east: f64, north: f64, altitude: f64) -> DVec3 {
+        let (e0, n0) = self.archive_origin;
+        self.origin + DVec3::new(east - e0, altitude, n0 - north)
+    }
+
     /// East-west and north-south extent of the model's own samples, metres: the grid's
     /// [`Self::extent`] without the padding that makes its tiles whole.
     pub fn source_extent(&self) -> (f64, f64) {
@@ -150,7 +157,7 @@ mod tests {
     use super::*;
     use crate::db::tile::Tile;
     use crate::engine::cracks::CrackMode;
-    use crate::engine::resident::Light;
+    use crate::engine::shading::Light;
 
     #[test]
     fn ground_under_a_partial_tile_is_the_bilinear_height_of_its_held_grid() {

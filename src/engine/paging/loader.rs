@@ -24,7 +24,8 @@ use crate::db::tile::progressive_levels;
 use crate::engine::cracks::CrackMode;
 use crate::engine::paging::stream::LevelLoader;
 use crate::engine::paging::{ResidentLoader, TileLoader};
-use crate::engine::resident::{Light, ResidentTile, predicted_bytes};
+use crate::engine::resident::{ResidentTile, predicted_bytes};
+use crate::engine::shading::Light;
 use crate::engine::terrain::TerrainFrame;
 use crate::error::{Error, Result};
 
@@ -337,21 +338,20 @@ impl LevelLoader for ArchiveLoader {
                 ),
             ));
         }
-        let tile = match held {
-            None => {
-                let chunks: Vec<&[u8]> = piece.chunks.iter().map(Vec::as_slice).collect();
-                self.reader.decode(&chunks, &name)?
-            }
-            Some(resident) => {
-                let mut tile = resident.to_tile();
-                for chunk in &piece.chunks {
-                    tile.refine(chunk, &name)?;
-                }
-                tile
-            }
+        let Some(resident) = held else {
+            let chunks: Vec<&[u8]> = piece.chunks.iter().map(Vec::as_slice).collect();
+            let tile = self.reader.decode(&chunks, &name)?;
+            return Ok(self.resident(id, Some(&tile), 0));
         };
+        let mut tile = resident.to_tile();
+        for chunk in &piece.chunks {
+            tile.refine(chunk, &name)?;
+        }
         debug_assert_eq!(tile.tile_size, h.tile_size as usize);
-        Ok(self.resident(id, Some(&tile), 0))
+        let cracks = self.cracks();
+        let refined =
+            ResidentTile::refined(resident, &tile, id.level, 0, h.spacing, &self.light, cracks);
+        Ok(refined.clipped(self.extent(id)))
     }
 
     fn held_levels(&self, tile: &ResidentTile) -> usize {

@@ -1,11 +1,9 @@
-//! Argument groups several commands share (the scene, the device, the streaming), how each
-//! resolves into the library's settings, and the value parsers of library settings.
+//! Argument groups several commands share (the scene, the streaming), how each resolves into the
+//! library's settings, and the value parsers of library settings.
 //!
 //! Settings chosen by name parse straight into the library's types ([`named`]), and defaults come
 //! from the library's own (`EngineSettings::default()` and the like), so the command holds no
 //! second copy of either.
-
-use std::path::PathBuf;
 
 use clap::Args;
 use clap::builder::{PossibleValuesParser, TypedValueParser};
@@ -14,7 +12,6 @@ use stripmask::db::archive::ArchiveReader;
 use stripmask::db::source::http::HttpOptions;
 use stripmask::db::source::{self, throttle::LinkProfile};
 use stripmask::engine::EngineSettings;
-use stripmask::engine::allocation::Allocation;
 use stripmask::engine::cracks::CrackMode;
 use stripmask::engine::geomorph::Geomorph;
 use stripmask::engine::importance::Weights;
@@ -24,10 +21,12 @@ use stripmask::engine::paging::stream::{PredictionSettings, StreamSettings, Stre
 use stripmask::engine::terrain::TerrainFrame;
 use stripmask::error::{Error, Result};
 use stripmask::sim::clock::Clock;
-use stripmask::sim::device::{DeviceProfile, Overrides, depth_format};
+use stripmask::sim::device::DeviceProfile;
 use stripmask::sim::flight::{Builtin, Flight};
 use stripmask::sim::fly::Length;
 use stripmask_raster::{ColorFormat, DepthFormat, Precision};
+
+use super::device::DeviceArgs;
 
 /// How tiles come in, and its settings: what `fly`, `view`, `fb` and `demo` share.
 #[derive(Args, Debug)]
@@ -95,7 +94,7 @@ pub(super) struct SceneArgs {
     #[command(flatten)]
     device: DeviceArgs,
     /// Memory limit as a percentage of available memory (Linux), as in the paper.
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_negative_numbers = true, conflicts_with = "memory_mb")]
     memory_percent: Option<f64>,
     /// Of the memory limit, the most tile textures may take, MB (default: no separate cap).
     #[arg(long, allow_negative_numbers = true)]
@@ -193,8 +192,7 @@ impl SceneArgs {
             depth: device.depth,
             target_fps: device.target_fps,
             clock,
-            link: (!device.link.is_unlimited())
-                .then(|| device.link.to_link_profile(self.device.seed)),
+            link: (!device.link.is_unlimited()).then_some(device.link),
         })
     }
 }
@@ -214,86 +212,6 @@ impl SceneArgs {
     /// Whether the flight runs on the wall clock.
     pub(super) fn wall_clock(&self) -> bool {
         !self.device.clock.is_simulated()
-    }
-}
-
-/// The device a flight runs as: a profile, and values that override it.
-#[derive(Args, Debug)]
-struct DeviceArgs {
-    /// Device profile (native: the handheld's screen on this CPU).
-    #[arg(long, value_parser = profile_name(), default_value_t = DeviceProfile::native().name)]
-    profile: String,
-    /// A TOML device profile (see docs/pocketpc.md) instead of a built-in one.
-    #[arg(long, conflicts_with = "profile")]
-    profile_file: Option<PathBuf>,
-    /// wall: frame costs measured; simulated: modelled, so the run is reproducible.
-    #[arg(long, value_parser = named::<Clock>(), default_value = Clock::default().name())]
-    clock: Clock,
-    /// Framebuffer size [profile].
-    #[arg(long, value_parser = parse_size)]
-    size: Option<(u32, u32)>,
-    /// Colour format (rgb565 is the handheld's) [profile].
-    #[arg(long, value_parser = named::<ColorFormat>())]
-    color: Option<ColorFormat>,
-    /// Depth buffer bits: 16 or 32 [profile].
-    #[arg(long, value_parser = clap::value_parser!(u8).range(16..=32))]
-    depth_bits: Option<u8>,
-    /// The frame rate the triangle budget aims at [profile].
-    #[arg(long, allow_negative_numbers = true)]
-    target_fps: Option<f64>,
-    /// The pixel-error bound τ: no tile is drawn finer than needs this many pixels of
-    /// geometric error; 0 turns it off [profile].
-    #[arg(long)]
-    max_error_px: Option<f64>,
-    /// How the tiles in view share the triangle budget: importance (the paper's distance and
-    /// height shares) or error (the largest projected error first) [profile].
-    #[arg(long, value_parser = named::<Allocation>())]
-    allocation: Option<Allocation>,
-    /// Memory limit on loaded tiles, MB (10^6 bytes) [profile].
-    #[arg(long, conflicts_with = "memory_percent", allow_negative_numbers = true)]
-    memory_mb: Option<f64>,
-    /// Rasterizer threads (0: all cores) [profile].
-    #[arg(long)]
-    threads: Option<usize>,
-    /// Frame costs are multiplied by this (the device's CPU is this many times slower) [profile].
-    #[arg(long, allow_negative_numbers = true)]
-    cpu_slowdown: Option<f64>,
-    /// Link bandwidth, kilobits per second [profile].
-    #[arg(long, allow_negative_numbers = true)]
-    bandwidth_kbps: Option<f64>,
-    /// Link latency per request, milliseconds [profile].
-    #[arg(long, allow_negative_numbers = true)]
-    latency_ms: Option<f64>,
-    /// Each request's latency varies within ± this many milliseconds (seeded) [profile].
-    #[arg(long, allow_negative_numbers = true)]
-    jitter_ms: Option<f64>,
-    /// Fraction of requests the link drops, 0..1 [profile].
-    #[arg(long, allow_negative_numbers = true)]
-    drop_rate: Option<f64>,
-    /// Seed of the link's delays and drop decisions.
-    #[arg(long, default_value_t = LinkProfile::default().seed)]
-    seed: u64,
-}
-
-impl DeviceArgs {
-    /// The profile with the values given on the command line.
-    fn resolve(&self) -> Result<DeviceProfile> {
-        let overrides = Overrides {
-            size: self.size,
-            color: self.color,
-            depth: self.depth_bits.map(depth_format).transpose()?,
-            memory_mb: self.memory_mb,
-            target_fps: self.target_fps,
-            max_error_px: self.max_error_px,
-            allocation: self.allocation,
-            threads: self.threads,
-            cpu_slowdown: self.cpu_slowdown,
-            bandwidth_kbps: self.bandwidth_kbps,
-            latency_ms: self.latency_ms,
-            jitter_ms: self.jitter_ms,
-            drop_rate: self.drop_rate,
-        };
-        DeviceProfile::resolve(&self.profile, self.profile_file.as_deref(), &overrides)
     }
 }
 

@@ -4,15 +4,14 @@ use std::path::PathBuf;
 
 use clap::Args;
 use stripmask::Named;
-use stripmask::engine::allocation::Allocation;
 use stripmask::error::Result;
 use stripmask::sim::clock::Clock;
 use stripmask::sim::demo::DemoOptions;
-use stripmask::sim::device::{DeviceProfile, Overrides};
 use stripmask::sim::fly::LiveView;
 use stripmask_platform::Presenter;
 
 use super::args::{StreamingArgs, length, named, profile_name};
+use super::device::{Overrides, profile};
 
 /// `demo`'s arguments: the device, the clock, how long, and whether to show a window.
 #[derive(Args, Debug)]
@@ -29,12 +28,8 @@ pub(super) struct DemoArgs {
     /// A TOML device profile instead of a built-in one.
     #[arg(long, conflicts_with = "profile")]
     profile_file: Option<PathBuf>,
-    /// The pixel-error bound τ in pixels, 0 for off [profile].
-    #[arg(long)]
-    max_error_px: Option<f64>,
-    /// How tiles share the triangle budget: importance or error [profile].
-    #[arg(long, value_parser = named::<Allocation>())]
-    allocation: Option<Allocation>,
+    #[command(flatten)]
+    overrides: Overrides,
     /// simulated (reproducible) or wall (measured frame costs).
     #[arg(long, value_parser = named::<Clock>(), default_value = DemoOptions::default().clock.name())]
     clock: Clock,
@@ -62,15 +57,7 @@ pub(super) fn run(a: DemoArgs) -> Result<()> {
     let options = DemoOptions {
         out: a.out,
         dem: a.dem,
-        profile: DeviceProfile::resolve(
-            &a.profile,
-            a.profile_file.as_deref(),
-            &Overrides {
-                max_error_px: a.max_error_px,
-                allocation: a.allocation,
-                ..Overrides::default()
-            },
-        )?,
+        profile: profile(&a.profile, a.profile_file.as_deref(), &a.overrides)?,
         clock: a.clock,
         length: length(a.frames, a.seconds)?,
         every: a.every,

@@ -28,13 +28,18 @@ pub(super) struct FbArgs {
     /// An evdev keyboard (e.g. /dev/input/event0) to fly with the viewer's keys.
     #[arg(long)]
     input: Option<PathBuf>,
+    /// Draw frames of the screen's size straight into its memory while the HUD is off: no
+    /// frame buffer and no copy, but the screen shows each frame as it is drawn.
+    #[arg(long)]
+    in_place: bool,
 }
 
 /// Runs the viewer on the framebuffer until Ctrl-C (or `--frames`).
 #[cfg(all(feature = "fbdev", target_os = "linux"))]
 pub(super) fn run(a: FbArgs) -> Result<()> {
     let options = viewer_options(&a.view)?;
-    let mut screen = stripmask_platform::FbPresenter::open(&a.device, a.fit)?;
+    let mut screen =
+        stripmask_platform::FbPresenter::open(&a.device, a.fit)?.with_in_place(a.in_place);
     if let Some(path) = &a.input {
         screen = screen.with_input(stripmask_platform::EvdevInput::open(path)?);
     }

@@ -6,7 +6,7 @@ use std::time::Instant;
 use clap::Args;
 use serde::Serialize;
 use stripmask::db::archive::{ArchiveReader, CheckReport, Header, IndexEntry, VERSION};
-use stripmask::db::dem::{DemFormat, OpenOptions, expand, open_inputs};
+use stripmask::db::dem::{DemFormat, OpenOptions, Units, expand, open_inputs};
 use stripmask::db::source;
 use stripmask::error::Result;
 
@@ -44,6 +44,8 @@ struct InfoReport {
     stored_level_bytes_mean: Vec<f64>,
     /// Which tiles the means are over.
     measured: &'static str,
+    /// CRS coordinates of the model's corner samples (NW, NE, SW, SE), when georeferenced.
+    corners: Option<[(f64, f64); 4]>,
     check: Option<CheckReport>,
 }
 
@@ -115,6 +117,7 @@ impl InfoReport {
             stored_level_bytes_mean,
             measured,
             check,
+            corners: h.corners(),
             header: h,
         })
     }
@@ -152,6 +155,19 @@ impl InfoReport {
                 "spacing     {} m, vertical scale {} m per unit, origin ({}, {})",
                 h.spacing, h.vertical_scale, h.origin_x, h.origin_y
             ),
+            crs_line(h),
+        ];
+        lines.extend(self.corners.map(|c| {
+            let at = |(x, y): (f64, f64)| format!("({x}, {y})");
+            format!(
+                "corners     NW {}, NE {}, SW {}, SE {} (sample centres, in the CRS's units)",
+                at(c[0]),
+                at(c[1]),
+                at(c[2]),
+                at(c[3])
+            )
+        }));
+        lines.extend([
             format!(
                 "heights     {} .. {} m (valid samples) in quanta of {} m",
                 h.min_height, h.max_height, h.height_quantum
@@ -189,7 +205,7 @@ impl InfoReport {
                 self.measured,
                 levels.join(", ")
             ),
-        ];
+        ]);
         if let Some(c) = &self.check {
             lines.push(format!(
                 "check       {} tiles of every level verified and decoded ({} absent) in {:.3} s: \
@@ -198,6 +214,26 @@ impl InfoReport {
             ));
         }
         lines.iter().map(|l| format!("{l}\n")).collect()
+    }
+}
+
+/// The archive's CRS, or that it has none.
+fn crs_line(h: &Header) -> String {
+    match &h.georef {
+        Some(g) => {
+            let unit = match g.units {
+                Units::Degrees => "degrees".to_string(),
+                Units::Linear(m) => format!("linear units of {m} m"),
+                Units::WebMercator(m) => format!("Web Mercator units of {m} m"),
+            };
+            format!(
+                "crs         {} ({unit}); {} x {} CRS units between columns and rows",
+                g.crs, g.cell.0, g.cell.1
+            )
+        }
+        None => {
+            "crs         none stored: positions are given in the archive's own coordinates".into()
+        }
     }
 }
 

@@ -22,6 +22,7 @@ macro_rules! say_raw {
 mod args;
 mod build;
 mod demo;
+mod device;
 mod fb;
 mod fly;
 mod info;

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use clap::Args;
 use stripmask::Named;
 use stripmask::error::Result;
-use stripmask::sim::device::{DeviceProfile, Overrides};
+use stripmask::sim::device::DeviceProfile;
 use stripmask::sim::flight::Builtin;
 use stripmask::sim::stream_compare::{self as compare, CompareOptions, LINKS};
 
@@ -43,7 +43,7 @@ pub(super) fn run(a: StreamCompareArgs) -> Result<()> {
         flights: a.flights.unwrap_or_else(Builtin::all),
         links: LINKS.to_vec(),
         seconds: a.seconds,
-        profile: DeviceProfile::resolve(&a.profile, None, &Overrides::default())?,
+        profile: DeviceProfile::named(&a.profile)?,
         out: a.out.clone(),
         progress: !a.quiet,
     };

@@ -25,7 +25,9 @@ pub(super) struct ViewArgs {
     /// Steer the camera from a feed of poses: `stdin`, `udp:HOST:PORT` (one pose a datagram),
     /// or a recording to replay (a file). One pose a line: `TIME EAST NORTH ALTITUDE HEADING
     /// PITCH ROLL` (seconds; the archive's coordinates, metres; degrees clockwise from north, up,
-    /// right wing down).
+    /// right wing down), `geo TIME LATITUDE LONGITUDE ALTITUDE HEADING PITCH ROLL` (degrees,
+    /// heading from true north) on a georeferenced archive, or NMEA 0183 `$xxGGA` and `$xxRMC`
+    /// sentences from a GPS.
     #[arg(long, value_name = "SOURCE")]
     pose_from: Option<PoseSource>,
     #[command(flatten)]

@@ -25,9 +25,9 @@ use crate::named::Named;
 
 /// What one frame costs, in seconds of one core of this machine, as a function of what it drew.
 ///
-/// One core whatever the device's thread count: only the rows of a tile-sized draw are split
-/// between threads, and on this shared machine a second thread made frames slower, not faster
-/// (`examples/thread_cost.rs`), so there is no measured gain to credit (docs/pocketpc.md).
+/// One core whatever the device's thread count: a handheld's frame is below the rasterizer's
+/// split point and stays on one thread, and what a second thread gives a larger frame depends
+/// on the machine's load, not on the device (`examples/thread_cost.rs`, docs/pocketpc.md).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CostModel {
     /// Seconds per frame whatever it draws (clearing, culling, importance, set-up).

@@ -18,11 +18,12 @@ use crate::db::builder::{BuildOptions, build};
 use crate::db::dem::{MemoryReader, NodataFill};
 use crate::db::grid::TileId;
 use crate::db::source;
-use crate::engine::camera::Camera;
+use crate::engine::camera::View;
 use crate::engine::cracks::CrackMode;
 use crate::engine::error_bound::ErrorBound;
 use crate::engine::paging::PagerMode;
-use crate::engine::{Engine, EngineSettings};
+use crate::engine::viewport::Viewport;
+use crate::engine::{Engine, EngineSettings, FrameTiming};
 use crate::error::Result;
 
 /// The background of crack views: pure magenta, exact in RGB565, never a terrain colour.
@@ -51,16 +52,14 @@ pub fn pair_pattern(levels: usize) -> impl Fn(TileId) -> usize + Send + 'static 
 }
 
 /// The unordered level pairs `(low, high)` of neighbouring tiles whose shared edge has its
-/// midpoint on screen from `camera` (a frame's camera, its depth range set; its matrix is
-/// eye-relative).
+/// midpoint on screen in `view` (a frame's view; its matrix is eye-relative).
 pub fn pairs_in_view(
     engine: &Engine,
-    camera: &Camera,
-    aspect: f64,
+    view: &View,
     level_of: &dyn Fn(TileId) -> usize,
 ) -> BTreeSet<(usize, usize)> {
     let terrain = engine.terrain();
-    let view_projection = camera.view_projection(aspect);
+    let view_projection = view.view_projection();
     let side = terrain.tile_metres();
     let mut pairs = BTreeSet::new();
     for y in 0..terrain.tiles_y {
@@ -78,7 +77,7 @@ pub fn pairs_in_view(
                     continue;
                 };
                 mid.y = ground;
-                let clip = view_projection * DVec4::from((mid - camera.position, 1.0));
+                let clip = view_projection * DVec4::from((mid - view.camera.position, 1.0));
                 let ndc = clip.truncate() / clip.w;
                 if clip.w > 0.0 && ndc.x.abs() < 1.0 && ndc.y.abs() < 1.0 {
                     let (a, b) = (level_of(here), level_of(there));
@@ -95,6 +94,8 @@ pub const TILE_SIZE: usize = 9;
 const TILES_X: usize = 19;
 const TILES_Y: usize = 13;
 const SPACING: f64 = 30.0;
+/// The scene's vertical field of view: narrow, so that the tiles' borders span many pixels.
+const FOV_Y: f64 = 40.0 * (std::f64::consts::PI / 180.0);
 
 /// The crack scene: an archive and its views.
 #[derive(Clone, Debug)]
@@ -190,8 +191,9 @@ impl CrackScene {
                 fetches_per_update: 256,
             },
             threads: 1,
-            fov_y: 40f64.to_radians(),
             max_error: ErrorBound::Off,
+            // The scene's frames are measured at the budgets they are given.
+            frame_timing: FrameTiming::Told,
             ..EngineSettings::default()
         };
         settings.render.sky = BACKGROUND;
@@ -208,7 +210,8 @@ impl CrackScene {
     /// The same with `settings` (e.g. [`CrackScene::settings`] with geomorphing on).
     pub fn engine_with(&self, settings: EngineSettings, size: (u32, u32)) -> Result<Engine> {
         let source = source::open(&self.archive.display().to_string())?;
-        let mut engine = Engine::new(source, settings, size.1)?;
+        let viewport = Viewport::new(size.0, size.1).with_fov_y(FOV_Y);
+        let mut engine = Engine::new(source, settings, viewport)?;
         engine.force_levels(Some(Box::new(pair_pattern(TILE_SIZE - 1))));
         let mut fb = Framebuffer::new(size.0, size.1, ColorFormat::Rgb565, DepthFormat::D16)?;
         // The whole scene from high above at full resolution: the cut asks for every tile of
@@ -261,7 +264,6 @@ impl CrackScene {
         let mode = settings.cracks;
         let mut engine = self.engine_with(settings, size)?;
         let mut fb = Framebuffer::new(size.0, size.1, ColorFormat::Rgb565, DepthFormat::D16)?;
-        let aspect = f64::from(size.0) / f64::from(size.1);
         let level_of = pair_pattern(TILE_SIZE - 1);
         let mut m = CrackMeasurement {
             mode,
@@ -281,7 +283,7 @@ impl CrackScene {
                     m.triangles += report.draw.triangles;
                     m.mask_triangles += report.triangles as u64;
                     m.pairs
-                        .extend(pairs_in_view(&engine, &report.camera, aspect, &level_of));
+                        .extend(pairs_in_view(&engine, &report.view, &level_of));
                 }
             }
             times.sort();

@@ -151,9 +151,9 @@ fn link_text(p: &DeviceProfile) -> String {
     match p.link.bandwidth_kbps {
         Some(kbps) => format!(
             "{kbps} kbit/s, {} ms latency{}, {}% dropped",
-            p.link.latency_ms,
-            if p.link.jitter_ms > 0.0 {
-                format!(" ± {} ms", p.link.jitter_ms)
+            p.link.latency.as_nanos() as f64 / 1e6,
+            if !p.link.jitter.is_zero() {
+                format!(" ± {} ms", p.link.jitter.as_nanos() as f64 / 1e6)
             } else {
                 String::new()
             },
@@ -212,7 +212,7 @@ pub fn run_live(o: &DemoOptions, live: Option<LiveView<'_>>) -> Result<DemoSumma
         hud: true,
         progress: o.progress,
         clock,
-        link: (!p.link.is_unlimited()).then(|| p.link.to_link_profile(1)),
+        link: (!p.link.is_unlimited()).then_some(p.link),
         plots: true,
         http: crate::db::source::http::HttpOptions::default(),
     };

@@ -1,32 +1,14 @@
-//! Flight paths: timed keyframes of eye and gaze, built in or read from TOML.
+//! Flight paths: timed keyframes of eye and gaze, built in or read from TOML
+//! (`sim::flight_file`, with the `lab` feature).
 //!
 //! Between keyframes, positions and gaze targets follow a cubic Hermite curve with Catmull-Rom
 //! tangents (finite differences over time), so a path through the keys is smooth and passes
 //! through every one of them. A flight may be *terrain-following*: its heights are then metres
 //! above the ground under the eye, which the engine adds when it knows the ground there.
-//!
-//! TOML format (metres in the terrain frame: x east from the north-west corner, y up, z south):
-//!
-//! ```toml
-//! name = "along the ridge"
-//! above_ground = false   # true: y values are metres above the ground under the eye
-//! [[key]]
-//! t = 0.0                # seconds
-//! position = [1000.0, 2500.0, 1000.0]
-//! look_at = [20000.0, 0.0, 20000.0]
-//! [[key]]
-//! t = 30.0
-//! position = [40000.0, 1800.0, 30000.0]
-//! look_at = [60000.0, 0.0, 50000.0]
-//! ```
-
-use std::path::Path;
 
 use glam::DVec3;
-use serde::Deserialize;
 
 use crate::engine::terrain::TerrainFrame;
-use crate::error::{Error, Result};
 use crate::named::{Named, named_enum};
 
 /// One keyframe.
@@ -38,6 +20,9 @@ pub struct Key {
     pub position: DVec3,
     /// Point looked at, terrain-frame metres.
     pub target: DVec3,
+    /// Bank about the viewing direction, radians, positive to the right (see
+    /// [`Camera::roll`](crate::engine::camera::Camera::roll)).
+    pub roll: f64,
 }
 
 /// A timed path for the eye.
@@ -67,23 +52,6 @@ named_enum!(Builtin, "built-in flight", {
     Low => "low",
 });
 
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct FlightFile {
-    name: Option<String>,
-    #[serde(default)]
-    above_ground: bool,
-    key: Vec<KeyFile>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct KeyFile {
-    t: f64,
-    position: [f64; 3],
-    look_at: [f64; 3],
-}
-
 impl Flight {
     /// A flight through `keys`, which must be at least one, finite and strictly increasing in time.
     pub fn new(
@@ -95,7 +63,10 @@ impl Flight {
             return Err("a flight needs at least one key".into());
         }
         for (k, key) in keys.iter().enumerate() {
-            let finite = key.t.is_finite() && key.position.is_finite() && key.target.is_finite();
+            let finite = key.t.is_finite()
+                && key.position.is_finite()
+                && key.target.is_finite()
+                && key.roll.is_finite();
             if !finite {
                 return Err(format!("key {k} holds a non-finite number"));
             }
@@ -111,34 +82,6 @@ impl Flight {
             above_ground,
             keys,
         })
-    }
-
-    /// Reads a TOML flight file (format in the module documentation).
-    pub fn from_toml(path: &Path) -> Result<Flight> {
-        let name = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(&name, e))?;
-        let file: FlightFile =
-            toml::from_str(&text).map_err(|e| Error::invalid(&name, e.to_string()))?;
-        let keys = file
-            .key
-            .iter()
-            .map(|k| Key {
-                t: k.t,
-                position: DVec3::from_array(k.position),
-                target: DVec3::from_array(k.look_at),
-            })
-            .collect();
-        let label = file.name.unwrap_or_else(|| name.clone());
-        Flight::new(&label, file.above_ground, keys).map_err(|p| Error::invalid(&name, p))
-    }
-
-    /// The built-in flight called `name` scaled to the terrain, or else the TOML flight file at
-    /// the path `name`.
-    pub fn builtin_or_file(name: &str, terrain: &TerrainFrame) -> Result<Flight> {
-        match Builtin::from_name(name) {
-            Ok(which) => Ok(Flight::builtin(which, terrain)),
-            Err(_) => Flight::from_toml(Path::new(name)),
-        }
     }
 
     /// A built-in flight scaled to the terrain.
@@ -160,6 +103,7 @@ impl Flight {
                             position: centre
                                 + DVec3::new(radius * a.sin(), height, -radius * a.cos()),
                             target: centre,
+                            roll: 0.0,
                         }
                     })
                     .collect();
@@ -175,6 +119,7 @@ impl Flight {
                             t: 60.0 * k as f64 / 8.0,
                             position: at(f, height, f),
                             target: at(ahead, 0.0, ahead),
+                            roll: 0.0,
                         }
                     })
                     .collect();
@@ -196,6 +141,7 @@ impl Flight {
                             t: 60.0 * f,
                             position: here,
                             target: DVec3::new(ahead.x, clearance - 0.01 * size, ahead.z),
+                            roll: 0.0,
                         }
                     })
                     .collect();
@@ -235,6 +181,21 @@ impl Flight {
                 + m1 * (s3 - s2)
         };
         (hermite(|k| k.position), hermite(|k| k.target))
+    }
+
+    /// The bank at `t` seconds, radians: linear between keys, held before the first and after
+    /// the last.
+    pub fn roll_at(&self, t: f64) -> f64 {
+        let keys = &self.keys;
+        let t = t.clamp(keys[0].t, keys[keys.len() - 1].t);
+        let k = keys.partition_point(|key| key.t <= t).clamp(1, keys.len()) - 1;
+        match keys.get(k + 1) {
+            Some(b) => {
+                let a = &keys[k];
+                a.roll + (b.roll - a.roll) * (t - a.t) / (b.t - a.t)
+            }
+            None => keys[k].roll,
+        }
     }
 }
 
@@ -298,41 +259,5 @@ mod tests {
                 );
             }
         }
-    }
-
-    #[test]
-    fn toml_files_load_and_bad_ones_name_the_problem() {
-        let dir = tempfile::tempdir().unwrap();
-        let good = dir.path().join("good.toml");
-        std::fs::write(
-            &good,
-            "name = \"two keys\"\n[[key]]\nt = 0.0\nposition = [0.0, 100.0, 0.0]\n\
-             look_at = [50.0, 0.0, 50.0]\n[[key]]\nt = 10.0\nposition = [100.0, 100.0, 0.0]\n\
-             look_at = [150.0, 0.0, 50.0]\n",
-        )
-        .unwrap();
-        let f = Flight::from_toml(&good).unwrap();
-        assert_eq!(f.name, "two keys");
-        assert_eq!(f.duration(), 10.0);
-        let mid = f.at(5.0).0;
-        assert!((mid - DVec3::new(50.0, 100.0, 0.0)).length() < 1e-9);
-
-        let bad = dir.path().join("bad.toml");
-        std::fs::write(
-            &bad,
-            "[[key]]\nt = 1.0\nposition = [0.0, 1.0, 0.0]\nlook_at = [1.0, 0.0, 0.0]\n\
-             [[key]]\nt = 1.0\nposition = [0.0, 1.0, 0.0]\nlook_at = [1.0, 0.0, 0.0]\n",
-        )
-        .unwrap();
-        let err = Flight::from_toml(&bad).unwrap_err().to_string();
-        assert!(
-            err.contains("bad.toml") && err.contains("not later"),
-            "{err}"
-        );
-        std::fs::write(&bad, "[[key]]\nt = \"soon\"\n").unwrap();
-        let err = Flight::from_toml(&bad).unwrap_err().to_string();
-        assert!(err.contains("bad.toml"), "{err}");
-        let missing = Flight::from_toml(&dir.path().join("none.toml")).unwrap_err();
-        assert!(missing.to_string().contains("none.toml"));
     }
 }

@@ -21,9 +21,11 @@ use crate::db::source::http::HttpOptions;
 use crate::db::source::throttle::LinkProfile;
 use crate::db::source::watch::{Watch, Watched};
 use crate::engine::allocation::Allocation;
+use crate::engine::camera::Camera;
 use crate::engine::error_bound::Bound;
 use crate::engine::paging::{PagerMode, PagerStats};
-use crate::engine::{Engine, EngineSettings, FrameReport};
+use crate::engine::viewport::Viewport;
+use crate::engine::{Engine, EngineSettings, FrameReport, FrameTiming};
 use crate::error::{Error, Result};
 use crate::sim::clock::{Clock, connect};
 use crate::sim::flight::Flight;
@@ -202,7 +204,11 @@ pub fn fly_live(o: &FlyOptions, mut live: Option<LiveView<'_>>) -> Result<FlySum
     {
         let t = tally.t;
         let (eye, target) = o.flight.at(t);
-        let camera = engine.camera(eye, target, o.flight.above_ground);
+        let origin = engine.terrain().origin;
+        let camera = Camera {
+            roll: o.flight.roll_at(t),
+            ..engine.camera(origin + eye, origin + target, o.flight.above_ground)
+        };
         engine.set_time(t);
         let report = engine.render(&camera, &mut fb)?;
         let cost = o.clock.frame_seconds(&report);
@@ -254,9 +260,13 @@ fn flight_engine(o: &FlyOptions) -> Result<(Engine, Arc<Watch>)> {
     {
         settings.pager_mode = PagerMode::Simulated { queue_depth };
     }
+    // The flight tells the budget each frame's time by its clock: the device's, or the host's.
+    settings.frame_timing = FrameTiming::Told;
+    // A flight's eye is placed over ground that may not be held yet.
+    settings.lift_to_clearance = true;
     let (watched, watch) = Watched::new(source::open_with(&o.source, o.http)?);
     let (source, meter) = connect(Box::new(watched), o.link, &o.clock);
-    let mut engine = Engine::new(source, settings, o.size.1)?;
+    let mut engine = Engine::new(source, settings, Viewport::new(o.size.0, o.size.1))?;
     if let Some(meter) = meter {
         engine.set_transfer_clock(meter);
     }

@@ -18,7 +18,7 @@ pub fn hud_info(engine: &Engine, report: &FrameReport, fps: f64) -> HudInfo {
     let terrain = engine.terrain();
     // The map's frame is the model's own extent: its north-west corner is the grid's, and
     // tiles padded to whole size are cut at its east and south edges.
-    let (px, py) = terrain.tile_position(report.camera.position);
+    let (px, py) = terrain.tile_position(report.view.camera.position);
     let (ex, ey) = terrain.source_extent();
     let (ex, ey) = (ex / terrain.tile_metres(), ey / terrain.tile_metres());
     let cells = |extent: f64, tiles: u32| (extent.ceil() as u32).clamp(1, tiles);
@@ -74,7 +74,7 @@ pub fn hud_info(engine: &Engine, report: &FrameReport, fps: f64) -> HudInfo {
             height: mh,
             cells,
             viewer: ((px - f64::from(x0)) as f32, (py - f64::from(y0)) as f32),
-            heading: report.camera.heading() as f32,
+            heading: report.view.camera.heading() as f32,
             importance: Some(importance),
             extent: Some(((ex - f64::from(x0)) as f32, (ey - f64::from(y0)) as f32)),
         }),

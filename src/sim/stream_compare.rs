@@ -13,20 +13,23 @@
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+use std::time::Duration;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use stripmask_raster::Framebuffer;
 
 use crate::db::archive::ArchiveReader;
 use crate::db::source;
+use crate::db::source::throttle::LinkProfile;
 use crate::engine::budget::BudgetController;
 use crate::engine::paging::PagerMode;
 use crate::engine::paging::stream::{PredictionSettings, StreamSettings, Streaming};
 use crate::engine::terrain::TerrainFrame;
-use crate::engine::{Engine, EngineSettings};
+use crate::engine::viewport::Viewport;
+use crate::engine::{Engine, EngineSettings, FrameTiming};
 use crate::error::{Error, Result};
 use crate::sim::clock::{Clock, CostModel, connect};
-use crate::sim::device::{DeviceProfile, Link};
+use crate::sim::device::DeviceProfile;
 use crate::sim::flight::{Builtin, Flight};
 use crate::sim::holes::HoleTally;
 
@@ -62,7 +65,7 @@ pub struct LinkCase {
     /// Name in the table.
     pub name: &'static str,
     /// The link.
-    pub link: Link,
+    pub link: LinkProfile,
 }
 
 /// The three links of the comparison: the paper's 1 Mbit/s line, a USB 1.1 cradle (12 Mbit/s
@@ -71,31 +74,29 @@ pub struct LinkCase {
 pub const LINKS: [LinkCase; 3] = [
     LinkCase {
         name: "1 Mbit/s",
-        link: Link {
+        link: LinkProfile {
             bandwidth_kbps: Some(1000.0),
-            latency_ms: 50.0,
-            jitter_ms: 0.0,
-            drop_rate: 0.0,
+            latency: Duration::from_millis(50),
+            ..LinkProfile::UNLIMITED
         },
     },
     LinkCase {
         name: "USB",
-        link: Link {
+        link: LinkProfile {
             bandwidth_kbps: Some(8000.0),
-            latency_ms: 1.0,
-            jitter_ms: 0.0,
-            drop_rate: 0.0,
+            latency: Duration::from_millis(1),
+            ..LinkProfile::UNLIMITED
         },
     },
     LinkCase {
         name: "local",
-        link: Link::UNLIMITED,
+        link: LinkProfile::UNLIMITED,
     },
 ];
 
-/// How tiles come in, for the table.
+/// How tiles come in, one row of the table each.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Strategy {
+pub enum StreamingCase {
     /// The paper's whole-tile belts.
     Belts,
     /// Progressive levels as the view needs them, no prediction (the default).
@@ -104,24 +105,28 @@ pub enum Strategy {
     Predicted,
 }
 
-impl Strategy {
+impl StreamingCase {
     /// Every strategy, in table order.
-    pub const ALL: [Strategy; 3] = [Strategy::Belts, Strategy::Progressive, Strategy::Predicted];
+    pub const ALL: [StreamingCase; 3] = [
+        StreamingCase::Belts,
+        StreamingCase::Progressive,
+        StreamingCase::Predicted,
+    ];
 
     /// Name in the table.
     pub fn name(self) -> &'static str {
         match self {
-            Strategy::Belts => "whole-tile belts",
-            Strategy::Progressive => "progressive",
-            Strategy::Predicted => "progressive + prediction",
+            StreamingCase::Belts => "whole-tile belts",
+            StreamingCase::Progressive => "progressive",
+            StreamingCase::Predicted => "progressive + prediction",
         }
     }
 
     fn streaming(self) -> Streaming {
         match self {
-            Strategy::Belts => Streaming::Belts,
-            Strategy::Progressive => Streaming::Progressive(StreamSettings::default()),
-            Strategy::Predicted => Streaming::Progressive(StreamSettings {
+            StreamingCase::Belts => Streaming::Belts,
+            StreamingCase::Progressive => Streaming::Progressive(StreamSettings::default()),
+            StreamingCase::Predicted => Streaming::Progressive(StreamSettings {
                 prediction: Some(PredictionSettings::default()),
                 ..StreamSettings::default()
             }),
@@ -156,7 +161,7 @@ pub struct RunResult {
     /// The link's name.
     pub link: &'static str,
     /// How tiles came in.
-    pub strategy: Strategy,
+    pub strategy: StreamingCase,
     /// Frames drawn.
     pub frames: u64,
     /// Bytes downloaded.
@@ -191,7 +196,7 @@ pub fn compare(o: &CompareOptions) -> Result<Vec<RunResult>> {
         let reader = ArchiveReader::open(source::open(&o.source)?)?;
         TerrainFrame::new(reader.header())
     };
-    let runs = o.flights.len() * o.links.len() * Strategy::ALL.len();
+    let runs = o.flights.len() * o.links.len() * StreamingCase::ALL.len();
     let bar = if o.progress {
         let bar = ProgressBar::new(runs as u64);
         bar.set_style(
@@ -220,11 +225,11 @@ pub fn compare(o: &CompareOptions) -> Result<Vec<RunResult>> {
             .or(o.links.last())
             .copied();
         let radius = match reference {
-            Some(link) => run(link, Strategy::Belts).fly(None)?.1,
+            Some(link) => run(link, StreamingCase::Belts).fly(None)?.1,
             None => None,
         };
         for link in &o.links {
-            for strategy in Strategy::ALL {
+            for strategy in StreamingCase::ALL {
                 bar.set_message(format!("{flight:?}, {}, {}", link.name, strategy.name()));
                 results.push(run(*link, strategy).fly(radius)?.0);
                 bar.inc(1);
@@ -241,7 +246,7 @@ struct Run<'a> {
     terrain: &'a TerrainFrame,
     flight: Builtin,
     link: LinkCase,
-    strategy: Strategy,
+    strategy: StreamingCase,
 }
 
 impl Run<'_> {
@@ -259,6 +264,8 @@ impl Run<'_> {
             pager_mode: PagerMode::Simulated { queue_depth: 4 },
             streaming: self.strategy.streaming(),
             allocation: p.allocation,
+            frame_timing: FrameTiming::Told,
+            lift_to_clearance: true,
             ..EngineSettings::default()
         };
         settings.budget = p.budget(clock);
@@ -266,9 +273,9 @@ impl Run<'_> {
         // target (where the controller starts), not against the budgets the run's frames had.
         let steady = BudgetController::new(settings.budget).budget();
         let reference_budgets = reference_budgets(steady);
-        let link = (!self.link.link.is_unlimited()).then(|| self.link.link.to_link_profile(1));
+        let link = (!self.link.link.is_unlimited()).then_some(self.link.link);
         let (source, meter) = connect(source::open(&self.options.source)?, link, &clock);
-        let mut engine = Engine::new(source, settings, p.height)?;
+        let mut engine = Engine::new(source, settings, Viewport::new(p.width, p.height))?;
         if let Some(meter) = meter {
             engine.set_transfer_clock(meter);
         }
@@ -292,9 +299,8 @@ impl Run<'_> {
             reached = reached.max(report.pager.complete_belts);
             if first_complete_s.is_none()
                 && report.rendered_tiles > 0
-                && radius.is_some_and(|r| {
-                    engine.holds_view(&report.camera, (p.width, p.height), r, &reference_budgets)
-                })
+                && radius
+                    .is_some_and(|r| engine.holds_view(&report.view.camera, r, &reference_budgets))
             {
                 first_complete_s = Some(t);
             }

@@ -13,15 +13,17 @@ use std::time::Instant;
 
 use glam::DVec3;
 use stripmask_platform::{Command, Hud, Input, Presenter};
-use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer, Precision};
+use stripmask_raster::{ColorFormat, DepthBuffer, DepthFormat, Framebuffer, Precision};
 
 use crate::db::source;
 use crate::engine::camera::Camera;
-use crate::engine::{Engine, EngineSettings};
+use crate::engine::viewport::Viewport;
+use crate::engine::{Engine, EngineSettings, FrameTiming};
 use crate::error::Result;
 use crate::sim::clock::Clock;
 use crate::sim::flight::Flight;
 use crate::sim::hud::hud_info;
+use crate::sim::pose::line::PoseDecoder;
 use crate::sim::pose::{PoseFeed, PoseSource};
 
 /// What the viewer shows and how.
@@ -194,10 +196,26 @@ pub fn run(presenter: &mut dyn Presenter, o: &ViewerOptions) -> Result<ViewerSum
     let (mut w, mut h) = o.size;
     let new_fb = |w: u32, h: u32| Framebuffer::new(w, h, o.color, o.depth);
     let mut fb = new_fb(w, h)?;
-    let mut engine = Engine::new(source::open(&o.source)?, o.engine, h)?;
+    // The depth buffer of frames drawn straight into the screen, kept from frame to frame;
+    // dropped the first time the presenter lends no screen.
+    let mut screen_depth = Some(DepthBuffer::new(w, h, o.depth));
+    // The viewer tells the budget each frame's time by its clock: the device's, or the host's.
+    let settings = EngineSettings {
+        frame_timing: FrameTiming::Told,
+        lift_to_clearance: true,
+        ..o.engine
+    };
+    let mut engine = Engine::new(source::open(&o.source)?, settings, Viewport::new(w, h))?;
+    // The feed places latitudes and longitudes by the archive's header.
+    let feed = match &o.poses {
+        Some(poses) => {
+            let decoder = PoseDecoder::new(engine.archive_name(), engine.header().clone());
+            Some(PoseFeed::open(poses, decoder)?)
+        }
+        None => None,
+    };
     let mut hud = Hud::new(o.hud);
     let mut pilot = Pilot::new(engine.terrain().tile_metres());
-    let feed = o.poses.as_ref().map(PoseFeed::open).transpose()?;
     let mut frames = 0u64;
     let started = Instant::now();
     let mut last = Instant::now();
@@ -211,6 +229,10 @@ pub fn run(presenter: &mut dyn Presenter, o: &ViewerOptions) -> Result<ViewerSum
         if let Some((nw, nh)) = input.resized.filter(|&(nw, nh)| nw > 0 && nh > 0) {
             (w, h) = (nw, nh);
             fb = new_fb(w, h)?;
+            engine.resize(w, h)?;
+            if screen_depth.is_some() {
+                screen_depth = Some(DepthBuffer::new(w, h, o.depth));
+            }
         }
         for &command in &input.commands {
             if !hud.apply(command) {
@@ -229,6 +251,9 @@ pub fn run(presenter: &mut dyn Presenter, o: &ViewerOptions) -> Result<ViewerSum
         } else {
             started.elapsed().as_secs_f64()
         };
+        if let Some(f) = &feed {
+            f.check()?;
+        }
         let camera = match feed.as_ref().and_then(|f| f.at(now)) {
             Some((pose, _)) => pose.camera(&engine),
             None => pilot.camera(&engine, &o.flight, &input, dt),
@@ -237,11 +262,33 @@ pub fn run(presenter: &mut dyn Presenter, o: &ViewerOptions) -> Result<ViewerSum
         if o.clock.is_simulated() {
             engine.set_time(simulated_t);
         }
-        let report = engine.render(&camera, &mut fb)?;
-        let mut info = hud_info(&engine, &report, 1.0 / dt.max(1e-6));
-        info.status = feed.as_ref().map(|f| f.status(now));
-        let overlay = hud.render(&info, w, h);
-        presenter.present(&fb, overlay)?;
+        // Without a HUD to composite, a frame the size of the screen is drawn straight into
+        // the screen's memory when the presenter lends it (the framebuffer's mapped pages).
+        let mut refused = false;
+        let direct = match screen_depth.as_mut().filter(|_| !hud.is_enabled()) {
+            Some(depth) => match presenter.surface(depth)? {
+                Some(mut screen) => Some(engine.render(&camera, &mut screen)?),
+                None => {
+                    refused = true;
+                    None
+                }
+            },
+            None => None,
+        };
+        if refused {
+            screen_depth = None;
+        }
+        let report = match direct {
+            Some(report) => report,
+            None => {
+                let report = engine.render(&camera, &mut fb)?;
+                let mut info = hud_info(&engine, &report, 1.0 / dt.max(1e-6));
+                info.status = feed.as_ref().map(|f| f.status(now));
+                let overlay = hud.render(&info, w, h);
+                presenter.present(&fb, overlay)?;
+                report
+            }
+        };
         let seconds = if o.clock.is_simulated() {
             o.clock.frame_seconds(&report)
         } else {
@@ -271,7 +318,9 @@ mod tests {
     use crate::engine::paging::PagerMode;
     use crate::sim::flight::{Builtin, Flight};
     use stripmask_platform::{Command, Input, Motion, Overlay, PlatformError, Presenter};
-    use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
+    use stripmask_raster::{
+        ColorFormat, DepthBuffer, DepthFormat, Framebuffer, PixelLayout, Surface, rgb565_to_rgb,
+    };
 
     /// Plays back a list of inputs, one per frame, and records what it was shown.
     struct Script {
@@ -296,6 +345,71 @@ mod tests {
                 quit: true,
                 ..Input::default()
             })
+        }
+    }
+
+    /// A screen whose memory the viewer draws into: RGB565 rows of 168 pixels, 8 of them
+    /// padding; `present` is never needed.
+    struct Screen {
+        pixels: Vec<u16>,
+        frames: usize,
+    }
+
+    impl Presenter for Screen {
+        fn present(&mut self, _: &Framebuffer, _: Option<&Overlay>) -> Result<(), PlatformError> {
+            panic!("a frame drawn into the screen is not presented")
+        }
+
+        fn surface<'a>(
+            &'a mut self,
+            depth: &'a mut DepthBuffer,
+        ) -> Result<Option<Surface<'a>>, PlatformError> {
+            if self.frames == 4 {
+                return Ok(None);
+            }
+            self.frames += 1;
+            let memory = bytemuck::cast_slice_mut(&mut self.pixels);
+            Ok(Some(
+                Surface::new(memory, 160, 120, 168 * 2, PixelLayout::Rgb565)?.with_depth(depth)?,
+            ))
+        }
+
+        fn poll_input(&mut self) -> Input {
+            Input {
+                quit: self.frames == 4,
+                ..Input::default()
+            }
+        }
+    }
+
+    #[test]
+    fn without_a_hud_frames_are_drawn_straight_into_a_lent_screen() {
+        let dir = tempfile::tempdir().unwrap();
+        let (path, terrain) = waves(dir.path());
+        let poses = dir.path().join("poses.txt");
+        std::fs::write(&poses, "0 1280 -1280 600 45 -60 20\n").unwrap();
+        let o = ViewerOptions {
+            hud: false,
+            poses: Some(super::PoseSource::File(poses)),
+            ..options(&path, &terrain)
+        };
+        let mut screen = Screen {
+            pixels: vec![0xABCD; 168 * 120],
+            frames: 0,
+        };
+        run(&mut screen, &o).unwrap();
+        let mut script = Script {
+            inputs: std::iter::repeat_n(Input::default(), 4).collect(),
+            shown: Vec::new(),
+        };
+        run(&mut script, &o).unwrap();
+        let presented = &script.shown[3].3;
+        for (y, row) in screen.pixels.chunks(168).enumerate() {
+            assert!(row[160..].iter().all(|&p| p == 0xABCD), "row {y}'s padding");
+            for (x, &p) in row[..160].iter().enumerate() {
+                let k = 4 * (y * 160 + x);
+                assert_eq!(rgb565_to_rgb(p), presented[k..k + 3], "pixel ({x}, {y})");
+            }
         }
     }
 

@@ -14,14 +14,15 @@ use super::knobs::{Budget, Setting};
 use super::metrics::{ImageError, compare};
 use super::reference::Reference;
 use super::sweep::Entry;
-use super::views::View;
+use super::views::Viewpoint;
 use crate::db::source;
 use crate::engine::camera::Camera;
 use crate::engine::cracks::CrackMode;
 use crate::engine::error_bound::ErrorBound;
 use crate::engine::geomorph::Geomorph;
 use crate::engine::paging::PagerMode;
-use crate::engine::{Engine, EngineSettings, FrameReport};
+use crate::engine::viewport::Viewport;
+use crate::engine::{Engine, EngineSettings, FrameReport, FrameTiming};
 use crate::error::{Error, Result};
 
 /// The most frames a view is rendered to settle: the pyramid's levels come one a frame.
@@ -53,13 +54,13 @@ pub struct Bench {
     size: (u32, u32),
     engines: Vec<((CrackMode, Geomorph, usize), Engine)>,
     framebuffers: HashMap<(ColorFormat, DepthFormat), Framebuffer>,
-    views: Vec<View>,
+    views: Vec<Viewpoint>,
     cameras: Vec<Camera>,
 }
 
 impl Bench {
     /// A bench over the archive `source` for frames of `size`, showing `views`.
-    pub fn new(source: &str, size: (u32, u32), views: Vec<View>) -> Result<Bench> {
+    pub fn new(source: &str, size: (u32, u32), views: Vec<Viewpoint>) -> Result<Bench> {
         let mut bench = Bench {
             source: source.to_string(),
             size,
@@ -72,8 +73,8 @@ impl Bench {
         // know where it is.
         let views = bench.views.clone();
         let engine = bench.engine(CrackMode::default(), Geomorph::Off, 1)?;
-        let mut fb =
-            Framebuffer::new(1, 1, ColorFormat::Rgba8888, DepthFormat::D16).expect("a 1 x 1 frame");
+        let (w, h) = size;
+        let mut fb = Framebuffer::new(w, h, ColorFormat::Rgb565, DepthFormat::D16)?;
         for v in &views {
             engine.render(&engine.camera(v.eye, v.target, v.above_ground), &mut fb)?;
         }
@@ -85,7 +86,7 @@ impl Bench {
     }
 
     /// The views, in order.
-    pub fn views(&self) -> &[View] {
+    pub fn views(&self) -> &[Viewpoint] {
         &self.views
     }
 
@@ -102,7 +103,7 @@ impl Bench {
         repeats: usize,
         references: &mut [Box<dyn Reference>],
         threshold: u8,
-        progress: &dyn Fn(&View),
+        progress: &dyn Fn(&Viewpoint),
     ) -> Result<(Vec<Measurement>, Vec<Vec<RgbaImage>>)> {
         let repeats = repeats.max(1);
         let views = self.cameras.len().max(1) as f64;
@@ -166,8 +167,8 @@ impl Bench {
     /// frame), and checks that every level-0 tile is loaded.
     fn settle(&mut self, v: usize) -> Result<()> {
         let camera = self.cameras[v];
-        let mut fb =
-            Framebuffer::new(1, 1, ColorFormat::Rgba8888, DepthFormat::D16).expect("a 1 x 1 frame");
+        let (w, h) = self.size;
+        let mut fb = Framebuffer::new(w, h, ColorFormat::Rgb565, DepthFormat::D16)?;
         for (_, engine) in &mut self.engines {
             // At full resolution, the deepest cut any setting draws: every tile is there for all.
             engine.set_max_error(ErrorBound::Off);
@@ -248,9 +249,15 @@ impl Bench {
             pager_mode: PagerMode::Stepped {
                 fetches_per_update: usize::MAX,
             },
+            // Every frame at a held budget.
+            frame_timing: FrameTiming::Told,
             ..EngineSettings::default()
         };
-        let engine = Engine::new(source::open(&self.source)?, settings, self.size.1)?;
+        let engine = Engine::new(
+            source::open(&self.source)?,
+            settings,
+            Viewport::new(self.size.0, self.size.1),
+        )?;
         self.engines.push((key, engine));
         Ok(&mut self.engines.last_mut().expect("pushed").1)
     }

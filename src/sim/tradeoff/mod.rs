@@ -29,7 +29,7 @@ use knobs::Setting;
 use measure::{Bench, Measurement};
 use reference::Reference;
 use sweep::Entry;
-use views::View;
+use views::Viewpoint;
 
 /// What a run measures and where it writes.
 pub struct TradeoffOptions {
@@ -79,7 +79,7 @@ pub struct TradeoffReport {
     /// The archive measured.
     pub source: String,
     /// The views, in order.
-    pub views: Vec<View>,
+    pub views: Vec<Viewpoint>,
     /// Reference names, in the order of each measurement's errors.
     pub references: Vec<String>,
     /// Frame size.
@@ -140,7 +140,7 @@ pub fn run_with(
     let entries = sweep::plan(&all_knobs, options.knobs.as_deref(), defaults);
 
     let mut bench = Bench::new(&options.source, options.size, views)?;
-    let progress = |view: &View| {
+    let progress = |view: &Viewpoint| {
         if options.progress {
             eprintln!("view {}: {} settings", view.name, entries.len());
         }

@@ -8,7 +8,7 @@ use crate::sim::flight::Flight;
 
 /// One view: an eye and a point looked at, terrain-frame metres.
 #[derive(Clone, Debug, PartialEq)]
-pub struct View {
+pub struct Viewpoint {
     /// Name in tables and file names.
     pub name: String,
     /// Eye position.
@@ -21,12 +21,12 @@ pub struct View {
 
 /// The built-in views: high overview, the paper's oblique flyover, low and grazing, towards the
 /// horizon (far depth precision), and straight down (texture magnification).
-pub fn builtin(terrain: &TerrainFrame) -> Vec<View> {
+pub fn builtin(terrain: &TerrainFrame) -> Vec<Viewpoint> {
     let (w, d) = terrain.extent();
     let (_, top) = terrain.heights;
     let size = w.max(d);
     let at = |fx: f64, y: f64, fz: f64| DVec3::new(fx * w, y, fz * d);
-    let view = |name: &str, eye, target, above_ground| View {
+    let view = |name: &str, eye, target, above_ground| Viewpoint {
         name: name.into(),
         eye,
         target,
@@ -62,7 +62,7 @@ pub fn builtin(terrain: &TerrainFrame) -> Vec<View> {
 }
 
 /// `count` views at even times along `flight`, first and last key included.
-pub fn from_flight(flight: &Flight, count: usize) -> Vec<View> {
+pub fn from_flight(flight: &Flight, count: usize) -> Vec<Viewpoint> {
     (0..count)
         .map(|k| {
             let t = if count > 1 {
@@ -71,7 +71,7 @@ pub fn from_flight(flight: &Flight, count: usize) -> Vec<View> {
                 0.0
             };
             let (eye, target) = flight.at(t);
-            View {
+            Viewpoint {
                 name: format!("{}@{t:.0}s", flight.name),
                 eye,
                 target,

@@ -22,14 +22,16 @@ use stripmask::db::grid::TileId;
 use stripmask::db::tile::Tile;
 use stripmask::engine::allocation::{Allocation, TileErrors};
 use stripmask::engine::budget::{BudgetController, BudgetSettings};
-use stripmask::engine::camera::Camera;
+use stripmask::engine::camera::{Camera, View};
 use stripmask::engine::cracks::CrackMode;
 use stripmask::engine::cut::{CutSettings, Holdings, LastFrame, cut};
 use stripmask::engine::frustum::{Aabb, Frustum};
 use stripmask::engine::importance::{TileMeasure, Weights, visual_importance};
 use stripmask::engine::masks::{LevelSet, MaskSet};
-use stripmask::engine::resident::{Light, ResidentTile};
+use stripmask::engine::resident::ResidentTile;
+use stripmask::engine::shading::Light;
 use stripmask::engine::terrain::TerrainFrame;
+use stripmask::engine::viewport::Viewport;
 
 /// Tile side in metres: 64 cells of 10 m.
 const TILE: f64 = 640.0;
@@ -275,6 +277,7 @@ fn cuts(c: &mut Criterion) {
             top_offset: 0,
             top_len: 0,
             archive_len: 0,
+            georef: None,
         };
         let terrain = TerrainFrame::new(&header);
         let pyramid = header.pyramid();
@@ -294,31 +297,21 @@ fn cuts(c: &mut Criterion) {
                 })
                 .collect(),
         };
-        let mut camera = Camera::looking_at(
+        let camera = Camera::looking_at(
             DVec3::new(3000.0, 1800.0, 3000.0),
             DVec3::new(23_000.0, 0.0, 23_000.0),
         );
-        camera.near = 1.0;
-        camera.far = 1e7;
+        let view = View::new(camera, Viewport::new(320, 240), 1.0, 1e7);
         let settings = CutSettings {
             max_error_px: Some(1.0),
             water_px: None,
-            height: 240,
             clearance: 1.0,
         };
         let last = LastFrame::default();
         let drawn = || {
-            cut(
-                &held,
-                &terrain,
-                &pyramid,
-                &camera,
-                4.0 / 3.0,
-                &settings,
-                &last,
-            )
-            .tiles
-            .len()
+            cut(&held, &terrain, &pyramid, &view, &settings, &last)
+                .tiles
+                .len()
         };
         println!("cut over {side}² tiles: {} drawn", drawn());
         c.bench_function(&format!("cut_over_{side}x{side}_tiles"), |b| {

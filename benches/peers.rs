@@ -26,11 +26,12 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use stripmask::Viewport;
 use stripmask::db::source;
 use stripmask::engine::camera::Camera;
 use stripmask::engine::paging::PagerMode;
 use stripmask::engine::terrain::TerrainFrame;
-use stripmask::engine::{Engine, EngineSettings};
+use stripmask::engine::{Engine, EngineSettings, FrameTiming};
 use stripmask::sim::device::DeviceProfile;
 use stripmask::sim::flight::{Builtin, Flight};
 use stripmask_raster::Framebuffer;
@@ -88,13 +89,14 @@ fn engine(archive: &Path, p: &DeviceProfile, threads: usize) -> Result<Engine> {
         pager_mode: PagerMode::Stepped {
             fetches_per_update: 1024,
         },
+        frame_timing: FrameTiming::Told,
         ..EngineSettings::default()
     };
     settings.budget.target_fps = p.target_fps;
     Ok(Engine::new(
         source::open(&archive.to_string_lossy())?,
         settings,
-        p.height,
+        Viewport::new(p.width, p.height),
     )?)
 }
 

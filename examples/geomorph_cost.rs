@@ -16,12 +16,13 @@
 //! instructions.
 
 use cpu_time::ProcessTime;
+use stripmask::Viewport;
 use stripmask::db::archive::ArchiveReader;
 use stripmask::db::source;
 use stripmask::engine::geomorph::Geomorph;
 use stripmask::engine::paging::PagerMode;
 use stripmask::engine::terrain::TerrainFrame;
-use stripmask::engine::{Engine, EngineSettings};
+use stripmask::engine::{Engine, EngineSettings, FrameTiming};
 use stripmask::named::Named;
 use stripmask::sim::flight::{Builtin, Flight};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
@@ -54,9 +55,14 @@ fn engine(archive: &str, geomorph: Geomorph) -> Result<Engine> {
         pager_mode: PagerMode::Stepped {
             fetches_per_update: usize::MAX,
         },
+        frame_timing: FrameTiming::Told,
         ..EngineSettings::default()
     };
-    let mut engine = Engine::new(source::open(archive)?, settings, SIZE.1)?;
+    let mut engine = Engine::new(
+        source::open(archive)?,
+        settings,
+        Viewport::new(SIZE.0, SIZE.1),
+    )?;
     engine.hold_budget(BUDGET);
     Ok(engine)
 }

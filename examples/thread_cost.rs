@@ -19,11 +19,12 @@
 
 use std::time::Instant;
 
+use stripmask::Viewport;
 use stripmask::db::archive::ArchiveReader;
 use stripmask::db::source;
 use stripmask::engine::paging::PagerMode;
 use stripmask::engine::terrain::TerrainFrame;
-use stripmask::engine::{Engine, EngineSettings};
+use stripmask::engine::{Engine, EngineSettings, FrameTiming};
 use stripmask::sim::clock::CostModel;
 use stripmask::sim::device::DeviceProfile;
 use stripmask::sim::flight::{Builtin, Flight};
@@ -40,10 +41,15 @@ fn engine(archive: &str, p: &DeviceProfile, threads: usize) -> Result<Engine> {
         pager_mode: PagerMode::Stepped {
             fetches_per_update: 1024,
         },
+        frame_timing: FrameTiming::Told,
         ..EngineSettings::default()
     };
     settings.budget.target_fps = p.target_fps;
-    Ok(Engine::new(source::open(archive)?, settings, p.height)?)
+    Ok(Engine::new(
+        source::open(archive)?,
+        settings,
+        Viewport::new(p.width, p.height),
+    )?)
 }
 
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;

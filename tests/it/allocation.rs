@@ -6,7 +6,7 @@ use glam::DVec3;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};
 use stripmask::engine::allocation::Allocation;
-use stripmask::engine::{Engine, EngineSettings};
+use stripmask::engine::{Engine, EngineSettings, FrameTiming};
 use stripmask::{Bound, ErrorBound};
 use stripmask_raster::Framebuffer;
 
@@ -18,6 +18,7 @@ fn loaded(dir: &std::path::Path) -> (Engine, Framebuffer) {
         EngineSettings {
             max_error: ErrorBound::Off,
             fit_cut_to_budget: false,
+            frame_timing: FrameTiming::Told,
             ..EngineSettings::default()
         },
     )

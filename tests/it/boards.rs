@@ -25,6 +25,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use image::{ImageBuffer, Luma, RgbImage, RgbaImage};
+use stripmask::FrameTiming;
 use stripmask::db::archive::ArchiveReader;
 use stripmask::engine::EngineSettings;
 use stripmask::engine::terrain::TerrainFrame;
@@ -166,6 +167,7 @@ fn viewer_on_host(
         memory_limit_bytes: p.memory_limit_bytes(),
         threads: p.threads,
         pager_mode: clock.pager_mode(4),
+        frame_timing: FrameTiming::Told,
         ..EngineSettings::default()
     };
     engine.budget.target_fps = p.target_fps;
@@ -774,7 +776,8 @@ fn board_test(name: &'static str, color: &str) {
         _ => ColorFormat::Rgba8888,
     };
 
-    // 1. The fixed flight, drawn by the board's kernel driver, against the host's PNG.
+    // 1. The fixed flight, drawn straight into the board's screen memory (`--in-place`), against
+    //    the host's PNG: the screen keeps the last frame, whole, when the run ends.
     let args = scene_args(screen.size, color, "diagonal");
     let expected = fly_on_host(&archive, &work.path().join("fly"), FLIGHT_FRAMES, &args);
     let colours: std::collections::HashSet<[u8; 4]> = expected.pixels().map(|p| p.0).collect();
@@ -784,7 +787,7 @@ fn board_test(name: &'static str, color: &str) {
         colours.len()
     );
     machine.run(&format!(
-        "stripmask fb /data/terrain.smdb --no-hud --frames {FLIGHT_FRAMES} {}",
+        "stripmask fb /data/terrain.smdb --no-hud --in-place --frames {FLIGHT_FRAMES} {}",
         args.join(" ")
     ));
     let captured = machine.settled_screen(Duration::from_millis(300));

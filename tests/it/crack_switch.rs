@@ -7,6 +7,7 @@ use crate::support::crack_scene;
 
 use crack_scene::scene;
 use glam::DVec3;
+use stripmask::Viewport;
 use stripmask::db::source;
 use stripmask::db::tile::{PartialGrid, progressive_levels};
 use stripmask::engine::cracks::CrackMode;
@@ -138,7 +139,7 @@ fn mode_over_the_limit(overview: bool) {
     let limit = ((top + 50 * plain) as f64 / (1.0 - FAR_SHARE)).ceil() as usize;
     settings.memory_limit_bytes = limit + index_allowance(limit);
     let source = source::open(&scene.archive.display().to_string()).unwrap();
-    let mut engine = Engine::new(source, settings, SIZE.1).unwrap();
+    let mut engine = Engine::new(source, settings, Viewport::new(SIZE.0, SIZE.1)).unwrap();
     // The whole scene from above first: its cut asks for more tiles of the levels above 0 than
     // the far field's share holds, which fills it; then the view, whose square fills the rest.
     let (eye, target) = scene.views[9];
@@ -223,7 +224,7 @@ fn tiles_in_flight_during_a_switch_arrive_in_the_new_mode() {
     let mut settings = CrackScene::settings(CrackMode::None);
     settings.pager_mode = PagerMode::Simulated { queue_depth: 8 };
     let source = source::open(&scene.archive.display().to_string()).unwrap();
-    let mut engine = Engine::new(source, settings, SIZE.1).unwrap();
+    let mut engine = Engine::new(source, settings, Viewport::new(SIZE.0, SIZE.1)).unwrap();
     let mut fb = frame();
     // The first frame fetches the top, the second the tiles.
     scene.render(&mut engine, 9, &mut fb).unwrap();

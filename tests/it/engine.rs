@@ -2,9 +2,9 @@
 //! the origin, and watertight tiles.
 
 use glam::DVec3;
+use stripmask::Viewport;
 use stripmask::db::source;
-use stripmask::engine::paging::PagerMode;
-use stripmask::engine::{Engine, EngineSettings};
+use stripmask::engine::{Engine, EngineSettings, FrameTiming};
 use stripmask::sim::clock::Clock;
 use stripmask::sim::flight::{Builtin, Flight};
 use stripmask::sim::fly::{FlyOptions, Length, fly};
@@ -12,18 +12,7 @@ use stripmask::sim::stats::CSV_HEADER;
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
 use crate::support::hills;
-use hills::archive;
-
-fn stepped(memory_limit_bytes: usize) -> EngineSettings {
-    EngineSettings {
-        memory_limit_bytes,
-        pager_mode: PagerMode::Stepped {
-            fetches_per_update: 64,
-        },
-        threads: 1,
-        ..EngineSettings::default()
-    }
-}
+use hills::{archive, stepped};
 
 /// Renders a few frames from one pose so that the stepped pager has loaded what it can.
 fn settle(engine: &mut Engine, eye: DVec3, target: DVec3, fb: &mut Framebuffer) {
@@ -104,10 +93,14 @@ fn a_terrain_far_from_the_origin_renders_the_same_picture() {
         let mut engine = Engine::new(
             source::open(path.to_str().unwrap()).unwrap(),
             stepped(64 << 20),
-            120,
+            Viewport::new(160, 120),
         )
         .unwrap();
         engine.place_terrain(DVec3::new(offset, -offset / 8.0, -offset));
+        let (eye, target) = (
+            engine.terrain().origin + eye,
+            engine.terrain().origin + target,
+        );
         let mut fb = Framebuffer::new(160, 120, ColorFormat::Rgba8888, DepthFormat::D32).unwrap();
         settle(&mut engine, eye, target, &mut fb);
         let report = engine
@@ -136,8 +129,12 @@ fn neighbouring_tiles_at_the_same_level_leave_no_crack() {
         stripmask_raster::Precision::Float,
     ] {
         settings.render.precision = precision;
-        let mut engine =
-            Engine::new(source::open(path.to_str().unwrap()).unwrap(), settings, 240).unwrap();
+        let mut engine = Engine::new(
+            source::open(path.to_str().unwrap()).unwrap(),
+            settings,
+            Viewport::new(320, 240),
+        )
+        .unwrap();
         let mut fb = Framebuffer::new(320, 240, ColorFormat::Rgb565, DepthFormat::D16).unwrap();
         // Oblique, looking across several tile borders, the horizon out of frame.
         let eye = DVec3::new(3840.0, 2500.0, 6400.0);
@@ -166,8 +163,12 @@ fn a_texture_budget_coarsens_the_textures_of_the_square_to_fit() {
     let texture_bytes = |budget: Option<usize>| {
         let mut settings = stepped(25 * 40_000);
         settings.texture_budget_bytes = budget;
-        let mut engine =
-            Engine::new(source::open(path.to_str().unwrap()).unwrap(), settings, 120).unwrap();
+        let mut engine = Engine::new(
+            source::open(path.to_str().unwrap()).unwrap(),
+            settings,
+            Viewport::new(160, 120),
+        )
+        .unwrap();
         let mut fb = Framebuffer::new(160, 120, ColorFormat::Rgb565, DepthFormat::D16).unwrap();
         settle(&mut engine, eye, target, &mut fb);
         let stats = engine.pager().stats();
@@ -182,4 +183,81 @@ fn a_texture_budget_coarsens_the_textures_of_the_square_to_fit() {
     let capped = texture_bytes(Some(free / 3));
     assert!(capped <= free / 3, "{capped} of {} allowed", free / 3);
     assert!(capped > 0);
+}
+
+/// An engine over the hills for a 160x120 viewport, every tile it wants fetched in a frame.
+fn embedded(path: &std::path::Path, settings: EngineSettings) -> Engine {
+    let source = source::open(path.to_str().unwrap()).unwrap();
+    Engine::new(source, settings, Viewport::new(160, 120)).unwrap()
+}
+
+#[test]
+fn a_camera_under_the_ground_is_drawn_where_it_is_unless_lifting_is_asked_for() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = archive(dir.path(), 33);
+    for lift in [false, true] {
+        let mut engine = embedded(
+            &path,
+            EngineSettings {
+                lift_to_clearance: lift,
+                ..stepped(64 << 20)
+            },
+        );
+        let mut fb = Framebuffer::new(160, 120, ColorFormat::Rgb565, DepthFormat::D16).unwrap();
+        // Placed before any ground is held: 1 m above the archive's lowest height.
+        let low = engine.terrain().heights.0 + 1.0;
+        let camera = stripmask::Camera::looking_at(
+            DVec3::new(2000.0, low, 2000.0),
+            DVec3::new(3000.0, low, 2500.0),
+        );
+        let report = engine.render(&camera, &mut fb).unwrap();
+        let ground = engine.ground(camera.position).expect("the top arrived");
+        assert!(camera.position.y < ground, "the hills rise above the eye");
+        if lift {
+            assert!(report.view.camera.position.y >= ground + engine.settings().clearance);
+        } else {
+            assert_eq!(report.view.camera, camera, "the caller's camera as given");
+        }
+    }
+}
+
+#[test]
+fn a_target_of_another_size_than_the_viewport_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut engine = embedded(&archive(dir.path(), 33), stepped(64 << 20));
+    let mut fb = Framebuffer::new(320, 240, ColorFormat::Rgb565, DepthFormat::D16).unwrap();
+    let camera = engine.camera(DVec3::new(0.0, 2000.0, 0.0), DVec3::splat(2000.0), false);
+    let e = engine.render(&camera, &mut fb).unwrap_err().to_string();
+    assert!(e.contains("320x240") && e.contains("160x120"), "{e}");
+    engine.resize(320, 240).unwrap();
+    engine.render(&camera, &mut fb).unwrap();
+}
+
+#[test]
+fn the_budget_follows_measured_frames_without_being_told_and_stays_when_told_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = archive(dir.path(), 33);
+    let (eye, target) = (
+        DVec3::new(1200.0, 1500.0, 3900.0),
+        DVec3::new(4000.0, 300.0, 2000.0),
+    );
+    for timing in [FrameTiming::Measured, FrameTiming::Told] {
+        let mut settings = stepped(64 << 20);
+        settings.frame_timing = timing;
+        // A frame rate no machine holds: every measured frame is too slow.
+        settings.budget.target_fps = 1e9;
+        let mut engine = embedded(&path, settings);
+        let mut fb = Framebuffer::new(160, 120, ColorFormat::Rgb565, DepthFormat::D16).unwrap();
+        let mut budgets = Vec::new();
+        for _ in 0..6 {
+            let report = engine
+                .render(&engine.camera(eye, target, false), &mut fb)
+                .unwrap();
+            budgets.push(report.budget);
+        }
+        match timing {
+            FrameTiming::Measured => assert!(budgets[5] < budgets[0], "{budgets:?}"),
+            FrameTiming::Told => assert!(budgets.iter().all(|&b| b == budgets[0]), "{budgets:?}"),
+        }
+    }
 }

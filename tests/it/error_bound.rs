@@ -5,10 +5,11 @@
 use glam::DVec3;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};
+use stripmask::Viewport;
 use stripmask::db::source;
 use stripmask::engine::frustum::Aabb;
 use stripmask::engine::paging::PagerMode;
-use stripmask::engine::{Engine, EngineSettings, FrameReport};
+use stripmask::engine::{Engine, EngineSettings, FrameReport, FrameTiming};
 use stripmask::{Bound, ErrorBound};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
@@ -22,6 +23,7 @@ pub(crate) fn loaded(dir: &std::path::Path, max_error: ErrorBound) -> (Engine, F
         &hills::archive(dir, 33),
         EngineSettings {
             max_error,
+            frame_timing: FrameTiming::Told,
             ..EngineSettings::default()
         },
     )
@@ -44,7 +46,7 @@ pub(crate) fn loaded_with(
     let mut engine = Engine::new(
         source::open(path.to_str().unwrap()).unwrap(),
         settings,
-        HEIGHT,
+        Viewport::new(160, HEIGHT),
     )
     .unwrap();
     let mut fb = Framebuffer::new(160, HEIGHT, ColorFormat::Rgb565, DepthFormat::D16).unwrap();
@@ -71,12 +73,10 @@ fn pixels_per_metre(engine: &Engine, report: &FrameReport, id: stripmask::db::gr
     let (lo, hi) = engine
         .terrain()
         .tile_box(id, f64::from(tile.min), f64::from(tile.max));
-    let eye = report.camera.position;
+    let eye = report.view.camera.position;
     let distance = Aabb::new(lo - eye, hi - eye).distance(DVec3::ZERO);
     let clearance = engine.settings().clearance;
-    report
-        .camera
-        .pixels_per_metre(distance.max(clearance), HEIGHT)
+    report.view.pixels_per_metre(distance.max(clearance))
 }
 
 #[test]
@@ -199,6 +199,7 @@ fn a_budget_that_cannot_meet_tau_cuts_no_deeper_than_it_can_use() {
             initial_budget: budget,
             ..Default::default()
         },
+        frame_timing: FrameTiming::Told,
         ..EngineSettings::default()
     };
     // Rough at the scale of a sample, so that the errors of the levels above 0, not their

@@ -17,11 +17,12 @@ use image::RgbaImage;
 use stripmask::db::builder::{BuildOptions, build};
 use stripmask::db::dem::{MemoryReader, NodataFill};
 use stripmask::db::source;
-use stripmask::engine::camera::Camera;
+use stripmask::engine::camera::{Camera, View};
 use stripmask::engine::cracks::{CrackMode, TileIndices};
 use stripmask::engine::paging::PagerMode;
 use stripmask::engine::render::{RenderSettings, TileDraw, TileMeshes, draw_tiles};
-use stripmask::engine::{Engine, EngineSettings, FrameReport};
+use stripmask::engine::viewport::Viewport;
+use stripmask::engine::{Engine, EngineSettings, FrameReport, FrameTiming};
 use stripmask::sim::tradeoff::metrics::{compare, psnr};
 use stripmask_raster::{
     ColorFormat, DepthFormat, DrawStats, Framebuffer, Precision, RasterTarget, Rasterizer,
@@ -60,7 +61,7 @@ fn archive(
 }
 
 /// An engine over `path` with every tile loaded, one thread, levels pinned to full resolution.
-fn engine(path: &Path, height: u32, clearance: f64) -> Engine {
+fn engine(path: &Path, size: (u32, u32), clearance: f64) -> Engine {
     let settings = EngineSettings {
         memory_limit_bytes: 1 << 30,
         pager_mode: PagerMode::Stepped {
@@ -68,16 +69,17 @@ fn engine(path: &Path, height: u32, clearance: f64) -> Engine {
         },
         threads: 1,
         clearance,
+        frame_timing: FrameTiming::Told,
         ..EngineSettings::default()
     };
     let mut engine = Engine::new(
         source::open(path.to_str().unwrap()).unwrap(),
         settings,
-        height,
+        Viewport::new(size.0, size.1),
     )
     .unwrap();
     engine.force_levels(Some(Box::new(|_| 0)));
-    let mut fb = Framebuffer::new(1, 1, ColorFormat::Rgba8888, DepthFormat::D16).unwrap();
+    let mut fb = Framebuffer::new(size.0, size.1, ColorFormat::Rgba8888, DepthFormat::D16).unwrap();
     let terrain = *engine.terrain();
     let (w, d) = terrain.extent();
     let centre = DVec3::new(w / 2.0, terrain.heights.1 + 10.0, d / 2.0);
@@ -105,11 +107,14 @@ fn frame(
 
 /// No NaN anywhere in a frame's report; importances sum to 1.
 fn check_report(r: &FrameReport) {
-    let c = &r.camera;
-    assert!(c.position.is_finite() && c.forward.is_finite(), "{c:?}");
+    let v = &r.view;
     assert!(
-        c.near.is_finite() && c.far.is_finite() && 0.0 < c.near && c.near < c.far,
-        "{c:?}"
+        v.camera.position.is_finite() && v.camera.forward.is_finite(),
+        "{v:?}"
+    );
+    assert!(
+        v.near.is_finite() && v.far.is_finite() && 0.0 < v.near && v.near < v.far,
+        "{v:?}"
     );
     let sum: f64 = r.rendered.iter().map(|t| t.importance).sum();
     assert!(
@@ -175,7 +180,7 @@ fn ocean_to_everest(dir: &Path) -> PathBuf {
 #[test]
 fn heights_from_the_ocean_floor_to_everest_keep_their_range_and_render_alike() {
     let dir = tempfile::tempdir().unwrap();
-    let mut engine = engine(&ocean_to_everest(dir.path()), 120, 20.0);
+    let mut engine = engine(&ocean_to_everest(dir.path()), (160, 120), 20.0);
     let terrain = *engine.terrain();
     let (lo, hi) = terrain.heights;
     assert!(
@@ -232,9 +237,10 @@ fn extreme_heights_far_from_the_origin_draw_the_same_bytes_in_both_pipelines() {
     for precision in [Precision::Fixed, Precision::Float] {
         let mut pictures = Vec::new();
         for offset in [0.0, 1e3, 1e5, 1e7, 1e8] {
-            let mut engine = engine(&path, 96, 20.0);
+            let mut engine = engine(&path, (128, 96), 20.0);
             engine.place_terrain(DVec3::new(offset, offset / 4.0, -offset));
-            let camera = engine.camera(eye, target, false);
+            let origin = engine.terrain().origin;
+            let camera = engine.camera(origin + eye, origin + target, false);
             let (image, _) = frame(&mut engine, &camera, (128, 96), precision, DepthFormat::D32);
             pictures.push((offset, image));
         }
@@ -262,7 +268,7 @@ fn full_16_bit_cliffs_beside_flat_tiles() {
             0.0
         }
     });
-    let mut engine = engine(&path, 120, 20.0);
+    let mut engine = engine(&path, (160, 120), 20.0);
     let flat = engine
         .pager()
         .tiles()
@@ -315,7 +321,7 @@ fn rolling(dir: &Path) -> PathBuf {
 #[test]
 fn the_eye_a_centimetre_above_the_ground_looking_0_1_degrees_above_the_horizon() {
     let dir = tempfile::tempdir().unwrap();
-    let mut engine = engine(&rolling(dir.path()), 120, 0.005);
+    let mut engine = engine(&rolling(dir.path()), (160, 120), 0.005);
     let eye = DVec3::new(960.0, 0.01, 960.0);
     for degrees in [0.1f64, 0.0, -0.1] {
         let ahead = DVec3::new(1.0, degrees.to_radians().tan(), 0.3).normalize();
@@ -343,12 +349,11 @@ fn the_eye_a_centimetre_above_the_ground_looking_0_1_degrees_above_the_horizon()
     }
 }
 
-/// Draws every loaded tile of `engine` at level 0 from `camera` as it is (its own near and far
-/// planes, which `Engine::render` would choose itself), in `precision` with `depth`.
+/// Draws every loaded tile of `engine` at level 0 in `view` as it is (its own field of view and
+/// depth planes, which `Engine::render` would take from the engine), in `precision` with `depth`.
 fn draw_as_is(
     engine: &Engine,
-    camera: &Camera,
-    size: (u32, u32),
+    view: &View,
     precision: Precision,
     depth: DepthFormat,
 ) -> (Framebuffer, DrawStats) {
@@ -363,7 +368,7 @@ fn draw_as_is(
                 tile,
                 level: 0,
                 neighbours: [0; 4],
-                distance: (((lo + hi) / 2.0) - camera.position).length(),
+                distance: (((lo + hi) / 2.0) - view.camera.position).length(),
             }
         })
         .collect();
@@ -373,10 +378,11 @@ fn draw_as_is(
         ..RenderSettings::default()
     };
     let mut cracks = TileIndices::new(CrackMode::None, terrain.tile_size);
-    let mut fb = Framebuffer::new(size.0, size.1, ColorFormat::Rgba8888, depth).unwrap();
+    let (w, h) = (view.viewport.width, view.viewport.height);
+    let mut fb = Framebuffer::new(w, h, ColorFormat::Rgba8888, depth).unwrap();
     let stats = draw_tiles(
         &mut RasterTarget::new(&mut fb, &mut Rasterizer::with_threads(1)),
-        camera,
+        view,
         terrain,
         &mut tiles,
         TileMeshes {
@@ -405,33 +411,20 @@ fn a_1_mm_near_plane_and_a_10_6_m_far_plane_over_triangles_kilometres_wide() {
         0.0625,
         |i, j| 100.0 + 50.0 * ((i + j) % 3) as f32,
     );
-    let engine = engine(&path, 120, 0.5);
+    let engine = engine(&path, (160, 120), 0.5);
     let eye = DVec3::new(80_000.0, 0.0, 80_000.0);
     let ground = engine.ground(eye).unwrap();
     for (k, target) in [DVec3::new(1.0, -0.05, 0.2), DVec3::new(0.0, -1.0, 0.001)]
         .into_iter()
         .enumerate()
     {
-        let mut camera = Camera::looking_at(
+        let camera = Camera::looking_at(
             eye + DVec3::Y * (ground + 1.0),
             eye + DVec3::Y * (ground + 1.0) + target,
         );
-        camera.near = 1e-3;
-        camera.far = 1e6;
-        let (fixed, s_fixed) = draw_as_is(
-            &engine,
-            &camera,
-            (160, 120),
-            Precision::Fixed,
-            DepthFormat::D32,
-        );
-        let (float, s_float) = draw_as_is(
-            &engine,
-            &camera,
-            (160, 120),
-            Precision::Float,
-            DepthFormat::D32,
-        );
+        let view = View::new(camera, Viewport::new(160, 120), 1e-3, 1e6);
+        let (fixed, s_fixed) = draw_as_is(&engine, &view, Precision::Fixed, DepthFormat::D32);
+        let (float, s_float) = draw_as_is(&engine, &view, Precision::Float, DepthFormat::D32);
         assert!(
             s_fixed.rasterized > 0 && s_fixed.fragments > 0,
             "view {k}: {s_fixed:?}"
@@ -463,7 +456,7 @@ fn sub_pixel_triangles_of_a_terrain_seen_from_afar() {
     let path = archive(dir.path(), "tiny", (65, 65), 33, 1.0, 0.0625, |i, j| {
         ((i * 7 + j * 3) % 5) as f32
     });
-    let mut engine = engine(&path, 120, 20.0);
+    let mut engine = engine(&path, (160, 120), 20.0);
     let camera = engine.camera(
         DVec3::new(32.0, 1_200.0, 1_600.0),
         DVec3::new(32.0, 0.0, 32.0),
@@ -497,7 +490,7 @@ fn frames_from_1x1_to_4096x4096() {
     let dir = tempfile::tempdir().unwrap();
     let path = rolling(dir.path());
     for (w, h) in [(1, 1), (1, 9), (9, 1), (2, 2), (320, 240), (4096, 4096)] {
-        let mut engine = engine(&path, h, 20.0);
+        let mut engine = engine(&path, (w, h), 20.0);
         let camera = engine.camera(
             DVec3::new(960.0, 600.0, 1900.0),
             DVec3::new(960.0, 200.0, 900.0),
@@ -563,7 +556,7 @@ fn depth_order_holds_where_the_format_resolves_it_and_the_limits_are_where_compu
             _ => 0.0,        // the foreground (rows 13..): the near face is rows 12..13
         },
     );
-    let engine = engine(&path, 64, 0.5);
+    let engine = engine(&path, (64, 64), 0.5);
     let resolves = |d: f64, q: f64| SEPARATION * NEAR / (d * d) > 4.0 * q;
     let lost = |d: f64, q: f64| SEPARATION * NEAR / (d * d) < q / 4.0;
     let limit = |q: f64| (SEPARATION * NEAR / q).sqrt();
@@ -575,13 +568,10 @@ fn depth_order_holds_where_the_format_resolves_it_and_the_limits_are_where_compu
     let fragments = |d: f64, precision, depth| {
         // Telephoto: the near face keeps about the same size on screen at every distance.
         let eye = DVec3::new(8.0, 3.0, 13.0 + d);
-        let mut camera = Camera::looking_at(eye, DVec3::new(8.0, 3.0, 0.0));
-        camera.fov_y = 2.0 * (12.0 / d).atan();
-        camera.near = NEAR;
-        camera.far = 2.0 * d + 100.0;
-        draw_as_is(&engine, &camera, (64, 64), precision, depth)
-            .1
-            .fragments
+        let camera = Camera::looking_at(eye, DVec3::new(8.0, 3.0, 0.0));
+        let viewport = Viewport::new(64, 64).with_fov_y(2.0 * (12.0 / d).atan());
+        let view = View::new(camera, viewport, NEAR, 2.0 * d + 100.0);
+        draw_as_is(&engine, &view, precision, depth).1.fragments
     };
     // (pipeline, format, the step its resolution limit is computed from).
     let cases = [

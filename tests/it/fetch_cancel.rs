@@ -18,7 +18,7 @@ use stripmask::db::source::{self, CancelToken, TileSource};
 use stripmask::engine::cracks::CrackMode;
 use stripmask::engine::paging::stream::{HOLD_SECONDS, StreamPager, StreamSettings, Want};
 use stripmask::engine::paging::{ArchiveLoader, PagerConfig, PagerMode};
-use stripmask::engine::resident::Light;
+use stripmask::engine::shading::Light;
 use stripmask::error::Error;
 
 use crate::support::fake_http::next_range;

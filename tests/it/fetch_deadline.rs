@@ -10,12 +10,13 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
+use stripmask::Viewport;
 use stripmask::db::archive::ArchiveReader;
 use stripmask::db::source::TileSource;
 use stripmask::db::source::file::FileSource;
 use stripmask::engine::paging::{PagerMode, RetryPolicy};
 use stripmask::engine::terrain::TerrainFrame;
-use stripmask::engine::{Engine, EngineSettings};
+use stripmask::engine::{Engine, EngineSettings, FrameTiming};
 use stripmask::sim::flight::{Builtin, Flight};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
@@ -199,9 +200,10 @@ fn a_failing_fetch_is_tried_as_often_as_the_pager_says_not_times_the_readers_att
             fetches_per_update: 16,
         },
         threads: 1,
+        frame_timing: FrameTiming::Told,
         ..EngineSettings::default()
     };
-    let mut engine = Engine::new(Box::new(source), settings, 60).unwrap();
+    let mut engine = Engine::new(Box::new(source), settings, Viewport::new(80, 60)).unwrap();
     let header = ArchiveReader::open(FileSource::open(&archive).unwrap())
         .unwrap()
         .header()

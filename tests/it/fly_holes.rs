@@ -7,10 +7,13 @@
 //! can hold nothing is refused.
 
 use std::path::{Path, PathBuf};
+use std::time::Duration;
 
+use stripmask::FrameTiming;
 use stripmask::db::archive::ArchiveReader;
 use stripmask::db::builder::BuildOptions;
 use stripmask::db::source;
+use stripmask::db::source::throttle::LinkProfile;
 use stripmask::engine::EngineSettings;
 use stripmask::engine::paging::stream::{StreamSettings, Streaming};
 use stripmask::engine::terrain::TerrainFrame;
@@ -53,6 +56,7 @@ fn fly_as(
         threads: p.threads,
         pager_mode: clock.pager_mode(4),
         streaming,
+        frame_timing: FrameTiming::Told,
         ..EngineSettings::default()
     };
     engine.budget.target_fps = p.target_fps;
@@ -69,7 +73,7 @@ fn fly_as(
         hud: false,
         progress: false,
         clock: clock.with_slowdown(p.cpu_slowdown),
-        link: Some(p.link.to_link_profile(3)),
+        link: Some(LinkProfile { seed: 3, ..p.link }),
         plots: false,
         http: stripmask::db::source::http::HttpOptions::default(),
     })
@@ -82,7 +86,7 @@ fn on_the_wall_clock_frames_waiting_for_tiles_are_paced_and_reported_as_holes() 
     let path = ridges(dir.path(), 257);
     // A link so slow to answer that nothing arrives during the flight.
     let mut p = DeviceProfile::pocketpc();
-    p.link.latency_ms = 3_000.0;
+    p.link.latency = Duration::from_secs(3);
     p.cpu_slowdown = 1.0;
     p.target_fps = 30.0;
     let frames = 30;

@@ -5,9 +5,10 @@
 use std::io::Write;
 
 use glam::DVec3;
+use stripmask::Viewport;
 use stripmask::db::source;
 use stripmask::engine::paging::PagerMode;
-use stripmask::engine::{Engine, EngineSettings};
+use stripmask::engine::{Engine, EngineSettings, FrameTiming};
 use stripmask_platform::{GpuTarget, PlatformError};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
@@ -32,10 +33,15 @@ fn an_engine_frame_on_the_gpu_matches_the_cpu_frame() {
             fetches_per_update: 64,
         },
         threads: 1,
+        frame_timing: FrameTiming::Told,
         ..EngineSettings::default()
     };
-    let mut engine =
-        Engine::new(source::open(path.to_str().unwrap()).unwrap(), settings, 240).unwrap();
+    let mut engine = Engine::new(
+        source::open(path.to_str().unwrap()).unwrap(),
+        settings,
+        Viewport::new(320, 240),
+    )
+    .unwrap();
     let mut fb = Framebuffer::new(320, 240, color, depth).unwrap();
     let (eye, target) = (
         DVec3::new(1200.0, 1500.0, 3900.0),

@@ -1,9 +1,12 @@
 //! The layers of `src/` hold: `db` ← `engine` ← `sim` (← the command in `src/cli/`, a separate
 //! binary that sees only the library's public items). No module imports from a layer above its
-//! own, and no two modules of the library import each other, directly or around a cycle.
+//! own, and no two modules of the library import each other, directly or around a cycle; nor do
+//! two modules of the rasterizer (`raster/src/`).
 //!
 //! A module here is a layer's direct child (`engine::paging`, `db::archive`, with everything
-//! below it); comments are not imports.
+//! below it), or in the rasterizer the crate root's child (`batch`, `pipeline`); comments are
+//! not imports, and neither are test modules (`#[cfg(test)] mod tests` at the end of a file:
+//! a module's tests may use a fixture built on the module).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -92,6 +95,20 @@ fn targets(code: &str) -> Vec<(usize, String)> {
     out
 }
 
+/// `text` with its comment lines blanked, so offsets still give line numbers.
+fn without_comments(text: &str) -> String {
+    text.lines()
+        .map(|l| {
+            if l.trim_start().starts_with("//") {
+                ""
+            } else {
+                l
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
 /// The references between modules in `files` (path relative to `src/`, text).
 fn references(files: &[(PathBuf, String)]) -> Vec<Reference> {
     let mut out = Vec::new();
@@ -99,19 +116,9 @@ fn references(files: &[(PathBuf, String)]) -> Vec<Reference> {
         let Some(from) = module_of(path) else {
             continue;
         };
-        // Comment lines blanked, so offsets still give line numbers.
-        let code: String = text
-            .lines()
-            .map(|l| {
-                if l.trim_start().starts_with("//") {
-                    ""
-                } else {
-                    l
-                }
-            })
-            .collect::<Vec<_>>()
-            .join("\n");
-        let mut found = targets(&code);
+        let code = without_comments(text);
+        let code = code.split("#[cfg(test)]\nmod tests").next().unwrap_or("");
+        let mut found = targets(code);
         // A layer's re-exports (`pub use client::*;` in `engine/mod.rs`) make its root depend on
         // the child that defines them.
         if !from.contains("::") {
@@ -134,6 +141,55 @@ fn references(files: &[(PathBuf, String)]) -> Vec<Reference> {
         }
     }
     out
+}
+
+/// The rasterizer's module graph: which of the crate root's children each names after
+/// `crate::` (also inside `crate::{..}` groups), from `files` (path relative to `raster/src/`,
+/// text), outside comments and test modules.
+fn raster_graph(files: &[(PathBuf, String)]) -> BTreeMap<String, BTreeSet<String>> {
+    let module = |path: &Path| -> Option<String> {
+        let first = path.iter().next()?.to_string_lossy();
+        let name = first.trim_end_matches(".rs");
+        (name != "lib").then(|| name.to_string())
+    };
+    let modules: BTreeSet<String> = files.iter().filter_map(|(p, _)| module(p)).collect();
+    let mut graph: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for (path, text) in files {
+        let Some(from) = module(path) else {
+            continue;
+        };
+        let code = without_comments(text);
+        let code = code.split("#[cfg(test)]\nmod tests").next().unwrap_or("");
+        for (k, _) in code.match_indices("crate::") {
+            let rest = &code[k + "crate::".len()..];
+            let paths: Vec<&str> = match rest.strip_prefix('{') {
+                Some(inner) => group(inner).split([',', '{', '}']).map(str::trim).collect(),
+                None => vec![rest],
+            };
+            for to in paths.into_iter().map(ident) {
+                if modules.contains(to) && to != from {
+                    graph
+                        .entry(from.clone())
+                        .or_default()
+                        .insert(to.to_string());
+                }
+            }
+        }
+    }
+    graph
+}
+
+/// The import cycles of the rasterizer's modules, as `violations` words them.
+fn raster_cycles(files: &[(PathBuf, String)]) -> Vec<String> {
+    let graph = raster_graph(files);
+    let graph: BTreeMap<&str, BTreeSet<&str>> = graph
+        .iter()
+        .map(|(k, v)| (k.as_str(), v.iter().map(String::as_str).collect()))
+        .collect();
+    cycles(&graph)
+        .into_iter()
+        .map(|c| format!("import cycle: {}", c.join(" -> ")))
+        .collect()
 }
 
 /// What breaks the layering: imports from a higher layer, and import cycles between modules.
@@ -243,6 +299,46 @@ fn no_module_imports_from_a_layer_above_or_around_a_cycle() {
     );
     let found = violations(&files);
     assert!(found.is_empty(), "{}", found.join("\n"));
+}
+
+#[test]
+fn no_two_modules_of_the_rasterizer_import_each_other_around_a_cycle() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("raster/src");
+    let mut files = Vec::new();
+    rust_files(&src, &src, &mut files);
+    let graph = raster_graph(&files);
+    assert!(
+        graph.get("batch").is_some_and(|to| to.contains("pipeline")),
+        "the scan sees the rasterizer's imports"
+    );
+    let found = raster_cycles(&files);
+    assert!(found.is_empty(), "{}", found.join("\n"));
+}
+
+#[test]
+fn a_cycle_between_the_rasterizers_modules_is_reported() {
+    let file = |path: &str, text: &str| (PathBuf::from(path), text.to_string());
+    let files = [
+        file("lib.rs", "mod batch;\nmod draw;\n"),
+        file("batch.rs", "use crate::draw::Rasterizer;\n"),
+        file(
+            "draw.rs",
+            "use crate::{lines::LineState, RasterError};\n#[cfg(test)]\nmod tests {\n    use crate::shade::Shade;\n}\n",
+        ),
+        file(
+            "lines.rs",
+            "// crate::shade in a comment\nfn f() { crate::batch::flush() }\n",
+        ),
+        file("shade.rs", "use crate::pipeline::fixed::FixedPipeline;\n"),
+        file("pipeline/mod.rs", "use crate::shade::Shade;\n"),
+    ];
+    assert_eq!(
+        raster_cycles(&files),
+        [
+            "import cycle: batch -> draw -> lines",
+            "import cycle: pipeline -> shade",
+        ]
+    );
 }
 
 #[test]

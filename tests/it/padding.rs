@@ -3,11 +3,12 @@
 //! down across its east and its south edge; and the minimap shows the model's extent only.
 
 use glam::DVec3;
+use stripmask::Viewport;
 use stripmask::db::builder::{BuildOptions, build};
 use stripmask::db::dem::{MemoryReader, NodataFill};
 use stripmask::db::source;
 use stripmask::engine::paging::PagerMode;
-use stripmask::engine::{Engine, EngineSettings};
+use stripmask::engine::{Engine, EngineSettings, FrameTiming};
 use stripmask::sim::hud::hud_info;
 use stripmask_platform::{Hud, MinimapCell, compose_rgba};
 use stripmask_raster::{ColorFormat, DepthBuffer, DepthFormat, Framebuffer};
@@ -57,9 +58,15 @@ fn odd_model(dir: &std::path::Path, (n, m): (usize, usize)) -> Engine {
             fetches_per_update: 64,
         },
         threads: 1,
+        frame_timing: FrameTiming::Told,
         ..EngineSettings::default()
     };
-    Engine::new(source::open(path.to_str().unwrap()).unwrap(), settings, H).unwrap()
+    Engine::new(
+        source::open(path.to_str().unwrap()).unwrap(),
+        settings,
+        Viewport::new(W, H),
+    )
+    .unwrap()
 }
 
 #[test]

@@ -6,14 +6,16 @@ use glam::DVec3;
 use stripmask::db::grid::TileId;
 use stripmask::db::tile::Tile;
 use stripmask::engine::budget::drawable_level;
-use stripmask::engine::camera::Camera;
+use stripmask::engine::camera::{Camera, View};
 use stripmask::engine::cracks::neighbours::{Neighbourhood, neighbour_levels};
 use stripmask::engine::cracks::{CrackMode, TileIndices};
 use stripmask::engine::masks::{LevelSet, MaskSet};
 use stripmask::engine::partial_meshes::PartialMeshes;
 use stripmask::engine::render::{RenderSettings, TileDraw, TileMeshes, draw_tiles};
-use stripmask::engine::resident::{Light, ResidentTile};
+use stripmask::engine::resident::ResidentTile;
+use stripmask::engine::shading::Light;
 use stripmask::engine::terrain::TerrainFrame;
+use stripmask::engine::viewport::Viewport;
 use stripmask::sim::crack_metric::BACKGROUND;
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer, RasterTarget, Rasterizer};
 
@@ -60,14 +62,12 @@ fn terrain() -> TerrainFrame {
 
 /// Nearly straight down over the middle tile: the terrain fills the whole view, so every
 /// background pixel is a crack.
-fn camera() -> Camera {
-    let mut camera = Camera::looking_at(
+fn view() -> View {
+    let camera = Camera::looking_at(
         DVec3::new(240.0, 300.0, 240.0),
         DVec3::new(240.0, 0.0, 228.0),
     );
-    camera.near = 1.0;
-    camera.far = 1000.0;
-    camera
+    View::new(camera, Viewport::new(96, 72), 1.0, 1000.0)
 }
 
 /// Draws `tiles[ty * 3 + tx]` at whole-tile mask levels `levels` (same order) in `mode`.
@@ -78,7 +78,7 @@ fn draw(
     settings: &RenderSettings,
 ) -> Framebuffer {
     let terrain = terrain();
-    let camera = camera();
+    let view = view();
     let ids: Vec<(TileId, usize)> = (0..tiles.len())
         .map(|k| (TileId::new(k as u32 % TILES, k as u32 / TILES), levels[k]))
         .collect();
@@ -95,7 +95,7 @@ fn draw(
                 tile,
                 level,
                 neighbours,
-                distance: ((lo + hi) / 2.0 - camera.position).length(),
+                distance: ((lo + hi) / 2.0 - view.camera.position).length(),
             }
         })
         .collect();
@@ -105,7 +105,7 @@ fn draw(
     let mut fb = Framebuffer::new(96, 72, ColorFormat::Rgba8888, DepthFormat::D32).unwrap();
     draw_tiles(
         &mut RasterTarget::new(&mut fb, &mut Rasterizer::with_threads(1)),
-        &camera,
+        &view,
         &terrain,
         &mut draws,
         TileMeshes {

@@ -5,14 +5,17 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::{Arc, Mutex};
+use std::time::Duration;
 
+use stripmask::Viewport;
 use stripmask::db::archive::ArchiveReader;
 use stripmask::db::grid::TileId;
 use stripmask::db::source::CancelToken;
+use stripmask::db::source::throttle::LinkProfile;
 use stripmask::db::source::{self, TileSource};
 use stripmask::engine::paging::PagerMode;
 use stripmask::engine::terrain::TerrainFrame;
-use stripmask::engine::{Engine, EngineSettings};
+use stripmask::engine::{Engine, EngineSettings, FrameTiming};
 use stripmask::sim::clock::{Clock, CostModel, MeteredLink};
 use stripmask::sim::demo::{DemoOptions, run, run_live};
 use stripmask::sim::device::DeviceProfile;
@@ -37,6 +40,8 @@ fn engine_settings(p: &DeviceProfile) -> EngineSettings {
     let mut engine = EngineSettings {
         memory_limit_bytes: p.memory_limit_bytes(),
         threads: p.threads,
+        frame_timing: FrameTiming::Told,
+        lift_to_clearance: true,
         ..EngineSettings::default()
     };
     engine.budget.target_fps = p.target_fps;
@@ -60,7 +65,7 @@ fn fly_as(p: &DeviceProfile, archive: &Path, out: &Path, frames: u64) -> FlySumm
         hud: false,
         progress: false,
         clock: simulated(p),
-        link: Some(p.link.to_link_profile(7)),
+        link: Some(LinkProfile { seed: 7, ..p.link }),
         plots: false,
         http: stripmask::db::source::http::HttpOptions::default(),
     })
@@ -80,7 +85,7 @@ fn the_simulated_clock_gives_the_same_stats_csv_twice() {
     assert_eq!(first.repeatable(), second.repeatable());
     assert!(first.downloaded_bytes > 0 && first.seconds > 1.0);
     // No tile can be drawn before the first transfer's latency has passed on the simulated link.
-    assert!(first.holes.first_frame_s.unwrap() >= p.link.latency_ms / 1e3);
+    assert!(first.holes.first_frame_s.unwrap() >= p.link.latency.as_secs_f64());
 }
 
 #[test]
@@ -89,7 +94,7 @@ fn a_jittery_simulated_link_repeats_byte_for_byte_and_changes_the_arrivals() {
     let path = archive(dir.path(), 33);
     let steady = DeviceProfile::pocketpc();
     let mut jittery = steady.clone();
-    jittery.link.jitter_ms = 40.0;
+    jittery.link.jitter = Duration::from_millis(40);
     let run = |p: &DeviceProfile, name: &str| {
         let out = dir.path().join(name);
         let summary = fly_as(p, &path, &out, 60);
@@ -101,7 +106,7 @@ fn a_jittery_simulated_link_repeats_byte_for_byte_and_changes_the_arrivals() {
     assert_eq!((a.repeatable(), &csv_a), (b.repeatable(), &csv_b));
     assert_ne!(csv_a, csv_c, "jitter moves the arrivals");
     assert!(c.downloaded_bytes > 0);
-    let earliest = (jittery.link.latency_ms - jittery.link.jitter_ms) / 1e3;
+    let earliest = (jittery.link.latency - jittery.link.jitter).as_secs_f64();
     assert!(a.holes.first_frame_s.unwrap() >= earliest);
 }
 
@@ -194,11 +199,11 @@ impl Rig {
                 (e.offset, id)
             })
             .collect();
-        let link = stripmask::sim::device::Link {
+        let link = LinkProfile {
             drop_rate,
+            seed: 3,
             ..p.link
-        }
-        .to_link_profile(3);
+        };
         let (metered, meter) = MeteredLink::new(source::open(name).unwrap(), link);
         let reads = Arc::default();
         let failures = Arc::default();
@@ -211,7 +216,12 @@ impl Rig {
             pager_mode: PagerMode::Simulated { queue_depth: 4 },
             ..engine_settings(p)
         };
-        let mut engine = Engine::new(Box::new(counting), settings, p.height).unwrap();
+        let mut engine = Engine::new(
+            Box::new(counting),
+            settings,
+            Viewport::new(p.width, p.height),
+        )
+        .unwrap();
         engine.set_transfer_clock(meter);
         Rig {
             flight: Flight::builtin(Builtin::Diagonal, &TerrainFrame::new(&h)),

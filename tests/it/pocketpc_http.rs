@@ -5,6 +5,7 @@ use std::collections::BTreeSet;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
+use stripmask::Viewport;
 use stripmask::db::archive::ArchiveReader;
 use stripmask::db::server::Server;
 use stripmask::db::source::TileSource;
@@ -12,7 +13,7 @@ use stripmask::db::source::http::HttpSource;
 use stripmask::db::source::throttle::LinkProfile;
 use stripmask::engine::paging::PagerMode;
 use stripmask::engine::terrain::TerrainFrame;
-use stripmask::engine::{Engine, EngineSettings};
+use stripmask::engine::{Engine, EngineSettings, FrameTiming};
 use stripmask::sim::flight::{Builtin, Flight};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
@@ -81,11 +82,13 @@ fn a_flight_over_a_throttled_lossy_http_link_loads_every_visited_tile_at_the_lin
         memory_limit_bytes: 20_000_000,
         pager_mode: PagerMode::Threaded { queue_depth: 4 },
         threads: 1,
+        frame_timing: FrameTiming::Told,
+        lift_to_clearance: true,
         ..EngineSettings::default()
     };
     settings.budget.target_fps = 7.0;
     let (w, h) = (160, 120);
-    let mut engine = Engine::new(Box::new(source), settings, h).unwrap();
+    let mut engine = Engine::new(Box::new(source), settings, Viewport::new(w, h)).unwrap();
     let header = ArchiveReader::open(stripmask::db::source::open(path.to_str().unwrap()).unwrap())
         .unwrap()
         .header()

@@ -8,12 +8,13 @@ use std::collections::BTreeSet;
 use std::path::Path;
 
 use glam::DVec3;
+use stripmask::Viewport;
 use stripmask::db::builder::BuildOptions;
 use stripmask::db::source;
 use stripmask::engine::cracks::CrackMode;
 use stripmask::engine::error_bound::ErrorBound;
 use stripmask::engine::paging::PagerMode;
-use stripmask::engine::{Engine, EngineSettings, FrameReport};
+use stripmask::engine::{Engine, EngineSettings, FrameReport, FrameTiming};
 use stripmask::sim::crack_metric::{BACKGROUND, crack_pixels};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
@@ -70,14 +71,19 @@ fn engine(archive: &Path, mode: CrackMode) -> Engine {
             fetches_per_update: 4096,
         },
         threads: 1,
-        fov_y: 40f64.to_radians(),
         max_error: ErrorBound::Pixels(16.0),
+        frame_timing: FrameTiming::Told,
         ..EngineSettings::default()
     };
     settings.render.sky = BACKGROUND;
     settings.render.fog = false;
     let source = source::open(&archive.display().to_string()).unwrap();
-    let mut engine = Engine::new(source, settings, SIZE.1).unwrap();
+    let mut engine = Engine::new(
+        source,
+        settings,
+        Viewport::new(SIZE.0, SIZE.1).with_fov_y(40f64.to_radians()),
+    )
+    .unwrap();
     // Every tile at its full mask: the only cracks left are where pyramid levels meet.
     engine.force_levels(Some(Box::new(|_| 0)));
     engine

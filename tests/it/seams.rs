@@ -14,6 +14,7 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
 use glam::{DVec3, DVec4};
+use stripmask::Viewport;
 use stripmask::db::archive::{ArchiveReader, ArchiveWriter, compress};
 use stripmask::db::builder::{BuildOptions, build};
 use stripmask::db::dem::{self, FillStats, OpenOptions};
@@ -23,11 +24,12 @@ use stripmask::db::source;
 use stripmask::db::source::file::FileSource;
 use stripmask::db::texture_gen::shaded;
 use stripmask::db::tile::{PartialGrid, Tile};
-use stripmask::engine::camera::Camera;
+use stripmask::engine::camera::View;
 use stripmask::engine::cracks::CrackMode;
 use stripmask::engine::paging::PagerMode;
-use stripmask::engine::resident::{Light, ResidentTile};
-use stripmask::engine::{Engine, EngineSettings, FrameReport};
+use stripmask::engine::resident::ResidentTile;
+use stripmask::engine::shading::Light;
+use stripmask::engine::{Engine, EngineSettings, FrameReport, FrameTiming};
 use stripmask_raster::{ColorFormat, DepthBuffer, DepthFormat, Framebuffer, rgb565_to_rgb};
 
 use crate::support::hills::synthetic;
@@ -191,10 +193,15 @@ fn engine_with(
             fetches_per_update: 1024,
         },
         threads: 1,
+        frame_timing: FrameTiming::Told,
         ..EngineSettings::default()
     };
-    let mut engine =
-        Engine::new(source::open(path.to_str().unwrap()).unwrap(), settings, 120).unwrap();
+    let mut engine = Engine::new(
+        source::open(path.to_str().unwrap()).unwrap(),
+        settings,
+        Viewport::new(WIDTH, HEIGHT),
+    )
+    .unwrap();
     engine.force_levels(levels);
     match rendering {
         Rendering::Lit => engine.render_settings_mut().sampler = None,
@@ -268,7 +275,7 @@ impl Lines {
 /// A pixel's place on the ground comes from its depth.
 fn second_differences(
     fb: &Framebuffer,
-    camera: &Camera,
+    view: &View,
     model: &Model,
     lines: &Lines,
 ) -> (f64, f64, usize) {
@@ -276,9 +283,7 @@ fn second_differences(
     let DepthBuffer::D32(depth) = fb.depth() else {
         panic!("a 32-bit depth buffer")
     };
-    let unproject = camera
-        .view_projection(f64::from(WIDTH) / f64::from(HEIGHT))
-        .inverse();
+    let unproject = view.view_projection().inverse();
     // The lines before the pixel's place on the ground, west-east and north-south.
     let place = |x: usize, y: usize| -> Option<[i64; 2]> {
         let d = depth[y * w + x];
@@ -290,7 +295,7 @@ fn second_differences(
                 1.0,
             );
             let p = unproject * ndc;
-            let world = p.truncate() / p.w + camera.position;
+            let world = p.truncate() / p.w + view.camera.position;
             [world.x, world.z].map(|c| (c / model.spacing * lines.per_sample).floor() as i64)
         })
     };
@@ -361,7 +366,7 @@ fn seam_ratios_of(model: &Model, rendering: Rendering, mut engine: Engine) -> [f
     };
     model.eyes().map(|(name, eye)| {
         let (fb, report) = view(&mut engine, eye, model.centre);
-        let (border, interior, pixels) = second_differences(&fb, &report.camera, model, &lines);
+        let (border, interior, pixels) = second_differences(&fb, &report.view, model, &lines);
         let ratio = border / interior;
         println!(
             "{}, {rendering:?}, {name}: border {border:.3} over {pixels} px, interior \

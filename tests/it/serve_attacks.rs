@@ -179,11 +179,11 @@ fn at_the_limit_with_every_connection_answering_a_new_one_gets_503() {
     refused
         .set_read_timeout(Some(Duration::from_secs(10)))
         .unwrap();
-    write!(
-        refused,
-        "HEAD {path} HTTP/1.1\r\nHost: x\r\n\r\nGET {path} HTTP/1.1\r\nHost: x\r\n\r\n"
-    )
-    .unwrap();
+    // Both requests in one write: `write!` sends each piece of its format on its own, and the
+    // server answers the first request and closes while the last pieces are still being sent.
+    let requests =
+        format!("HEAD {path} HTTP/1.1\r\nHost: x\r\n\r\nGET {path} HTTP/1.1\r\nHost: x\r\n\r\n");
+    refused.write_all(requests.as_bytes()).unwrap();
     let mut answer = String::new();
     refused.read_to_string(&mut answer).unwrap();
     assert!(answer.starts_with("HTTP/1.1 503 "), "{answer}");

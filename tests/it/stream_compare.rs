@@ -4,7 +4,7 @@
 
 use stripmask::sim::device::DeviceProfile;
 use stripmask::sim::flight::Builtin;
-use stripmask::sim::stream_compare::{CompareOptions, LINKS, Strategy, compare, write};
+use stripmask::sim::stream_compare::{CompareOptions, LINKS, StreamingCase, compare, write};
 
 use crate::support::hills;
 
@@ -27,7 +27,7 @@ fn every_link_and_strategy_gets_a_row_and_progressive_tiles_cost_fewer_bytes() {
         progress: false,
     };
     let results = compare(&options).unwrap();
-    assert_eq!(results.len(), LINKS.len() * Strategy::ALL.len());
+    assert_eq!(results.len(), LINKS.len() * StreamingCase::ALL.len());
     for link in &LINKS {
         let row = |s| {
             results
@@ -35,7 +35,7 @@ fn every_link_and_strategy_gets_a_row_and_progressive_tiles_cost_fewer_bytes() {
                 .find(|r| r.link == link.name && r.strategy == s)
                 .unwrap()
         };
-        let (belts, progressive) = (row(Strategy::Belts), row(Strategy::Progressive));
+        let (belts, progressive) = (row(StreamingCase::Belts), row(StreamingCase::Progressive));
         assert!(
             progressive.downloaded_bytes * 3 < belts.downloaded_bytes,
             "{}: {} vs {}",
@@ -46,10 +46,10 @@ fn every_link_and_strategy_gets_a_row_and_progressive_tiles_cost_fewer_bytes() {
         assert!(belts.rendered_share.is_none() && progressive.rendered_share.is_some());
         assert!(progressive.holes.first_frame_s.is_some() && belts.holes.first_frame_s.is_some());
         assert!(
-            row(Strategy::Progressive).hit_rate.is_none(),
+            row(StreamingCase::Progressive).hit_rate.is_none(),
             "no prediction, no hits"
         );
-        for r in [belts, progressive, row(Strategy::Predicted)] {
+        for r in [belts, progressive, row(StreamingCase::Predicted)] {
             assert!(r.peak_memory_bytes <= options.profile.memory_limit_bytes());
             assert!(r.frames > 0 && r.mean_error_px.is_finite());
         }
@@ -64,9 +64,9 @@ fn every_link_and_strategy_gets_a_row_and_progressive_tiles_cost_fewer_bytes() {
             .unwrap()
     };
     // Both draw the top first; whole tiles never come sooner than it.
-    assert!(slow(Strategy::Progressive) <= slow(Strategy::Belts));
+    assert!(slow(StreamingCase::Progressive) <= slow(StreamingCase::Belts));
     let markdown = write(&options.out, &results, &options).unwrap();
-    for s in Strategy::ALL {
+    for s in StreamingCase::ALL {
         assert_eq!(markdown.matches(&format!("| {} |", s.name())).count(), 3);
     }
     let csv = std::fs::read_to_string(options.out.join("stream-compare.csv")).unwrap();

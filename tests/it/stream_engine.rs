@@ -3,19 +3,22 @@
 //! exactly what whole tiles draw, and over a slow link the first picture comes sooner for far
 //! fewer bytes.
 
+use std::time::Duration;
+
 use glam::DVec3;
+use stripmask::Viewport;
 use stripmask::db::archive::ArchiveReader;
 use stripmask::db::builder::BuildOptions;
 use stripmask::db::grid::TileId;
 use stripmask::db::source;
+use stripmask::db::source::throttle::LinkProfile;
 use stripmask::db::tile::PartialGrid;
 use stripmask::engine::geomorph::Geomorph;
 use stripmask::engine::masks::LevelSet;
 use stripmask::engine::paging::PagerMode;
 use stripmask::engine::paging::stream::{StreamSettings, Streaming};
-use stripmask::engine::{Engine, EngineSettings, FrameReport};
+use stripmask::engine::{Engine, EngineSettings, FrameReport, FrameTiming};
 use stripmask::sim::clock::{Clock, CostModel, connect};
-use stripmask::sim::device::Link;
 use stripmask::sim::flight::{Builtin, Flight};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
@@ -28,6 +31,8 @@ fn settings(memory_limit_bytes: usize, streaming: Streaming, mode: PagerMode) ->
         pager_mode: mode,
         threads: 1,
         streaming,
+        frame_timing: FrameTiming::Told,
+        lift_to_clearance: true,
         ..EngineSettings::default()
     }
 }
@@ -37,7 +42,12 @@ fn progressive() -> Streaming {
 }
 
 fn open(path: &std::path::Path, settings: EngineSettings) -> Engine {
-    Engine::new(source::open(path.to_str().unwrap()).unwrap(), settings, 120).unwrap()
+    Engine::new(
+        source::open(path.to_str().unwrap()).unwrap(),
+        settings,
+        Viewport::new(160, 120),
+    )
+    .unwrap()
 }
 
 fn frame() -> Framebuffer {
@@ -224,20 +234,19 @@ fn slow_link_flight_of(
         model: CostModel::HOST,
         slowdown: 10.0,
     };
-    let link = Link {
+    let link = LinkProfile {
         bandwidth_kbps: Some(256.0),
-        latency_ms: 20.0,
-        jitter_ms: 0.0,
-        drop_rate: 0.0,
+        latency: Duration::from_millis(20),
+        ..LinkProfile::UNLIMITED
     };
     let (source, meter) = connect(
         source::open(path.to_str().unwrap()).unwrap(),
-        Some(link.to_link_profile(1)),
+        Some(link),
         &clock,
     );
     let mut s = settings(4 << 20, streaming, PagerMode::Simulated { queue_depth: 4 });
     s.budget.expected = Some(clock.expected_cost(160, 120));
-    let mut engine = Engine::new(source, s, 120).unwrap();
+    let mut engine = Engine::new(source, s, Viewport::new(160, 120)).unwrap();
     engine.set_transfer_clock(meter.unwrap());
     let flight = Flight::builtin(builtin, engine.terrain());
     let mut fb = frame();
@@ -372,20 +381,20 @@ fn a_view_is_complete_by_the_reference_budget_whatever_budget_its_frames_had() {
     stingy.hold_budget(low);
     let report = hold_still(&mut stingy, 60);
     assert!(report.rendered.iter().all(|r| !r.capped), "settled");
-    assert!(stingy.holds_view(&report.camera, (160, 120), 7, &[low]));
-    assert!(!stingy.holds_view(&report.camera, (160, 120), 7, &[high]));
+    assert!(stingy.holds_view(&report.view.camera, 7, &[low]));
+    assert!(!stingy.holds_view(&report.view.camera, 7, &[high]));
     // Against several budgets, a tile needs the fewest levels any of them gives it.
-    assert!(stingy.holds_view(&report.camera, (160, 120), 7, &[high, low]));
+    assert!(stingy.holds_view(&report.view.camera, 7, &[high, low]));
     // Frames at the high budget fetch what it draws.
     let mut generous = open(&path, settings(4 << 20, streaming, mode));
     generous.hold_budget(high);
     let report = hold_still(&mut generous, 60);
-    assert!(generous.holds_view(&report.camera, (160, 120), 7, &[high]));
+    assert!(generous.holds_view(&report.view.camera, 7, &[high]));
     // Whole tiles hold every level once loaded, whatever the budget.
     let mut belts = open(&path, settings(4 << 20, Streaming::Belts, mode));
     belts.hold_budget(low);
     let report = hold_still(&mut belts, 60);
-    assert!(belts.holds_view(&report.camera, (160, 120), 7, &[high]));
+    assert!(belts.holds_view(&report.view.camera, 7, &[high]));
 }
 
 /// The level-0 tiles holding more than their coarsest level.
@@ -464,7 +473,7 @@ fn the_frame_the_top_arrives_for_stands_on_its_ground() {
         assert!(engine.ground(before.position).is_none(), "nothing held yet");
         let report = engine.render(&before, &mut frame()).unwrap();
         let ground = engine
-            .ground(report.camera.position)
+            .ground(report.view.camera.position)
             .expect("the top arrived");
         let placed = engine.camera(eye, target, true);
         assert!(
@@ -472,11 +481,11 @@ fn the_frame_the_top_arrives_for_stands_on_its_ground() {
             "placed under the ground it did not know"
         );
         assert!(
-            (report.camera.position - placed.position).length() < 1e-9,
+            (report.view.camera.position - placed.position).length() < 1e-9,
             "{:?} drawn from, {:?} placed now",
-            report.camera.position,
+            report.view.camera.position,
             placed.position
         );
-        assert!(report.camera.position.y > ground);
+        assert!(report.view.camera.position.y > ground);
     }
 }

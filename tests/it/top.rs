@@ -8,6 +8,7 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicU32, Ordering};
 
 use stripmask::Error;
+use stripmask::Viewport;
 use stripmask::db::archive::ArchiveReader;
 use stripmask::db::grid::{Pyramid, TileId};
 use stripmask::db::source;
@@ -15,7 +16,7 @@ use stripmask::engine::paging::stream::{StreamSettings, Streaming};
 use stripmask::engine::paging::{
     BeltPager, PagerConfig, PagerMode, ResidentLoader, RetryPolicy, TileLoader,
 };
-use stripmask::engine::{Engine, EngineSettings};
+use stripmask::engine::{Engine, EngineSettings, FrameTiming};
 use stripmask::sim::flight::{Builtin, Flight};
 use stripmask_raster::{ColorFormat, DepthFormat, Framebuffer};
 
@@ -35,10 +36,12 @@ fn holes_on_the_diagonal(streaming: Streaming, keep_top: bool) -> [usize; 4] {
         threads: 1,
         streaming,
         keep_top,
+        frame_timing: FrameTiming::Told,
+        lift_to_clearance: true,
         ..EngineSettings::default()
     };
     let source = source::open(path.to_str().unwrap()).unwrap();
-    let mut engine = Engine::new(source, settings, 120).unwrap();
+    let mut engine = Engine::new(source, settings, Viewport::new(160, 120)).unwrap();
     let flight = Flight::builtin(Builtin::Diagonal, engine.terrain());
     let mut fb = Framebuffer::new(160, 120, ColorFormat::Rgb565, DepthFormat::D16).unwrap();
     let (mut after, mut before, mut based, mut frames) = (0, 0, 0, 0);
@@ -100,6 +103,8 @@ fn the_top_is_reserved_before_it_is_fetched_and_tiles_wait_for_it() {
         memory_limit_bytes: 4 << 20,
         pager_mode: PagerMode::Simulated { queue_depth: 4 },
         threads: 1,
+        frame_timing: FrameTiming::Told,
+        lift_to_clearance: true,
         ..EngineSettings::default()
     };
     let stored = ArchiveReader::open(source::open(path.to_str().unwrap()).unwrap())
@@ -108,7 +113,7 @@ fn the_top_is_reserved_before_it_is_fetched_and_tiles_wait_for_it() {
         .top
         .len();
     let source = source::open(path.to_str().unwrap()).unwrap();
-    let mut engine = Engine::new(source, settings, 120).unwrap();
+    let mut engine = Engine::new(source, settings, Viewport::new(160, 120)).unwrap();
     let mut fb = Framebuffer::new(160, 120, ColorFormat::Rgb565, DepthFormat::D16).unwrap();
     let flight = Flight::builtin(Builtin::Overview, engine.terrain());
     let (eye, target) = flight.at(0.0);

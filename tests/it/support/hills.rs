@@ -4,6 +4,22 @@ use std::path::{Path, PathBuf};
 
 use stripmask::db::builder::{BuildOptions, build};
 use stripmask::db::dem::{MemoryReader, NodataFill};
+use stripmask::engine::paging::PagerMode;
+use stripmask::{EngineSettings, FrameTiming};
+
+/// An engine's settings for the hills: `memory_limit_bytes`, every wanted tile fetched a few at
+/// a time on the frame's thread, one rasterizer thread, frame times told (so budgets repeat).
+pub fn stepped(memory_limit_bytes: usize) -> EngineSettings {
+    EngineSettings {
+        memory_limit_bytes,
+        pager_mode: PagerMode::Stepped {
+            fetches_per_update: 64,
+        },
+        threads: 1,
+        frame_timing: FrameTiming::Told,
+        ..EngineSettings::default()
+    }
+}
 
 /// Builds `dir/NAME.smdb` with `options` from a `w x h` DEM whose sample in column `i`, row `j`
 /// is `height(i, j)`.

@@ -94,9 +94,10 @@ install_missing "${host_packages[@]}"
 # --- Private apt lists: packages of other architectures without `dpkg --add-architecture` ---
 apt_dir="$out/apt"
 mkdir -p "$apt_dir/lists/partial" "$apt_dir/cache/archives/partial" "$out/debs"
+# The release's main archive alone: emulated boards need no security updates, and fewer indexes
+# are fewer to find in the middle of a mirror's sync.
 cat >"$apt_dir/sources.list" <<EOF
 deb [signed-by=/usr/share/keyrings/debian-archive-keyring.gpg] http://deb.debian.org/debian bookworm main
-deb [signed-by=/usr/share/keyrings/debian-archive-keyring.gpg] http://deb.debian.org/debian-security bookworm-security main
 EOF
 apt_opts=(
     -o "Dir::State::Lists=$apt_dir/lists"

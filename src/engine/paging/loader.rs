@@ -37,7 +37,7 @@ use crate::error::{Error, Result};
 pub struct ArchiveLoader {
     reader: ArchiveReader<Box<dyn TileSource>>,
     light: Light,
-    focal_px: f64,
+    needed_mips: NeededMips,
     /// Index into [`CrackMode::ALL`].
     cracks: AtomicU8,
     bias: AtomicUsize,
@@ -60,10 +60,16 @@ impl ArchiveLoader {
         cracks: CrackMode,
     ) -> Self {
         let terrain = TerrainFrame::new(reader.header());
+        let h = reader.header();
+        let needed_mips = NeededMips::new(
+            h.texture_size as usize,
+            focal_px.max(1.0),
+            h.tiles_x.max(h.tiles_y),
+        );
         ArchiveLoader {
             reader,
             light,
-            focal_px: focal_px.max(1.0),
+            needed_mips,
             cracks: AtomicU8::new(mode_index(cracks)),
             bias: AtomicUsize::new(0),
             texture_fit: None,
@@ -180,9 +186,48 @@ impl ArchiveLoader {
     }
 
     fn texture_base_with(&self, ring: u32, bias: usize) -> usize {
-        let t = self.reader.header().texture_size as f64;
-        let needed = (t * f64::from(ring.max(1)) / self.focal_px).log2().floor();
-        (needed.max(0.0) as usize + bias).min(mip_count(t as usize) - 1)
+        let t = self.reader.header().texture_size as usize;
+        (self.needed_mips.of(ring) + bias).min(mip_count(t) - 1)
+    }
+}
+
+/// The finest mip of a texture of side `texture_size` worth holding for a tile `ring` belts
+/// away, seen with a focal length of `focal_px` pixels: a texel of that mip then covers about a
+/// pixel. Capped at the last mip.
+fn needed_mip(texture_size: usize, focal_px: f64, ring: u32) -> usize {
+    let t = texture_size as f64;
+    let needed = (t * f64::from(ring.max(1)) / focal_px).log2().floor();
+    (needed.max(0.0) as usize).min(mip_count(texture_size) - 1)
+}
+
+/// [`needed_mip`] by ring, worked out once for the rings up to the model's widest square or
+/// twice the focal length (beyond which every ring needs the last mip) and on demand past
+/// them: on a core without an FPU its `log2` is a library call, which would otherwise run per
+/// tile and frame.
+struct NeededMips {
+    texture_size: usize,
+    focal_px: f64,
+    by_ring: Vec<u8>,
+}
+
+impl NeededMips {
+    fn new(texture_size: usize, focal_px: f64, widest: u32) -> Self {
+        let rings = widest.min((2.0 * focal_px).ceil() as u32);
+        let by_ring = (0..=rings)
+            .map(|ring| needed_mip(texture_size, focal_px, ring) as u8)
+            .collect();
+        NeededMips {
+            texture_size,
+            focal_px,
+            by_ring,
+        }
+    }
+
+    fn of(&self, ring: u32) -> usize {
+        match self.by_ring.get(ring as usize) {
+            Some(&mip) => usize::from(mip),
+            None => needed_mip(self.texture_size, self.focal_px, ring),
+        }
     }
 }
 
@@ -368,5 +413,31 @@ impl LevelLoader for ArchiveLoader {
 
     fn refit(&self, tile: &mut ResidentTile) -> usize {
         tile.set_cracks(self.cracks(), self.reader.header().height_quantum)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_needed_mips_by_ring_are_those_worked_out_per_ring() {
+        for (texture_size, focal_px, widest) in [
+            (64, 207.8, 15),
+            (64, 207.8, 10_000),
+            (256, 1000.0, 625),
+            (33, 1.0, 3),
+            (1, 120.0, 0),
+            (512, 3000.5, 40_000),
+        ] {
+            let mips = NeededMips::new(texture_size, focal_px, widest);
+            for ring in (0..5000).chain([widest, widest + 1, 1 << 20, u32::MAX]) {
+                assert_eq!(
+                    mips.of(ring),
+                    needed_mip(texture_size, focal_px, ring),
+                    "texture {texture_size}, focal {focal_px}, ring {ring}"
+                );
+            }
+        }
     }
 }

@@ -103,7 +103,7 @@ impl SlopeNormals {
             // formula's heights carry at most 2^-25 of v.
             let v = 16129 * (((p >> cut) * rec) >> 30);
             // twice the component, floored: the component rounds up past each odd value.
-            let twice = ((v >> 30) as u32).isqrt();
+            let twice = square_root((v >> 30) as u32);
             let boundary = u64::from((twice | 1).pow(2)) << 30;
             (v.abs_diff(boundary) > (1 << 19) + (v >> 24)).then_some(twice.div_ceil(2) as i8)
         };
@@ -114,6 +114,22 @@ impl SlopeNormals {
             towards(dz, magnitude(b << self.shift)?),
         ])
     }
+}
+
+/// `floor(sqrt(x))`, a bit of the root at a time: 8 steps for the `x < 2^16` of
+/// `SlopeNormals::in_integers`, where `u32::isqrt` divides, a library call on a core without a
+/// divider.
+fn square_root(x: u32) -> u32 {
+    let mut root = 0u32;
+    let mut bit = 1u32 << ((31 - x.leading_zeros().min(31)) / 2);
+    while bit > 0 {
+        let trial = root | bit;
+        if trial * trial <= x {
+            root = trial;
+        }
+        bit >>= 1;
+    }
+    root
 }
 
 #[cfg(test)]
@@ -144,6 +160,18 @@ mod tests {
                 .flat_map(|dx| (-300..=300i64).map(move |dz| [5000, 5000 + dx, 7000, 7000 + dz]));
             let left = undecided(&normals, samples);
             assert!(left < 40, "level {level}: {left} of 361,201 left to f64");
+        }
+    }
+
+    #[test]
+    fn square_roots_bit_by_bit_are_the_integer_square_roots() {
+        for x in (0..1 << 20).chain([u32::MAX, u32::MAX - 1, (1 << 31) - 1, 1 << 31]) {
+            assert_eq!(square_root(x), x.isqrt(), "{x}");
+        }
+        for r in [255u32, 256, 4095, 4096, 65535] {
+            for x in [r * r - 1, r * r, r * r + 1] {
+                assert_eq!(square_root(x), x.isqrt(), "{x}");
+            }
         }
     }
 

@@ -317,14 +317,14 @@ impl Engine {
     where
         Error: From<T::Error>,
     {
+        // Before anything changes: a target of the wrong size leaves the engine as it was.
+        self.viewport.check_target(target.size())?;
         let frame_started = Instant::now();
-        let started = frame_started;
         let placed_on_ground = self.ground(camera.position).is_some();
         self.pager
             .update(self.terrain.tile_position(camera.position));
-        let paging_seconds = started.elapsed().as_secs_f64();
+        let paging_seconds = frame_started.elapsed().as_secs_f64();
         let started = Instant::now();
-        self.viewport.check_target(target.size())?;
         let mut camera = *camera;
         if !placed_on_ground && self.settings.lift_to_clearance {
             self.stand_on_arrived_ground(&mut camera);

@@ -227,8 +227,14 @@ fn a_target_of_another_size_than_the_viewport_is_refused() {
     let mut engine = embedded(&archive(dir.path(), 33), stepped(64 << 20));
     let mut fb = Framebuffer::new(320, 240, ColorFormat::Rgb565, DepthFormat::D16).unwrap();
     let camera = engine.camera(DVec3::new(0.0, 2000.0, 0.0), DVec3::splat(2000.0), false);
+    let before = engine.pager().stats();
     let e = engine.render(&camera, &mut fb).unwrap_err().to_string();
     assert!(e.contains("320x240") && e.contains("160x120"), "{e}");
+    assert_eq!(
+        engine.pager().stats(),
+        before,
+        "a refused frame pages nothing"
+    );
     engine.resize(320, 240).unwrap();
     engine.render(&camera, &mut fb).unwrap();
 }

@@ -38,11 +38,9 @@ impl Camera {
     /// A camera at `position` with an aircraft's attitude, radians: `heading` clockwise from
     /// north, `pitch` up from the horizon, `roll` banking right.
     pub fn from_attitude(position: DVec3, heading: f64, pitch: f64, roll: f64) -> Camera {
-        let (sh, ch) = heading.sin_cos();
-        let (sp, cp) = pitch.sin_cos();
         Camera {
             position,
-            forward: DVec3::new(sh * cp, sp, -ch * cp),
+            forward: attitude_forward(heading, pitch),
             roll,
         }
     }
@@ -71,6 +69,14 @@ impl Camera {
     pub fn heading(&self) -> f64 {
         self.forward.x.atan2(-self.forward.z)
     }
+}
+
+/// The unit viewing direction (x east, y up, z south) of `heading` radians clockwise from
+/// north and `pitch` radians up from the horizon.
+pub fn attitude_forward(heading: f64, pitch: f64) -> DVec3 {
+    let (sh, ch) = heading.sin_cos();
+    let (sp, cp) = pitch.sin_cos();
+    DVec3::new(sh * cp, sp, -ch * cp)
 }
 
 /// A camera seen through a viewport between two depth planes: what a frame is drawn from.

@@ -31,7 +31,7 @@ use std::time::Instant;
 use glam::DVec3;
 
 use crate::engine::Engine;
-use crate::engine::camera::Camera;
+use crate::engine::camera::{Camera, attitude_forward};
 use crate::error::{Error, Result};
 use line::{PoseDecoder, Reading, Refused};
 
@@ -74,9 +74,7 @@ impl Pose {
 
     /// The unit viewing direction in the engine's world (x east, y up, z south).
     pub fn forward(&self) -> DVec3 {
-        let (sh, ch) = self.heading.sin_cos();
-        let (sp, cp) = self.pitch.sin_cos();
-        DVec3::new(sh * cp, sp, -ch * cp)
+        attitude_forward(self.heading, self.pitch)
     }
 
     /// The camera of this pose over `engine`'s terrain (the engine keeps it above the ground).

@@ -113,6 +113,10 @@ pub struct MaskSet {
     /// `by_budget[b]`: the finest level of the set with at most `b` triangles (the coarsest one
     /// below its count), for `b` up to the level-0 count.
     by_budget: Vec<u16>,
+    /// `counts[l]`: the triangles of level `l`, for every level `0 ..= s - 2`. The budget asks
+    /// thousands of times a frame, and on a core without a divider `triangle_count`'s division
+    /// is a library call.
+    counts: Vec<usize>,
     /// One slot per level `0 ..= s - 2`, filled on first use.
     indices: Vec<OnceLock<MaskIndices>>,
 }
@@ -150,6 +154,9 @@ impl MaskSet {
             level_set,
             levels,
             by_budget,
+            counts: (0..level_count(tile_size))
+                .map(|l| triangle_count(tile_size, l))
+                .collect(),
             indices: (0..level_count(tile_size))
                 .map(|_| OnceLock::new())
                 .collect(),
@@ -176,9 +183,12 @@ impl MaskSet {
         *self.levels.last().expect("level 0 is in every set")
     }
 
-    /// Triangles drawn by `level` (closed form; nothing is built).
+    /// Triangles drawn by `level` (closed form, from a table; nothing is built).
     pub fn triangle_count(&self, level: usize) -> usize {
-        triangle_count(self.tile_size, level)
+        self.counts
+            .get(level)
+            .copied()
+            .unwrap_or_else(|| triangle_count(self.tile_size, level))
     }
 
     /// The finest level of the set with at most `budget` triangles, the coarsest level when no

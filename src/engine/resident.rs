@@ -179,14 +179,15 @@ impl ResidentTile {
                 TexCoord::saturating_from_num(c)
             })
             .collect();
-        let mut vertices: Vec<Vertex> = (0..side * side)
-            .map(|k| {
-                let (i, j) = (k % side, k / side);
-                Vertex {
-                    position: [(i * step) as i32, tile.quanta(i, j), (j * step) as i32],
-                    uv: [coords[i], coords[j]],
-                    color: [shading.of(normals[k]); 3],
-                }
+        // Row by row, not `k / side` per vertex: a library call on a core without a divider.
+        debug_assert_eq!(normals.len(), side * side);
+        let mut vertices: Vec<Vertex> = (0..side)
+            .flat_map(|j| (0..side).map(move |i| (i, j)))
+            .zip(&normals)
+            .map(|((i, j), &n)| Vertex {
+                position: [(i * step) as i32, tile.quanta(i, j), (j * step) as i32],
+                uv: [coords[i], coords[j]],
+                color: [shading.of(n); 3],
             })
             .collect();
         if cracks == CrackMode::Skirts {
@@ -462,9 +463,10 @@ fn normals(tile: &Tile, level: usize, spacing: f64) -> Vec<[i8; 3]> {
             }
         }
     }
-    (0..s * s)
-        .map(|k| {
-            let at = (k / s + 1) * w + k % s + 1;
+    // Row by row, not `k / s` per sample: a library call on a core without a divider.
+    (0..s)
+        .flat_map(|j| (j + 1) * w + 1..(j + 1) * w + 1 + s)
+        .map(|at| {
             slopes.packed(
                 framed[at - 1],
                 framed[at + 1],

@@ -74,8 +74,8 @@ fn predict(i: usize, j: usize, at: impl Fn(usize, usize) -> u16) -> u16 {
 /// The grid positions of level `level` that the coarser levels lack, row-major.
 fn new_positions(level: usize) -> impl Iterator<Item = (usize, usize)> {
     let side = level_side(level);
-    (0..side * side)
-        .map(move |k| (k % side, k / side))
+    (0..side)
+        .flat_map(move |j| (0..side).map(move |i| (i, j)))
         .filter(|&(i, j)| i % 2 == 1 || j % 2 == 1)
 }
 

@@ -4,12 +4,13 @@
 
 use super::division::{advance, div_small, divide};
 use super::{AttrPlane, FixedTriangle};
-use crate::fixed_point::{ATTR_FRAC_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE};
+use crate::fixed_point::{ATTR_FRAC_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE, TEXCOORD_LIMIT};
 use crate::fragments::Fragments;
 use crate::pipeline::{Attributes, TexMode};
 use crate::pixel::DepthStorage;
 use crate::sampler::{Filtering, clamp_coord};
 use crate::state::Compare;
+use std::ops::Range;
 
 /// Where a run of fragments lies: row `y`, owned pixels `x0..x1`, of which the row step takes
 /// `xs..xe` (a tile's part of the run, in pieces that fit the fragment buffer), whose first
@@ -105,6 +106,10 @@ impl<const GREY: bool> Stepped<GREY> {
 ///
 /// `GREY` steps one colour channel for all three, `NARROW` starts the row from
 /// `AttrPlane::at_pixel` (see `FixedTriangle::narrow`).
+///
+/// A piece whose stepped values lie inside their ranges at its first and last pixel takes the
+/// pixels without clamps: each steps linearly, so every pixel between lies between the two.
+/// Most pieces do; the clamps are for the rounding at a triangle's edges.
 #[inline(always)]
 pub(crate) fn run_fragments<
     D: DepthStorage,
@@ -123,17 +128,9 @@ pub(crate) fn run_fragments<
 ) {
     let planes = &planes[tri.planes as usize..];
     let (color_at, fog_at, tex_at) = plane_offsets::<D, SHADE, GREY, FOG>();
-    let RunPiece {
-        y,
-        x0,
-        x1,
-        xs,
-        xe,
-        at: first,
-    } = piece;
+    let RunPiece { y, x0, xs, xe, .. } = piece;
     let n = (xe - xs) as usize;
-    debug_assert!(x0 <= xs && xs < xe && xe <= x1 && n <= frags.room());
-    let depth = &mut depth[..if D::ENABLED { n } else { 0 }];
+    debug_assert!(x0 <= xs && xs < xe && xe <= piece.x1 && n <= frags.room());
     let origin = tri.coverage.origin();
     let corner = tri.coverage.corner();
     let ox = x0 * SUBPIXEL_ONE + SUBPIXEL_HALF - origin[0];
@@ -166,6 +163,129 @@ pub(crate) fn run_fragments<
     if FOG {
         (px.f, px.df) = (at(&planes[fog_at], xs), planes[fog_at].dx);
     }
+    let tex = match tri.tex_mode {
+        TexMode::Perspective(chunk) if T::ENABLED => {
+            // Accumulators for s, t, q at pixel `xs` (`Exact`) or at the chunk start.
+            let chunk = chunk as i64;
+            // In 32 bits (both are small and not negative): the i64 division is a library call
+            // on a 32-bit core. A run that starts in the tile (most do) starts at its first chunk.
+            let k0 = match xs - x0 {
+                0 => 0,
+                d => (d as u32 / chunk as u32) as i64,
+            };
+            let mut acc = [0i64; 3];
+            let mut dacc = [0i64; 3];
+            for j in 0..3 {
+                let p = &planes[tex_at + j];
+                dacc[j] = p.dx;
+                acc[j] = match k0 {
+                    0 => at(p, x0),
+                    _ => advance(at(p, x0), dacc[j].saturating_mul(chunk), k0),
+                };
+            }
+            RunTex::Perspective {
+                acc,
+                dacc,
+                chunk,
+                start: x0 + k0 * chunk,
+            }
+        }
+        TexMode::Affine if T::ENABLED => {
+            let (pu, pv) = (&planes[tex_at], &planes[tex_at + 1]);
+            RunTex::Affine {
+                uv: [at(pu, xs), at(pv, xs)],
+                duv: [pu.dx, pv.dx],
+            }
+        }
+        _ => RunTex::Off,
+    };
+    let last = n as i64 - 1;
+    let linear_in = |v: i64, d: i64, range: Range<i64>| {
+        let end = d.checked_mul(last).and_then(|e| v.checked_add(e));
+        matches!(end, Some(e) if range.contains(&v) && range.contains(&e))
+    };
+    let channels = if GREY { 1 } else { 3 };
+    let in_range = (!D::ENABLED || linear_in(px.z, px.dz, 0..1 << 48))
+        && (!SHADE || (0..channels).all(|k| linear_in(px.c[k], px.dc[k], CHANNEL)))
+        && (!FOG || linear_in(px.f, px.df, SHARE))
+        && match tex {
+            RunTex::Affine { uv, duv } => (0..2).all(|k| linear_in(uv[k], duv[k], COORD)),
+            _ => true,
+        };
+    let run = Run {
+        piece,
+        tex,
+        depth: &mut depth[..if D::ENABLED { n } else { 0 }],
+        test,
+    };
+    if in_range {
+        pixels::<D, T, GREY, SHADE, FOG, false>(run, px, frags);
+    } else {
+        pixels::<D, T, GREY, SHADE, FOG, true>(run, px, frags);
+    }
+}
+
+/// The values whose integer parts (`>> ATTR_FRAC_BITS`) a row step keeps without a clamp: a
+/// colour channel's `0..=255`, a fog share's `0..=256`, a texture coordinate's
+/// `-TEXCOORD_LIMIT..=TEXCOORD_LIMIT` (16.16, so the same shift).
+const CHANNEL: Range<i64> = 0..256 << ATTR_FRAC_BITS;
+const SHARE: Range<i64> = 0..257 << ATTR_FRAC_BITS;
+const COORD: Range<i64> = -TEXCOORD_LIMIT << 16..(TEXCOORD_LIMIT + 1) << 16;
+
+/// A run's texture coordinates at its piece's first pixel: affine `u, v` (16.16) and their
+/// steps, or the perspective accumulators `s, t, q` at the first chunk's start `start`.
+#[derive(Clone, Copy)]
+enum RunTex {
+    Off,
+    Affine {
+        uv: [i64; 2],
+        duv: [i64; 2],
+    },
+    Perspective {
+        acc: [i64; 3],
+        dacc: [i64; 3],
+        chunk: i64,
+        start: i64,
+    },
+}
+
+/// What `pixels` draws: a piece, its texture coordinates, its depth values and test.
+struct Run<'d, D: DepthStorage> {
+    piece: RunPiece,
+    tex: RunTex,
+    depth: &'d mut [D::Value],
+    test: DepthTest,
+}
+
+/// The pixels of `run_fragments`' piece from the stepped values `px` at its first pixel; with
+/// `CLAMP` false every value is known to lie in its range, so none is clamped.
+#[inline(always)]
+fn pixels<
+    D: DepthStorage,
+    T: Filtering,
+    const GREY: bool,
+    const SHADE: bool,
+    const FOG: bool,
+    const CLAMP: bool,
+>(
+    run: Run<'_, D>,
+    mut px: Stepped<GREY>,
+    frags: &mut Fragments,
+) {
+    let Run {
+        piece,
+        tex,
+        depth,
+        test,
+    } = run;
+    let RunPiece {
+        x1,
+        xs,
+        xe,
+        at: first,
+        ..
+    } = piece;
+    let n = (xe - xs) as usize;
     // Pixel `k` of the piece, with texture coordinates `uv`: held when it passes the test.
     let mut kept = frags.held();
     let mut emit = |k: usize, uv: (i32, i32), px: &mut Stepped<GREY>| {
@@ -175,12 +295,18 @@ pub(crate) fn run_fragments<
             (frags.u[i], frags.v[i]) = uv;
         }
         let visible = if D::ENABLED {
-            test.apply::<D>(D::from_z(px.z), &mut depth[k])
+            let d = if CLAMP {
+                D::from_z(px.z)
+            } else {
+                D::from_z_in_range(px.z)
+            };
+            test.apply::<D>(d, &mut depth[k])
         } else {
             true
         };
+        let whole = |v: i64| v >> ATTR_FRAC_BITS;
         if SHADE {
-            let channel = |c: i64| (c >> ATTR_FRAC_BITS).clamp(0, 255) as u16;
+            let channel = |c: i64| if CLAMP { whole(c).clamp(0, 255) } else { whole(c) } as u16;
             frags.c[0][i] = channel(px.c[0]);
             if !GREY {
                 frags.c[1][i] = channel(px.c[1]);
@@ -188,47 +314,56 @@ pub(crate) fn run_fragments<
             }
         }
         if FOG {
-            frags.f[i] = (px.f >> ATTR_FRAC_BITS).clamp(0, 256) as u16;
+            frags.f[i] = if CLAMP {
+                whole(px.f).clamp(0, 256)
+            } else {
+                whole(px.f)
+            } as u16;
         }
         px.step();
         kept += visible as usize;
     };
-    let coord = |c: i64| clamp_coord(c >> 16) as i32;
-    match tri.tex_mode {
-        TexMode::Perspective(chunk) if T::ENABLED => {
-            // Accumulators for s, t, q at pixel `xs` (`Exact`) or at the chunk start `cs`.
-            let chunk = chunk as i64;
-            let k0 = (xs - x0) / chunk;
-            let mut acc = [0i64; 3];
-            let mut dacc = [0i64; 3];
-            for j in 0..3 {
-                let p = &planes[tex_at + j];
-                dacc[j] = p.dx;
-                // A run that starts in the tile (most do) starts at its first chunk.
-                acc[j] = match k0 {
-                    0 => at(p, x0),
-                    _ => advance(at(p, x0), dacc[j].saturating_mul(chunk), k0),
-                };
-            }
+    let coord = |c: i64| {
+        if CLAMP {
+            clamp_coord(c >> 16) as i32
+        } else {
+            (c >> 16) as i32
+        }
+    };
+    match tex {
+        RunTex::Perspective {
+            mut acc,
+            dacc,
+            chunk,
+            start,
+        } => {
             if chunk == 1 {
                 // Exact: one division per pixel, as stepping chunks of one pixel gives.
                 for k in 0..n {
                     let (u, v) = divide(acc[0], acc[1], acc[2]);
-                    emit(k, (coord(u), coord(v)), &mut px);
+                    emit(k, ((u >> 16) as i32, (v >> 16) as i32), &mut px);
                     for j in 0..3 {
                         acc[j] = acc[j].saturating_add(dacc[j]);
                     }
                 }
             } else {
                 // (u, v) in 16.32 at the chunk start `cs`, exact there, linear between.
-                let mut cs = x0 + k0 * chunk;
+                let mut cs = start;
                 let (mut u, mut v) = divide(acc[0], acc[1], acc[2]);
+                // A whole chunk's steps, once a run: a saturating i64 product is a dozen
+                // instructions on a 32-bit core.
+                let whole = dacc.map(|d| d.saturating_mul(chunk));
                 let mut x = xs;
                 while x < xe {
                     let ce = (cs + chunk).min(x1);
                     let m = ce - cs;
                     for j in 0..3 {
-                        acc[j] = acc[j].saturating_add(dacc[j].saturating_mul(m));
+                        let step = if m == chunk {
+                            whole[j]
+                        } else {
+                            dacc[j].saturating_mul(m)
+                        };
+                        acc[j] = acc[j].saturating_add(step);
                     }
                     let end = divide(acc[0], acc[1], acc[2]);
                     let (du, dv) = (div_small(end.0 - u, m), div_small(end.1 - v, m));
@@ -237,10 +372,26 @@ pub(crate) fn run_fragments<
                         v.wrapping_add(dv.wrapping_mul(x - cs)),
                     );
                     let stop = ce.min(xe);
-                    for k in (x - xs) as usize..(stop - xs) as usize {
-                        emit(k, (coord(cu), coord(cv)), &mut px);
-                        cu = cu.wrapping_add(du);
-                        cv = cv.wrapping_add(dv);
+                    let (from, to) = ((x - xs) as usize, (stop - xs) as usize);
+                    // `divide` keeps the chunk's ends in range, but the rounded-down steps
+                    // between them can stray past the low end: the chunk's part of the piece
+                    // goes without clamps where its first and last coordinates lie inside.
+                    let last = (to - from) as i64 - 1;
+                    let inside =
+                        |c: i64, d: i64| COORD.contains(&c) && COORD.contains(&(c + d * last));
+                    if inside(cu, du) && inside(cv, dv) {
+                        for k in from..to {
+                            emit(k, ((cu >> 16) as i32, (cv >> 16) as i32), &mut px);
+                            cu = cu.wrapping_add(du);
+                            cv = cv.wrapping_add(dv);
+                        }
+                    } else {
+                        for k in from..to {
+                            let clamped = |c: i64| clamp_coord(c >> 16) as i32;
+                            emit(k, (clamped(cu), clamped(cv)), &mut px);
+                            cu = cu.wrapping_add(du);
+                            cv = cv.wrapping_add(dv);
+                        }
                     }
                     (u, v) = end;
                     cs = ce;
@@ -248,16 +399,17 @@ pub(crate) fn run_fragments<
                 }
             }
         }
-        TexMode::Affine if T::ENABLED => {
-            let (pu, pv) = (&planes[tex_at], &planes[tex_at + 1]);
-            let (mut cu, mut cv) = (at(pu, xs), at(pv, xs));
+        RunTex::Affine {
+            uv: [mut cu, mut cv],
+            duv: [du, dv],
+        } => {
             for k in 0..n {
                 emit(k, (coord(cu), coord(cv)), &mut px);
-                cu = cu.wrapping_add(pu.dx);
-                cv = cv.wrapping_add(pv.dx);
+                cu = cu.wrapping_add(du);
+                cv = cv.wrapping_add(dv);
             }
         }
-        _ => {
+        RunTex::Off => {
             for k in 0..n {
                 emit(k, (0, 0), &mut px);
             }

@@ -102,18 +102,19 @@ impl<'t> Attributes<'t> {
         self.depth || self.shade || self.fog || self.tex != TexMode::Off
     }
 
-    /// Mip level of a triangle from its doubled texture-space area (16.16 repeats squared) and
-    /// doubled screen area (sub-pixels squared), never finer than the binding's finest level.
-    pub fn level(&self, texel_area2: i128, area2: i64) -> u8 {
+    /// Mip level of a triangle from the bit length of its doubled texture-space area (16.16
+    /// repeats squared; 0 for none) and its doubled screen area (sub-pixels squared), never
+    /// finer than the binding's finest level. The caller measures the texture area in the width
+    /// its pipeline has it in: a 128-bit one is four words on a 32-bit core.
+    pub fn level(&self, texel_area2_bits: u32, area2: i64) -> u8 {
         let Some(m) = self.mip else {
             return 0;
         };
-        if !m.per_triangle || texel_area2 <= 0 || area2 <= 0 {
+        if !m.per_triangle || texel_area2_bits == 0 || area2 <= 0 {
             return m.finest;
         }
-        let bits = |v: i128| 128 - v.leading_zeros() as i32;
-        let ratio_log2 =
-            bits(texel_area2) - 32 + m.texels + 2 * SUBPIXEL_BITS as i32 - bits(area2 as i128);
+        let ratio_log2 = texel_area2_bits as i32 - 32 + m.texels + 2 * SUBPIXEL_BITS as i32
+            - (64 - area2.leading_zeros() as i32);
         m.texture
             .level_for_area_ratio(ratio_log2)
             .max(m.finest.into()) as u8

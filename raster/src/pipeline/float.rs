@@ -258,7 +258,7 @@ impl FloatTriangle {
             TexMode::Off => ([empty; 3], 0),
             TexMode::Affine => (
                 [pick(|s| s.uv[0]), pick(|s| s.uv[1]), empty],
-                a.level(texel_area(&v), area2),
+                a.level(texel_area_bits(&v), area2),
             ),
             TexMode::Perspective(_) => (
                 [
@@ -266,7 +266,7 @@ impl FloatTriangle {
                     pick(|s| s.uv[1] * s.inv_w),
                     pick(|s| s.inv_w),
                 ],
-                a.level(texel_area(&v), area2),
+                a.level(texel_area_bits(&v), area2),
             ),
         };
         Self {
@@ -287,10 +287,12 @@ impl FloatTriangle {
     }
 }
 
-/// Doubled texture-space area in 16.16 repeats squared, as the fixed path measures it.
-fn texel_area(v: &[&FloatScreen; 3]) -> i128 {
+/// Bit length of the doubled texture-space area in 16.16 repeats squared, as the fixed path
+/// measures it.
+fn texel_area_bits(v: &[&FloatScreen; 3]) -> u32 {
     let d = |i: usize, k: usize| (v[i].uv[k] - v[0].uv[k]) as f64;
-    ((d(1, 0) * d(2, 1) - d(2, 0) * d(1, 1)).abs() * 4294967296.0) as i128
+    let area = ((d(1, 0) * d(2, 1) - d(2, 0) * d(1, 1)).abs() * 4294967296.0) as i128;
+    128 - area.leading_zeros()
 }
 
 impl Setup for FloatTriangle {

@@ -56,9 +56,28 @@ fn quotient_by_table(q: u64) -> u64 {
 #[inline]
 pub(crate) fn divide(s: i64, t: i64, q: i64) -> (i64, i64) {
     let r = reciprocal_63(q.max(1) as u64) as i128;
-    let limit = (TEXCOORD_LIMIT as i128) << 16;
-    let uv = |a: i64| ((a as i128 * r) >> 47).clamp(-limit, limit) as i64;
+    #[cfg(target_pointer_width = "64")]
+    let uv = |a: i64| ((a as i128 * r) >> 47).clamp(-UV_LIMIT as i128, UV_LIMIT as i128) as i64;
+    #[cfg(not(target_pointer_width = "64"))]
+    let uv = |a: i64| clamped_in_words(a as i128 * r);
     (uv(s), uv(t))
+}
+
+/// The limit of `divide`'s coordinates (16.32).
+const UV_LIMIT: i64 = TEXCOORD_LIMIT << 16;
+
+/// `(p >> 47).clamp(-UV_LIMIT, UV_LIMIT)`, `divide`'s clamp, for a 32-bit core, where a clamp
+/// of 128-bit values is a few dozen instructions: the product's high word decides whether
+/// `p >> 47` can lie within the limit (`-2^87 <= p < 2^87`, the limit being 2^40), and only
+/// then is it clamped, as an i64.
+#[cfg(any(test, not(target_pointer_width = "64")))]
+#[inline(always)]
+fn clamped_in_words(p: i128) -> i64 {
+    let high = (p >> 64) as i64;
+    if !(-(1 << 23)..1 << 23).contains(&high) {
+        return if high < 0 { -UV_LIMIT } else { UV_LIMIT };
+    }
+    ((p >> 47) as i64).clamp(-UV_LIMIT, UV_LIMIT)
 }
 
 /// `divide` where the quotients are known to be inside the range (`q >= 2` and
@@ -135,7 +154,43 @@ mod tests {
         }
     }
 
+    /// `clamped_in_words` against the 128-bit clamp it stands for.
+    fn check_clamp(p: i128) {
+        let wide = (p >> 47).clamp(-UV_LIMIT as i128, UV_LIMIT as i128) as i64;
+        assert_eq!(clamped_in_words(p), wide, "{p}");
+    }
+
+    #[test]
+    fn clamps_in_words_at_their_edges_are_the_128_bit_clamps() {
+        // Products around `2^87` and the limit each way, and the extremes of `divide`'s.
+        let edges = [
+            0i128,
+            1 << 87,
+            1 << 64,
+            (UV_LIMIT as i128) << 47,
+            i64::MAX as i128,
+        ];
+        for e in edges {
+            for p in [e - 1, e, e + 1, -e - 1, -e, -e + 1] {
+                check_clamp(p);
+            }
+        }
+        check_clamp(i64::MIN as i128 * (1i128 << 63));
+        check_clamp(i64::MAX as i128 * (1i128 << 63));
+    }
+
     proptest! {
+        #[test]
+        fn clamps_in_words_are_the_128_bit_clamps(
+            a in proptest::num::i64::ANY,
+            q in prop_oneof![1u64..1 << 20, 1u64..=1 << 63],
+            bits in 0u32..64,
+        ) {
+            let r = ((1u64 << 63) / q) as i128;
+            check_clamp(a as i128 * r);
+            check_clamp((a >> bits) as i128 * r);
+        }
+
         #[test]
         fn any_divisor_has_the_divisions_quotient(q in 1u64..=1 << 63, shift in 0u32..63) {
             let q = (q >> shift).max(1);

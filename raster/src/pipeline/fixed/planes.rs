@@ -204,7 +204,10 @@ impl Geometry {
         // A 32-bit core builds the 128-bit product from many words: there the gradients come
         // from 32x32-bit products where they lie below 2^62 (all but the steepest).
         #[cfg(not(target_pointer_width = "64"))]
-        let wide = |n: i64| scale_in_words(n, self.inv_area, s).or_else(|| wide(n));
+        let wide = |n: i64| match i32::try_from(n) {
+            Ok(n) => Some(scale_word(n, self.inv_area, self.half, s)),
+            Err(_) => scale_in_words(n, self.inv_area, s).or_else(|| wide(n)),
+        };
         match (wide(nx), wide(ny)) {
             (Some(dx), Some(dy)) => (dx, dy),
             _ => (0, 0),
@@ -230,6 +233,19 @@ impl Geometry {
             _ => (0, 0),
         }
     }
+}
+
+/// `(n * inv + half) >> s`, `plane_small`'s rounded product, for an `n` of one word (colour,
+/// fog and the texture coordinates of most small triangles): with `inv <= 2^32` the product
+/// lies within `2^63 - 2^32`, so it and the rounding half (below 2^31) stay in i64, and so does
+/// the result. Three multiplications where the word's sign is known, against `scale_in_words`'
+/// checks and shifts of two words.
+#[cfg(any(test, not(target_pointer_width = "64")))]
+#[inline(always)]
+fn scale_word(n: i32, inv: i64, half: i64, s: u32) -> i64 {
+    debug_assert!((1 << 31) < inv && inv <= 1 << 32 && (8..=32).contains(&s));
+    debug_assert!(half == 1 << (s - 1));
+    (n as i64 * inv + half) >> s
 }
 
 /// `(n * inv + 2^(s - 1)) >> s`, `plane_small`'s rounded product, in 32x32-bit products, for
@@ -280,6 +296,43 @@ mod tests {
 
     /// The largest attribute difference a plane meets: `s, t` under perspective.
     const MAX_ATTR: i64 = 1 << 45;
+    /// `scale_word` against the 128-bit product.
+    fn check_word(n: i32, inv: i64, s: u32) {
+        let wide = (n as i128 * inv as i128 + (1i128 << (s - 1))) >> s;
+        assert_eq!(
+            scale_word(n, inv, 1 << (s - 1), s) as i128,
+            wide,
+            "{n} {inv} {s}"
+        );
+    }
+
+    #[test]
+    fn products_of_a_word_equal_128_bit_products_at_the_bounds() {
+        for s in 8..=32 {
+            for n in [
+                0,
+                1,
+                -1,
+                12345,
+                -12345,
+                i32::MAX,
+                i32::MIN,
+                i32::MAX - 1,
+                i32::MIN + 1,
+            ] {
+                for inv in [
+                    (1i64 << 31) + 1,
+                    (1 << 31) + 12345,
+                    3 << 30,
+                    (1 << 32) - 1,
+                    1 << 32,
+                ] {
+                    check_word(n, inv, s);
+                }
+            }
+        }
+    }
+
     /// `scale_in_words` against the 128-bit product, where it gives a value.
     fn check_scale(n: i64, inv: i64, s: u32) -> bool {
         let wide = i64::try_from((n as i128 * inv as i128 + (1i128 << (s - 1))) >> s).ok();
@@ -335,6 +388,7 @@ mod tests {
         ) {
             check_scale(n, inv, s);
             check_scale(n >> bits, inv, s);
+            check_word((n >> 29) as i32, inv, s);
         }
     }
 

@@ -93,7 +93,7 @@ impl FixedTriangle {
             TexMode::Affine => {
                 planes.push(pick(|s| s.uv[0]));
                 planes.push(pick(|s| s.uv[1]));
-                t.level = a.level(texel_area(&v), area2);
+                t.level = a.level(texel_area_bits(&v), area2);
             }
             TexMode::Perspective(_) => {
                 // 1/w of the three vertices on one scale, below 2^Q_BITS.
@@ -107,7 +107,7 @@ impl FixedTriangle {
                 planes.push(st(0));
                 planes.push(st(1));
                 planes.push(g.plane(q));
-                t.level = a.level(texel_area(&v), area2);
+                t.level = a.level(texel_area_bits(&v), area2);
             }
         }
         t.bounded = coverage.is_small() && Inner::all(&v, Inner::needed(a, t.tex_mode));
@@ -128,11 +128,13 @@ impl FixedTriangle {
     }
 }
 
-/// Doubled texture-space area in 16.16 repeats squared. In i64: coordinates stay within
-/// `TEXCOORD_LIMIT` (2^24), so differences below 2^25 and their products below 2^50.
-fn texel_area(v: &[&FixedScreen; 3]) -> i128 {
+/// Bit length of the doubled texture-space area in 16.16 repeats squared. In i64: coordinates
+/// stay within `TEXCOORD_LIMIT` (2^24), so differences below 2^25 and their products below 2^50.
+fn texel_area_bits(v: &[&FixedScreen; 3]) -> u32 {
     let d = |i: usize, k: usize| v[i].uv[k] - v[0].uv[k];
-    (d(1, 0) * d(2, 1) - d(2, 0) * d(1, 1)).abs() as i128
+    64 - (d(1, 0) * d(2, 1) - d(2, 0) * d(1, 1))
+        .unsigned_abs()
+        .leading_zeros()
 }
 
 impl Setup for FixedTriangle {

@@ -5,7 +5,7 @@
 use super::division::{advance, div_small, divide};
 use super::{AttrPlane, FixedTriangle};
 use crate::fixed_point::{ATTR_FRAC_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE, TEXCOORD_LIMIT};
-use crate::fragments::Fragments;
+use crate::fragments::{CAPACITY, Fragments};
 use crate::pipeline::{Attributes, TexMode};
 use crate::pixel::DepthStorage;
 use crate::sampler::{Filtering, clamp_coord};
@@ -199,10 +199,13 @@ pub(crate) fn run_fragments<
         }
         _ => RunTex::Off,
     };
+    // The last pixel's value, exact in i64: a piece holds fewer than 2^6 pixels (`CAPACITY`)
+    // and the ranges lie within 2^49 of 0, so a step below 2^56 keeps the product below 2^62
+    // and the sum below 2^63 (checked products are library calls on a 32-bit core).
     let last = n as i64 - 1;
+    debug_assert!(n <= CAPACITY);
     let linear_in = |v: i64, d: i64, range: Range<i64>| {
-        let end = d.checked_mul(last).and_then(|e| v.checked_add(e));
-        matches!(end, Some(e) if range.contains(&v) && range.contains(&e))
+        range.contains(&v) && d.unsigned_abs() < 1 << 56 && range.contains(&(v + d * last))
     };
     let channels = if GREY { 1 } else { 3 };
     let in_range = (!D::ENABLED || linear_in(px.z, px.dz, 0..1 << 48))

@@ -207,7 +207,11 @@ pub fn allocate_by_error(
     let next = |t: usize, from: usize| -> Option<Move> {
         let now = key(t, from);
         let mut best: Option<(usize, i64, usize)> = None;
-        for &l in levels.iter().filter(|&&l| l < from && l >= finest[t]) {
+        // The levels finer than `from` and within the cap, coarsest first: `levels` falls, so
+        // they start where its levels drop below `from` and end at the cap, and the walk skips
+        // the coarser ones instead of testing each on every move.
+        let finer = &levels[levels.partition_point(|&l| l >= from)..];
+        for &l in finer.iter().take_while(|&&l| l >= finest[t]) {
             let count = masks.triangle_count(l);
             if best.is_some_and(|(_, _, c)| count != c) {
                 break;

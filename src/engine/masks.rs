@@ -134,14 +134,17 @@ impl MaskSet {
         let levels: Vec<usize> = (0..level_count(tile_size))
             .filter(|&l| level_set.contains(l))
             .collect();
-        let max = triangle_count(tile_size, 0);
+        let counts: Vec<usize> = (0..level_count(tile_size))
+            .map(|l| triangle_count(tile_size, l))
+            .collect();
+        let max = counts[0];
         let mut by_budget = vec![0u16; max + 1];
         // Counts never grow with the level, so walking finest first gives each level the
         // budgets from its count up to the next finer count; an equal count leaves the range
         // to the finer level.
         let mut upper = max + 1;
         for &level in &levels {
-            let count = triangle_count(tile_size, level);
+            let count = counts[level];
             if count < upper {
                 by_budget[count..upper].fill(level as u16);
                 upper = count;
@@ -154,9 +157,7 @@ impl MaskSet {
             level_set,
             levels,
             by_budget,
-            counts: (0..level_count(tile_size))
-                .map(|l| triangle_count(tile_size, l))
-                .collect(),
+            counts,
             indices: (0..level_count(tile_size))
                 .map(|_| OnceLock::new())
                 .collect(),

@@ -355,14 +355,14 @@ fn pixels<
                 let (mut u, mut v) = divide(acc[0], acc[1], acc[2]);
                 // A whole chunk's steps, once a run: a saturating i64 product is a dozen
                 // instructions on a 32-bit core.
-                let whole = dacc.map(|d| d.saturating_mul(chunk));
+                let chunk_steps = dacc.map(|d| d.saturating_mul(chunk));
                 let mut x = xs;
                 while x < xe {
                     let ce = (cs + chunk).min(x1);
                     let m = ce - cs;
                     for j in 0..3 {
                         let step = if m == chunk {
-                            whole[j]
+                            chunk_steps[j]
                         } else {
                             dacc[j].saturating_mul(m)
                         };

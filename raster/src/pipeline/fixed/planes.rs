@@ -171,10 +171,24 @@ impl Geometry {
         }
     }
 
+    /// The plane of an attribute with values `a` at the vertices.
     #[inline(always)]
     pub(super) fn plane(&self, a: [i64; 3]) -> AttrPlane {
+        self.plane_of::<false>(a)
+    }
+
+    /// `plane` of an attribute whose values lie in `0..=256` (colour, fog): a small triangle's
+    /// numerators then fit in a word with no check (see `plane_small`).
+    #[inline(always)]
+    pub(super) fn plane_of_share(&self, a: [i64; 3]) -> AttrPlane {
+        debug_assert!(a.iter().all(|v| (0..=256).contains(v)));
+        self.plane_of::<true>(a)
+    }
+
+    #[inline(always)]
+    fn plane_of<const SHARE: bool>(&self, a: [i64; 3]) -> AttrPlane {
         let (dx, dy) = if self.small {
-            self.plane_small(a)
+            self.plane_small::<SHARE>(a)
         } else {
             self.plane_wide(a)
         };
@@ -188,16 +202,28 @@ impl Geometry {
     /// The gradients of a small triangle's plane: the products of `plane_wide` in i64, the
     /// scaled ones as one widening multiplication each (see `SMALL_EDGE` for the bounds). The
     /// same integers as `plane_wide`, so the same pixels.
+    ///
+    /// Where both differences lie within `2^17` (`SHARE`: values in `0..=256`, so within 2^9),
+    /// the numerators are products of words: `|nx| < 2 * 2^17 * 2^13 = 2^31` (see `SMALL_EDGE`),
+    /// and each gradient is `scale_word`'s one product, on every core (fewer instructions than
+    /// the 128-bit product on a 64-bit one, and a few where a 32-bit one builds i64 products).
     #[inline(always)]
-    fn plane_small(&self, a: [i64; 3]) -> (i64, i64) {
+    fn plane_small<const SHARE: bool>(&self, a: [i64; 3]) -> (i64, i64) {
         let (a1, a2) = (a[1] - a[0], a[2] - a[0]);
         debug_assert!(a1.abs() < 1 << 46 && a2.abs() < 1 << 46);
+        debug_assert!((8..=32).contains(&self.shift));
+        let s = self.shift as u32 & 63;
+        let within = |a: i64| ((a + (1 << 17)) as u64) < 1 << 18;
+        if SHARE || (within(a1) && within(a2)) {
+            let [d1x, d1y, d2x, d2y] = [self.d1[0], self.d1[1], self.d2[0], self.d2[1]];
+            let [a1, a2, d1x, d1y, d2x, d2y] = [a1, a2, d1x, d1y, d2x, d2y].map(|v| v as i32);
+            let scale = |n: i32| scale_word(n, self.inv_area, self.half, s);
+            return (scale(a1 * d2y - a2 * d1y), scale(a2 * d1x - a1 * d2x));
+        }
         let nx = a1 * self.d2[1] - a2 * self.d1[1];
         let ny = a2 * self.d1[0] - a1 * self.d2[0];
-        debug_assert!((8..=32).contains(&self.shift));
-        // Masked: the compiler then knows the shift is below 64; the rounding half is below
+        // The shift masked: the compiler then knows it is below 64; the rounding half is below
         // 2^63, a 64-bit value added to the 128-bit product.
-        let s = self.shift as u32 & 63;
         let half = self.half as i128;
         let inv = self.inv_area as i128;
         let wide = |n: i64| i64::try_from((n as i128 * inv + half) >> s).ok();
@@ -240,7 +266,6 @@ impl Geometry {
 /// lies within `2^63 - 2^32`, so it and the rounding half (below 2^31) stay in i64, and so does
 /// the result. Three multiplications where the word's sign is known, against `scale_in_words`'
 /// checks and shifts of two words.
-#[cfg(any(test, not(target_pointer_width = "64")))]
 #[inline(always)]
 fn scale_word(n: i32, inv: i64, half: i64, s: u32) -> i64 {
     debug_assert!((1 << 31) < inv && inv <= 1 << 32 && (8..=32).contains(&s));
@@ -396,7 +421,22 @@ mod tests {
     fn small_planes_equal_wide_planes_at_the_bounds() {
         let at = [0, 1, EDGE / 3, EDGE / 2 + 7, EDGE - 1, EDGE];
         let points: Vec<[i64; 2]> = at.iter().flat_map(|&x| at.map(|y| [x, y])).collect();
-        let attrs = [-MAX_ATTR, -(1 << 32), -255, 0, 1, 1 << 24, MAX_ATTR];
+        // The ends of every range, and of the words' (`plane_small`).
+        let word = 1 << 17;
+        let attrs = [
+            -MAX_ATTR,
+            -(1 << 32),
+            -word - 1,
+            -word,
+            -255,
+            0,
+            1,
+            word - 1,
+            word,
+            1 << 24,
+            MAX_ATTR,
+        ];
+        let shares = [0, 1, 255, 256];
         let (mut checked, mut largest) = (0, 0);
         for &a in &points {
             for &b in &points {
@@ -411,8 +451,16 @@ mod tests {
                     for a1 in attrs {
                         for a2 in attrs {
                             let q = [0, a1, a2];
-                            assert_eq!(small.plane_small(q), wide.plane_wide(q));
+                            assert_eq!(small.plane_small::<false>(q), wide.plane_wide(q));
                             checked += 1;
+                        }
+                    }
+                    for a0 in shares {
+                        for a1 in shares {
+                            for a2 in shares {
+                                let q = [a0, a1, a2];
+                                assert_eq!(small.plane_small::<true>(q), wide.plane_wide(q));
+                            }
                         }
                     }
                 }
@@ -429,11 +477,16 @@ mod tests {
         fn small_planes_equal_wide_planes(
             v in proptest::collection::vec(0..=EDGE, 6),
             a in proptest::collection::vec(-MAX_ATTR / 2..=MAX_ATTR / 2, 3),
+            bits in 0u32..46,
+            shares in proptest::collection::vec(0i64..=256, 3),
         ) {
             let v = [[v[0], v[1]], [v[2], v[3]], [v[4], v[5]]];
             if let (Some(small), Some(wide)) = (geometry(v, true), geometry(v, false)) {
-                let a = [a[0], a[1], a[2]];
-                proptest::prop_assert_eq!(small.plane_small(a), wide.plane_wide(a));
+                // Values of every size, down to the words' (`plane_small`), and shares.
+                let a = [a[0], a[1], a[2]].map(|a| a >> bits);
+                proptest::prop_assert_eq!(small.plane_small::<false>(a), wide.plane_wide(a));
+                let s = [shares[0], shares[1], shares[2]];
+                proptest::prop_assert_eq!(small.plane_small::<true>(s), wide.plane_wide(s));
             }
         }
     }

@@ -20,6 +20,9 @@ pub(crate) struct FixedScreen {
     pub(super) w_shift: i32,
     pub(super) uv: [i64; 2],
     pub(super) color: [i64; 3],
+    /// The three colour channels are equal: worked out once per vertex, as the triangles that
+    /// share it each ask (`FixedTriangle::grey`).
+    pub(super) grey: bool,
     /// Share of the surface colour against fog, 0..=256.
     pub(super) fog: i64,
     /// Which of its attributes lie inside their ranges by a small triangle's margin
@@ -87,6 +90,11 @@ impl Inner {
     }
 }
 
+/// True when the channels of `color` are equal (terrain lighting: one plane serves all three).
+pub(super) fn is_grey(color: [i64; 3]) -> bool {
+    color[1] == color[0] && color[2] == color[0]
+}
+
 /// Fog distances on the clip `w` scale.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct FixedFog {
@@ -122,6 +130,7 @@ impl FixedScreen {
             w_shift: shift,
             uv: v.uv,
             color: v.color,
+            grey: is_grey(v.color),
             fog,
             inner: Inner::of(depth, v.color, fog, v.uv),
         }

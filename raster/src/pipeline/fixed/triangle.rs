@@ -70,22 +70,20 @@ impl FixedTriangle {
         }
         let g = Geometry::new(&v, area2, coverage.is_small());
         let pick = |f: fn(&FixedScreen) -> i64| g.plane([f(v[0]), f(v[1]), f(v[2])]);
+        let share = |f: fn(&FixedScreen) -> i64| g.plane_of_share([f(v[0]), f(v[1]), f(v[2])]);
         if a.depth {
             planes.push(pick(|s| s.depth));
         }
         if a.shade {
-            // Terrain lighting is grey (r = g = b at every vertex): one plane serves all three.
-            t.grey = v
-                .iter()
-                .all(|s| s.color[1] == s.color[0] && s.color[2] == s.color[0]);
-            planes.push(pick(|s| s.color[0]));
+            t.grey = v[0].grey & v[1].grey & v[2].grey;
+            planes.push(share(|s| s.color[0]));
             if !t.grey {
-                planes.push(pick(|s| s.color[1]));
-                planes.push(pick(|s| s.color[2]));
+                planes.push(share(|s| s.color[1]));
+                planes.push(share(|s| s.color[2]));
             }
         }
         if a.fog {
-            planes.push(pick(|s| s.fog));
+            planes.push(share(|s| s.fog));
         }
         t.tex_mode = a.tex_mode_for([v[0].xy, v[1].xy, v[2].xy], coverage.is_small());
         match t.tex_mode {
@@ -151,6 +149,7 @@ impl Setup for FixedTriangle {
 
 #[cfg(test)]
 mod tests {
+    use super::super::projection::is_grey;
     use super::super::test_support::{EDGE, SCREEN};
     use super::*;
     use crate::fixed_point::{
@@ -188,6 +187,7 @@ mod tests {
                 xy: xy[i],
                 depth,
                 color,
+                grey: is_grey(color),
                 fog,
                 uv,
                 inner: Inner::of(depth, color, fog, uv),

@@ -20,7 +20,7 @@
 ))]
 use wide::i32x4;
 
-use crate::fixed_point::{SUBPIXEL_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE, ceil_div, floor_div};
+use crate::fixed_point::{SUBPIXEL_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE, ceil_div};
 
 /// A triangle's owned pixels: its snapped vertices and the pixel rectangle that can hold them.
 /// Edges are rebuilt when its rows are walked, so a set-up triangle stays small.
@@ -126,33 +126,32 @@ impl Coverage {
     /// `Coverage::owns_no_pixel_of_its_row`).
     #[inline(always)]
     pub fn new(v: [[i64; 2]; 3], clip: PixelRect) -> Option<Self> {
+        // In i32: inside the guard band every coordinate lies within 2^25, so each is one word
+        // and the divisions by a pixel's sub-pixels are shifts (rounding down).
+        let v = v.map(|p| p.map(|c| c as i32));
+        let (one, half) = (SUBPIXEL_ONE as i32, SUBPIXEL_HALF as i32);
         let ymin = v[0][1].min(v[1][1]).min(v[2][1]);
         let ymax = v[0][1].max(v[1][1]).max(v[2][1]);
         // Rows whose centre yc satisfies ymin <= yc <= ymax, and yc < ymax under a bottom edge
         // (a horizontal edge with dx < 0 has the triangle above it and does not own its row),
         // which only matters when ymax lies on a row's centre.
-        let first = ceil_div(ymin - SUBPIXEL_HALF, SUBPIXEL_ONE);
-        let mut end = floor_div(ymax - SUBPIXEL_HALF, SUBPIXEL_ONE) + 1;
-        if (ymax - SUBPIXEL_HALF) & (SUBPIXEL_ONE - 1) == 0
+        let first = (ymin - half + one - 1) >> SUBPIXEL_BITS;
+        let mut end = ((ymax - half) >> SUBPIXEL_BITS) + 1;
+        if (ymax - half) & (one - 1) == 0
             && (0..3).any(|i| v[i][1] == v[(i + 1) % 3][1] && v[(i + 1) % 3][0] < v[i][0])
         {
             end -= 1;
         }
-        let (y0, y1) = (first.max(clip.y0 as i64), end.min(clip.y1 as i64));
+        let (y0, y1) = (first.max(clip.y0), end.min(clip.y1));
         let xmin = v[0][0].min(v[1][0]).min(v[2][0]) >> SUBPIXEL_BITS;
         let xmax = v[0][0].max(v[1][0]).max(v[2][0]) >> SUBPIXEL_BITS;
-        let small =
-            xmax - xmin < SMALL && (ymax >> SUBPIXEL_BITS) - (ymin >> SUBPIXEL_BITS) < SMALL;
+        let small = xmax - xmin < SMALL as i32
+            && (ymax >> SUBPIXEL_BITS) - (ymin >> SUBPIXEL_BITS) < SMALL as i32;
         // Owned pixel centres lie between the extreme vertices, so these columns hold them all.
-        let (x0, x1) = (xmin.max(clip.x0 as i64), (xmax + 1).min(clip.x1 as i64));
-        (y0 < y1 && x0 < x1).then(|| Coverage {
-            v: v.map(|p| p.map(|c| c as i32)),
-            rect: PixelRect {
-                x0: x0 as i32,
-                y0: y0 as i32,
-                x1: x1 as i32,
-                y1: y1 as i32,
-            },
+        let (x0, x1) = (xmin.max(clip.x0), (xmax + 1).min(clip.x1));
+        (y0 < y1 && x0 < x1).then_some(Coverage {
+            v,
+            rect: PixelRect { x0, y0, x1, y1 },
             small,
         })
     }

@@ -120,8 +120,10 @@ fn setup_one<P: Pipeline>(
     out: &mut ChunkOut<P>,
 ) {
     let p = s.map(P::xy);
-    let area2 =
-        (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
+    // Inside the guard band coordinates lie within 2^25, so their differences are words and
+    // each product one widening multiplication.
+    let d = |i: usize, k: usize| (p[i][k] - p[0][k]) as i32 as i64;
+    let area2 = d(1, 0) * d(2, 1) - d(2, 0) * d(1, 1);
     if area2 == 0 {
         return;
     }

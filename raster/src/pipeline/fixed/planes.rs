@@ -63,6 +63,14 @@ pub(super) fn reach_gradient(c: &Coverage) -> u64 {
     NARROW_GRADIENT.max(1 << (61 - bits.min(61)))
 }
 
+/// The offset (sub-pixels) from the origin vertex at `origin` to the centre of pixel
+/// `corner`, the first pixel of the triangle's rectangle: where `AttrPlane::on_grid` moves a
+/// plane's base.
+#[inline(always)]
+pub(super) fn grid_offset(origin: [i64; 2], corner: [i64; 2]) -> [i64; 2] {
+    [0, 1].map(|k| corner[k] * SUBPIXEL_ONE + SUBPIXEL_HALF - origin[k])
+}
+
 impl AttrPlane {
     /// True when the plane's gradients are below `limit` (`NARROW_GRADIENT`, or
     /// `SMALL_NARROW_GRADIENT` for a small triangle's).
@@ -78,22 +86,43 @@ impl AttrPlane {
         self.narrow_below(NARROW_GRADIENT)
     }
 
-    /// Moves a narrow plane's base from the origin vertex at `origin` (sub-pixels) to the centre
-    /// of pixel `corner` (the first pixel of the triangle's rectangle). At pixel
-    /// `corner + (col, row)` the offset is `(256 col + ox, 256 row + oy)` with `(ox, oy)` the
-    /// offset of the corner's centre, so the rounded product `(dx * off_x + dy * off_y + 128) >> 8`
-    /// of `at` splits exactly into `dx * col + dy * row` plus the same expression at the corner:
-    /// a row start then costs two multiplications and no rounding (`at_pixel`). The offsets stay
-    /// small inside the rectangle, which is what lets a small triangle's planes be narrow up to
+    /// Moves a narrow plane's base from the origin vertex to the centre of the first pixel of the
+    /// triangle's rectangle, `offset` from it (`grid_offset`). At pixel `corner + (col, row)`
+    /// the offset is `(256 col + ox, 256 row + oy)` with `(ox, oy)` the offset of the corner's
+    /// centre, so the rounded product `(dx * off_x + dy * off_y + 128) >> 8` of `at` splits
+    /// exactly into `dx * col + dy * row` plus the same expression at the corner: a row start
+    /// then costs two multiplications and no rounding (`at_pixel`). The offsets stay small
+    /// inside the rectangle, which is what lets a small triangle's planes be narrow up to
     /// `SMALL_NARROW_GRADIENT`.
-    pub(super) fn on_grid(self, origin: [i64; 2], corner: [i64; 2]) -> Self {
-        let half = 1 << (SUBPIXEL_BITS - 1);
-        let ox = corner[0] * SUBPIXEL_ONE + SUBPIXEL_HALF - origin[0];
-        let oy = corner[1] * SUBPIXEL_ONE + SUBPIXEL_HALF - origin[1];
+    ///
+    /// In wrapping arithmetic, exact for a narrow plane: set-up moves each plane as it is made,
+    /// and takes the moves back (`off_grid`) where one of the triangle's planes is not narrow.
+    #[inline(always)]
+    pub(super) fn on_grid(self, offset: [i64; 2]) -> Self {
         Self {
-            base: self.base + ((self.dx * ox + self.dy * oy + half) >> SUBPIXEL_BITS),
+            base: self.base.wrapping_add(self.grid_move(offset)),
             ..self
         }
+    }
+
+    /// The plane `on_grid` was given, from what it gave.
+    #[inline(always)]
+    pub(super) fn off_grid(self, offset: [i64; 2]) -> Self {
+        Self {
+            base: self.base.wrapping_sub(self.grid_move(offset)),
+            ..self
+        }
+    }
+
+    /// What `on_grid` adds to the base.
+    #[inline(always)]
+    fn grid_move(&self, [ox, oy]: [i64; 2]) -> i64 {
+        let half = 1 << (SUBPIXEL_BITS - 1);
+        let sum = self
+            .dx
+            .wrapping_mul(ox)
+            .wrapping_add(self.dy.wrapping_mul(oy));
+        sum.wrapping_add(half) >> SUBPIXEL_BITS
     }
 
     /// Value at the centre of pixel `(col, row)` of the triangle's rectangle (counted from its
@@ -509,8 +538,22 @@ mod tests {
             let (x, y) = (corner[0] + pixel.0, corner[1] + pixel.1);
             let ox = x * SUBPIXEL_ONE + SUBPIXEL_HALF - origin[0];
             let oy = y * SUBPIXEL_ONE + SUBPIXEL_HALF - origin[1];
-            let on_grid = plane.on_grid(origin, corner);
+            let on_grid = plane.on_grid(grid_offset(origin, corner));
             proptest::prop_assert_eq!(on_grid.at_pixel(pixel.0, pixel.1), plane.at(ox, oy));
+        }
+
+        /// A triangle whose planes are not all narrow takes their moves back: any plane, moved
+        /// onto the grid and back, is the plane it was.
+        #[test]
+        fn a_plane_moved_onto_the_grid_and_back_is_the_plane_it_was(
+            (base, dx, dy) in (proptest::num::i64::ANY, proptest::num::i64::ANY, proptest::num::i64::ANY),
+            origin in (-(1i64 << 25)..1 << 25, -(1i64 << 25)..1 << 25),
+            corner in (-(1i64 << 17)..1 << 17, -(1i64 << 17)..1 << 17),
+        ) {
+            let plane = AttrPlane { base, dx, dy };
+            let offset = grid_offset([origin.0, origin.1], [corner.0, corner.1]);
+            let back = plane.on_grid(offset).off_grid(offset);
+            proptest::prop_assert_eq!((back.base, back.dx, back.dy), (base, dx, dy));
         }
     }
 
@@ -557,7 +600,7 @@ mod tests {
         pixels: impl IntoIterator<Item = (i64, i64)>,
     ) {
         let corner = cov.corner();
-        let on_grid = plane.on_grid(origin, corner);
+        let on_grid = plane.on_grid(grid_offset(origin, corner));
         for (x, y) in pixels {
             let got = on_grid.at_pixel(x - corner[0], y - corner[1]);
             let wide = at_in_128_bits(&plane, origin, x, y);

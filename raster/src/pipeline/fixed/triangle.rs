@@ -1,7 +1,7 @@
 //! Triangle set-up of the integer pipeline: the planes a draw's attributes need, the
 //! texture level, and whether the rows may skip their clamps or start on the pixel grid.
 
-use super::planes::{AttrPlane, Geometry, SMALL_NARROW_GRADIENT, reach_gradient};
+use super::planes::{AttrPlane, Geometry, SMALL_NARROW_GRADIENT, grid_offset, reach_gradient};
 use super::projection::{FixedScreen, Inner};
 use crate::edge::Coverage;
 use crate::fixed_point::Q_BITS;
@@ -69,28 +69,41 @@ impl FixedTriangle {
             return t;
         }
         let g = Geometry::new(&v, area2, coverage.is_small());
+        let limit = if coverage.is_small() {
+            SMALL_NARROW_GRADIENT
+        } else {
+            reach_gradient(&coverage)
+        };
+        // Each plane is tested and moved onto the pixel grid as it is made, while it is in
+        // registers; the moves are taken back below where one of them is not narrow (rare).
+        let offset = grid_offset(v[0].xy, coverage.corner());
+        let mut narrow = true;
+        let mut put = |p: AttrPlane| {
+            narrow &= p.narrow_below(limit);
+            planes.push(p.on_grid(offset));
+        };
         let pick = |f: fn(&FixedScreen) -> i64| g.plane([f(v[0]), f(v[1]), f(v[2])]);
         let share = |f: fn(&FixedScreen) -> i64| g.plane_of_share([f(v[0]), f(v[1]), f(v[2])]);
         if a.depth {
-            planes.push(pick(|s| s.depth));
+            put(pick(|s| s.depth));
         }
         if a.shade {
             t.grey = v[0].grey & v[1].grey & v[2].grey;
-            planes.push(share(|s| s.color[0]));
+            put(share(|s| s.color[0]));
             if !t.grey {
-                planes.push(share(|s| s.color[1]));
-                planes.push(share(|s| s.color[2]));
+                put(share(|s| s.color[1]));
+                put(share(|s| s.color[2]));
             }
         }
         if a.fog {
-            planes.push(share(|s| s.fog));
+            put(share(|s| s.fog));
         }
         t.tex_mode = a.tex_mode_for([v[0].xy, v[1].xy, v[2].xy], coverage.is_small());
         match t.tex_mode {
             TexMode::Off => {}
             TexMode::Affine => {
-                planes.push(pick(|s| s.uv[0]));
-                planes.push(pick(|s| s.uv[1]));
+                put(pick(|s| s.uv[0]));
+                put(pick(|s| s.uv[1]));
                 t.level = a.level(texel_area_bits(&v), area2);
             }
             TexMode::Perspective(_) => {
@@ -102,24 +115,17 @@ impl FixedTriangle {
                 });
                 let st =
                     |k: usize| g.plane([v[0].uv[k] * q[0], v[1].uv[k] * q[1], v[2].uv[k] * q[2]]);
-                planes.push(st(0));
-                planes.push(st(1));
-                planes.push(g.plane(q));
+                put(st(0));
+                put(st(1));
+                put(g.plane(q));
                 t.level = a.level(texel_area_bits(&v), area2);
             }
         }
         t.bounded = coverage.is_small() && Inner::all(&v, Inner::needed(a, t.tex_mode));
-        let mine = &mut planes[first..];
-        let limit = if coverage.is_small() {
-            SMALL_NARROW_GRADIENT
-        } else {
-            reach_gradient(&coverage)
-        };
-        t.narrow = mine.iter().all(|p| p.narrow_below(limit));
-        if t.narrow {
-            let corner = coverage.corner();
-            for p in mine {
-                *p = p.on_grid(v[0].xy, corner);
+        t.narrow = narrow;
+        if !narrow {
+            for p in &mut planes[first..] {
+                *p = p.off_grid(offset);
             }
         }
         t

@@ -177,11 +177,34 @@ fn project_narrow(clip: [i64; 4], w: i64, vp: &Viewport) -> Option<Projected> {
     let inv_w = reciprocal(wn); // (2^31, 2^32]
     let half_w = vp.width as i64 * SUBPIXEL_HALF;
     let half_h = vp.height as i64 * SUBPIXEL_HALF;
-    let offset = |c: i64, half: i64| ((c * half) as i128 * inv_w as i128 + (1 << 61)) >> 62;
-    let sx = half_w + offset(x, half_w) as i64;
-    let sy = half_h - offset(y, half_h) as i64;
+    let sx = half_w + scaled_by_reciprocal(x * half_w, inv_w);
+    let sy = half_h - scaled_by_reciprocal(y * half_h, inv_w);
     let depth = ((z * inv_w + (1 << 29)) >> 30).min(DEPTH_ONE - 1);
     Some((vp.clamp_to_guard_band([sx, sy]), depth, inv_w, shift))
+}
+
+/// `(a * inv + 2^61) >> 62`, `project_narrow`'s rounded product, for `|a| < 2^54` and `inv` in
+/// `(2^31, 2^32]`: one widening multiplication on a 64-bit core, `scaled_in_words` on a 32-bit
+/// one, where the 128-bit product takes many.
+#[inline(always)]
+fn scaled_by_reciprocal(a: i64, inv: i64) -> i64 {
+    debug_assert!(a.unsigned_abs() < 1 << 54 && (1 << 31) < inv && inv <= 1 << 32);
+    #[cfg(target_pointer_width = "64")]
+    let r = ((a as i128 * inv as i128 + (1 << 61)) >> 62) as i64;
+    #[cfg(not(target_pointer_width = "64"))]
+    let r = scaled_in_words(a, inv);
+    r
+}
+
+/// `scaled_by_reciprocal` from products of `inv` by the two words of `a`: with
+/// `a = 2^32 hi + lo` (`lo` unsigned), `a inv + 2^61 = 2^32 (hi inv + 2^29) + lo inv`, so the
+/// sum shifted by 32 is `hi inv + 2^29 + (lo inv >> 32)` exactly (`|hi inv| < 2^54`,
+/// `lo inv < 2^64`), and that shifted by 30 more is the result.
+#[cfg(any(test, not(target_pointer_width = "64")))]
+#[inline(always)]
+fn scaled_in_words(a: i64, inv: i64) -> i64 {
+    let (hi, lo) = ((a >> 32) as i32 as i64, a as u32 as u64);
+    (hi * inv + (1 << 29) + ((lo * inv as u64) >> 32) as i64) >> 30
 }
 
 /// The projection of any clip position (`w` taken as at least 1) in 128-bit products: the
@@ -205,6 +228,35 @@ fn project_wide(clip: [i64; 4], vp: &Viewport) -> Projected {
 mod tests {
     use super::*;
     use crate::fixed_point::GUARD_BAND_PX;
+
+    /// `scaled_in_words` against the 128-bit product.
+    fn check_words(a: i64, inv: i64) {
+        let wide = (a as i128 * inv as i128 + (1 << 61)) >> 62;
+        assert_eq!(scaled_in_words(a, inv) as i128, wide, "{a} {inv}");
+    }
+
+    #[test]
+    fn products_in_words_equal_128_bit_products_at_the_bounds() {
+        let top = (1i64 << 54) - 1;
+        for a in [0, 1, (1 << 32) - 1, 1 << 32, (1 << 32) + 1, 1 << 53, top] {
+            for inv in [(1i64 << 31) + 1, 3 << 30, (1 << 32) - 1, 1 << 32] {
+                check_words(a, inv);
+                check_words(-a, inv);
+            }
+        }
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn products_in_words_equal_128_bit_products(
+            a in -(1i64 << 54) + 1..1 << 54,
+            inv in (1i64 << 31) + 1..=1 << 32,
+            bits in 0u32..54,
+        ) {
+            check_words(a, inv);
+            check_words(a >> bits, inv);
+        }
+    }
 
     /// `project_narrow`, where it applies, against `project_wide`.
     fn check_projection(clip: [i64; 4], vp: &Viewport) -> bool {

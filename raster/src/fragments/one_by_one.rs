@@ -12,7 +12,7 @@
 
 use super::Fragments;
 use crate::attributes::Attributes;
-use crate::pixel::{PixelFormat, fog_blend, modulate};
+use crate::pixel::{PixelFormat, modulate};
 use crate::sampler::{Filtering, LevelView};
 use crate::texture::Wrap;
 
@@ -68,24 +68,77 @@ impl Fragments {
         let (at, u, v, f) = (&self.at[..n], &self.u[..n], &self.v[..n], &self.f[..n]);
         let (r, g, b) = (&self.c[0][..n], &self.c[1][..n], &self.c[2][..n]);
         let view = view.filter(|_| F::ENABLED);
+        let fog = Pair::of(a.fog_color);
         for k in 0..n {
             // Shading channels are 0..=255 (`Fragments::c`).
-            let mut rgb = if !SHADE {
+            let rgb = if !SHADE {
                 a.flat
             } else if GREY {
                 [r[k] as u8; 3]
             } else {
                 [r[k] as u8, g[k] as u8, b[k] as u8]
             };
+            let mut pair = Pair::of(rgb);
             if F::ENABLED {
                 let view = view.expect("texture view bound with texturing on");
-                rgb = modulate(F::sample_one(view, u[k], v[k]), rgb);
+                let t = F::sample_one(view, u[k], v[k]);
+                // A grey shade modulates the three channels alike: two products, not three.
+                pair = if SHADE && GREY {
+                    Pair::of(t).modulated(r[k] as u32)
+                } else {
+                    Pair::of(modulate(t, rgb))
+                };
             }
             if FOG {
-                rgb = fog_blend(rgb, a.fog_color, f[k] as u32);
+                pair = pair.fogged(fog, f[k] as u32);
             }
-            pixels[at[k] as usize] = P::pack(rgb);
+            pixels[at[k] as usize] = P::pack(pair.rgb());
         }
+    }
+}
+
+/// A colour's channels in two words of 16-bit lanes, red and blue in `rb` (bits 0 and 16),
+/// green in `g`: `modulate` by a grey and `fog_blend` (one share for the three channels) then
+/// take two products instead of three. Exact: each lane's product or sum of products lies
+/// below `255 * 256 < 2^16`, so no lane carries into the next.
+#[derive(Clone, Copy)]
+struct Pair {
+    rb: u32,
+    g: u32,
+}
+
+impl Pair {
+    #[inline(always)]
+    fn of(c: [u8; 3]) -> Self {
+        Self {
+            rb: c[0] as u32 | (c[2] as u32) << 16,
+            g: c[1] as u32,
+        }
+    }
+
+    /// `modulate` by the grey `c` (`0..=255`) in every channel.
+    #[inline(always)]
+    fn modulated(self, c: u32) -> Self {
+        let m = c + 1;
+        Self {
+            rb: ((self.rb * m) >> 8) & 0x00ff_00ff,
+            g: (self.g * m) >> 8,
+        }
+    }
+
+    /// `fog_blend` towards `fog` with the share `f` (`0..=256`) of the surface colour.
+    #[inline(always)]
+    fn fogged(self, fog: Self, f: u32) -> Self {
+        let rest = 256 - f;
+        Self {
+            rb: ((self.rb * f + fog.rb * rest) >> 8) & 0x00ff_00ff,
+            g: (self.g * f + fog.g * rest) >> 8,
+        }
+    }
+
+    #[inline(always)]
+    fn rgb(self) -> [u8; 3] {
+        [self.rb as u8, self.g as u8, (self.rb >> 16) as u8]
     }
 }
 
@@ -142,6 +195,8 @@ mod tests {
         stages_agree::<P, F, false, false, false>(frags, view, a)?;
         stages_agree::<P, F, false, false, true>(frags, view, a)?;
         stages_agree::<P, F, true, false, false>(frags, view, a)?;
+        stages_agree::<P, F, true, false, true>(frags, view, a)?;
+        stages_agree::<P, F, true, true, false>(frags, view, a)?;
         stages_agree::<P, F, true, true, true>(frags, view, a)
     }
 

@@ -92,8 +92,32 @@ pub trait DepthStorage: Send + Sync + 'static {
     fn from_z(z: i64) -> Self::Value;
     /// `from_z` of a `z` known to lie in `0..2^48` (no clamp needed).
     fn from_z_in_range(z: i64) -> Self::Value;
-    /// A stored value as a `u64`, for the depth test's one comparison.
-    fn widen(v: Self::Value) -> u64;
+    /// A stored value and a depth test's bias on one scale (`DepthTest`): on a 32-bit core a
+    /// `u32` where it holds both (`Short`).
+    type Wide: Copy + Ord + std::ops::Add<Output = Self::Wide>;
+    /// A stored value as a `Wide`.
+    fn widen(v: Self::Value) -> Self::Wide;
+    /// A test's bias (0, 1 or at least 2^32, `DepthTest`) as a `Wide`: any bias above the
+    /// largest stored value passes every value as 2^32 does.
+    fn bias(b: u64) -> Self::Wide;
+}
+
+/// The depth test's scale for stored values below 2^16: a word on a 32-bit core, where the
+/// test is then one comparison instead of a `u64` sum and comparison of two words; a 64-bit
+/// core compares `u64` as cheaply, and the bias then needs no cap.
+#[cfg(target_pointer_width = "64")]
+pub type Short = u64;
+/// See the other `Short`.
+#[cfg(not(target_pointer_width = "64"))]
+pub type Short = u32;
+
+/// A test's bias on the scale `Short`: capped at 2^16 on a 32-bit core, which passes every
+/// value below 2^16 as any larger bias does.
+#[inline(always)]
+fn short_bias(b: u64) -> Short {
+    #[cfg(not(target_pointer_width = "64"))]
+    let b = b.min(1 << 16) as u32;
+    b
 }
 
 /// No depth buffer, or depth off.
@@ -118,9 +142,14 @@ impl DepthStorage for NoDepth {
     fn from_z_in_range(_: i64) -> u8 {
         0
     }
+    type Wide = Short;
     #[inline(always)]
-    fn widen(v: u8) -> u64 {
-        v as u64
+    fn widen(v: u8) -> Short {
+        v as Short
+    }
+    #[inline(always)]
+    fn bias(b: u64) -> Short {
+        short_bias(b)
     }
 }
 
@@ -141,9 +170,14 @@ impl DepthStorage for Depth16 {
         debug_assert!((0..1 << 48).contains(&z));
         (z >> (16 + ATTR_FRAC_BITS)) as u16
     }
+    type Wide = Short;
     #[inline(always)]
-    fn widen(v: u16) -> u64 {
-        v as u64
+    fn widen(v: u16) -> Short {
+        v as Short
+    }
+    #[inline(always)]
+    fn bias(b: u64) -> Short {
+        short_bias(b)
     }
 }
 
@@ -163,9 +197,14 @@ impl DepthStorage for Depth32 {
         debug_assert!((0..1 << 48).contains(&z));
         (z >> ATTR_FRAC_BITS) as u32
     }
+    type Wide = u64;
     #[inline(always)]
     fn widen(v: u32) -> u64 {
         v as u64
+    }
+    #[inline(always)]
+    fn bias(b: u64) -> u64 {
+        b
     }
 }
 
@@ -184,6 +223,28 @@ pub fn fog_blend(c: [u8; 3], fog: [u8; 3], f: u32) -> [u8; 3] {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The depth test's one comparison on each storage's scale (`DepthStorage::Wide`) against
+    /// the three tests it stands for, at the ends of each storage's values: less (bias 0),
+    /// less-or-equal (1) and always (2^32, `DepthTest`).
+    fn one_comparison_is_the_test<D: DepthStorage>(values: &[D::Value]) {
+        for &d in values {
+            for &s in values {
+                let passes = |b: u64| D::widen(d) < D::widen(s) + D::bias(b);
+                assert_eq!(
+                    (passes(0), passes(1), passes(1 << 32)),
+                    (d < s, d <= s, true)
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn depth_tests_in_one_comparison_pass_what_their_comparisons_pass() {
+        one_comparison_is_the_test::<NoDepth>(&[0]);
+        one_comparison_is_the_test::<Depth16>(&[0, 1, 2, 0x7fff, 0xfffe, 0xffff]);
+        one_comparison_is_the_test::<Depth32>(&[0, 1, 0xffff, 1 << 16, u32::MAX - 1, u32::MAX]);
+    }
 
     #[test]
     fn rgb565_round_trips_its_own_values_and_keeps_black_and_white() {

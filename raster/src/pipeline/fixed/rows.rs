@@ -51,7 +51,7 @@ impl DepthTest {
     #[inline(always)]
     pub fn apply<D: DepthStorage>(self, d: D::Value, stored: &mut D::Value) -> bool {
         let s = *stored;
-        let pass = D::widen(d) < D::widen(s) + self.bias;
+        let pass = D::widen(d) < D::widen(s) + D::bias(self.bias);
         *stored = if pass && self.write { d } else { s };
         pass
     }

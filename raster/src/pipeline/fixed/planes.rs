@@ -350,6 +350,15 @@ mod tests {
 
     /// The largest attribute difference a plane meets: `s, t` under perspective.
     const MAX_ATTR: i64 = 1 << 45;
+    /// Reciprocals of areas (`Geometry::inv_area`, in `(2^31, 2^32]`): the ends and between.
+    const RECIPROCALS: [i64; 5] = [
+        (1 << 31) + 1,
+        (1 << 31) + 12345,
+        3 << 30,
+        (1 << 32) - 1,
+        1 << 32,
+    ];
+
     /// `scale_word` against the 128-bit product.
     fn check_word(n: i32, inv: i64, s: u32) {
         let wide = (n as i128 * inv as i128 + (1i128 << (s - 1))) >> s;
@@ -374,13 +383,7 @@ mod tests {
                 i32::MAX - 1,
                 i32::MIN + 1,
             ] {
-                for inv in [
-                    (1i64 << 31) + 1,
-                    (1 << 31) + 12345,
-                    3 << 30,
-                    (1 << 32) - 1,
-                    1 << 32,
-                ] {
+                for inv in RECIPROCALS {
                     check_word(n, inv, s);
                 }
             }
@@ -417,13 +420,7 @@ mod tests {
                 top,
             ];
             for n in ns.iter().flat_map(|&n| [n.min(top), -n.min(top)]) {
-                for inv in [
-                    (1i64 << 31) + 1,
-                    (1 << 31) + 12345,
-                    3 << 30,
-                    (1 << 32) - 1,
-                    1 << 32,
-                ] {
+                for inv in RECIPROCALS {
                     given += check_scale(n, inv, s) as u32;
                     all += 1;
                 }

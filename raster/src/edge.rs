@@ -22,6 +22,11 @@ use wide::i32x4;
 
 use crate::fixed_point::{SUBPIXEL_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE, ceil_div};
 
+#[cfg(arm_neon)]
+mod neon_rows;
+#[cfg(arm_neon)]
+pub(crate) use neon_rows::NeonRows;
+
 /// A triangle's owned pixels: its snapped vertices and the pixel rectangle that can hold them.
 /// Edges are rebuilt when its rows are walked, so a set-up triangle stays small.
 #[derive(Clone, Copy, Debug)]
@@ -236,10 +241,13 @@ impl Coverage {
             target_feature = "simd128"
         ))]
         return self.lane_rows(from, to);
+        #[cfg(arm_neon)]
+        return self.neon_rows(from, to);
         #[cfg(not(any(
             target_feature = "sse2",
             all(target_arch = "aarch64", target_feature = "neon"),
-            target_feature = "simd128"
+            target_feature = "simd128",
+            arm_neon
         )))]
         return self.column_rows(from, to);
     }
@@ -306,40 +314,85 @@ impl Coverage {
         not(any(
             target_feature = "sse2",
             all(target_arch = "aarch64", target_feature = "neon"),
-            target_feature = "simd128"
+            target_feature = "simd128",
+            arm_neon
         ))
     ))]
     #[inline(always)]
     fn column_rows(&self, from: i64, to: i64) -> ColumnRows {
-        debug_assert!(self.small);
-        let r = self.rect;
-        let (start, end) = ((r.y0 as i64).max(from), (r.y1 as i64).min(to));
-        let width = r.x1 - r.x0;
-        debug_assert!((1..=SMALL as i32).contains(&width));
-        // In i32 throughout, as `lane_rows`.
-        let one = SUBPIXEL_ONE as i32;
-        let xc = r.x0 * one + SUBPIXEL_HALF as i32;
-        let yc = start as i32 * one + SUBPIXEL_HALF as i32;
-        let v = self.v;
-        let mut rows = ColumnRows {
-            row: [0; 3],
-            across: [0; 3],
-            down: [0; 3],
-            width: width as u32,
+        let (start, end, width) = self.small_span(from, to);
+        let (row, across, down) = self.small_edges(start);
+        ColumnRows {
+            row,
+            across,
+            down,
+            width,
             columns: (1u32 << width) - 1,
-            x0: r.x0 as i64,
+            x0: self.rect.x0 as i64,
             y: start,
             end,
-        };
+        }
+    }
+
+    /// `small_rows` in NEON lanes (`NeonRows`).
+    #[cfg(arm_neon)]
+    #[inline(always)]
+    fn neon_rows(&self, from: i64, to: i64) -> NeonRows {
+        let (start, end, width) = self.small_span(from, to);
+        NeonRows::new(
+            self.small_edges(start),
+            width,
+            self.rect.x0 as i64,
+            start,
+            end,
+        )
+    }
+
+    /// A small triangle's rows `from..to` cut to its rectangle, and the rectangle's width.
+    #[cfg(any(
+        test,
+        not(any(
+            target_feature = "sse2",
+            all(target_arch = "aarch64", target_feature = "neon"),
+            target_feature = "simd128"
+        ))
+    ))]
+    #[inline(always)]
+    fn small_span(&self, from: i64, to: i64) -> (i64, i64, u32) {
+        debug_assert!(self.small);
+        let r = self.rect;
+        let width = r.x1 - r.x0;
+        debug_assert!((1..=SMALL as i32).contains(&width));
+        ((r.y0 as i64).max(from), (r.y1 as i64).min(to), width as u32)
+    }
+
+    /// A small triangle's edges in i32 (as `lane_rows`' lanes): `E + bias - 1` of each at the
+    /// centre of the rectangle's first column in row `start`, and what each changes by from a
+    /// column to the next and from a row to the next.
+    #[cfg(any(
+        test,
+        not(any(
+            target_feature = "sse2",
+            all(target_arch = "aarch64", target_feature = "neon"),
+            target_feature = "simd128"
+        ))
+    ))]
+    #[inline(always)]
+    fn small_edges(&self, start: i64) -> ([i32; 3], [i32; 3], [i32; 3]) {
+        let one = SUBPIXEL_ONE as i32;
+        let xc = self.rect.x0 * one + SUBPIXEL_HALF as i32;
+        let yc = start as i32 * one + SUBPIXEL_HALF as i32;
+        let v = self.v;
+        let (mut row, mut across, mut down) = ([0; 3], [0; 3], [0; 3]);
         for i in 0..3 {
             let (a, b) = (v[i], v[(i + 1) % 3]);
             let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
             let top_left = dy < 0 || (dy == 0 && dx > 0);
-            rows.row[i] = dx * (yc - a[1]) - dy * (xc - a[0]) + top_left as i32 - 1;
-            rows.across[i] = -dy * one;
-            rows.down[i] = dx * one;
+            row[i] = dx * (yc - a[1]) - dy * (xc - a[0]) + top_left as i32 - 1;
+            across[i] = -dy * one;
+            down[i] = dx * one;
         }
-        rows
+        (row, across, down)
     }
 
     /// Small triangles: evaluate the edge functions at every pixel of the rectangle, with no
@@ -441,10 +494,11 @@ fn owns_a_pixel_of_row(v: &[[i64; 2]; 3], y: i64, x0: i64, x1: i64) -> bool {
 
 /// A small triangle's rows, one mask of owned columns at a time (`next_mask`), with `x0` its
 /// first column, `y` the current row and `end` the row past the last: in lanes where `wide`'s
-/// `i32x4` is a vector (SSE2, NEON on aarch64, wasm's simd128), else in scalar registers, a
-/// column at a time (`wide` builds an `i32x4` from four scalars there, 32-bit ARM among them,
-/// and four scalars in memory per lane cost such a core more: `pocketpc_frames` on 32-bit ARM
-/// in docs/raster.md).
+/// `i32x4` is a vector (SSE2, NEON on aarch64, wasm's simd128), in NEON lanes of inline
+/// assembly on 32-bit ARM with NEON (`NeonRows`), else in scalar registers, a column at a time
+/// (`wide` builds an `i32x4` from four scalars there, the ARMv5TE among them, and four scalars
+/// in memory per lane cost such a core more: `pocketpc_frames` on 32-bit ARM in
+/// docs/raster.md).
 #[cfg(any(
     target_feature = "sse2",
     all(target_arch = "aarch64", target_feature = "neon"),
@@ -452,10 +506,14 @@ fn owns_a_pixel_of_row(v: &[[i64; 2]; 3], y: i64, x0: i64, x1: i64) -> bool {
 ))]
 pub(crate) type SmallRows = LaneRows;
 /// See the other `SmallRows`.
+#[cfg(arm_neon)]
+pub(crate) type SmallRows = NeonRows;
+/// See the other `SmallRows`.
 #[cfg(not(any(
     target_feature = "sse2",
     all(target_arch = "aarch64", target_feature = "neon"),
-    target_feature = "simd128"
+    target_feature = "simd128",
+    arm_neon
 )))]
 pub(crate) type SmallRows = ColumnRows;
 
@@ -534,7 +592,8 @@ impl LaneRows {
     not(any(
         target_feature = "sse2",
         all(target_arch = "aarch64", target_feature = "neon"),
-        target_feature = "simd128"
+        target_feature = "simd128",
+        arm_neon
     ))
 ))]
 pub(crate) struct ColumnRows {
@@ -561,7 +620,8 @@ pub(crate) struct ColumnRows {
     not(any(
         target_feature = "sse2",
         all(target_arch = "aarch64", target_feature = "neon"),
-        target_feature = "simd128"
+        target_feature = "simd128",
+        arm_neon
     ))
 ))]
 impl ColumnRows {
@@ -716,6 +776,15 @@ mod tests {
         }
         while columns.y < columns.end {
             b.push((columns.x0, columns.next_mask()));
+        }
+        #[cfg(arm_neon)]
+        {
+            let mut neon = c.neon_rows(i64::MIN, i64::MAX);
+            let mut n = vec![];
+            while neon.y < neon.end {
+                n.push((neon.x0, neon.next_mask()));
+            }
+            assert_eq!(n, b, "NEON rows against the column loop");
         }
         Some((a, b))
     }

@@ -16,6 +16,8 @@
 //! later triangle's pixel still lands over an earlier one's.
 
 mod one_by_one;
+#[cfg(any(test, arm_neon))]
+mod passes;
 
 use crate::attributes::Attributes;
 use crate::isa::{Cpu, v3_twin};
@@ -173,6 +175,14 @@ impl Fragments {
         match (VECTORS, SHADE && self.grey) {
             (true, true) => self.colour::<P, F, SHADE, true, FOG, V3>(view, a, pixels),
             (true, false) => self.colour::<P, F, SHADE, false, FOG, V3>(view, a, pixels),
+            #[cfg(arm_neon)]
+            (false, grey) if F::TAPS => {
+                let view = view.expect("texture view bound with texturing on");
+                match grey {
+                    true => self.colour_in_passes::<P, F, SHADE, true, FOG>(view, a, pixels),
+                    false => self.colour_in_passes::<P, F, SHADE, false, FOG>(view, a, pixels),
+                }
+            }
             (false, true) => self.colour_one_by_one::<P, F, SHADE, true, FOG>(view, a, pixels),
             (false, false) => self.colour_one_by_one::<P, F, SHADE, false, FOG>(view, a, pixels),
         }

@@ -102,14 +102,14 @@ impl Fragments {
 /// take two products instead of three. Exact: each lane's product or sum of products lies
 /// below `255 * 256 < 2^16`, so no lane carries into the next.
 #[derive(Clone, Copy)]
-struct Pair {
+pub(super) struct Pair {
     rb: u32,
     g: u32,
 }
 
 impl Pair {
     #[inline(always)]
-    fn of(c: [u8; 3]) -> Self {
+    pub(super) fn of(c: [u8; 3]) -> Self {
         Self {
             rb: c[0] as u32 | (c[2] as u32) << 16,
             g: c[1] as u32,
@@ -118,7 +118,7 @@ impl Pair {
 
     /// `modulate` by the grey `c` (`0..=255`) in every channel.
     #[inline(always)]
-    fn modulated(self, c: u32) -> Self {
+    pub(super) fn modulated(self, c: u32) -> Self {
         let m = c + 1;
         Self {
             rb: ((self.rb * m) >> 8) & 0x00ff_00ff,
@@ -128,7 +128,7 @@ impl Pair {
 
     /// `fog_blend` towards `fog` with the share `f` (`0..=256`) of the surface colour.
     #[inline(always)]
-    fn fogged(self, fog: Self, f: u32) -> Self {
+    pub(super) fn fogged(self, fog: Self, f: u32) -> Self {
         let rest = 256 - f;
         Self {
             rb: ((self.rb * f + fog.rb * rest) >> 8) & 0x00ff_00ff,
@@ -137,7 +137,7 @@ impl Pair {
     }
 
     #[inline(always)]
-    fn rgb(self) -> [u8; 3] {
+    pub(super) fn rgb(self) -> [u8; 3] {
         [self.rb as u8, self.g as u8, (self.rb >> 16) as u8]
     }
 }
@@ -159,8 +159,8 @@ mod tests {
     /// Pixels of the tile the fragments land in.
     const TILE: usize = 48;
 
-    /// The held fragments coloured by the lanes and one by one, into tiles of equal pixels:
-    /// the tiles must stay equal.
+    /// The held fragments coloured by the lanes, one by one and (for a filter that blends
+    /// blocks) in passes, into tiles of equal pixels: the tiles must stay equal.
     fn stages_agree<
         P: PixelFormat,
         F: Filtering,
@@ -179,7 +179,20 @@ mod tests {
         let mut one = lanes.clone();
         frags.colour::<P, F, SHADE, GREY, FOG, false>(Some(view), a, &mut lanes);
         frags.colour_one_by_one::<P, F, SHADE, GREY, FOG>(Some(view), a, &mut one);
-        prop_assert_eq!(lanes, one, "SHADE {} GREY {} FOG {}", SHADE, GREY, FOG);
+        prop_assert_eq!(&lanes, &one, "SHADE {} GREY {} FOG {}", SHADE, GREY, FOG);
+        if F::TAPS {
+            let mut passes = lanes.clone();
+            passes.fill(P::pack([1, 2, 3]));
+            frags.colour_in_passes::<P, F, SHADE, GREY, FOG>(view, a, &mut passes);
+            prop_assert_eq!(
+                &lanes,
+                &passes,
+                "passes: SHADE {} GREY {} FOG {}",
+                SHADE,
+                GREY,
+                FOG
+            );
+        }
         Ok(())
     }
 

@@ -2,7 +2,7 @@
 
 use std::marker::PhantomData;
 
-use super::{Filtering, LevelView, ViewOf, clamp_coord};
+use super::{Filtering, LevelView, Quad, ViewOf, clamp_coord};
 use crate::lanes::{Rgb8s, i32x8, narrow};
 
 /// The four texels around the sample point, weighted by distance.
@@ -55,11 +55,28 @@ impl<T: ViewOf> Filtering for Bilinear<T> {
     /// columns blends to what `neighbour_columns_lanes`' pair does.
     #[inline(always)]
     fn sample_one(view: &LevelView<'_, T>, u: i32, v: i32) -> [u8; 3] {
-        let (su, sv) = view.scale_one(u, v);
-        let (tu, tv) = (su - (1 << 15), sv - (1 << 15));
-        let (fx, fy) = ((tu >> 8) & 255, (tv >> 8) & 255);
-        T::blend(view.quad_one(tu >> 16, tv >> 16), fx as u32, fy as u32)
+        let (quad, fx, fy) = taps(view, u, v);
+        // SAFETY: the block's indexes come from this view.
+        T::blend(unsafe { view.quad_at(quad) }, fx, fy)
     }
+
+    #[cfg(any(test, arm_neon))]
+    const TAPS: bool = true;
+
+    #[cfg(any(test, arm_neon))]
+    #[inline(always)]
+    fn taps_one(view: &LevelView<'_, T>, u: i32, v: i32) -> Option<(Quad, u32, u32)> {
+        Some(taps(view, u, v))
+    }
+}
+
+/// `sample_one`'s block and weights, from `sample_lanes`' addressing of one lane.
+#[inline(always)]
+fn taps<T: ViewOf>(view: &LevelView<'_, T>, u: i32, v: i32) -> (Quad, u32, u32) {
+    let (su, sv) = view.scale_one(u, v);
+    let (tu, tv) = (su - (1 << 15), sv - (1 << 15));
+    let (fx, fy) = ((tu >> 8) & 255, (tv >> 8) & 255);
+    (view.quad_taps(tu >> 16, tv >> 16), fx as u32, fy as u32)
 }
 
 #[cfg(test)]

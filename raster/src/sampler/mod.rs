@@ -20,7 +20,7 @@ pub(crate) fn clamp_coord(u: i64) -> i64 {
 }
 
 /// A texel storage type.
-pub(crate) trait Texel: Copy + Send + Sync + 'static {
+pub(crate) trait Texel: Copy + Default + Send + Sync + 'static {
     /// Eight texels in lanes.
     type Lanes: Copy;
 
@@ -500,23 +500,44 @@ impl<'a, T: Texel> LevelView<'a, T> {
     pub fn texel(&self, x: i32, y: i32) -> T {
         let i = (y << self.width_shift) + x;
         debug_assert!((0..self.texels.len() as i64).contains(&(i as i64)));
-        // SAFETY: the callers' columns and rows lie in `0..width` and `0..height`: the nearest
-        // filter's come from folded coordinates, `quad_one`'s from `pair_one`; and `new`
-        // checked that the view holds `width * height` texels with `width == 1 << width_shift`.
+        // SAFETY: the callers' columns and rows lie in `0..width` and `0..height` (the nearest
+        // filter's come from folded coordinates), and `new` checked that the view holds
+        // `width * height` texels with `width == 1 << width_shift`.
         unsafe { *self.texels.get_unchecked(i as usize) }
     }
 
     /// The 2x2 texels whose top-left is column `x`, row `y`, for `x` in `-1..width` and `y` in
     /// `-1..height` (what bilinear addressing of a folded coordinate gives), wrapped as
-    /// `column_pair_lanes` and `row_pair_lanes` wrap them: `[top-left, top-right, bottom-left,
-    /// bottom-right]`.
+    /// `column_pair_lanes` and `row_pair_lanes` wrap them: where they lie, read by `quad_at`
+    /// (apart, for a colour stage that works out every fragment's block before it reads any).
     #[inline(always)]
-    pub fn quad_one(&self, x: i32, y: i32) -> [T; 4] {
+    pub fn quad_taps(&self, x: i32, y: i32) -> Quad {
         let (x0, x1) = pair_one(x, self.width as i32, self.wrap);
         let (y0, y1) = pair_one(y, self.height as i32, self.wrap);
-        [(x0, y0), (x1, y0), (x0, y1), (x1, y1)].map(|(x, y)| self.texel(x, y))
+        Quad([(x0, y0), (x1, y0), (x0, y1), (x1, y1)].map(|(x, y)| (y << self.width_shift) + x))
+    }
+
+    /// The texels of the block `q`.
+    ///
+    /// # Safety
+    ///
+    /// `q` comes from this view's `quad_taps`: its columns and rows come from `pair_one`, in
+    /// `0..width` and `0..height`, so its indexes lie in the texels (as `texel`'s do), and the
+    /// reads need no bounds check.
+    #[inline(always)]
+    pub unsafe fn quad_at(&self, q: Quad) -> [T; 4] {
+        q.0.map(|i| {
+            debug_assert!((0..self.texels.len() as i64).contains(&(i as i64)));
+            // SAFETY: the caller's contract.
+            unsafe { *self.texels.get_unchecked(i as usize) }
+        })
     }
 }
+
+/// The indexes in its level of the 2x2 texels a bilinear sample blends (`LevelView::quad_taps`):
+/// `[top-left, top-right, bottom-left, bottom-right]`.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Quad([i32; 4]);
 
 /// Borrows a level's texels in the storage type `T`; `None` when the level holds another type.
 pub(crate) trait ViewOf: Texel {
@@ -603,6 +624,17 @@ pub(crate) trait Filtering: Send + Sync + 'static {
     -> Rgb8s;
     /// One lane of `sample_lanes`, in 32-bit integers (`LevelView::scale_one`).
     fn sample_one(view: &LevelView<'_, Self::Texel>, u: i32, v: i32) -> [u8; 3];
+    /// Whether `sample_one` blends a 2x2 block (`taps_one` gives it): for the colour stage in
+    /// passes (`fragments/passes.rs`).
+    #[cfg(any(test, arm_neon))]
+    const TAPS: bool = false;
+    /// `sample_one` up to its reads: the block at `(u, v)` and its weights `fx`, `fy`, whose
+    /// `Texel::blend` is the sample; `None` where `TAPS` is false.
+    #[cfg(any(test, arm_neon))]
+    #[inline(always)]
+    fn taps_one(_view: &LevelView<'_, Self::Texel>, _u: i32, _v: i32) -> Option<(Quad, u32, u32)> {
+        None
+    }
 }
 
 /// Texturing off.

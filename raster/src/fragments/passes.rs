@@ -72,12 +72,15 @@ impl Fragments {
             (quads[k], fx[k], fy[k]) = (quad, x, y);
         }
         let mut texels = [[F::Texel::default(); CAPACITY]; 4];
-        for (k, &quad) in quads[..n].iter().enumerate() {
+        let [t0, t1, t2, t3] = &mut texels;
+        let blocks = t0
+            .iter_mut()
+            .zip(t1.iter_mut())
+            .zip(t2.iter_mut())
+            .zip(t3.iter_mut());
+        for (&quad, (((a, b), c), d)) in quads[..n].iter().zip(blocks) {
             // SAFETY: each block's indexes come from this view (`taps_one`).
-            let block = unsafe { view.quad_at(quad) };
-            for (t, texel) in texels.iter_mut().zip(block) {
-                t[k] = texel;
-            }
+            [*a, *b, *c, *d] = unsafe { view.quad_at(quad) };
         }
         let fog = Pair::of(a.fog_color);
         let mut colours = [P::pack([0; 3]); CAPACITY];

@@ -38,6 +38,7 @@ const _: () = assert!(SLOTS.is_power_of_two() && SLOTS >= CAPACITY + LANES);
 /// the depth test, in slots `0..len`. The per-fragment arrays are public for the row steps that
 /// fill them by index: from `held()` on, each at its `slot`, taking a slot only when the
 /// fragment passes, then handing the count back with `keep`.
+#[derive(Clone)]
 pub(crate) struct Fragments {
     len: usize,
     /// Index in the tile's buffers of the fragment's pixel (a tile holds at most
@@ -56,6 +57,10 @@ pub(crate) struct Fragments {
     grey: bool,
     /// Fragments written so far.
     written: u64,
+    /// The colour stage in passes' arrays between its passes, here rather than on the stack,
+    /// where they would be zeroed for every buffer.
+    #[cfg(any(test, arm_neon))]
+    passes: passes::Between,
 }
 
 impl Fragments {
@@ -70,6 +75,8 @@ impl Fragments {
             level: 0,
             grey: false,
             written: 0,
+            #[cfg(any(test, arm_neon))]
+            passes: passes::Between::default(),
         }
     }
 

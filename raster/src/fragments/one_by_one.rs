@@ -183,6 +183,7 @@ mod tests {
         if F::TAPS {
             let mut passes = lanes.clone();
             passes.fill(P::pack([1, 2, 3]));
+            let mut frags = frags.clone();
             frags.colour_in_passes::<P, F, SHADE, GREY, FOG>(view, a, &mut passes);
             prop_assert_eq!(
                 &lanes,

@@ -16,6 +16,29 @@ use crate::pixel::{PixelFormat, modulate};
 use crate::sampler::{Filtering, LevelView, Quad, Texel};
 use crate::texture::Wrap;
 
+/// The arrays between the passes that hold neither texels nor pixels: one value per fragment in
+/// each, so that the compiler moves them a vector at a time.
+#[derive(Clone)]
+pub(super) struct Between {
+    quads: [Quad; CAPACITY],
+    /// Each block's weights towards the right and the bottom.
+    fx: [u32; CAPACITY],
+    fy: [u32; CAPACITY],
+    /// Each block's four texels (`Texel::to_word`).
+    texels: [[u32; CAPACITY]; 4],
+}
+
+impl Default for Between {
+    fn default() -> Self {
+        Self {
+            quads: [Quad::default(); CAPACITY],
+            fx: [0; CAPACITY],
+            fy: [0; CAPACITY],
+            texels: [[0; CAPACITY]; 4],
+        }
+    }
+}
+
 impl Fragments {
     /// `colour` in passes, for a filter that blends blocks (`Filtering::TAPS`): the held
     /// fragments' colours, each written to its pixel in the order they arrived.
@@ -27,7 +50,7 @@ impl Fragments {
         const GREY: bool,
         const FOG: bool,
     >(
-        &self,
+        &mut self,
         view: &LevelView<'_, F::Texel>,
         a: &Attributes,
         pixels: &mut [P::Pixel],
@@ -54,7 +77,7 @@ impl Fragments {
         const GREY: bool,
         const FOG: bool,
     >(
-        &self,
+        &mut self,
         view: &LevelView<'_, F::Texel>,
         a: &Attributes,
         pixels: &mut [P::Pixel],
@@ -63,16 +86,17 @@ impl Fragments {
         // Every array cut to the fragments held, so that indexing them needs no check.
         let (u, v, f) = (&self.u[..n], &self.v[..n], &self.f[..n]);
         let (r, g, b) = (&self.c[0][..n], &self.c[1][..n], &self.c[2][..n]);
-        // One value per fragment in each array the arithmetic passes read or write: the
-        // compiler then moves them a vector at a time.
-        let mut quads = [Quad::default(); CAPACITY];
-        let (mut fx, mut fy) = ([0u32; CAPACITY], [0u32; CAPACITY]);
+        let Between {
+            quads,
+            fx,
+            fy,
+            texels,
+        } = &mut self.passes;
         for k in 0..n {
             let (quad, x, y) = F::taps_one(view, u[k], v[k]).expect("a filter with taps");
             (quads[k], fx[k], fy[k]) = (quad, x, y);
         }
-        let mut texels = [[F::Texel::default(); CAPACITY]; 4];
-        let [t0, t1, t2, t3] = &mut texels;
+        let [t0, t1, t2, t3] = texels;
         let blocks = t0
             .iter_mut()
             .zip(t1.iter_mut())
@@ -80,13 +104,15 @@ impl Fragments {
             .zip(t3.iter_mut());
         for (&quad, (((a, b), c), d)) in quads[..n].iter().zip(blocks) {
             // SAFETY: each block's indexes come from this view (`taps_one`).
-            [*a, *b, *c, *d] = unsafe { view.quad_at(quad) };
+            let block = unsafe { view.quad_at(quad) };
+            [*a, *b, *c, *d] = block.map(F::Texel::to_word);
         }
         let fog = Pair::of(a.fog_color);
         let mut colours = [P::pack([0; 3]); CAPACITY];
         let [t0, t1, t2, t3] = texels.each_ref().map(|t| &t[..n]);
         for k in 0..n {
-            let t = F::Texel::blend([t0[k], t1[k], t2[k], t3[k]], fx[k], fy[k]);
+            let block = [t0[k], t1[k], t2[k], t3[k]].map(F::Texel::from_word);
+            let t = F::Texel::blend(block, fx[k], fy[k]);
             // Shading channels are 0..=255 (`Fragments::c`).
             let rgb = if !SHADE {
                 a.flat

@@ -20,7 +20,7 @@ pub(crate) fn clamp_coord(u: i64) -> i64 {
 }
 
 /// A texel storage type.
-pub(crate) trait Texel: Copy + Default + Send + Sync + 'static {
+pub(crate) trait Texel: Copy + Send + Sync + 'static {
     /// Eight texels in lanes.
     type Lanes: Copy;
 
@@ -50,6 +50,12 @@ pub(crate) trait Texel: Copy + Default + Send + Sync + 'static {
 
     /// The colours of eight texels, as `rgb`.
     fn rgb_lanes(t: Self::Lanes) -> Rgb8s;
+
+    /// The texel as a 32-bit word and back, for arrays of any texel type.
+    #[cfg(any(test, arm_neon))]
+    fn to_word(self) -> u32;
+    #[cfg(any(test, arm_neon))]
+    fn from_word(w: u32) -> Self;
 
     /// `blend` of eight 2x2 blocks, with the weights `fx`, `fy` (0..=255) in 16-bit lanes.
     fn blend_lanes(t: [Self::Lanes; 4], fx: u16x8, fy: u16x8) -> Rgb8s;
@@ -128,6 +134,18 @@ fn expand565(r: u16x8, g: u16x8, b: u16x8) -> Rgb8s {
 impl Texel for u16 {
     type Lanes = u16x8;
 
+    #[cfg(any(test, arm_neon))]
+    #[inline(always)]
+    fn to_word(self) -> u32 {
+        self as u32
+    }
+
+    #[cfg(any(test, arm_neon))]
+    #[inline(always)]
+    fn from_word(w: u32) -> Self {
+        w as u16
+    }
+
     #[inline]
     fn rgb(self) -> [u8; 3] {
         rgb565_to_rgb(self)
@@ -194,6 +212,18 @@ impl Texel for u16 {
 impl Texel for [u8; 4] {
     /// Each texel as the little-endian `u32` of its bytes: red in the low byte.
     type Lanes = u32x8;
+
+    #[cfg(any(test, arm_neon))]
+    #[inline(always)]
+    fn to_word(self) -> u32 {
+        u32::from_le_bytes(self)
+    }
+
+    #[cfg(any(test, arm_neon))]
+    #[inline(always)]
+    fn from_word(w: u32) -> Self {
+        w.to_le_bytes()
+    }
 
     #[inline]
     fn rgb(self) -> [u8; 3] {

@@ -30,6 +30,43 @@ pub(crate) struct FixedScreen {
     pub(super) inner: Inner,
 }
 
+impl FixedFog {
+    /// The share of the surface colour at clip `w` (`start < w < end` blends linearly):
+    /// `((end - w) * 256 / (end - start))` clamped to `0..=256`, for `end > start`.
+    ///
+    /// Between the ends the quotient's 8 bits come from a restoring division, a bit at a time
+    /// (the remainder stays below the divisor, below 2^63), where the 128-bit division is a
+    /// library call of hundreds of instructions on a 32-bit core and dozens on a 64-bit one;
+    /// beyond the ends the share is 0 or 256. Wider spans take the 128-bit division.
+    #[inline]
+    pub fn share(&self, w: i64) -> i64 {
+        debug_assert!(self.end > self.start);
+        let (d, x) = (
+            self.end as i128 - self.start as i128,
+            self.end as i128 - w as i128,
+        );
+        if x <= 0 {
+            return 0;
+        }
+        if x >= d {
+            return 256;
+        }
+        match (u64::try_from(d), u64::try_from(x)) {
+            (Ok(d), Ok(x)) if d < 1 << 63 => {
+                let (mut r, mut q) = (x, 0);
+                for _ in 0..8 {
+                    r <<= 1;
+                    let bit = r >= d;
+                    r -= if bit { d } else { 0 };
+                    q = q << 1 | bit as i64;
+                }
+                q
+            }
+            _ => (x * 256 / d) as i64,
+        }
+    }
+}
+
 impl FixedScreen {
     /// Depth, 0.32 (for the line path, which shares this projection).
     pub(crate) fn depth(&self) -> i64 {
@@ -111,9 +148,7 @@ impl FixedScreen {
             (vp.clamp_to_guard_band(xy), depth, inv_w, shift)
         });
         let fog = match fog {
-            Some(f) if f.end > f.start => (((f.end as i128 - w as i128) * 256)
-                / (f.end as i128 - f.start as i128))
-                .clamp(0, 256) as i64,
+            Some(f) if f.end > f.start => f.share(w),
             Some(f) => {
                 if w < f.end {
                     256
@@ -255,6 +290,70 @@ mod tests {
         ) {
             check_words(a, inv);
             check_words(a >> bits, inv);
+        }
+    }
+
+    /// `FixedFog::share` against the 128-bit quotient it replaces.
+    fn check_share(start: i64, end: i64, w: i64) {
+        let fog = FixedFog { start, end };
+        let quotient = (end as i128 - w as i128) * 256 / (end as i128 - start as i128);
+        assert_eq!(
+            fog.share(w) as i128,
+            quotient.clamp(0, 256),
+            "{start} {end} {w}"
+        );
+    }
+
+    #[test]
+    fn fog_shares_at_the_ends_and_the_extremes() {
+        let spans = [
+            (0, 1),
+            (0, 255),
+            (0, 256),
+            (0, 257),
+            (-5, 1 << 40),
+            (1, i64::MAX),
+        ];
+        let extremes = [
+            (i64::MIN, i64::MAX),
+            (i64::MIN, -1),
+            ((1 << 62) - 1, 1 << 62),
+        ];
+        for (start, end) in spans.into_iter().chain(extremes) {
+            let near = |c: i64| [c.saturating_sub(1), c, c.saturating_add(1)];
+            let middle = ((start as i128 + end as i128) / 2) as i64;
+            for w in [
+                near(start),
+                near(end),
+                near(middle),
+                near(1),
+                near(i64::MAX),
+            ]
+            .concat()
+            {
+                check_share(start, end, w);
+            }
+        }
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn fog_shares_equal_the_128_bit_quotient(
+            start in proptest::num::i64::ANY,
+            span in 1i64..1 << 40,
+            wide in 1u64..=u64::MAX,
+            at in 0.0f64..1.0,
+        ) {
+            // Spans of every size, and clip w within and around each.
+            for span in [span as i128, wide as i128] {
+                let end = (start as i128 + span).min(i64::MAX as i128) as i64;
+                if end > start {
+                    let w = start as i128 + ((end as i128 - start as i128) as f64 * at) as i128;
+                    for w in [w - 1, w, w + 1] {
+                        check_share(start, end, w.clamp(1, i64::MAX as i128) as i64);
+                    }
+                }
+            }
         }
     }
 

@@ -30,43 +30,6 @@ pub(crate) struct FixedScreen {
     pub(super) inner: Inner,
 }
 
-impl FixedFog {
-    /// The share of the surface colour at clip `w` (`start < w < end` blends linearly):
-    /// `((end - w) * 256 / (end - start))` clamped to `0..=256`, for `end > start`.
-    ///
-    /// Between the ends the quotient's 8 bits come from a restoring division, a bit at a time
-    /// (the remainder stays below the divisor, below 2^63), where the 128-bit division is a
-    /// library call of hundreds of instructions on a 32-bit core and dozens on a 64-bit one;
-    /// beyond the ends the share is 0 or 256. Wider spans take the 128-bit division.
-    #[inline]
-    pub fn share(&self, w: i64) -> i64 {
-        debug_assert!(self.end > self.start);
-        let (d, x) = (
-            self.end as i128 - self.start as i128,
-            self.end as i128 - w as i128,
-        );
-        if x <= 0 {
-            return 0;
-        }
-        if x >= d {
-            return 256;
-        }
-        match (u64::try_from(d), u64::try_from(x)) {
-            (Ok(d), Ok(x)) if d < 1 << 63 => {
-                let (mut r, mut q) = (x, 0);
-                for _ in 0..8 {
-                    r <<= 1;
-                    let bit = r >= d;
-                    r -= if bit { d } else { 0 };
-                    q = q << 1 | bit as i64;
-                }
-                q
-            }
-            _ => (x * 256 / d) as i64,
-        }
-    }
-}
-
 impl FixedScreen {
     /// Depth, 0.32 (for the line path, which shares this projection).
     pub(crate) fn depth(&self) -> i64 {
@@ -137,6 +100,42 @@ pub(super) fn is_grey(color: [i64; 3]) -> bool {
 pub(crate) struct FixedFog {
     pub start: i64,
     pub end: i64,
+}
+
+impl FixedFog {
+    /// The share of the surface colour at clip `w` (`start < w < end` blends linearly):
+    /// `((end - w) * 256 / (end - start))` clamped to `0..=256`, for `end > start`.
+    ///
+    /// Between the ends the quotient's 8 bits come from a restoring division, a bit at a time
+    /// (the remainder stays below the divisor, below 2^63), where the 128-bit division is a
+    /// library call of hundreds of instructions on a 32-bit core and dozens on a 64-bit one;
+    /// beyond the ends the share is 0 or 256. Wider spans take the 128-bit division.
+    #[inline]
+    pub fn share(&self, w: i64) -> i64 {
+        debug_assert!(self.end > self.start);
+        let (d, x) = (
+            self.end as i128 - self.start as i128,
+            self.end as i128 - w as i128,
+        );
+        if x <= 0 {
+            return 0;
+        }
+        if x >= d {
+            return 256;
+        }
+        if d >= 1 << 63 {
+            return (x * 256 / d) as i64;
+        }
+        // `0 < x < d < 2^63`: both are u64, and so is twice the remainder.
+        let (d, mut r, mut q) = (d as u64, x as u64, 0);
+        for _ in 0..8 {
+            r <<= 1;
+            let bit = r >= d;
+            r -= if bit { d } else { 0 };
+            q = q << 1 | bit as i64;
+        }
+        q
+    }
 }
 
 impl FixedScreen {

@@ -38,7 +38,7 @@ const _: () = assert!(SLOTS.is_power_of_two() && SLOTS >= CAPACITY + LANES);
 /// the depth test, in slots `0..len`. The per-fragment arrays are public for the row steps that
 /// fill them by index: from `held()` on, each at its `slot`, taking a slot only when the
 /// fragment passes, then handing the count back with `keep`.
-#[derive(Clone)]
+#[cfg_attr(test, derive(Clone))]
 pub(crate) struct Fragments {
     len: usize,
     /// Index in the tile's buffers of the fragment's pixel (a tile holds at most

@@ -102,9 +102,10 @@ const _: () = assert!(MAX_ROWS.is_power_of_two());
 #[inline(always)]
 fn four_columns(params: &[i32; 12], n: usize, out: &mut [u16; MAX_ROWS]) {
     assert!((1..=MAX_ROWS).contains(&n));
-    // SAFETY: the block reads the 48 bytes of `params` and of `LANE_CONSTANTS`, and writes `n`
-    // halfwords at `out`, which holds `MAX_ROWS >= n`; it touches no stack, and every NEON
-    // register it writes is declared clobbered (the compiler saves the callee-saved d8-d15).
+    // SAFETY: the block reads the 48 bytes of `params` and the first 32 of `LANE_CONSTANTS`,
+    // and writes `n` halfwords at `out`, which holds `MAX_ROWS >= n`; it touches no stack, and
+    // every NEON register it writes is declared clobbered (the compiler saves the callee-saved
+    // d8-d15).
     unsafe {
         asm!(
             "vld1.32 {{d26, d27}}, [{p}]!",
@@ -156,7 +157,7 @@ fn four_columns(params: &[i32; 12], n: usize, out: &mut [u16; MAX_ROWS]) {
 #[inline(always)]
 fn eight_columns(params: &[i32; 12], n: usize, out: &mut [u16; MAX_ROWS]) {
     assert!((1..=MAX_ROWS).contains(&n));
-    // SAFETY: as `four_columns`.
+    // SAFETY: as `four_columns`, reading all 48 bytes of `LANE_CONSTANTS`.
     unsafe {
         asm!(
             "vld1.32 {{d26, d27}}, [{p}]!",

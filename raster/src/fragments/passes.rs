@@ -18,7 +18,7 @@ use crate::texture::Wrap;
 
 /// The arrays between the passes that hold neither texels nor pixels: one value per fragment in
 /// each, so that the compiler moves them a vector at a time.
-#[derive(Clone)]
+#[cfg_attr(test, derive(Clone))]
 pub(super) struct Between {
     quads: [Quad; CAPACITY],
     /// Each block's weights towards the right and the bottom.

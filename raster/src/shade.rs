@@ -428,8 +428,11 @@ fn spans_of<
                     flush(frags);
                 }
                 let e = xe.min(xs + frags.room() as i64);
+                // The tile's buffers hold its pixels row after row, as the small rows index
+                // them.
+                let at = tile.index(y, xs);
                 let depth = match &mut depth {
-                    Some(d) => d.row(y, xs, e),
+                    Some(d) => &mut d.pixels()[at..at + (e - xs) as usize],
                     None => &mut [],
                 };
                 let piece = RunPiece {
@@ -438,7 +441,7 @@ fn spans_of<
                     x1,
                     xs,
                     xe: e,
-                    at: tile.index(y, xs),
+                    at,
                 };
                 fixed::run_fragments::<D, F, SHADE, GREY, FOG, NARROW>(
                     t, planes, piece, depth, frags, test,

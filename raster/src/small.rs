@@ -21,7 +21,8 @@ use crate::fixed_point::{ATTR_FRAC_BITS, TEXCOORD_LIMIT};
 use crate::fragments::Fragments;
 use crate::pipeline::TexMode;
 use crate::pipeline::fixed::{
-    AttrPlane, DepthTest, FixedTriangle, NarrowPlanes, divide, divide_in_range, plane_offsets,
+    AttrPlane, DepthTest, FixedTriangle, NarrowPlanes, WORDS, divide, divide_in_range,
+    plane_offsets,
 };
 use crate::pixel::DepthStorage;
 use crate::sampler::{Filtering, clamp_coord};
@@ -140,12 +141,6 @@ fn extremes(q: &AttrPlane, v: i64, w: i64, h: i64) -> (i64, i64) {
 const TEX_OFF: usize = 0;
 const TEX_AFFINE: usize = 2;
 const TEX_PERSPECTIVE: usize = 3;
-
-/// Whether runs without clamps step colour, fog and texture coordinates in 32-bit words
-/// (`rows_of`): on 32-bit cores. A 64-bit core steps them as cheaply in i64, in lanes where it
-/// has them, and the words' offsets would cost it more than they save
-/// (docs/optimisation-notes.md).
-const WORDS: bool = cfg!(target_pointer_width = "32");
 
 /// Values a run steps in words: none where runs take no words.
 const WORD_VALUES: usize = if WORDS { VALUES } else { 0 };

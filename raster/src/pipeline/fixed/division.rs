@@ -112,7 +112,26 @@ const RECIPROCALS: [i64; 65] = {
 /// than the span's pixels. Exact for the `|d| < 2^41` of texture-coordinate differences.
 #[inline]
 pub(super) fn div_small(d: i64, n: i64) -> i64 {
-    ((d as i128 * RECIPROCALS[n as usize] as i128) >> 32) as i64
+    #[cfg(target_pointer_width = "64")]
+    return ((d as i128 * RECIPROCALS[n as usize] as i128) >> 32) as i64;
+    #[cfg(not(target_pointer_width = "64"))]
+    return div_small_in_words(d, n);
+}
+
+/// `div_small`'s `(d * r) >> 32` for a 32-bit core, where a 128-bit product is a dozen
+/// multiplications: with `d = high * 2^32 + low` (`low` unsigned), it is `high * r` plus the
+/// high word of `low * r`, one product of words each (`r` is below 2^31 past `n = 2`; there
+/// `r` is `2^32 / n` and the quotient `d >> (n - 1)`).
+#[cfg(any(test, not(target_pointer_width = "64")))]
+#[inline(always)]
+fn div_small_in_words(d: i64, n: i64) -> i64 {
+    if n <= 2 {
+        return d >> (n - 1);
+    }
+    let r = RECIPROCALS[n as usize];
+    debug_assert!(r < 1 << 31);
+    let (high, low) = ((d >> 32) as i32 as i64, d as u32 as u64);
+    high * r as i32 as i64 + ((low * r as u32 as u64) >> 32) as i64
 }
 
 /// A plane's accumulator `k` chunks of `step` after `start`, as repeated saturating additions
@@ -180,6 +199,12 @@ mod tests {
     }
 
     proptest! {
+        #[test]
+        fn the_quotient_in_words_is_the_wide_product(d in any::<i64>(), n in 1i64..=64) {
+            let wide = ((d as i128 * RECIPROCALS[n as usize] as i128) >> 32) as i64;
+            prop_assert_eq!(div_small_in_words(d, n), wide);
+        }
+
         #[test]
         fn clamps_in_words_are_the_128_bit_clamps(
             a in proptest::num::i64::ANY,

@@ -31,7 +31,7 @@ pub(crate) use clip::{FixedClip, FixedSpace};
 pub(crate) use division::{divide, divide_in_range};
 pub(crate) use planes::AttrPlane;
 pub(crate) use projection::{FixedFog, FixedScreen};
-pub(crate) use rows::{DepthTest, NarrowPlanes, RunPiece, plane_offsets, run_fragments};
+pub(crate) use rows::{DepthTest, NarrowPlanes, RunPiece, WORDS, plane_offsets, run_fragments};
 pub(crate) use triangle::FixedTriangle;
 
 /// The integer pipeline's stages.

@@ -76,6 +76,12 @@ pub(crate) fn plane_offsets<
     (color_at, fog_at, fog_at + FOG as usize)
 }
 
+/// Whether rows without clamps step colour, fog and texture coordinates in 32-bit words: on
+/// 32-bit cores, where an i64 is two registers and two adds. A 64-bit core steps them as
+/// cheaply in i64, in lanes where it has them, and the words' offsets would cost it more than
+/// they save (docs/optimisation-notes.md).
+pub(crate) const WORDS: bool = cfg!(target_pointer_width = "32");
+
 /// The stepped values of a row's pixel: depth, colour (one channel when `GREY`), fog.
 struct Stepped<const GREY: bool> {
     z: i64,
@@ -221,10 +227,13 @@ pub(crate) fn run_fragments<
         depth: &mut depth[..if D::ENABLED { n } else { 0 }],
         test,
     };
-    if in_range {
-        pixels::<D, T, GREY, SHADE, FOG, false>(run, px, frags);
-    } else {
-        pixels::<D, T, GREY, SHADE, FOG, true>(run, px, frags);
+    // Exact perspective divides at every pixel, which a pass over the fragments that passed
+    // would not make cheaper.
+    let words = WORDS && !matches!(tex, RunTex::Perspective { chunk: 1, .. });
+    match in_range {
+        true if words => pixels_in_words::<D, T, GREY, SHADE, FOG>(run, px, frags),
+        true => pixels::<D, T, GREY, SHADE, FOG, false>(run, px, frags),
+        false => pixels::<D, T, GREY, SHADE, FOG, true>(run, px, frags),
     }
 }
 
@@ -282,11 +291,7 @@ fn pixels<
         test,
     } = run;
     let RunPiece {
-        x1,
-        xs,
-        xe,
-        at: first,
-        ..
+        xs, xe, at: first, ..
     } = piece;
     let n = (xe - xs) as usize;
     // Pixel `k` of the piece, with texture coordinates `uv`: held when it passes the test.
@@ -350,55 +355,30 @@ fn pixels<
                     }
                 }
             } else {
-                // (u, v) in 16.32 at the chunk start `cs`, exact there, linear between.
-                let mut cs = start;
-                let (mut u, mut v) = divide(acc[0], acc[1], acc[2]);
-                // A whole chunk's steps, once a run: a saturating i64 product is a dozen
-                // instructions on a 32-bit core.
-                let chunk_steps = dacc.map(|d| d.saturating_mul(chunk));
-                let mut x = xs;
-                while x < xe {
-                    let ce = (cs + chunk).min(x1);
-                    let m = ce - cs;
-                    for j in 0..3 {
-                        let step = if m == chunk {
-                            chunk_steps[j]
-                        } else {
-                            dacc[j].saturating_mul(m)
-                        };
-                        acc[j] = acc[j].saturating_add(step);
-                    }
-                    let end = divide(acc[0], acc[1], acc[2]);
-                    let (du, dv) = (div_small(end.0 - u, m), div_small(end.1 - v, m));
-                    let (mut cu, mut cv) = (
-                        u.wrapping_add(du.wrapping_mul(x - cs)),
-                        v.wrapping_add(dv.wrapping_mul(x - cs)),
-                    );
-                    let stop = ce.min(xe);
-                    let (from, to) = ((x - xs) as usize, (stop - xs) as usize);
+                for chunk in Chunks::new(acc, dacc, chunk, start, &piece) {
+                    let Chunk {
+                        ks,
+                        c: [mut cu, mut cv],
+                        d: [du, dv],
+                        ..
+                    } = chunk;
                     // `divide` keeps the chunk's ends in range, but the rounded-down steps
                     // between them can stray past the low end: the chunk's part of the piece
                     // goes without clamps where its first and last coordinates lie inside.
-                    let last = (to - from) as i64 - 1;
-                    let inside =
-                        |c: i64, d: i64| COORD.contains(&c) && COORD.contains(&(c + d * last));
-                    if inside(cu, du) && inside(cv, dv) {
-                        for k in from..to {
+                    if inside([cu, cv], [du, dv], ks.len()) {
+                        for k in ks {
                             emit(k, ((cu >> 16) as i32, (cv >> 16) as i32), &mut px);
                             cu = cu.wrapping_add(du);
                             cv = cv.wrapping_add(dv);
                         }
                     } else {
-                        for k in from..to {
+                        for k in ks {
                             let clamped = |c: i64| clamp_coord(c >> 16) as i32;
                             emit(k, (clamped(cu), clamped(cv)), &mut px);
                             cu = cu.wrapping_add(du);
                             cv = cv.wrapping_add(dv);
                         }
                     }
-                    (u, v) = end;
-                    cs = ce;
-                    x = stop;
                 }
             }
         }
@@ -419,6 +399,339 @@ fn pixels<
         }
     }
     frags.keep(kept);
+}
+
+/// A run's perspective chunks of more than one pixel over a piece, one `Chunk` at a time: `u, v`
+/// exact at each chunk's ends (from the accumulators `s, t, q` there) and linear between.
+struct Chunks {
+    /// The accumulators at the current chunk's start `cs`, their steps, and a whole chunk's.
+    acc: [i64; 3],
+    dacc: [i64; 3],
+    chunk_steps: [i64; 3],
+    chunk: i64,
+    cs: i64,
+    /// `u, v` (16.32) at `cs`.
+    uv: (i64, i64),
+    /// The next pixel, the piece's first and end, and the run's end.
+    x: i64,
+    xs: i64,
+    xe: i64,
+    x1: i64,
+}
+
+/// `d * m` saturated, for a chunk of `m < 256` pixels (`TexMode::Perspective` holds it in a
+/// byte): the plain product where `|d| < 2^55` keeps it in i64, as it mostly does; the
+/// saturating product is a dozen instructions on a 32-bit core.
+#[inline(always)]
+fn saturating_times(d: i64, m: i64) -> i64 {
+    debug_assert!((0..256).contains(&m));
+    if d.unsigned_abs() < 1 << 55 {
+        d * m
+    } else {
+        d.saturating_mul(m)
+    }
+}
+
+/// One chunk's pixels of a piece (`Chunks`).
+struct Chunk {
+    /// The pixels, counted from the piece's first.
+    ks: Range<usize>,
+    /// `u, v` (16.32) at the first of them, and their step.
+    c: [i64; 2],
+    d: [i64; 2],
+    /// The least and the greatest value each takes in the chunk: the steps, rounded down,
+    /// stray below the line between the exact ends by less than one a pixel.
+    bounds: [(i64, i64); 2],
+}
+
+impl Chunks {
+    /// The chunks of the piece `xs..xe` of the run ending at `x1`, from the accumulators `acc`
+    /// at the chunk start `start` and their steps `dacc`.
+    #[inline(always)]
+    fn new(acc: [i64; 3], dacc: [i64; 3], chunk: i64, start: i64, piece: &RunPiece) -> Self {
+        Self {
+            acc,
+            dacc,
+            // A whole chunk's steps, once a run.
+            chunk_steps: dacc.map(|d| saturating_times(d, chunk)),
+            chunk,
+            cs: start,
+            uv: divide(acc[0], acc[1], acc[2]),
+            x: piece.xs,
+            xs: piece.xs,
+            xe: piece.xe,
+            x1: piece.x1,
+        }
+    }
+}
+
+impl Iterator for Chunks {
+    type Item = Chunk;
+
+    #[inline(always)]
+    fn next(&mut self) -> Option<Chunk> {
+        if self.x >= self.xe {
+            return None;
+        }
+        let (x, cs, (u, v)) = (self.x, self.cs, self.uv);
+        let ce = (cs + self.chunk).min(self.x1);
+        let m = ce - cs;
+        for j in 0..3 {
+            let step = if m == self.chunk {
+                self.chunk_steps[j]
+            } else {
+                saturating_times(self.dacc[j], m)
+            };
+            self.acc[j] = self.acc[j].saturating_add(step);
+        }
+        let end = divide(self.acc[0], self.acc[1], self.acc[2]);
+        let (du, dv) = (div_small(end.0 - u, m), div_small(end.1 - v, m));
+        let stop = ce.min(self.xe);
+        let bounds = |a: i64, b: i64| (a.min(b) - m, a.max(b));
+        (self.uv, self.cs, self.x) = (end, ce, stop);
+        Some(Chunk {
+            ks: (x - self.xs) as usize..(stop - self.xs) as usize,
+            c: [
+                u.wrapping_add(du.wrapping_mul(x - cs)),
+                v.wrapping_add(dv.wrapping_mul(x - cs)),
+            ],
+            d: [du, dv],
+            bounds: [bounds(u, end.0), bounds(v, end.1)],
+        })
+    }
+}
+
+/// True when texture coordinates `c` stepped by `d` lie inside the range at the first and the
+/// last of `n` pixels, and so at every pixel between.
+#[inline(always)]
+fn inside(c: [i64; 2], d: [i64; 2], n: usize) -> bool {
+    let last = n as i64 - 1;
+    (0..2).all(|k| COORD.contains(&c[k]) && COORD.contains(&(c[k] + d[k] * last)))
+}
+
+/// `pixels` without clamps on a 32-bit core, in two passes over each stretch of the piece whose
+/// texture coordinates step alike (the piece, or a perspective chunk's part of it): the depth
+/// test, which holds the pixels that pass, then their colour, fog and texture coordinates, each
+/// the value at the piece's first pixel plus its step times the pixel's place. One loop over
+/// both keeps more values live than a 32-bit core has registers, and here a pixel that fails
+/// the test costs no values.
+///
+/// In words: wrapping products and sums are exact modulo 2^32, and every colour and fog value
+/// of the piece lies in its range (below 2^25), so its word is the integer itself; texture
+/// coordinates take words from an offset where the stretch's spread allows (`UvWords`).
+#[inline(always)]
+fn pixels_in_words<
+    D: DepthStorage,
+    T: Filtering,
+    const GREY: bool,
+    const SHADE: bool,
+    const FOG: bool,
+>(
+    run: Run<'_, D>,
+    px: Stepped<GREY>,
+    frags: &mut Fragments,
+) {
+    let Run {
+        piece,
+        tex,
+        depth,
+        test,
+    } = run;
+    let RunPiece { xs, xe, at, .. } = piece;
+    let n = (xe - xs) as usize;
+    let first = at as u32;
+    let values = ValueWords::<GREY>::new(&px, first);
+    let (mut z, dz) = (px.z, px.dz);
+    match tex {
+        RunTex::Perspective {
+            acc,
+            dacc,
+            chunk,
+            start,
+        } => {
+            for Chunk { ks, c, d, bounds } in Chunks::new(acc, dacc, chunk, start, &piece) {
+                let (from, n) = (ks.start, ks.len());
+                let slots;
+                (slots, z) = depth_pass::<D>(ks, first, (z, dz), test, depth, frags);
+                match UvWords::new(c, d, first + from as u32, bounds) {
+                    Some(w) => values.put::<T, SHADE, FOG>(slots, frags, |at| w.at(at)),
+                    // As `pixels` steps them, clamped where the chunk strays.
+                    None if inside(c, d, n) => values.put::<T, SHADE, FOG>(slots, frags, |at| {
+                        let j = (at - first) as i64 - from as i64;
+                        let coord =
+                            |i: usize| (c[i].wrapping_add(d[i].wrapping_mul(j)) >> 16) as i32;
+                        (coord(0), coord(1))
+                    }),
+                    None => values.put::<T, SHADE, FOG>(slots, frags, |at| {
+                        let j = (at - first) as i64 - from as i64;
+                        let coord = |i: usize| {
+                            clamp_coord(c[i].wrapping_add(d[i].wrapping_mul(j)) >> 16) as i32
+                        };
+                        (coord(0), coord(1))
+                    }),
+                }
+            }
+        }
+        RunTex::Affine { uv, duv } => {
+            let (slots, _) = depth_pass::<D>(0..n, first, (z, dz), test, depth, frags);
+            let last = n as i64 - 1;
+            let bounds = [0, 1].map(|k| {
+                let end = uv[k] + duv[k] * last;
+                (uv[k].min(end), uv[k].max(end))
+            });
+            match UvWords::new(uv, duv, first, bounds) {
+                Some(w) => values.put::<T, SHADE, FOG>(slots, frags, |at| w.at(at)),
+                // In range at every pixel (`run_fragments`).
+                None => values.put::<T, SHADE, FOG>(slots, frags, |at| {
+                    let k = (at - first) as i64;
+                    let coord =
+                        |i: usize| (uv[i].wrapping_add(duv[i].wrapping_mul(k)) >> 16) as i32;
+                    (coord(0), coord(1))
+                }),
+            }
+        }
+        RunTex::Off => {
+            let (slots, _) = depth_pass::<D>(0..n, first, (z, dz), test, depth, frags);
+            values.put::<T, SHADE, FOG>(slots, frags, |_| (0, 0));
+        }
+    }
+}
+
+/// The depth pass of `pixels_in_words` over pixels `ks` of the piece (`first` the index of
+/// its first pixel in the tile's buffers, `depth` its depth values) from depth `z` at pixel
+/// `ks.start` and its step: the slots of the pixels that passed, and the depth after the last.
+/// Everything the loop reads is a local here: the stores to the fragments' arrays would
+/// otherwise have it read again from memory at every pixel.
+#[inline(always)]
+fn depth_pass<D: DepthStorage>(
+    ks: Range<usize>,
+    first: u32,
+    (mut z, dz): (i64, i64),
+    test: DepthTest,
+    depth: &mut [D::Value],
+    frags: &mut Fragments,
+) -> (Range<usize>, i64) {
+    let held = frags.held();
+    let mut kept = held;
+    if D::ENABLED {
+        for (k, stored) in (ks.start as u32..).zip(&mut depth[ks]) {
+            frags.at[Fragments::slot(kept)] = first + k;
+            let pass = test.apply::<D>(D::from_z_in_range(z), stored);
+            z = z.wrapping_add(dz);
+            kept += pass as usize;
+        }
+    } else {
+        for k in ks.start as u32..ks.end as u32 {
+            frags.at[Fragments::slot(kept)] = first + k;
+            kept += 1;
+        }
+    }
+    frags.keep(kept);
+    (held..kept, z)
+}
+
+/// Colour and fog in words (`pixels_in_words`) and their steps, the words as the steps would
+/// reach index 0 of the tile's buffers from the piece's first pixel (at index `first`): a
+/// fragment's values are then the words plus the steps times its own index.
+struct ValueWords<const GREY: bool> {
+    c: [i32; 3],
+    dc: [i32; 3],
+    f: i32,
+    df: i32,
+}
+
+impl<const GREY: bool> ValueWords<GREY> {
+    #[inline(always)]
+    fn new(px: &Stepped<GREY>, first: u32) -> Self {
+        let back = |v: i64, d: i64| (v as i32).wrapping_sub((d as i32).wrapping_mul(first as i32));
+        Self {
+            c: [0, 1, 2].map(|k| back(px.c[k], px.dc[k])),
+            dc: px.dc.map(|d| d as i32),
+            f: back(px.f, px.df),
+            df: px.df as i32,
+        }
+    }
+
+    /// The values pass: texture coordinates (`uv` of the index of the fragment's pixel),
+    /// colour and fog of the fragments held in `slots`, in a loop for the coordinates and one
+    /// for the rest, each of which a 32-bit core holds in its registers.
+    #[inline(always)]
+    fn put<T: Filtering, const SHADE: bool, const FOG: bool>(
+        &self,
+        slots: Range<usize>,
+        frags: &mut Fragments,
+        uv: impl Fn(u32) -> (i32, i32),
+    ) {
+        if T::ENABLED {
+            for s in slots.clone() {
+                let i = Fragments::slot(s);
+                (frags.u[i], frags.v[i]) = uv(frags.at[i]);
+            }
+        }
+        if !(SHADE || FOG) {
+            return;
+        }
+        for s in slots {
+            let i = Fragments::slot(s);
+            let at = frags.at[i] as i32;
+            let value =
+                |v: i32, d: i32| (v.wrapping_add(d.wrapping_mul(at)) >> ATTR_FRAC_BITS) as u16;
+            if SHADE {
+                frags.c[0][i] = value(self.c[0], self.dc[0]);
+                if !GREY {
+                    frags.c[1][i] = value(self.c[1], self.dc[1]);
+                    frags.c[2][i] = value(self.c[2], self.dc[2]);
+                }
+            }
+            if FOG {
+                frags.f[i] = value(self.f, self.df);
+            }
+        }
+    }
+}
+
+/// Texture coordinates of a stretch of pixels in words: a coordinate whose values over the
+/// stretch lie in `o..o + 2^31`, `o` their least rounded down to a multiple of `2^16`, is
+/// exact as the word `c - o` in wrapping arithmetic, and `c >> 16` is
+/// `((c - o) >> 16) + (o >> 16)`. A chunk spreads that little unless its texture is minified
+/// past half a repeat.
+struct UvWords {
+    /// The words as the steps would reach index 0 of the tile's buffers (wrapping).
+    w: [i32; 2],
+    step: [i32; 2],
+    /// `o >> 16`.
+    high: [i32; 2],
+}
+
+impl UvWords {
+    /// The words of coordinates `c` (16.32) at the pixel of index `from` in the tile's
+    /// buffers, stepped by `d` along the row, whose values over the stretch lie within
+    /// `bounds` (least, greatest); `None` where either spreads too far or leaves the range
+    /// (where `pixels` clamps).
+    #[inline(always)]
+    fn new(c: [i64; 2], d: [i64; 2], from: u32, bounds: [(i64, i64); 2]) -> Option<Self> {
+        let offset = |(lo, hi): (i64, i64)| {
+            let o = lo & !((1 << 16) - 1);
+            (lo >= COORD.start && hi < COORD.end && hi - o < 1 << 31).then_some(o)
+        };
+        let o = [offset(bounds[0])?, offset(bounds[1])?];
+        let step = d.map(|d| d as i32);
+        Some(Self {
+            w: [0, 1]
+                .map(|k| ((c[k] - o[k]) as i32).wrapping_sub(step[k].wrapping_mul(from as i32))),
+            step,
+            high: o.map(|o| (o >> 16) as i32),
+        })
+    }
+
+    /// The coordinates at the pixel of index `at` in the tile's buffers.
+    #[inline(always)]
+    fn at(&self, at: u32) -> (i32, i32) {
+        let at = |i: usize| {
+            (self.w[i].wrapping_add(self.step[i].wrapping_mul(at as i32)) >> 16) + self.high[i]
+        };
+        (at(0), at(1))
+    }
 }
 
 /// A narrow triangle's planes for the rows of `small_run`: copies of those its draw uses.

@@ -289,7 +289,7 @@ fn cuts(c: &mut Criterion) {
                         level,
                         0,
                         40.0,
-                        &Light::default(),
+                        Some(&Light::default()),
                         CrackMode::Stitch,
                     );
                     copy.level_errors[0] = 4.0 * f32::powi(2.0, i32::from(level));

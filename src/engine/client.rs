@@ -97,8 +97,8 @@ impl Engine {
         let terrain = TerrainFrame::new(&header);
         let pyramid = reader.pyramid().clone();
         check_morph_range(&settings, &terrain, reader.name())?;
-        let mut loader =
-            ArchiveLoader::new(reader, settings.light, viewport.focal_px(), settings.cracks);
+        let light = (settings.light, settings.render.lights_vertices());
+        let mut loader = ArchiveLoader::new(reader, light, viewport.focal_px(), settings.cracks);
         if let Some(budget) = settings.texture_budget_bytes {
             loader.fit_texture_budget(settings.memory_limit_bytes, budget);
         }
@@ -321,6 +321,7 @@ impl Engine {
         self.viewport.check_target(target.size())?;
         let frame_started = Instant::now();
         let placed_on_ground = self.ground(camera.position).is_some();
+        self.hold_lighting_as_drawn();
         self.pager
             .update(self.terrain.tile_position(camera.position));
         let paging_seconds = frame_started.elapsed().as_secs_f64();
@@ -506,6 +507,17 @@ impl Engine {
         self.pager.loader().set_cracks(mode);
         self.pager.refit();
         self.cracks = TileIndices::new(mode, self.terrain.tile_size);
+    }
+
+    /// Lights the resident tiles, or drops their lighting, when the render settings changed
+    /// whether the surface is lit ([`RenderSettings::lights_vertices`]): tiles hold normals
+    /// and shades only while they are drawn. Refit like a change of crack mode.
+    fn hold_lighting_as_drawn(&mut self) {
+        let lit = self.settings.render.lights_vertices();
+        if lit != self.pager.loader().lit() {
+            self.pager.loader().set_lit(lit);
+            self.pager.refit();
+        }
     }
 
     /// Changes the frame rate the budget aims at (a lower target allows more triangles).

@@ -348,7 +348,6 @@ mod tests {
     use super::*;
     use crate::engine::camera::Camera;
     use crate::engine::fake_holdings::{Fake, S, SPACING, holding, terrain, tile};
-    use crate::engine::shading::Light;
     use crate::engine::viewport::Viewport;
 
     /// The cut of 4 x 4 tiles seen whole from high above, at full resolution.
@@ -494,7 +493,7 @@ mod tests {
             for (k, id) in pyramid.tiles().enumerate() {
                 let copy = match held[k % held.len()] {
                     0 => continue,
-                    1 => ResidentTile::absent(S, id.level, SPACING, &Light::default()),
+                    1 => ResidentTile::absent(S, id.level, SPACING, None),
                     _ => tile(id),
                 };
                 fake.tiles.insert(id, copy);

@@ -38,7 +38,14 @@ pub(crate) fn tile(id: TileId) -> ResidentTile {
     let mut heights = vec![50.0; S * S];
     (heights[0], heights[S * S - 1]) = (0.0, 100.0);
     let t = Tile::new(&heights, S, 0.25, &[[90, 120, 80]; 16], 4).unwrap();
-    ResidentTile::of_level(&t, id.level, 0, SPACING, &Light::default(), CrackMode::None)
+    ResidentTile::of_level(
+        &t,
+        id.level,
+        0,
+        SPACING,
+        Some(&Light::default()),
+        CrackMode::None,
+    )
 }
 
 pub(crate) fn terrain(tiles_x: u32, tiles_y: u32) -> TerrainFrame {

@@ -99,6 +99,18 @@ pub struct RenderSettings {
     pub wireframe: Wireframe,
 }
 
+impl RenderSettings {
+    /// Whether the surface is drawn with vertex lighting: when asked for, or without a
+    /// texture; never under the plain white of a wireframe alone. Tiles hold their normals
+    /// and shades only while it is.
+    pub fn lights_vertices(&self) -> bool {
+        match self.wireframe {
+            Wireframe::Only => false,
+            Wireframe::Off | Wireframe::Over => self.lighting || self.sampler.is_none(),
+        }
+    }
+}
+
 impl Default for RenderSettings {
     fn default() -> Self {
         RenderSettings {
@@ -301,7 +313,7 @@ fn surface_settings(settings: &RenderSettings, fog: Option<Fog>) -> (RenderSetti
         ),
         Wireframe::Off | Wireframe::Over => (
             RenderSettings {
-                lighting: settings.lighting || settings.sampler.is_none(),
+                lighting: settings.lights_vertices(),
                 ..*settings
             },
             fog,

@@ -13,7 +13,9 @@
 //! level is lit from the grid that mask needs ([`levels_for_mask`]), whole or partial: the
 //! prefiltered normals of the geometry drawn, so two tiles drawing the same level light the
 //! vertices they share alike (no line along their border), and a partial tile draws exactly
-//! the whole tile's pixels at the same level.
+//! the whole tile's pixels at the same level. A tile loaded while the frame is unlit (textured
+//! without vertex lighting, the default) holds no normals or shades and white vertices: on a
+//! core without an FPU the normals are a twentieth of the frame.
 
 use stripmask_raster::fixed_point::TexCoord;
 use stripmask_raster::{Texels, Texture, Vertex};
@@ -39,11 +41,12 @@ pub struct ResidentTile {
     /// `side x side` vertices, row-major from the north-west, then the crack mode's extra
     /// vertices ([`CrackMode::extra_vertices`] of the side).
     pub vertices: Vec<Vertex>,
-    /// Unit normals packed as `round(127 n)`, one per grid vertex.
+    /// Unit normals packed as `round(127 n)`, one per grid vertex; none when unlit.
     pub normals: Vec<[i8; 3]>,
     /// Per coarser held level `g < levels - 1`, the light intensity of each of its
     /// `(2^g + 1)^2` samples lit from that level's own grid: what a draw at a mask that needs
-    /// only level `g` colours its vertices with ([`ResidentTile::lit_vertices`]).
+    /// only level `g` colours its vertices with ([`ResidentTile::lit_vertices`]); none when
+    /// unlit.
     pub coarse_shades: Vec<Vec<u8>>,
     /// The texture from mip `texture_base` of the archive's chain down to 1 x 1.
     pub texture: Texture,
@@ -71,8 +74,8 @@ pub struct ResidentTile {
     /// Every sample of the tile was nodata: nothing is stored and nothing is drawn (no vertex,
     /// no texel).
     pub absent: bool,
-    /// The light the vertex colours were lit with.
-    pub light: Light,
+    /// The light the vertex colours were lit with; `None`: unlit, the vertices white.
+    pub light: Option<Light>,
     /// The samples just outside the borders of each held level: kept so that the tile can be
     /// given back ([`ResidentTile::to_tile`]) and refined or truncated.
     pub apron: Apron,
@@ -96,13 +99,13 @@ impl PartialGrid for ResidentTile {
 impl ResidentTile {
     /// Builds the resident form of `tile` (whole or partial), keeping texture mips from
     /// `texture_base` down (never finer than the tile holds, clamped to the chain), with
-    /// `spacing` metres between samples, vertex colours lit by `light` and the extra vertices
-    /// `cracks` draws.
+    /// `spacing` metres between samples, vertex colours lit by `light` (white and no normals
+    /// held when `None`) and the extra vertices `cracks` draws.
     pub fn new(
         tile: &Tile,
         texture_base: usize,
         spacing: f64,
-        light: &Light,
+        light: Option<&Light>,
         cracks: CrackMode,
     ) -> ResidentTile {
         ResidentTile::of_level(tile, 0, texture_base, spacing, light, cracks)
@@ -115,7 +118,7 @@ impl ResidentTile {
         level: u8,
         texture_base: usize,
         spacing: f64,
-        light: &Light,
+        light: Option<&Light>,
         cracks: CrackMode,
     ) -> ResidentTile {
         ResidentTile::lit_over(None, tile, level, texture_base, spacing, light, cracks)
@@ -130,11 +133,11 @@ impl ResidentTile {
         level: u8,
         texture_base: usize,
         spacing: f64,
-        light: &Light,
+        light: Option<&Light>,
         cracks: CrackMode,
     ) -> ResidentTile {
         let same_grid = !held.absent
-            && held.light == *light
+            && held.light.as_ref() == light
             && held.spacing == spacing
             && held.scale == 1 << level
             && held.levels <= tile.levels;
@@ -149,7 +152,7 @@ impl ResidentTile {
         level: u8,
         texture_base: usize,
         spacing: f64,
-        light: &Light,
+        light: Option<&Light>,
         cracks: CrackMode,
     ) -> ResidentTile {
         let scale = 1u32 << level;
@@ -157,20 +160,27 @@ impl ResidentTile {
         let step = stride * scale as usize;
         let level_spacing =
             |g: usize| spacing * f64::from(scale) * ((tile.tile_size - 1) >> g) as f64;
-        let shading = Shading::new(light);
-        let normals = normals(tile, tile.levels - 1, level_spacing(tile.levels - 1));
-        let coarse_shades = (0..tile.levels - 1)
-            .map(|g| match held {
-                Some(held) if g + 1 < held.levels => held.coarse_shades[g].clone(),
-                Some(held) if g + 1 == held.levels => {
-                    held.normals.iter().map(|&n| shading.of(n)).collect()
-                }
-                _ => {
-                    let normals = self::normals(tile, g, level_spacing(g));
-                    normals.iter().map(|&n| shading.of(n)).collect()
-                }
-            })
-            .collect();
+        let (normals, coarse_shades, shades) = match light {
+            Some(light) => {
+                let shading = Shading::new(light);
+                let normals = normals(tile, tile.levels - 1, level_spacing(tile.levels - 1));
+                let coarse_shades = (0..tile.levels - 1)
+                    .map(|g| match held {
+                        Some(held) if g + 1 < held.levels => held.coarse_shades[g].clone(),
+                        Some(held) if g + 1 == held.levels => {
+                            held.normals.iter().map(|&n| shading.of(n)).collect()
+                        }
+                        _ => {
+                            let normals = self::normals(tile, g, level_spacing(g));
+                            normals.iter().map(|&n| shading.of(n)).collect()
+                        }
+                    })
+                    .collect();
+                let shades = normals.iter().map(|&n| shading.of(n)).collect();
+                (normals, coarse_shades, shades)
+            }
+            None => (Vec::new(), Vec::new(), vec![u8::MAX; side * side]),
+        };
         // One texture coordinate per column (and row), converted once: on a core without an
         // FPU each is a few library calls.
         let coords: Vec<TexCoord> = (0..side)
@@ -180,14 +190,14 @@ impl ResidentTile {
             })
             .collect();
         // Row by row, not `k / side` per vertex: a library call on a core without a divider.
-        debug_assert_eq!(normals.len(), side * side);
+        debug_assert_eq!(shades.len(), side * side);
         let mut vertices: Vec<Vertex> = (0..side)
             .flat_map(|j| (0..side).map(move |i| (i, j)))
-            .zip(&normals)
-            .map(|((i, j), &n)| Vertex {
+            .zip(shades)
+            .map(|((i, j), shade)| Vertex {
                 position: [(i * step) as i32, tile.quanta(i, j), (j * step) as i32],
                 uv: [coords[i], coords[j]],
-                color: [shading.of(n); 3],
+                color: [shade; 3],
             })
             .collect();
         if cracks == CrackMode::Skirts {
@@ -212,7 +222,7 @@ impl ResidentTile {
             spacing,
             scale,
             absent: false,
-            light: *light,
+            light: light.copied(),
             apron: tile.apron.clone(),
             extent: [(tile.tile_size as i32 - 1) * scale as i32; 2],
         }
@@ -220,7 +230,12 @@ impl ResidentTile {
 
     /// The resident form of an absent tile of `tile_size` samples of pyramid level `level`:
     /// nothing to draw, a few bytes to account.
-    pub fn absent(tile_size: usize, level: u8, spacing: f64, light: &Light) -> ResidentTile {
+    pub fn absent(
+        tile_size: usize,
+        level: u8,
+        spacing: f64,
+        light: Option<&Light>,
+    ) -> ResidentTile {
         let scale = 1u32 << level;
         ResidentTile {
             vertices: Vec::new(),
@@ -239,7 +254,7 @@ impl ResidentTile {
             spacing,
             scale,
             absent: true,
-            light: *light,
+            light: light.copied(),
             apron: Apron::default(),
             extent: [(tile_size as i32 - 1) * scale as i32; 2],
         }
@@ -304,23 +319,45 @@ impl ResidentTile {
     /// a far tile under memory pressure before it drops whole tiles. Returns the bytes held now.
     pub fn drop_levels(&mut self, levels: usize) -> usize {
         if levels < self.levels && !self.absent {
-            let cracks = if self.vertices.len() > self.normals.len() {
-                CrackMode::Skirts
-            } else {
-                CrackMode::None
-            };
-            let coarse = self.to_tile().truncated(levels);
-            *self = ResidentTile::of_level(
-                &coarse,
-                self.scale.trailing_zeros() as u8,
-                self.texture_base,
-                self.spacing,
-                &self.light,
-                cracks,
-            )
-            .clipped(self.extent);
+            *self = self.rebuilt(&self.to_tile().truncated(levels), self.light.as_ref());
         }
         self.bytes()
+    }
+
+    /// Lights the vertices with `light`, or drops the normals and shades and whitens them
+    /// (`None`), exactly as if the tile had been loaded so: switching needs no fetch. Returns
+    /// the bytes the tile holds now.
+    pub fn set_light(&mut self, light: Option<&Light>) -> usize {
+        if self.absent {
+            self.light = light.copied();
+        } else if self.light.as_ref() != light {
+            *self = self.rebuilt(&self.to_tile(), light);
+        }
+        self.bytes()
+    }
+
+    /// `tile`, a form of this tile's own, made resident as this one is (level, texture, crack
+    /// mode and extent) under `light`.
+    fn rebuilt(&self, tile: &Tile, light: Option<&Light>) -> ResidentTile {
+        let cracks = if self.vertices.len() > self.grid() {
+            CrackMode::Skirts
+        } else {
+            CrackMode::None
+        };
+        ResidentTile::of_level(
+            tile,
+            self.scale.trailing_zeros() as u8,
+            self.texture_base,
+            self.spacing,
+            light,
+            cracks,
+        )
+        .clipped(self.extent)
+    }
+
+    /// Vertices of the held grid, before the crack mode's extra ones.
+    fn grid(&self) -> usize {
+        if self.absent { 0 } else { self.side().pow(2) }
     }
 
     /// Texels per side of the archive's finest texture mip (held or not).
@@ -340,7 +377,8 @@ impl ResidentTile {
     }
 
     /// The vertices to draw mask `mask_level` (a whole-tile level the tile can draw) with,
-    /// lit from the grid that mask needs: [`Self::vertices`] when that is the held grid, else
+    /// lit from the grid that mask needs: [`Self::vertices`] when that is the held grid or the
+    /// tile is unlit, else
     /// `scratch`, as long as the vertices, holding every sample of that grid and the skirt
     /// vertices under its border samples, coloured by [`Self::coarse_shades`]. Its other
     /// entries are left as they were: neither the draw nor the geomorph reads them (a morph
@@ -352,10 +390,10 @@ impl ResidentTile {
         scratch: &'v mut Vec<Vertex>,
     ) -> &'v [Vertex] {
         let level = levels_for_mask(mask_level, progressive_levels(self.tile_size)) - 1;
-        if level + 1 >= self.levels {
+        if level + 1 >= self.levels || self.light.is_none() {
             return &self.vertices;
         }
-        let (side, grid) = (self.side(), self.normals.len());
+        let (side, grid) = (self.side(), self.grid());
         scratch.resize(self.vertices.len(), Vertex::default());
         scratch[grid..].copy_from_slice(&self.vertices[grid..]);
         let (n, step) = (level_side(level), 1 << (self.levels - 1 - level));
@@ -379,7 +417,7 @@ impl ResidentTile {
         if self.absent {
             return self.bytes();
         }
-        let grid = self.normals.len();
+        let grid = self.grid();
         let s = self.side();
         if self.vertices.len() != grid + cracks.extra_vertices(s) {
             self.vertices.truncate(grid);
@@ -410,13 +448,15 @@ impl ResidentTile {
 
 /// The bytes a resident tile of `tile_size` samples holding its first `levels` progressive
 /// levels holds with its texture from mip `base` of a `texture_size` RGB565 chain (never finer
-/// than those levels carry), drawn in crack mode `cracks`, known before the tile is fetched.
+/// than those levels carry), drawn in crack mode `cracks`, `lit` or not, known before the tile
+/// is fetched.
 pub fn predicted_bytes(
     tile_size: usize,
     texture_size: usize,
     base: usize,
     levels: usize,
     cracks: CrackMode,
+    lit: bool,
 ) -> usize {
     let levels = levels.clamp(1, progressive_levels(tile_size));
     let first = level_mips(levels - 1, tile_size, texture_size).start;
@@ -428,9 +468,10 @@ pub fn predicted_bytes(
     let grid = side * side;
     let apron: usize = (0..levels).map(|g| Apron::level_len(level_side(g))).sum();
     let shades: usize = (0..levels - 1).map(|g| level_side(g).pow(2)).sum();
+    let (normals, shades) = if lit { (grid, shades) } else { (0, 0) };
     resident_bytes(
         grid + cracks.extra_vertices(side),
-        grid,
+        normals,
         tile_size - 1,
         2 * texels + apron * std::mem::size_of::<i16>() + shades,
     )
@@ -507,7 +548,7 @@ mod tests {
     #[test]
     fn vertices_carry_grid_indices_and_archive_quanta() {
         let tile = sloped_tile();
-        let r = ResidentTile::new(&tile, 0, 2.0, &Light::default(), CrackMode::None);
+        let r = ResidentTile::new(&tile, 0, 2.0, Some(&Light::default()), CrackMode::None);
         assert_eq!(r.vertices.len(), 81);
         let v = r.vertices[2 * 9 + 3];
         assert_eq!(v.position, [3, tile.quanta(3, 2), 2]);
@@ -521,7 +562,7 @@ mod tests {
     fn normals_follow_the_slope_and_light_follows_the_normals() {
         let tile = sloped_tile();
         // A 45° slope facing west: the normal is (-1, 1, 0) / sqrt 2.
-        let r = ResidentTile::new(&tile, 0, 2.0, &Light::default(), CrackMode::None);
+        let r = ResidentTile::new(&tile, 0, 2.0, Some(&Light::default()), CrackMode::None);
         for n in &r.normals {
             assert_eq!(*n, [-90, 90, 0]);
         }
@@ -533,8 +574,10 @@ mod tests {
             direction: DVec3::new(1.0, 1.0, 0.0),
             ambient: 0.2,
         };
-        let lit = ResidentTile::new(&tile, 0, 2.0, &west, CrackMode::None).vertices[40].color[0];
-        let dark = ResidentTile::new(&tile, 0, 2.0, &east, CrackMode::None).vertices[40].color[0];
+        let lit =
+            ResidentTile::new(&tile, 0, 2.0, Some(&west), CrackMode::None).vertices[40].color[0];
+        let dark =
+            ResidentTile::new(&tile, 0, 2.0, Some(&east), CrackMode::None).vertices[40].color[0];
         assert_eq!(lit, 255);
         assert_eq!(dark, (0.2f64 * 255.0).round() as u8);
     }
@@ -544,19 +587,19 @@ mod tests {
         let tile = sloped_tile();
         for base in 0..5 {
             for cracks in CrackMode::ALL {
-                let r = ResidentTile::new(&tile, base, 2.0, &Light::default(), cracks);
+                let r = ResidentTile::new(&tile, base, 2.0, Some(&Light::default()), cracks);
                 assert_eq!(
                     r.bytes(),
-                    predicted_bytes(9, 8, base, 4, cracks),
+                    predicted_bytes(9, 8, base, 4, cracks, true),
                     "{cracks:?}"
                 );
             }
         }
-        let skirted = ResidentTile::new(&tile, 0, 2.0, &Light::default(), CrackMode::Skirts);
+        let skirted = ResidentTile::new(&tile, 0, 2.0, Some(&Light::default()), CrackMode::Skirts);
         for from in CrackMode::ALL {
             for to in CrackMode::ALL {
-                let mut r = ResidentTile::new(&tile, 1, 2.0, &Light::default(), from);
-                let fresh = ResidentTile::new(&tile, 1, 2.0, &Light::default(), to);
+                let mut r = ResidentTile::new(&tile, 1, 2.0, Some(&Light::default()), from);
+                let fresh = ResidentTile::new(&tile, 1, 2.0, Some(&Light::default()), to);
                 assert_eq!(
                     r.set_cracks(to, tile.quantum),
                     fresh.bytes(),
@@ -566,15 +609,56 @@ mod tests {
             }
         }
         assert_eq!(skirted.vertices.len(), 81 + 36);
-        let mut r = ResidentTile::new(&tile, 0, 2.0, &Light::default(), CrackMode::None);
+        let mut r = ResidentTile::new(&tile, 0, 2.0, Some(&Light::default()), CrackMode::None);
         let full = r.bytes();
         assert_eq!(r.texture.levels().len(), 4);
         let smaller = r.coarsen_texture(2);
         assert_eq!(r.texture_base, 2);
         assert_eq!(r.texture.levels()[0].width(), 2);
-        assert_eq!(smaller, predicted_bytes(9, 8, 2, 4, CrackMode::None));
+        assert_eq!(smaller, predicted_bytes(9, 8, 2, 4, CrackMode::None, true));
         assert_eq!(full - smaller, 2 * (64 + 16));
         assert_eq!(r.coarsen_texture(1), smaller, "never refines");
+    }
+
+    #[test]
+    fn an_unlit_tile_holds_no_lighting_and_lighting_it_is_loading_it_lit() {
+        let tile = rough_tile();
+        let light = Light::default();
+        for cracks in [CrackMode::Stitch, CrackMode::Skirts] {
+            for levels in 1..=tile.levels {
+                let t = tile.truncated(levels);
+                let lit = ResidentTile::of_level(&t, 1, 0, 2.0, Some(&light), cracks);
+                let unlit = ResidentTile::of_level(&t, 1, 0, 2.0, None, cracks);
+                assert!(unlit.normals.is_empty() && unlit.coarse_shades.is_empty());
+                for (u, l) in unlit.vertices.iter().zip(&lit.vertices) {
+                    assert_eq!((u.position, u.uv), (l.position, l.uv));
+                    assert_eq!(u.color, [255; 3]);
+                }
+                assert_eq!(
+                    unlit.bytes(),
+                    predicted_bytes(17, 16, 0, levels, cracks, false)
+                );
+                assert!(unlit.bytes() < lit.bytes());
+                let mut scratch = Vec::new();
+                for mask in 0..=unlit.finest_mask_level() {
+                    let drawn = unlit.lit_vertices(mask, &mut scratch);
+                    assert_eq!(drawn, &unlit.vertices[..], "unlit draws as held");
+                }
+                let (mut lighted, mut unlighted) = (unlit.clone(), lit.clone());
+                assert_eq!(lighted.set_light(Some(&light)), lit.bytes());
+                assert_eq!(unlighted.set_light(None), unlit.bytes());
+                for (a, b) in [(&lighted, &lit), (&unlighted, &unlit)] {
+                    assert_eq!(a.vertices, b.vertices, "{levels} levels, {cracks:?}");
+                    assert_eq!(a.normals, b.normals);
+                    assert_eq!(a.coarse_shades, b.coarse_shades);
+                    assert_eq!(a.light, b.light);
+                }
+            }
+        }
+        let mut absent = ResidentTile::absent(17, 0, 2.0, None);
+        let bytes = absent.bytes();
+        assert_eq!(absent.set_light(Some(&light)), bytes);
+        assert_eq!(absent.light, Some(light));
     }
 
     /// A 17-sample tile with rough relief and a texture whose every mip differs.
@@ -599,7 +683,7 @@ mod tests {
     fn a_partial_tile_holds_a_compact_grid_in_whole_tile_units() {
         let tile = rough_tile();
         let coarse = tile.truncated(3);
-        let r = ResidentTile::new(&coarse, 0, 2.0, &Light::default(), CrackMode::Skirts);
+        let r = ResidentTile::new(&coarse, 0, 2.0, Some(&Light::default()), CrackMode::Skirts);
         assert_eq!((r.side(), r.stride(), r.finest_mask_level()), (5, 4, 3));
         assert_eq!(r.normals.len(), 25);
         assert_eq!(r.vertices.len(), 25 + 4 * 5);
@@ -620,7 +704,7 @@ mod tests {
         for levels in 1..=tile.levels {
             let t = tile.truncated(levels);
             for cracks in CrackMode::ALL {
-                let r = ResidentTile::new(&t, t.first_mip, 2.0, &Light::default(), cracks);
+                let r = ResidentTile::new(&t, t.first_mip, 2.0, Some(&Light::default()), cracks);
                 assert_eq!(r.to_tile(), t, "{levels} levels, {cracks:?}");
             }
         }
@@ -634,14 +718,14 @@ mod tests {
             for levels in (1..=tile.levels).rev() {
                 let t = tile.truncated(levels);
                 for base in 0..6 {
-                    let r = ResidentTile::new(&t, base, 2.0, &Light::default(), cracks);
+                    let r = ResidentTile::new(&t, base, 2.0, Some(&Light::default()), cracks);
                     assert_eq!(
                         r.bytes(),
-                        predicted_bytes(17, 16, base, levels, cracks),
+                        predicted_bytes(17, 16, base, levels, cracks, true),
                         "{levels} levels, base {base}, {cracks:?}"
                     );
                 }
-                let bytes = predicted_bytes(17, 16, 0, levels, cracks);
+                let bytes = predicted_bytes(17, 16, 0, levels, cracks, true);
                 assert!(bytes < previous, "{levels} levels, {cracks:?}");
                 previous = bytes;
             }
@@ -655,9 +739,9 @@ mod tests {
         for cracks in [CrackMode::Stitch, CrackMode::Skirts] {
             for base in [0, 3] {
                 for levels in 1..=tile.levels {
-                    let mut r = ResidentTile::new(&tile, base, 2.0, &light, cracks);
+                    let mut r = ResidentTile::new(&tile, base, 2.0, Some(&light), cracks);
                     let fresh =
-                        ResidentTile::new(&tile.truncated(levels), base, 2.0, &light, cracks);
+                        ResidentTile::new(&tile.truncated(levels), base, 2.0, Some(&light), cracks);
                     assert_eq!(r.drop_levels(levels), fresh.bytes());
                     assert_eq!(r.vertices, fresh.vertices, "{levels} levels, {cracks:?}");
                     assert_eq!(r.normals, fresh.normals);
@@ -676,7 +760,8 @@ mod tests {
     fn a_refined_tile_is_the_tile_loaded_with_its_levels() {
         let tile = rough_tile().with_apron(|i, j| Some(12.0 * ((i * 3 + j * 5) as f32).sin()));
         let (light, cracks) = (Light::default(), CrackMode::Skirts);
-        let load = |t: &Tile, light: &Light| ResidentTile::of_level(t, 1, 0, 2.0, light, cracks);
+        let load =
+            |t: &Tile, light: &Light| ResidentTile::of_level(t, 1, 0, 2.0, Some(light), cracks);
         let same = |a: &ResidentTile, b: &ResidentTile, why: &str| {
             assert_eq!(a.vertices, b.vertices, "{why}");
             assert_eq!(a.normals, b.normals, "{why}");
@@ -686,7 +771,7 @@ mod tests {
             let before = load(&tile.truncated(held), &light);
             for levels in held..=tile.levels {
                 let t = tile.truncated(levels);
-                let refined = ResidentTile::refined(&before, &t, 1, 0, 2.0, &light, cracks);
+                let refined = ResidentTile::refined(&before, &t, 1, 0, 2.0, Some(&light), cracks);
                 same(&refined, &load(&t, &light), &format!("{held} to {levels}"));
             }
         }
@@ -695,12 +780,23 @@ mod tests {
             ambient: 0.1,
         };
         let before = load(&tile.truncated(2), &light);
-        let relit = ResidentTile::refined(&before, &tile, 1, 0, 2.0, &other, cracks);
+        let relit = ResidentTile::refined(&before, &tile, 1, 0, 2.0, Some(&other), cracks);
         same(
             &relit,
             &load(&tile, &other),
             "another light lights every level",
         );
+        let unlit = |t: &Tile| ResidentTile::of_level(t, 1, 0, 2.0, None, cracks);
+        let before = unlit(&tile.truncated(2));
+        let lit = ResidentTile::refined(&before, &tile, 1, 0, 2.0, Some(&light), cracks);
+        same(
+            &lit,
+            &load(&tile, &light),
+            "a light lights every level of an unlit tile",
+        );
+        let before = load(&tile.truncated(2), &light);
+        let dark = ResidentTile::refined(&before, &tile, 1, 0, 2.0, None, cracks);
+        same(&dark, &unlit(&tile), "no light keeps no shade");
     }
 
     #[test]
@@ -709,9 +805,10 @@ mod tests {
         let light = Light::default();
         for cracks in [CrackMode::Stitch, CrackMode::Skirts] {
             for held in 1..=tile.levels {
-                let r = ResidentTile::new(&tile.truncated(held), 0, 2.0, &light, cracks);
+                let r = ResidentTile::new(&tile.truncated(held), 0, 2.0, Some(&light), cracks);
                 for levels in 1..=held {
-                    let only = ResidentTile::new(&tile.truncated(levels), 0, 2.0, &light, cracks);
+                    let only =
+                        ResidentTile::new(&tile.truncated(levels), 0, 2.0, Some(&light), cracks);
                     let mask = only.finest_mask_level();
                     let mut scratch = Vec::new();
                     let lit = r.lit_vertices(mask, &mut scratch).to_vec();

@@ -179,7 +179,7 @@ mod tests {
         };
         for levels in 1..=whole.levels {
             let tile = whole.truncated(levels);
-            let r = ResidentTile::new(&tile, 0, 5.0, &Light::default(), CrackMode::Skirts);
+            let r = ResidentTile::new(&tile, 0, 5.0, Some(&Light::default()), CrackMode::Skirts);
             let step = 5.0 * tile.stride() as f64;
             let o = frame.tile_origin(TileId::new(2, 1));
             for (x, z) in [

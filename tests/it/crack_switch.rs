@@ -1,7 +1,8 @@
-//! Switching the crack mode between frames (`Engine::set_cracks`, the viewer's K key): the next
-//! frame is byte for byte the frame of an engine started in that mode, and the pager's
-//! accounting stays exact (what it counts is what the tiles hold, never over the limit), also
-//! when the new mode does not fit the limit and when tiles are still in flight.
+//! Switching the crack mode between frames (`Engine::set_cracks`, the viewer's K key), or the
+//! lighting (the render settings, whose vertex lighting the resident tiles hold only while it
+//! is drawn): the next frame is byte for byte the frame of an engine started so, and the
+//! pager's accounting stays exact (what it counts is what the tiles hold, never over the
+//! limit), also when the new mode does not fit the limit and when tiles are still in flight.
 
 use crate::support::crack_scene;
 
@@ -12,6 +13,7 @@ use stripmask::db::source;
 use stripmask::db::tile::{PartialGrid, progressive_levels};
 use stripmask::engine::cracks::CrackMode;
 use stripmask::engine::paging::{FAR_SHARE, PagerMode};
+use stripmask::engine::render::RenderSettings;
 use stripmask::engine::resident::predicted_bytes;
 use stripmask::engine::{Engine, index_allowance};
 use stripmask::sim::crack_metric::{CrackScene, TILE_SIZE};
@@ -125,7 +127,11 @@ fn a_mode_that_holds_more_than_the_limit_evicts_the_farthest_tiles() {
 /// share, when `overview`), then switches to skirts.
 fn mode_over_the_limit(overview: bool) {
     let scene = scene();
-    let tile_bytes = |mode| predicted_bytes(TILE_SIZE, 32, 0, progressive_levels(TILE_SIZE), mode);
+    let lit = CrackScene::settings(CrackMode::None)
+        .render
+        .lights_vertices();
+    let tile_bytes =
+        |mode| predicted_bytes(TILE_SIZE, 32, 0, progressive_levels(TILE_SIZE), mode, lit);
     // Room for 50 tiles without skirts, a square of 7 x 7 belts; with skirts it does not fit.
     let plain = tile_bytes(CrackMode::None);
     assert!(tile_bytes(CrackMode::Skirts) > plain);
@@ -218,8 +224,64 @@ fn mode_over_the_limit(overview: bool) {
     );
 }
 
+/// Every tile holds normals and shades exactly while the surface is drawn lit.
+fn assert_lit_as_drawn(engine: &Engine) {
+    let lit = engine.settings().render.lights_vertices();
+    let pager = engine.pager();
+    for (id, tile) in pager.tiles().chain(pager.top()) {
+        assert_eq!(tile.light.is_some(), lit, "{id}");
+        let normals = if lit && !tile.absent {
+            tile.side().pow(2)
+        } else {
+            0
+        };
+        assert_eq!(tile.normals.len(), normals, "{id}");
+    }
+}
+
+#[test]
+fn every_lighting_switch_draws_what_a_fresh_engine_so_lit_draws() {
+    let scene = scene();
+    let mode = CrackMode::Stitch;
+    let mut switched = scene.engine(mode, SIZE).unwrap();
+    let view = 9;
+    let mut previous = render(&mut switched, view);
+    assert_lit_as_drawn(&switched);
+    let textured = RenderSettings::default().sampler;
+    // Lit over the texture, unlit, lit without a texture, unlit again.
+    for (lighting, sampler) in [
+        (true, textured),
+        (false, textured),
+        (false, None),
+        (false, textured),
+    ] {
+        let render_settings = switched.render_settings_mut();
+        render_settings.lighting = lighting;
+        render_settings.sampler = sampler;
+        let picture = render(&mut switched, view);
+        assert_lit_as_drawn(&switched);
+        assert_exact_accounting(&switched, mode);
+        let mut settings = CrackScene::settings(mode);
+        settings.render.lighting = lighting;
+        settings.render.sampler = sampler;
+        let fresh = render(&mut scene.engine_with(settings, SIZE).unwrap(), view);
+        assert!(
+            picture == fresh,
+            "lighting {lighting}, {sampler:?}: switched frame differs from a fresh engine"
+        );
+        assert!(picture != previous, "lighting {lighting}, {sampler:?}");
+        previous = picture;
+    }
+}
+
 #[test]
 fn tiles_in_flight_during_a_switch_arrive_in_the_new_mode() {
+    switch_in_flight(|engine| engine.set_cracks(CrackMode::Skirts));
+    switch_in_flight(|engine| engine.render_settings_mut().lighting = true);
+}
+
+/// Switches with fetches in flight, and checks the tiles once they all arrived.
+fn switch_in_flight(switch: impl Fn(&mut Engine)) {
     let scene = scene();
     let mut settings = CrackScene::settings(CrackMode::None);
     settings.pager_mode = PagerMode::Simulated { queue_depth: 8 };
@@ -230,7 +292,7 @@ fn tiles_in_flight_during_a_switch_arrive_in_the_new_mode() {
     scene.render(&mut engine, 9, &mut fb).unwrap();
     scene.render(&mut engine, 9, &mut fb).unwrap();
     assert!(engine.pager().stats().fetching > 0, "fetches in flight");
-    engine.set_cracks(CrackMode::Skirts);
+    switch(&mut engine);
     let mut frames = 0;
     while engine.pager().stats().fetching > 0 || frames < 2 {
         engine.set_time(f64::from(frames));
@@ -238,7 +300,8 @@ fn tiles_in_flight_during_a_switch_arrive_in_the_new_mode() {
         frames += 1;
         assert!(frames < 200, "the pager settles");
     }
-    assert_exact_accounting(&engine, CrackMode::Skirts);
+    assert_exact_accounting(&engine, engine.settings().cracks);
+    assert_lit_as_drawn(&engine);
     assert_eq!(
         engine.pager().stats().errors,
         0,

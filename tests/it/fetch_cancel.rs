@@ -157,7 +157,7 @@ fn a_large_range_the_pager_gives_up_stops_downloading_and_the_tile_can_come_agai
         .unwrap();
     let (offset, len) = entry.range(1..levels);
     assert!(len > 4 * FINISH_BELOW, "levels 1.. take {len} bytes");
-    let loader = ArchiveLoader::new(reader, Light::default(), 200.0, CrackMode::Stitch);
+    let loader = ArchiveLoader::new(reader, (Light::default(), true), 200.0, CrackMode::Stitch);
     let config = PagerConfig::new(64 << 20, PagerMode::Threaded { queue_depth: 2 });
     let settings = StreamSettings {
         prediction: None,

@@ -121,7 +121,7 @@ fn draw(
 }
 
 fn resident(tile: &Tile, texture_base: usize, mode: CrackMode) -> ResidentTile {
-    ResidentTile::new(tile, texture_base, SPACING, &Light::default(), mode)
+    ResidentTile::new(tile, texture_base, SPACING, Some(&Light::default()), mode)
 }
 
 fn crack_pixels(fb: &Framebuffer) -> usize {

@@ -496,7 +496,7 @@ fn neighbours_holding_the_same_level_light_their_shared_border_alike() {
             .unwrap()
             .unwrap()
             .truncated(levels);
-        ResidentTile::new(&tile, 0, 160.0, &Light::default(), CrackMode::None)
+        ResidentTile::new(&tile, 0, 160.0, Some(&Light::default()), CrackMode::None)
     };
     for levels in 1..=7 {
         let (west, east, south) = (

@@ -13,7 +13,7 @@
 //! fit the budget. It is decided once, before anything is fetched, so the pager's accounting
 //! stays exact.
 
-use std::sync::atomic::{AtomicU8, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU8, AtomicUsize, Ordering};
 
 use crate::db::archive::ArchiveReader;
 use crate::db::grid::TileId;
@@ -31,12 +31,15 @@ use crate::error::{Error, Result};
 
 /// Loads resident tiles from an archive.
 ///
-/// The crack mode and the texture bias can change while the fetch thread loads tiles
-/// ([`ArchiveLoader::set_cracks`]), so they are atomics; a tile loaded under the old ones is
-/// brought up to date by [`TileLoader::refit`] when it arrives.
+/// The crack mode, the lighting and the texture bias can change while the fetch thread loads
+/// tiles ([`ArchiveLoader::set_cracks`], [`ArchiveLoader::set_lit`]), so they are atomics; a
+/// tile loaded under the old ones is brought up to date by [`TileLoader::refit`] when it
+/// arrives.
 pub struct ArchiveLoader {
     reader: ArchiveReader<Box<dyn TileSource>>,
     light: Light,
+    /// Whether tiles are lit by `light`, or held unlit (no normals, white vertices).
+    lit: AtomicBool,
     needed_mips: NeededMips,
     /// Index into [`CrackMode::ALL`].
     cracks: AtomicU8,
@@ -50,12 +53,12 @@ pub struct ArchiveLoader {
 }
 
 impl ArchiveLoader {
-    /// A loader over `reader`, lighting with `light`, for a screen whose focal length is
-    /// `focal_px` pixels (height / (2 tan(fov_y / 2))), with the vertices crack mode `cracks`
-    /// draws.
+    /// A loader over `reader`, lighting with `light` when `lit`, for a screen whose focal
+    /// length is `focal_px` pixels (height / (2 tan(fov_y / 2))), with the vertices crack mode
+    /// `cracks` draws.
     pub fn new(
         reader: ArchiveReader<Box<dyn TileSource>>,
-        light: Light,
+        (light, lit): (Light, bool),
         focal_px: f64,
         cracks: CrackMode,
     ) -> Self {
@@ -69,6 +72,7 @@ impl ArchiveLoader {
         ArchiveLoader {
             reader,
             light,
+            lit: AtomicBool::new(lit),
             needed_mips,
             cracks: AtomicU8::new(mode_index(cracks)),
             bias: AtomicUsize::new(0),
@@ -97,7 +101,7 @@ impl ArchiveLoader {
     /// the terrain's borders.
     pub fn fit_texture_budget(&mut self, memory_limit: usize, texture_budget: usize) -> usize {
         self.texture_fit = Some((memory_limit, texture_budget));
-        let bias = self.fitted_bias(self.cracks(), memory_limit, texture_budget);
+        let bias = self.fitted_bias(memory_limit, texture_budget);
         self.bias.store(bias, Ordering::Relaxed);
         bias
     }
@@ -105,6 +109,16 @@ impl ArchiveLoader {
     /// The crack mode tiles are loaded for.
     pub fn cracks(&self) -> CrackMode {
         CrackMode::ALL[usize::from(self.cracks.load(Ordering::Relaxed))]
+    }
+
+    /// Whether tiles are loaded lit.
+    pub fn lit(&self) -> bool {
+        self.lit.load(Ordering::Relaxed)
+    }
+
+    /// The light tiles are loaded under, `None` when unlit.
+    fn light(&self) -> Option<&Light> {
+        self.lit().then_some(&self.light)
     }
 
     /// Where tile `id` is cut: the last of its positions east and south that belong to the
@@ -123,11 +137,11 @@ impl ArchiveLoader {
                 id.level,
                 texture_base,
                 h.spacing,
-                &self.light,
+                self.light(),
                 self.cracks(),
             )
             .clipped(self.extent(id)),
-            None => ResidentTile::absent(h.tile_size as usize, id.level, h.spacing, &self.light),
+            None => ResidentTile::absent(h.tile_size as usize, id.level, h.spacing, self.light()),
         }
     }
 
@@ -136,32 +150,48 @@ impl ArchiveLoader {
     /// brought to the new mode by [`TileLoader::refit`].
     pub fn set_cracks(&self, cracks: CrackMode) {
         self.cracks.store(mode_index(cracks), Ordering::Relaxed);
+        self.refit_bias();
+    }
+
+    /// Loads tiles lit (`true`) or unlit from now on, and refits the texture bias as
+    /// [`ArchiveLoader::set_cracks`] does. Tiles already loaded are relit or unlit by
+    /// [`TileLoader::refit`].
+    pub fn set_lit(&self, lit: bool) {
+        self.lit.store(lit, Ordering::Relaxed);
+        self.refit_bias();
+    }
+
+    /// Fits the texture bias again to the budget, if one was set, after the geometry's share
+    /// of memory changed.
+    fn refit_bias(&self) {
         if let Some((memory_limit, texture_budget)) = self.texture_fit {
-            let bias = self.fitted_bias(cracks, memory_limit, texture_budget);
+            let bias = self.fitted_bias(memory_limit, texture_budget);
             self.bias.store(bias, Ordering::Relaxed);
         }
     }
 
+    /// The bytes of a tile of `levels` levels with its texture from mip `base`, as tiles are
+    /// loaded now.
+    fn bytes_of(&self, base: usize, levels: usize) -> usize {
+        let h = self.reader.header();
+        let (s, t) = (h.tile_size as usize, h.texture_size as usize);
+        predicted_bytes(s, t, base, levels, self.cracks(), self.lit())
+    }
+
     /// The smallest bias with which the textures of the largest square of belts fit the budget.
-    fn fitted_bias(&self, cracks: CrackMode, memory_limit: usize, texture_budget: usize) -> usize {
+    fn fitted_bias(&self, memory_limit: usize, texture_budget: usize) -> usize {
         let h = self.reader.header();
         let (s, t) = (h.tile_size as usize, h.texture_size as usize);
         let max_ring = h.tiles_x.max(h.tiles_y);
         // A tile's bytes without any texture: its bytes with only the 1 x 1 RGB565 mip, less it.
-        let geometry = predicted_bytes(s, t, usize::MAX, progressive_levels(s), cracks) - 2;
+        let geometry = self.bytes_of(usize::MAX, progressive_levels(s)) - 2;
         let mut chosen = 0;
         for bias in 0..mip_count(t) {
             chosen = bias;
             let (mut memory, mut texture) = (0usize, 0usize);
             for ring in 0..=max_ring {
                 let tiles = if ring == 0 { 1 } else { 8 * ring as usize };
-                let tile = predicted_bytes(
-                    s,
-                    t,
-                    self.texture_base_with(ring, bias),
-                    progressive_levels(s),
-                    cracks,
-                );
+                let tile = self.bytes_of(self.texture_base_with(ring, bias), progressive_levels(s));
                 if memory + tiles * tile > memory_limit {
                     break;
                 }
@@ -253,7 +283,7 @@ impl ResidentLoader for ArchiveLoader {
         };
         let h = self.reader.header();
         let whole = LevelLoader::predicted_bytes(self, h.levels());
-        let absent = ResidentTile::absent(h.tile_size as usize, 0, h.spacing, &self.light).bytes();
+        let absent = ResidentTile::absent(h.tile_size as usize, 0, h.spacing, None).bytes();
         self.reader
             .directory()
             .top
@@ -283,14 +313,8 @@ impl ResidentLoader for ArchiveLoader {
 
 impl TileLoader for ArchiveLoader {
     fn predicted_bytes(&self, _id: TileId, ring: u32) -> usize {
-        let h = self.reader.header();
-        predicted_bytes(
-            h.tile_size as usize,
-            h.texture_size as usize,
-            self.texture_base(ring),
-            progressive_levels(h.tile_size as usize),
-            self.cracks(),
-        )
+        let levels = progressive_levels(self.reader.header().tile_size as usize);
+        self.bytes_of(self.texture_base(ring), levels)
     }
 
     fn load(&self, id: TileId, ring: u32) -> Result<(ResidentTile, u64)> {
@@ -306,7 +330,7 @@ impl TileLoader for ArchiveLoader {
     }
 
     fn refit(&self, tile: &mut ResidentTile, ring: u32) -> usize {
-        tile.set_cracks(self.cracks(), self.reader.header().height_quantum);
+        LevelLoader::refit(self, tile);
         tile.coarsen_texture(self.texture_base(ring))
     }
 }
@@ -332,14 +356,7 @@ impl LevelLoader for ArchiveLoader {
     }
 
     fn predicted_bytes(&self, levels: usize) -> usize {
-        let h = self.reader.header();
-        predicted_bytes(
-            h.tile_size as usize,
-            h.texture_size as usize,
-            0,
-            levels,
-            self.cracks(),
-        )
+        self.bytes_of(0, levels)
     }
 
     fn fetch(
@@ -394,8 +411,15 @@ impl LevelLoader for ArchiveLoader {
         }
         debug_assert_eq!(tile.tile_size, h.tile_size as usize);
         let cracks = self.cracks();
-        let refined =
-            ResidentTile::refined(resident, &tile, id.level, 0, h.spacing, &self.light, cracks);
+        let refined = ResidentTile::refined(
+            resident,
+            &tile,
+            id.level,
+            0,
+            h.spacing,
+            self.light(),
+            cracks,
+        );
         Ok(refined.clipped(self.extent(id)))
     }
 
@@ -412,6 +436,7 @@ impl LevelLoader for ArchiveLoader {
     }
 
     fn refit(&self, tile: &mut ResidentTile) -> usize {
+        tile.set_light(self.light());
         tile.set_cracks(self.cracks(), self.reader.header().height_quantum)
     }
 }

@@ -20,7 +20,7 @@
 ))]
 use wide::i32x4;
 
-use crate::fixed_point::{SUBPIXEL_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE, ceil_div};
+use crate::fixed_point::{SUBPIXEL_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE};
 
 #[cfg(arm_neon)]
 mod neon_rows;
@@ -72,32 +72,40 @@ struct Edge {
 }
 
 impl Edge {
-    /// `K` of the bound `ceil(R / K)`.
-    #[inline]
-    fn k(&self) -> i64 {
-        self.dy.abs() * SUBPIXEL_ONE
-    }
-
-    /// `R` at row `py`.
-    #[inline]
-    fn r_at(&self, py: i64) -> i64 {
-        let yc = py * SUBPIXEL_ONE + SUBPIXEL_HALF;
-        self.dy.abs() * (self.ax - SUBPIXEL_HALF) + self.dy.signum() * self.dx * (yc - self.ay)
-    }
-
+    /// The DDA of the bound `ceil(R / K)` from row `py`, whose centre is `yc`:
+    /// `R = b (ax - 1/2) + a (yc - ay)` and `K = b ONE`, with `b = |dy|` and `a = sign(dy) dx`.
+    /// With `ax - 1/2 = w ONE + f` (`f` in `0..ONE`), `R / K` is `w + (b f + a (yc - ay)) / K`
+    /// and a row's step `a ONE / K` is `a / b`: quotients of numbers a 32-bit core divides in
+    /// one word where they fit (`divmod_euclid`), and of no larger numbers elsewhere.
     fn stepper(&self, py: i64) -> Stepper {
-        let k = self.k();
-        let r = self.r_at(py);
-        let q = ceil_div(r, k);
-        let step = self.dy.signum() * self.dx * SUBPIXEL_ONE;
+        let (a, b) = (self.dy.signum() * self.dx, self.dy.abs());
+        let k = b * SUBPIXEL_ONE;
+        let yc = py * SUBPIXEL_ONE + SUBPIXEL_HALF;
+        let base = self.ax - SUBPIXEL_HALF;
+        let (whole, part) = (base >> SUBPIXEL_BITS, base & (SUBPIXEL_ONE - 1));
+        // ceil(n / K) = -floor(-n / K), with `q K - n` the floor's remainder.
+        let (floor, rem) = divmod_euclid(-(b * part + a * (yc - self.ay)), k);
+        let (step_q, step_rem) = divmod_euclid(a, b);
         Stepper {
-            q,
-            rem: q * k - r,
+            q: whole - floor,
+            rem,
             k,
-            step_q: step.div_euclid(k),
-            step_rem: step.rem_euclid(k),
+            step_q,
+            step_rem: step_rem * SUBPIXEL_ONE,
         }
     }
+}
+
+/// `(n.div_euclid(d), n.rem_euclid(d))` for `d > 0`: in i32 where both fit on a 32-bit core,
+/// whose i64 division is a library call of about a hundred instructions.
+#[inline(always)]
+fn divmod_euclid(n: i64, d: i64) -> (i64, i64) {
+    debug_assert!(d > 0);
+    #[cfg(not(target_pointer_width = "64"))]
+    if let (Ok(n), Ok(d)) = (i32::try_from(n), i32::try_from(d)) {
+        return (i64::from(n.div_euclid(d)), i64::from(n.rem_euclid(d)));
+    }
+    (n.div_euclid(d), n.rem_euclid(d))
 }
 
 /// Integer DDA for `q = ceil(R / K)`, with `rem = q * K - R` in `0..K`.
@@ -649,6 +657,7 @@ pub(crate) const SMALL: i64 = 16;
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fixed_point::ceil_div;
 
     const S: i64 = SUBPIXEL_ONE;
     const WINDOW: PixelRect = PixelRect {
@@ -667,6 +676,38 @@ mod tests {
             let e = dx * (y - a[1]) - dy * (x - a[0]);
             e > 0 || (e == 0 && (dy < 0 || (dy == 0 && dx > 0)))
         })
+    }
+
+    proptest::proptest! {
+        /// The stepper from split quotients (in words where they fit, on 32-bit cores) against
+        /// `ceil(R / K)` and the step divided out in i64, for edges anywhere in the guard band
+        /// and rows on and past their ends, each stepped a few rows.
+        #[test]
+        fn the_stepper_is_the_wide_division(
+            a in (-(1i64 << 25)..1 << 25, -(1i64 << 25)..1 << 25),
+            d in (-(1i64 << 25)..1 << 25, -(1i64 << 25)..1 << 25),
+            short in proptest::bool::ANY,
+            py in -(1i64 << 17)..1 << 17,
+        ) {
+            // Short edges (most of a frame's) as often as long ones.
+            let (dx, dy) = if short { (d.0 >> 14, d.1 >> 14) } else { d };
+            proptest::prop_assume!(dy != 0);
+            let e = Edge { ax: a.0, ay: a.1, dx, dy };
+            let k = dy.abs() * S;
+            let step = dy.signum() * dx * S;
+            let mut s = e.stepper(py);
+            for row in py..py + 4 {
+                let yc = row * S + S / 2;
+                let r = dy.abs() * (e.ax - S / 2) + dy.signum() * dx * (yc - e.ay);
+                let q = ceil_div(r, k);
+                proptest::prop_assert_eq!((s.q, s.rem, s.k), (q, q * k - r, k));
+                proptest::prop_assert_eq!(
+                    (s.step_q, s.step_rem),
+                    (step.div_euclid(k), step.rem_euclid(k))
+                );
+                s.next_row();
+            }
+        }
     }
 
     fn oriented(mut v: [[i64; 2]; 3]) -> [[i64; 2]; 3] {

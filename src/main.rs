@@ -12,6 +12,7 @@ use clap::Parser;
 const USAGE: u8 = 2;
 
 fn main() -> ExitCode {
+    stripmask_platform::keep_large_blocks_apart();
     let args = cli::Cli::parse();
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,

@@ -22,6 +22,7 @@ mod fbdev;
 mod fit;
 #[cfg(feature = "wgpu")]
 mod gpu;
+mod heap;
 mod hud;
 mod input;
 mod png;
@@ -35,6 +36,7 @@ pub use fbdev::{Bitfield, EvdevInput, FbPresenter, ScreenInfo};
 pub use fit::Fit;
 #[cfg(feature = "wgpu")]
 pub use gpu::GpuTarget;
+pub use heap::keep_large_blocks_apart;
 pub use hud::{Hud, HudInfo, Minimap, MinimapCell, Overlay, PanelRect};
 pub use input::{Command, Input, Motion};
 pub use png::PngFrames;

@@ -200,6 +200,57 @@ fn settled_partial_tiles_draw_exactly_what_whole_tiles_draw_lit() {
 }
 
 #[test]
+fn partial_tiles_lit_after_they_arrived_draw_what_tiles_loaded_lit_draw() {
+    // Textured and unlit, the tiles hold no lighting; turned on, every held level of every
+    // partial tile is lit in place, as tiles streamed lit from the start were.
+    let dir = tempfile::tempdir().unwrap();
+    let path = archive(dir.path(), 33);
+    let mode = PagerMode::Stepped {
+        fetches_per_update: 64,
+    };
+    let start = |lighting| {
+        let mut s = settings(64 << 20, progressive(), mode);
+        s.render.lighting = lighting;
+        open(&path, s)
+    };
+    let (mut switched, mut lit) = (start(false), start(true));
+    for engine in [&mut switched, &mut lit] {
+        engine.hold_budget(6_000);
+    }
+    let (eye, target) = (
+        DVec3::new(900.0, 900.0, 7200.0),
+        DVec3::new(4000.0, 0.0, 3000.0),
+    );
+    let (mut a, mut b) = (frame(), frame());
+    for k in 0..40 {
+        if k == 30 {
+            assert!(switched.pager().tiles().all(|(_, t)| t.normals.is_empty()));
+            switched.render_settings_mut().lighting = true;
+        }
+        for (engine, fb) in [(&mut switched, &mut a), (&mut lit, &mut b)] {
+            engine.set_time(f64::from(k));
+            let camera = engine.camera(eye, target, false);
+            let report = engine.render(&camera, fb).unwrap();
+            check_memory(engine, &report);
+        }
+    }
+    assert!(
+        switched.pager().tiles().any(|(_, t)| !t.is_complete()),
+        "some tiles hold fewer levels than whole"
+    );
+    assert!(
+        switched
+            .pager()
+            .tiles()
+            .all(|(_, t)| t.light.is_some() && t.normals.len() == t.side().pow(2))
+    );
+    assert!(
+        a.to_rgba_image() == b.to_rgba_image(),
+        "the pictures differ"
+    );
+}
+
+#[test]
 fn settled_partial_tiles_morph_exactly_as_whole_tiles_morph() {
     // A partial tile morphs the samples it holds exactly as the whole tile morphs them, so
     // with geomorphing on the pictures still agree byte for byte.

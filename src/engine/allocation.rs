@@ -14,7 +14,8 @@
 //! moves at most once per distinct triangle count of the mask set (15 for tiles of 65 samples,
 //! whatever the levels), and the scans for a tile's moves cover its levels about once, so a
 //! frame costs `O(tiles × (levels + counts × log tiles))`, against `O(tiles)` for the
-//! importance share.
+//! importance share. A frame shares several budgets on one view: [`ErrorDescent`] descends once
+//! and each budget replays its moves, `O(tiles × counts)` without the heap.
 
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
@@ -185,22 +186,145 @@ pub fn allocate_by_error(
     errors: &[TileErrors<'_>],
     finest: &[usize],
 ) -> Vec<TileAllocation> {
-    let n = importance.order.len();
-    debug_assert!(errors.len() == n && finest.len() == n);
-    let coarsest = masks.coarsest_level();
-    let floor = masks.triangle_count(coarsest);
-    let mut tiles = vec![
+    let order = LevelOrder::new(masks, errors);
+    let (tiles, pool) = descend(
+        pool_of(budget, importance, masks),
+        importance,
+        masks,
+        errors,
+        finest,
+        &order,
+        |_| {},
+    );
+    spend_leftovers(tiles, pool, importance, masks, finest, &order, errors)
+}
+
+/// The error descent of one view: every move [`allocate_by_error`] makes when its pool pays
+/// for them all, in the order it makes them. A frame shares several budgets on one view (again
+/// after conforming levels, then in a search for the share that fits), and each replays these
+/// moves instead of descending again. The replay makes the moves the descent would: a tile's
+/// moves come off the heap in falling order (its error falls, and the [`KEEP_BONUS`] goes to its
+/// first moves), so the heap makes all moves in the order of their priorities, and a smaller
+/// budget only stops tiles (a tile whose move the pool cannot pay moves no more), which takes
+/// their later moves out and leaves the order of the others as it was.
+#[derive(Clone, Debug)]
+pub struct ErrorDescent {
+    order: LevelOrder,
+    /// Per move: the tile, its level after the move and the triangles the move adds.
+    moves: Vec<(usize, usize, usize)>,
+}
+
+impl ErrorDescent {
+    /// The moves of the descent for these tiles, caps and errors.
+    pub fn new(
+        importance: &Importance,
+        masks: &MaskSet,
+        errors: &[TileErrors<'_>],
+        finest: &[usize],
+    ) -> Self {
+        let order = LevelOrder::new(masks, errors);
+        let mut moves = Vec::new();
+        descend(
+            usize::MAX,
+            importance,
+            masks,
+            errors,
+            finest,
+            &order,
+            |step| moves.push(step),
+        );
+        Self { order, moves }
+    }
+
+    /// What [`allocate_by_error`] gives for `budget` and the tiles, caps and errors the
+    /// descent was made for.
+    pub fn share(
+        &self,
+        budget: usize,
+        importance: &Importance,
+        masks: &MaskSet,
+        errors: &[TileErrors<'_>],
+        finest: &[usize],
+    ) -> Vec<TileAllocation> {
+        let n = importance.order.len();
+        let mut tiles = coarsest(n, masks);
+        let mut pool = pool_of(budget, importance, masks);
+        let mut stopped = vec![false; n];
+        for &(t, level, cost) in &self.moves {
+            if stopped[t] {
+                continue;
+            }
+            if cost > pool {
+                stopped[t] = true;
+                continue;
+            }
+            pool -= cost;
+            tiles[t] = TileAllocation {
+                level,
+                triangles: tiles[t].triangles + cost,
+            };
+        }
+        spend_leftovers(tiles, pool, importance, masks, finest, &self.order, errors)
+    }
+}
+
+/// Every tile at the coarsest mask of the set.
+fn coarsest(n: usize, masks: &MaskSet) -> Vec<TileAllocation> {
+    let level = masks.coarsest_level();
+    vec![
         TileAllocation {
-            level: coarsest,
-            triangles: floor,
+            level,
+            triangles: masks.triangle_count(level),
         };
         n
-    ];
-    let mut pool = budget.saturating_sub(n * floor);
-    // The levels of the set, coarsest first.
-    let levels: Vec<usize> = masks.levels().iter().rev().copied().collect();
-    let by_metres: Vec<bool> = errors.iter().map(TileErrors::ordered_by_metres).collect();
-    let key = |t: usize, level: usize| errors[t].key(level, by_metres[t]);
+    ]
+}
+
+/// What `budget` leaves once every tile has its coarsest mask.
+fn pool_of(budget: usize, importance: &Importance, masks: &MaskSet) -> usize {
+    budget.saturating_sub(importance.order.len() * masks.triangle_count(masks.coarsest_level()))
+}
+
+/// The levels of a mask set and how each tile's errors order them.
+#[derive(Clone, Debug)]
+struct LevelOrder {
+    /// The levels of the set, coarsest first.
+    levels: Vec<usize>,
+    /// Per tile, [`TileErrors::ordered_by_metres`].
+    by_metres: Vec<bool>,
+}
+
+impl LevelOrder {
+    fn new(masks: &MaskSet, errors: &[TileErrors<'_>]) -> Self {
+        Self {
+            levels: masks.levels().iter().rev().copied().collect(),
+            by_metres: errors.iter().map(TileErrors::ordered_by_metres).collect(),
+        }
+    }
+
+    /// Tile `t`'s [`TileErrors::key`] of `level`.
+    fn key(&self, errors: &[TileErrors<'_>], t: usize, level: usize) -> i64 {
+        errors[t].key(level, self.by_metres[t])
+    }
+}
+
+/// The descent of [`allocate_by_error`] from every tile at the coarsest mask with `pool`
+/// triangles to spend: `made` hears every move made (tile, level, triangles added). Returns
+/// the levels and what is left of the pool.
+fn descend(
+    mut pool: usize,
+    importance: &Importance,
+    masks: &MaskSet,
+    errors: &[TileErrors<'_>],
+    finest: &[usize],
+    order: &LevelOrder,
+    mut made: impl FnMut((usize, usize, usize)),
+) -> (Vec<TileAllocation>, usize) {
+    let n = importance.order.len();
+    debug_assert!(errors.len() == n && finest.len() == n);
+    let mut tiles = coarsest(n, masks);
+    let levels = &order.levels;
+    let key = |t: usize, level: usize| order.key(errors, t, level);
     // The cheapest move that lowers tile `t`'s error from level `from`: the fewest triangles
     // of a finer level with a smaller error, and of the levels with that count the smallest
     // error (the finest of equals), so that moves between levels of equal cost are one move.
@@ -237,8 +361,9 @@ pub fn allocate_by_error(
         })
     };
     let mut heap = BinaryHeap::with_capacity(n);
+    let start = masks.coarsest_level();
     for (rank, &t) in importance.order.iter().enumerate() {
-        if let Some(m) = next(t, coarsest) {
+        if let Some(m) = next(t, start) {
             heap.push(Move { rank, ..m });
         }
     }
@@ -254,6 +379,7 @@ pub fn allocate_by_error(
             level: m.to,
             triangles,
         };
+        made((m.tile, m.to, cost));
         if let Some(following) = next(m.tile, m.to) {
             heap.push(Move {
                 rank: m.rank,
@@ -261,15 +387,35 @@ pub fn allocate_by_error(
             });
         }
     }
+    (tiles, pool)
+}
+
+/// What the pool holds after the descent, in importance order: each tile's finest affordable
+/// level within its cap whose error is no larger than its own.
+fn spend_leftovers(
+    mut tiles: Vec<TileAllocation>,
+    mut pool: usize,
+    importance: &Importance,
+    masks: &MaskSet,
+    finest: &[usize],
+    order: &LevelOrder,
+    errors: &[TileErrors<'_>],
+) -> Vec<TileAllocation> {
+    let levels = &order.levels;
     for &t in &importance.order {
         let current = tiles[t];
-        let now = key(t, current.level);
-        let finer = levels.iter().rev().copied().find(|&l| {
-            l >= finest[t]
-                && l < current.level
-                && masks.triangle_count(l) <= current.triangles + pool
-                && key(t, l) <= now
-        });
+        let now = order.key(errors, t, current.level);
+        // The levels finer than the tile's and within its cap, coarsest first, so with ever
+        // more triangles: the affordable ones lead.
+        let from = levels.partition_point(|&l| l >= current.level);
+        let finer = &levels[from..levels.partition_point(|&l| l >= finest[t]).max(from)];
+        let affordable = &finer
+            [..finer.partition_point(|&l| masks.triangle_count(l) <= current.triangles + pool)];
+        let finer = affordable
+            .iter()
+            .rev()
+            .copied()
+            .find(|&l| order.key(errors, t, l) <= now);
         if let Some(level) = finer {
             let triangles = masks.triangle_count(level);
             pool -= triangles - current.triangles;
@@ -468,6 +614,51 @@ mod tests {
                     prop_assert_eq!(ka < kb, pa < pb, "{} {}", a, b);
                     prop_assert_eq!(ka <= kb, pa <= pb, "{} {}", a, b);
                 }
+            }
+        }
+
+        #[test]
+        fn the_descent_replayed_shares_every_budget_as_the_descent_does(
+            (s, set, tiles) in frame(),
+            fractions in prop::collection::vec(0.0..1.3f64, 1..6),
+            caps in prop::collection::vec(0usize..64, 40),
+            kept in prop::collection::vec(prop::option::of(0usize..64), 40),
+            ties in any::<bool>(),
+        ) {
+            let masks = MaskSet::new(s, set);
+            let measures: Vec<TileMeasure> = tiles
+                .iter()
+                .map(|&(distance, height, _, _)| TileMeasure { distance, height })
+                .collect();
+            let imp = visual_importance(&measures, Weights::default());
+            // With `ties`, every tile has the same errors, so that moves tie on the heap.
+            let metres: Vec<Vec<f32>> = tiles
+                .iter()
+                .map(|t| level_errors(s, if ties { 1 } else { t.3 }))
+                .collect();
+            let levels = masks.levels();
+            let errors: Vec<TileErrors> = tiles
+                .iter()
+                .zip(&metres)
+                .zip(&kept)
+                .map(|((t, m), k)| TileErrors {
+                    metres: m,
+                    pixels_per_metre: if ties { 1.0 } else { t.2 },
+                    kept: k.map(|k| levels[k % levels.len()]),
+                })
+                .collect();
+            let finest: Vec<usize> = (0..tiles.len())
+                .map(|t| levels[caps[t] % levels.len()])
+                .collect();
+            let descent = ErrorDescent::new(&imp, &masks, &errors, &finest);
+            let all = tiles.len() * masks.triangle_count(0);
+            for fraction in fractions {
+                let budget = (all as f64 * fraction) as usize;
+                prop_assert_eq!(
+                    descent.share(budget, &imp, &masks, &errors, &finest),
+                    allocate_by_error(budget, &imp, &masks, &errors, &finest),
+                    "budget {}", budget
+                );
             }
         }
 

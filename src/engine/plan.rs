@@ -3,12 +3,13 @@
 //! conformed where tiles of two pyramid levels meet. Pure: it reads what is resident and
 //! changes nothing.
 
+use std::cell::OnceCell;
 use std::collections::{BinaryHeap, HashMap};
 
 use crate::db::grid::{Pyramid, TileId};
 use crate::db::tile::PartialGrid;
-use crate::engine::allocation::{Allocation, TileErrors};
-use crate::engine::budget::{TileAllocation, drawable_level};
+use crate::engine::allocation::{Allocation, ErrorDescent, TileErrors};
+use crate::engine::budget::{TileAllocation, allocate_capped, drawable_level};
 use crate::engine::camera::View;
 use crate::engine::cracks::CrackMode;
 use crate::engine::cracks::neighbours::{
@@ -167,6 +168,9 @@ pub(super) struct ViewPlan<'p> {
     pub(super) partial: bool,
     /// Which drawn tiles border which.
     pub(super) neighbourhood: Neighbourhood,
+    /// The error descents of the shares capped at `finest` and at `needed`, made at the
+    /// first share that needs them: the frame shares several budgets.
+    descents: [OnceCell<ErrorDescent>; 2],
 }
 
 /// Cuts through the pyramid and weighs the tiles in view (Algorithm 2), with the levels τ
@@ -213,30 +217,38 @@ pub(super) fn plan_view<'p>(inputs: &FrameInputs<'p>, view: &View) -> ViewPlan<'
         finest,
         errors,
         partial,
+        descents: Default::default(),
     }
 }
 
 impl ViewPlan<'_> {
-    /// `budget` shared among the tiles in view, none finer than `caps`.
-    pub(super) fn share(
-        &self,
-        inputs: &FrameInputs,
-        budget: usize,
-        caps: &[usize],
-    ) -> Vec<TileAllocation> {
-        inputs
-            .allocation
-            .share(budget, &self.importance, inputs.masks, &self.errors, caps)
+    /// `budget` shared among the tiles in view, none finer than it can draw.
+    pub(super) fn share(&self, inputs: &FrameInputs, budget: usize) -> Vec<TileAllocation> {
+        self.share_capped(inputs, budget, false)
     }
 
     /// The levels `budget` offers the tiles in view had they held every level.
     pub(super) fn offer(&self, inputs: &FrameInputs, budget: usize) -> Vec<TileAllocation> {
-        let caps = if self.partial {
-            &self.needed
-        } else {
-            &self.finest
-        };
-        self.share(inputs, budget, caps)
+        self.share_capped(inputs, budget, self.partial)
+    }
+
+    /// `budget` shared among the tiles in view, none finer than the levels τ needs
+    /// (`needed`) or than the finest it can draw.
+    fn share_capped(
+        &self,
+        inputs: &FrameInputs,
+        budget: usize,
+        needed: bool,
+    ) -> Vec<TileAllocation> {
+        let caps = if needed { &self.needed } else { &self.finest };
+        match inputs.allocation {
+            Allocation::Importance => allocate_capped(budget, &self.importance, inputs.masks, caps),
+            Allocation::Error => self.descents[usize::from(needed)]
+                .get_or_init(|| {
+                    ErrorDescent::new(&self.importance, inputs.masks, &self.errors, caps)
+                })
+                .share(budget, &self.importance, inputs.masks, &self.errors, caps),
+        }
     }
 }
 
@@ -248,7 +260,7 @@ type Levels = (Vec<TileAllocation>, Vec<TileAllocation>, Vec<bool>);
 /// levels it offers them, conformed at the borders between pyramid levels when stitching; and
 /// which tiles conforming made finer.
 pub(super) fn levels(inputs: &FrameInputs, view: &ViewPlan, budget: usize) -> Levels {
-    let mut allocation = view.share(inputs, budget, &view.finest);
+    let mut allocation = view.share(inputs, budget);
     let mut offered = if view.partial {
         view.offer(inputs, budget)
     } else {

@@ -102,6 +102,15 @@ const RECIPROCAL_SEEDS: [u16; 256] = {
 #[cfg(any(test, not(target_pointer_width = "64")))]
 #[inline]
 pub(crate) fn reciprocal_by_table(n: u32) -> i64 {
+    // The remainder's true value is within a few `n` of 0.
+    corrected_quotient(reciprocal_estimate(n), 1 << 62, n as u64) as i64
+}
+
+/// `reciprocal_by_table` before its last step: within a few units of `2^62 / n`, which is all
+/// an estimate corrected by its own remainder later needs.
+#[cfg(any(test, not(target_pointer_width = "64")))]
+#[inline(always)]
+pub(crate) fn reciprocal_estimate(n: u32) -> u64 {
     debug_assert!((1 << 30..1 << 31).contains(&n));
     let n64 = n as u64;
     let mut x = (RECIPROCAL_SEEDS[(n >> 22) as usize - 256] as u64) << 16;
@@ -110,8 +119,7 @@ pub(crate) fn reciprocal_by_table(n: u32) -> i64 {
         let e = (1i64 << 62).wrapping_sub((n64 * x) as i64);
         x = x.wrapping_add((((e >> 30) as i32 as i64 * x as i64) >> 32) as u64);
     }
-    // The remainder's true value is within a few `n` of 0.
-    corrected_quotient(x, 1 << 62, n64) as i64
+    x
 }
 
 /// `estimate` of `numerator / divisor` (rounded down) corrected by the remainder until it lies

@@ -3,7 +3,7 @@
 
 use crate::fixed_point::{TEXCOORD_LIMIT, saturate_i64};
 #[cfg(any(test, not(target_pointer_width = "64")))]
-use crate::fixed_point::{corrected_quotient, reciprocal_by_table};
+use crate::fixed_point::{corrected_quotient, reciprocal_by_table, reciprocal_estimate};
 
 /// `2^63 / q` rounded down, for `q >= 1`: the perspective quotients' reciprocal. One division
 /// where the CPU divides 64-bit integers; a 32-bit core has no such instruction (its library
@@ -35,9 +35,9 @@ fn quotient_by_table(q: u64) -> u64 {
         quotient
     } else if bits > 31 {
         // q = n 2^k with n in [2^30, 2^31): the quotient is 2^62 / n scaled by 2^(1 - k), within
-        // a few units, below 2^33.
+        // a few units, below 2^33; the correction below makes it exact, so 2^62 / n need not be.
         let k = bits - 31;
-        let estimate = (reciprocal_by_table((q >> k) as u32) as u64) >> (k - 1);
+        let estimate = reciprocal_estimate((q >> k) as u32) >> (k - 1);
         corrected_quotient(estimate, TOP, q)
     } else {
         // q = m / 2^s with m in [2^30, 2^31): 2^63 / q = R 2^(1+s) + (2^62 - m R) 2^(1+s) / m
@@ -67,17 +67,19 @@ pub(crate) fn divide(s: i64, t: i64, q: i64) -> (i64, i64) {
 const UV_LIMIT: i64 = TEXCOORD_LIMIT << 16;
 
 /// `(p >> 47).clamp(-UV_LIMIT, UV_LIMIT)`, `divide`'s clamp, for a 32-bit core, where a clamp
-/// of 128-bit values is a few dozen instructions: the product's high word decides whether
-/// `p >> 47` can lie within the limit (`-2^87 <= p < 2^87`, the limit being 2^40), and only
-/// then is it clamped, as an i64.
+/// of 128-bit values is a few dozen instructions: the product's high word alone decides it.
+/// With the limit at 2^40, `p >> 47` lies in `-2^40..2^40`, inside the limit, exactly when
+/// `-2^87 <= p < 2^87`, when the high word lies in `-2^23..2^23`; past either end the clamp
+/// gives that end's limit.
 #[cfg(any(test, not(target_pointer_width = "64")))]
 #[inline(always)]
 fn clamped_in_words(p: i128) -> i64 {
+    const _: () = assert!(UV_LIMIT == 1 << 40);
     let high = (p >> 64) as i64;
     if !(-(1 << 23)..1 << 23).contains(&high) {
         return if high < 0 { -UV_LIMIT } else { UV_LIMIT };
     }
-    ((p >> 47) as i64).clamp(-UV_LIMIT, UV_LIMIT)
+    (p >> 47) as i64
 }
 
 /// `divide` where the quotients are known to be inside the range (`q >= 2` and

@@ -420,12 +420,13 @@ struct Chunks {
 }
 
 /// `d * m` saturated, for a chunk of `m < 256` pixels (`TexMode::Perspective` holds it in a
-/// byte): the plain product where `|d| < 2^55` keeps it in i64, as it mostly does; the
-/// saturating product is a dozen instructions on a 32-bit core.
+/// byte): the plain product where `-2^55 <= d < 2^55` keeps it in i64, as it mostly does; the
+/// saturating product is a dozen instructions on a 32-bit core. The range is the one where
+/// `d`'s bits from 55 up are all its sign, which a 32-bit core tests in its high word alone.
 #[inline(always)]
 fn saturating_times(d: i64, m: i64) -> i64 {
     debug_assert!((0..256).contains(&m));
-    if d.unsigned_abs() < 1 << 55 {
+    if d >> 55 == d >> 63 {
         d * m
     } else {
         d.saturating_mul(m)
@@ -799,5 +800,45 @@ impl NarrowPlanes {
             self.tex_mode,
             TexMode::Off | TexMode::Affine | TexMode::Perspective(1)
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+
+    use super::*;
+
+    /// The steps around the plain product's ends, and the extremes.
+    const EDGES: [i64; 9] = [
+        0,
+        1,
+        -1,
+        (1 << 55) - 1,
+        1 << 55,
+        -(1 << 55),
+        -(1 << 55) - 1,
+        i64::MAX,
+        i64::MIN,
+    ];
+
+    #[test]
+    fn chunk_products_at_their_edges_saturate_as_the_saturating_product() {
+        for d in EDGES {
+            for m in [0, 1, 2, 127, 255] {
+                assert_eq!(saturating_times(d, m), d.saturating_mul(m), "{d} * {m}");
+            }
+        }
+    }
+
+    proptest! {
+        #[test]
+        fn chunk_products_saturate_as_the_saturating_product(
+            d in any::<i64>(),
+            bits in 0u32..64,
+            m in 0i64..256,
+        ) {
+            prop_assert_eq!(saturating_times(d >> bits, m), (d >> bits).saturating_mul(m));
+        }
     }
 }

@@ -187,7 +187,7 @@ if [[ ",$parts," == *,engine,* ]]; then
             self[$2 " " name] += own }
         END { for (k in self) if (self[k] >= 2000000) print self[k] / 100, k }' \
         "$work/armv5te-unknown-linux-gnueabi-200.txt" "$work/armv5te-unknown-linux-gnueabi-300.txt" |
-        sort -g -r | head -n 25 | c++filt | sed 's/\[[0-9a-f]*\]//g' |
+        sort -g -r | awk 'NR <= 25' | c++filt | sed 's/\[[0-9a-f]*\]//g' |
         awk '{ name = $3; for (i = 4; i <= NF; i++) name = name " " $i
             printf "  %7.2fM %s %s\n", $1 / 1e6, $2, substr(name, 1, 110) }'
 fi

@@ -420,17 +420,17 @@ struct Chunks {
 }
 
 /// `d * m` saturated, for a chunk of `m < 256` pixels (`TexMode::Perspective` holds it in a
-/// byte): the plain product where `-2^55 <= d < 2^55` keeps it in i64, as it mostly does; the
-/// saturating product is a dozen instructions on a 32-bit core. The range is the one where
-/// `d`'s bits from 55 up are all its sign, which a 32-bit core tests in its high word alone.
+/// byte): the plain product where `d` lies within 2^55 of 0 keeps it in i64, as it mostly
+/// does; the saturating product is a dozen instructions on a 32-bit core. There the test is
+/// whether `d`'s bits from 55 up are all its sign (`-2^55 <= d < 2^55`), in its high word alone.
 #[inline(always)]
 fn saturating_times(d: i64, m: i64) -> i64 {
     debug_assert!((0..256).contains(&m));
-    if d >> 55 == d >> 63 {
-        d * m
-    } else {
-        d.saturating_mul(m)
-    }
+    #[cfg(target_pointer_width = "64")]
+    let plain = d.unsigned_abs() < 1 << 55;
+    #[cfg(not(target_pointer_width = "64"))]
+    let plain = d >> 55 == d >> 63;
+    if plain { d * m } else { d.saturating_mul(m) }
 }
 
 /// One chunk's pixels of a piece (`Chunks`).

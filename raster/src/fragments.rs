@@ -80,6 +80,13 @@ impl Fragments {
         }
     }
 
+    /// Readies the empty buffer for another tile: the slots past the fragments held keep
+    /// pixels of the tile they are coloured into (see `colour`), and 0 lies in every tile.
+    pub fn for_another_tile(&mut self) {
+        debug_assert_eq!(self.len, 0);
+        self.at = [0; SLOTS];
+    }
+
     /// The fragments written so far.
     pub fn written(&self) -> u64 {
         self.written

@@ -23,6 +23,9 @@ pub(crate) struct TileTarget {
     pub rect: PixelRect,
     pub color: ColorTile,
     pub depth: DepthTile,
+    /// The fixed pipeline's fragment buffer, which the thread lends from tile to tile: a new
+    /// one would zero its arrays, kilobytes, for every draw in every tile.
+    pub fragments: Box<Fragments>,
 }
 
 /// A tile's colour in the framebuffer's format.
@@ -149,7 +152,7 @@ pub(crate) fn raster_tile<P: Shade>(
 /// `NoDepth` (and the depth view `None`) when the draw does not test depth.
 macro_rules! with_formats {
     ($tile:expr, $depth_on:expr, $f:ident, $($arg:expr),*) => {{
-        let TileTarget { rect, color, depth } = $tile;
+        let TileTarget { rect, color, depth, .. } = $tile;
         match color {
             ColorTile::Rgb565(c) => with_formats!(@depth Rgb565, c, depth, *rect, $depth_on, $f, $($arg),*),
             ColorTile::Rgba8888(c) => with_formats!(@depth Rgba8888, c, depth, *rect, $depth_on, $f, $($arg),*),
@@ -205,7 +208,8 @@ fn spans<P: PixelFormat, D: DepthStorage, S: Shade>(
 
 impl Shade for FixedPipeline {
     fn run(draw: &DrawShade, stretch: &Stretch<FixedPipeline>, tile: &mut TileTarget) -> u64 {
-        with_formats!(tile, draw.attrs.depth, fixed_texture, draw, stretch)
+        let frags = &mut *tile.fragments;
+        with_formats!(tile, draw.attrs.depth, fixed_texture, draw, stretch, frags)
     }
 }
 
@@ -216,12 +220,13 @@ fn fixed_texture<'r, P: PixelFormat, D: DepthStorage>(
     depth: Option<&'r mut TileBuf<D::Value>>,
     draw: &'r DrawShade,
     stretch: &'r Stretch<'r, FixedPipeline>,
+    frags: &'r mut Fragments,
 ) -> u64 {
     let binding = draw
         .state
         .texture
         .filter(|_| draw.attrs.tex != TexMode::Off);
-    let args = (rect, color, depth, draw, stretch);
+    let args = (rect, color, depth, draw, stretch, frags);
     let Some(binding) = binding else {
         return fixed_flags::<P, D, NoTexture>(args);
     };
@@ -240,6 +245,7 @@ type FixedArgs<'r, 'v, 'c, 'x, P, D> = (
     Option<&'r mut TileBuf<<D as DepthStorage>::Value>>,
     &'r DrawShade<'c, 'x>,
     &'r Stretch<'r, FixedPipeline>,
+    &'r mut Fragments,
 );
 
 /// Chooses the shading and fog specialisation and runs the spans.
@@ -247,7 +253,7 @@ fn fixed_flags<P: PixelFormat, D: DepthStorage, F: Filtering>(
     args: FixedArgs<'_, '_, '_, '_, P, D>,
 ) -> u64 {
     fn run<P: PixelFormat, D: DepthStorage, F: Filtering, const SHADE: bool, const FOG: bool>(
-        (rect, color, mut depth, draw, stretch): FixedArgs<'_, '_, '_, '_, P, D>,
+        (rect, color, mut depth, draw, stretch, frags): FixedArgs<'_, '_, '_, '_, P, D>,
     ) -> u64 {
         let views = F::Texel::select(draw.views);
         let attrs = draw.attrs;
@@ -263,7 +269,7 @@ fn fixed_flags<P: PixelFormat, D: DepthStorage, F: Filtering>(
                 )
             });
         }
-        let mut frags = Fragments::new();
+        let written = frags.written();
         let tile = color.rect();
         let mut flush =
             |frags: &mut Fragments| frags.finish::<P, F, SHADE, FOG>(color, views, attrs, draw.cpu);
@@ -278,13 +284,13 @@ fn fixed_flags<P: PixelFormat, D: DepthStorage, F: Filtering>(
                     p.planes,
                     p.list,
                 ),
-                &mut frags,
+                frags,
                 &mut flush,
                 draw.cpu,
             );
         }
         frags.finish::<P, F, SHADE, FOG>(color, views, attrs, draw.cpu);
-        frags.written()
+        frags.written() - written
     }
     match (args.3.attrs.shade, args.3.attrs.fog) {
         (false, false) => run::<P, D, F, false, false>(args),

@@ -1,16 +1,41 @@
 //! A surface's tiles lent to the threads: each tile's colour and depth copied into a buffer
 //! the thread reuses, converted to the format the inner loops draw, and back.
 
+use crate::fragments::Fragments;
 use crate::layout::{rgba_to_xbgr, rgba_to_xrgb, swap_565, xbgr_to_rgba, xrgb_to_rgba};
 use crate::shade::{ColorTile, DepthTile};
 use crate::tile_view::TileView;
 
-/// The allocations of the tiles a thread has drawn, for the next tile it loads.
+/// The allocations of the tiles a thread has drawn, for the next tile it loads: the colour's
+/// and the depth's apart, so that an RGB565 tile with a 16-bit depth reuses both, and the
+/// fragment buffer.
 #[derive(Default)]
 pub(super) struct TileBuffers {
     u16s: Vec<u16>,
     rgba: Vec<[u8; 4]>,
+    depth16s: Vec<u16>,
     u32s: Vec<u32>,
+    fragments: Option<Box<Fragments>>,
+}
+
+impl TileBuffers {
+    /// The fragment buffer of the thread's last tile, readied for another, or a new one for
+    /// its first.
+    pub(super) fn fragments(&mut self) -> Box<Fragments> {
+        match self.fragments.take() {
+            Some(mut f) => {
+                f.for_another_tile();
+                f
+            }
+            None => Box::new(Fragments::new()),
+        }
+    }
+
+    /// Keeps a tile's fragment buffer, empty once its draws are finished, for the next tile.
+    pub(super) fn keep_fragments(&mut self, fragments: Box<Fragments>) {
+        debug_assert_eq!(fragments.held(), 0);
+        self.fragments = Some(fragments);
+    }
 }
 
 /// A tile of the colour memory in the surface's layout. A tile is drawn as RGB565 words or
@@ -66,7 +91,7 @@ impl DepthView<'_> {
     pub(super) fn load(&mut self, spare: &mut TileBuffers) -> DepthTile {
         match self {
             DepthView::None => DepthTile::None,
-            DepthView::D16(v) => DepthTile::D16(v.load(std::mem::take(&mut spare.u16s))),
+            DepthView::D16(v) => DepthTile::D16(v.load(std::mem::take(&mut spare.depth16s))),
             DepthView::D32(v) => DepthTile::D32(v.load(std::mem::take(&mut spare.u32s))),
         }
     }
@@ -74,7 +99,7 @@ impl DepthView<'_> {
     pub(super) fn store(&mut self, tile: DepthTile, spare: &mut TileBuffers) {
         match (self, tile) {
             (DepthView::None, DepthTile::None) => {}
-            (DepthView::D16(v), DepthTile::D16(t)) => spare.u16s = v.store(t),
+            (DepthView::D16(v), DepthTile::D16(t)) => spare.depth16s = v.store(t),
             (DepthView::D32(v), DepthTile::D32(t)) => spare.u32s = v.store(t),
             _ => unreachable!("a tile goes back to its own buffer"),
         }

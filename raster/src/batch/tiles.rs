@@ -51,10 +51,12 @@ pub(super) fn raster_tiles<P: Shade>(
             rect: grid.rect(t),
             color: color.load(spare),
             depth: depth.load(spare),
+            fragments: spare.fragments(),
         };
         let fragments = raster_tile::<P>(t, chunks, draws, &mut target);
         color.store(target.color, spare);
         depth.store(target.depth, spare);
+        spare.keep_fragments(target.fragments);
         fragments
     };
     if threads > 1 {

@@ -176,10 +176,10 @@ impl ResidentTile {
                         }
                     })
                     .collect();
-                let shades = normals.iter().map(|&n| shading.of(n)).collect();
-                (normals, coarse_shades, shades)
+                let shades: Vec<u8> = normals.iter().map(|&n| shading.of(n)).collect();
+                (normals, coarse_shades, Some(shades))
             }
-            None => (Vec::new(), Vec::new(), vec![u8::MAX; side * side]),
+            None => (Vec::new(), Vec::new(), None),
         };
         // One texture coordinate per column (and row), converted once: on a core without an
         // FPU each is a few library calls.
@@ -190,16 +190,20 @@ impl ResidentTile {
             })
             .collect();
         // Row by row, not `k / side` per vertex: a library call on a core without a divider.
-        debug_assert_eq!(shades.len(), side * side);
-        let mut vertices: Vec<Vertex> = (0..side)
-            .flat_map(|j| (0..side).map(move |i| (i, j)))
-            .zip(shades)
-            .map(|((i, j), shade)| Vertex {
-                position: [(i * step) as i32, tile.quanta(i, j), (j * step) as i32],
-                uv: [coords[i], coords[j]],
-                color: [shade; 3],
-            })
-            .collect();
+        // Unlit, every vertex is white.
+        debug_assert!(shades.as_ref().is_none_or(|s| s.len() == side * side));
+        let mut vertices: Vec<Vertex> = Vec::with_capacity(side * side);
+        for j in 0..side {
+            let row_shades = shades.as_ref().map(|s| &s[j * side..(j + 1) * side]);
+            for (i, quanta) in tile.quanta_row(j).enumerate() {
+                let shade = row_shades.map_or(u8::MAX, |s| s[i]);
+                vertices.push(Vertex {
+                    position: [(i * step) as i32, quanta, (j * step) as i32],
+                    uv: [coords[i], coords[j]],
+                    color: [shade; 3],
+                });
+            }
+        }
         if cracks == CrackMode::Skirts {
             let depth = skirts::depth_quanta(&tile.level_errors, tile.quantum);
             skirts::append_vertices(&mut vertices, side, depth);

@@ -264,6 +264,15 @@ impl Tile {
         self.base + i32::from(self.heights[j * self.side() + i])
     }
 
+    /// Row `j` of [`Tile::quanta`], west to east: one walk of a slice instead of an index
+    /// product per sample.
+    pub fn quanta_row(&self, j: usize) -> impl Iterator<Item = i32> + '_ {
+        let side = self.side();
+        self.heights[j * side..(j + 1) * side]
+            .iter()
+            .map(|&h| self.base + i32::from(h))
+    }
+
     /// The archive-wide height in quanta of position `(i, j)` of held progressive level
     /// `level`'s grid (every `2^(levels - 1 - level)`-th held sample), inside that grid or one
     /// step outside one of its borders (from that level's apron; not diagonally outside a
@@ -325,6 +334,20 @@ mod tests {
         assert_eq!(coarse.truncated(1), tile.truncated(1));
         assert_eq!(tile.truncated(1).heights.len(), 4);
         assert!(!coarse.is_complete() && tile.is_complete());
+    }
+
+    #[test]
+    fn rows_of_quanta_are_the_samples_quanta() {
+        let s = 9;
+        let heights: Vec<f32> = (0..s * s).map(|k| (k * 7 % 23) as f32).collect();
+        let tile = Tile::new(&heights, s, 0.5, &[[1, 2, 3]; 64], 8).unwrap();
+        for t in [tile.truncated(2), tile.truncated(3), tile] {
+            for j in 0..t.side() {
+                let row: Vec<i32> = t.quanta_row(j).collect();
+                let each: Vec<i32> = (0..t.side()).map(|i| t.quanta(i, j)).collect();
+                assert_eq!(row, each, "row {j} of a tile of side {}", t.side());
+            }
+        }
     }
 
     #[test]

@@ -9,7 +9,7 @@ use std::collections::{BinaryHeap, HashMap};
 use crate::db::grid::{Pyramid, TileId};
 use crate::db::tile::PartialGrid;
 use crate::engine::allocation::{Allocation, ErrorDescent, TileErrors};
-use crate::engine::budget::{TileAllocation, allocate_capped, drawable_level};
+use crate::engine::budget::{TileAllocation, drawable_level};
 use crate::engine::camera::View;
 use crate::engine::cracks::CrackMode;
 use crate::engine::cracks::neighbours::{
@@ -241,13 +241,13 @@ impl ViewPlan<'_> {
         needed: bool,
     ) -> Vec<TileAllocation> {
         let caps = if needed { &self.needed } else { &self.finest };
+        let (importance, masks, errors) = (&self.importance, inputs.masks, &self.errors);
         match inputs.allocation {
-            Allocation::Importance => allocate_capped(budget, &self.importance, inputs.masks, caps),
+            // The error share replays the view's descent; any other rule shares as it does.
             Allocation::Error => self.descents[usize::from(needed)]
-                .get_or_init(|| {
-                    ErrorDescent::new(&self.importance, inputs.masks, &self.errors, caps)
-                })
-                .share(budget, &self.importance, inputs.masks, &self.errors, caps),
+                .get_or_init(|| ErrorDescent::new(importance, masks, errors, caps))
+                .share(budget, importance, masks, errors, caps),
+            rule => rule.share(budget, importance, masks, errors, caps),
         }
     }
 }

@@ -257,7 +257,7 @@ impl Coverage {
             target_feature = "simd128",
             arm_neon
         )))]
-        return self.column_rows(from, to);
+        return self.search_rows(from, to);
     }
 
     /// `small_rows` in lanes (`LaneRows`).
@@ -316,7 +316,7 @@ impl Coverage {
         rows
     }
 
-    /// `small_rows` in scalar registers (`ColumnRows`).
+    /// `small_rows` in scalar registers (`SearchRows`).
     #[cfg(any(
         test,
         not(any(
@@ -327,19 +327,14 @@ impl Coverage {
         ))
     ))]
     #[inline(always)]
-    fn column_rows(&self, from: i64, to: i64) -> ColumnRows {
+    fn search_rows(&self, from: i64, to: i64) -> SearchRows {
         let (start, end, width) = self.small_span(from, to);
-        let (row, across, down) = self.small_edges(start);
-        ColumnRows {
-            row,
-            across,
-            down,
+        SearchRows::new(
+            self.small_edges(start),
             width,
-            columns: (1u32 << width) - 1,
-            x0: self.rect.x0 as i64,
-            y: start,
-            end,
-        }
+            self.rect.x0 as i64,
+            (start, end),
+        )
     }
 
     /// `small_rows` in NEON lanes (`NeonRows`).
@@ -523,7 +518,7 @@ pub(crate) type SmallRows = NeonRows;
     target_feature = "simd128",
     arm_neon
 )))]
-pub(crate) type SmallRows = ColumnRows;
+pub(crate) type SmallRows = SearchRows;
 
 /// A small triangle's rows, one mask of owned columns at a time: the edge functions of a row's
 /// pixels in groups of 4 `i32x4` lanes (one vector on SSE2 and NEON; a terrain triangle's
@@ -593,8 +588,17 @@ impl LaneRows {
     }
 }
 
-/// A small triangle's rows in scalar registers: the edge functions at the row's first column,
-/// stepped across the row column by column (see `Coverage::walk_small` for the bounds).
+/// A small triangle's rows in scalar registers: each row's run of owned columns from where its
+/// edges cross the row, each found in four halvings of the rectangle's 16 columns (see
+/// `Coverage::walk_small` for the bounds).
+///
+/// Along a row an edge function is linear, so the columns outside an edge that rises across
+/// the row (`E` grows from column to column) are a prefix of the row, and those inside an edge
+/// that does not rise are a prefix too: a triangle's run starts past the longest outside
+/// prefix of its rising edges and ends with the shortest inside prefix of the others. Every
+/// triangle has an edge of each kind (its edges' `dy` sum to 0 and not all are 0), so edge 0
+/// rises, edge 2 does not, and edge 1 goes either way. A halving is an add, a test and two
+/// conditional moves, where testing every column costs three adds, the test and its bit.
 #[cfg(any(
     test,
     not(any(
@@ -604,15 +608,15 @@ impl LaneRows {
         arm_neon
     ))
 ))]
-pub(crate) struct ColumnRows {
-    /// `E + bias - 1` of the three edges at the current row's first column: negative (sign bit
-    /// set) where the pixel is outside.
-    row: [i32; 3],
+pub(crate) struct SearchRows {
+    /// `E + bias - 1` of the three edges one column left of the current row's first: negative
+    /// (sign bit set) where a pixel would be outside.
+    before: [i32; 3],
     /// What each edge changes by from a column to the next, and from a row to the next.
     across: [i32; 3],
     down: [i32; 3],
-    /// Columns of the rectangle, `1..=SMALL`.
-    width: u32,
+    /// Edge 1 rises across a row, as edge 0 does (edge 2 never does).
+    middle_rises: bool,
     /// The rectangle's columns as bits.
     columns: u32,
     /// First column of the rectangle: bit `k` of a mask is column `x0 + k`.
@@ -632,22 +636,80 @@ pub(crate) struct ColumnRows {
         arm_neon
     ))
 ))]
-impl ColumnRows {
-    /// `LaneRows::next_mask`: one `or` of the three edges and a shift per column.
+impl SearchRows {
+    /// Rows `start..end` of the small triangle whose edges have the values `row` at the first
+    /// column of row `start` and the steps `across` and `down` (`Coverage::small_edges`), over
+    /// `width` columns from `x0`.
+    fn new(
+        (row, across, down): ([i32; 3], [i32; 3], [i32; 3]),
+        width: u32,
+        x0: i64,
+        (start, end): (i64, i64),
+    ) -> Self {
+        // A rising edge first and one that does not rise last (see above).
+        let rising = |i: usize| across[i] > 0;
+        let first = (0..3).find(|&i| rising(i)).unwrap_or(0);
+        let last = (0..3).find(|&i| !rising(i)).unwrap_or(2);
+        let middle = 3 - first - last;
+        let order = [first, middle, last];
+        Self {
+            before: order.map(|i| row[i] - across[i]),
+            across: order.map(|i| across[i]),
+            down: order.map(|i| down[i]),
+            middle_rises: rising(middle),
+            columns: (1u32 << width) - 1,
+            x0,
+            y: start,
+            end,
+        }
+    }
+
+    /// The owned columns of the current row as bits (bit `k` is column `x0 + k`), and a step to
+    /// the next row.
     #[inline(always)]
     pub fn next_mask(&mut self) -> u32 {
-        let [mut a, mut b, mut c] = self.row;
-        let mut out = 0;
-        for k in 0..self.width {
-            out |= ((a | b | c) as u32 >> 31) << k;
-            (a, b, c) = (a + self.across[0], b + self.across[1], c + self.across[2]);
+        let [a, b, c] = self.before;
+        let [sa, sb, sc] = self.across;
+        let (mut first, mut end) = (prefix::<true>(a, sa), prefix::<false>(c, sc));
+        if self.middle_rises {
+            first = first.max(prefix::<true>(b, sb));
+        } else {
+            end = end.min(prefix::<false>(b, sb));
         }
-        for (e, d) in self.row.iter_mut().zip(self.down) {
+        for (e, d) in self.before.iter_mut().zip(self.down) {
             *e += d;
         }
         self.y += 1;
-        !out & self.columns
+        // `first` and `end` are at most 16.
+        ((1u32 << end) - 1) & !((1u32 << first) - 1) & self.columns
     }
+}
+
+/// How many of the columns `0..16` form the prefix where an edge is negative (`OUTSIDE`, for
+/// an edge that rises across the row, `across > 0`) or not negative (otherwise), from its
+/// value `before` one column left of column 0: the longest prefix `0..n` with that sign at
+/// column `n - 1`, found in four halvings and a last step.
+#[cfg(any(
+    test,
+    not(any(
+        target_feature = "sse2",
+        all(target_arch = "aarch64", target_feature = "neon"),
+        target_feature = "simd128",
+        arm_neon
+    ))
+))]
+#[inline(always)]
+fn prefix<const OUTSIDE: bool>(before: i32, across: i32) -> u32 {
+    let holds = |e: i32| (e < 0) == OUTSIDE;
+    // `at` is the edge at column `n - 1`, which holds for every `n` reached after column -1.
+    let (mut at, mut n) = (before, 0);
+    for step in [8, 4, 2, 1] {
+        let next = at + step as i32 * across;
+        if holds(next) {
+            (at, n) = (next, n + step);
+        }
+    }
+    n + holds(at + across) as u32
 }
 
 /// Triangles whose bounding box spans fewer than this many pixels each way are walked by edge
@@ -804,20 +866,31 @@ mod tests {
     type Masks = Vec<(i64, u32)>;
 
     /// The owned columns of each row of the small triangle `v` (oriented), as masks: in lanes
-    /// and in scalar registers.
+    /// and in scalar registers; both checked against the per-pixel test.
     fn masks(v: [[i64; 2]; 3]) -> Option<(Masks, Masks)> {
-        let c = Coverage::new(oriented(v), WINDOW).filter(|c| c.is_small())?;
-        let (mut lanes, mut columns) = (
+        let v = oriented(v);
+        let c = Coverage::new(v, WINDOW).filter(|c| c.is_small())?;
+        let (mut lanes, mut searched) = (
             c.lane_rows(i64::MIN, i64::MAX),
-            c.column_rows(i64::MIN, i64::MAX),
+            c.search_rows(i64::MIN, i64::MAX),
         );
         let (mut a, mut b) = (vec![], vec![]);
         while lanes.y < lanes.end {
             a.push((lanes.x0, lanes.next_mask()));
         }
-        while columns.y < columns.end {
-            b.push((columns.x0, columns.next_mask()));
+        while searched.y < searched.end {
+            b.push((searched.x0, searched.next_mask()));
         }
+        let r = c.rect;
+        let brute: Masks = (r.y0 as i64..r.y1 as i64)
+            .map(|y| {
+                let bits = (r.x0 as i64..r.x1 as i64)
+                    .filter(|&x| owns(v, x, y))
+                    .fold(0, |m, x| m | 1 << (x - r.x0 as i64));
+                (r.x0 as i64, bits)
+            })
+            .collect();
+        assert_eq!(b, brute, "rows searched against the per-pixel test: {v:?}");
         #[cfg(arm_neon)]
         {
             let mut neon = c.neon_rows(i64::MIN, i64::MAX);
@@ -825,7 +898,7 @@ mod tests {
             while neon.y < neon.end {
                 n.push((neon.x0, neon.next_mask()));
             }
-            assert_eq!(n, b, "NEON rows against the column loop");
+            assert_eq!(n, b, "NEON rows against the rows searched");
         }
         Some((a, b))
     }

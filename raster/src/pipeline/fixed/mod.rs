@@ -85,9 +85,12 @@ impl Pipeline for FixedPipeline {
         s.xy
     }
 
-    /// Always inlined into the set-up loop: out of line, the call per triangle cost more than
-    /// the copies of the loop it saves.
-    #[inline(always)]
+    /// Inlined into the set-up loop on 64-bit cores, where the call per triangle costs more
+    /// than the copies of the loop it saves; out of line on 32-bit ones, whose few registers the
+    /// loop and the planes' 64-bit values then no longer share (fewer spills, fewer
+    /// instructions a PocketPC frame).
+    #[cfg_attr(target_pointer_width = "64", inline(always))]
+    #[cfg_attr(not(target_pointer_width = "64"), inline(never))]
     fn triangle(
         v: [&FixedScreen; 3],
         area2: i64,

@@ -161,6 +161,19 @@ pub(super) struct Geometry {
     half: i64,
     /// Edge vectors below `SMALL_EDGE` (a small triangle): the planes take `plane_small`.
     small: bool,
+    /// Numerators of one word whose magnitudes lie below this give a small triangle's plane
+    /// gradients of at most 2^48, below `SMALL_NARROW_GRADIENT`: with `|n| < 2^(s + 16)` and
+    /// `inv <= 2^32` the product lies within `2^(s + 48)`, and so the rounded quotient within
+    /// `2^48`. Two tests of words instead of two of 64-bit values per plane.
+    words_narrow: u32,
+}
+
+/// A plane as `Geometry` makes it, and whether its gradients are known to lie below
+/// `SMALL_NARROW_GRADIENT` from their numerators (`Geometry::words_narrow`; false where
+/// unknown, not where they do not).
+pub(super) struct Made {
+    pub plane: AttrPlane,
+    pub narrow: bool,
 }
 
 /// Edge vectors of a triangle within 16x16 pixels (`Coverage::is_small`) stay below this many
@@ -197,35 +210,38 @@ impl Geometry {
             // The shift lies in 8..=32 for a small triangle (see `SMALL_EDGE`).
             half: if small { 1 << ((shift - 1) & 63) } else { 0 },
             small,
+            words_narrow: 1u32.checked_shl((shift + 16) as u32).unwrap_or(u32::MAX),
         }
     }
 
     /// The plane of an attribute with values `a` at the vertices.
     #[inline(always)]
-    pub(super) fn plane(&self, a: [i64; 3]) -> AttrPlane {
+    pub(super) fn plane(&self, a: [i64; 3]) -> Made {
         self.plane_of::<false>(a)
     }
 
     /// `plane` of an attribute whose values lie in `0..=256` (colour, fog): a small triangle's
     /// numerators then fit in a word with no check (see `plane_small`).
     #[inline(always)]
-    pub(super) fn plane_of_share(&self, a: [i64; 3]) -> AttrPlane {
+    pub(super) fn plane_of_share(&self, a: [i64; 3]) -> Made {
         debug_assert!(a.iter().all(|v| (0..=256).contains(v)));
         self.plane_of::<true>(a)
     }
 
     #[inline(always)]
-    fn plane_of<const SHARE: bool>(&self, a: [i64; 3]) -> AttrPlane {
-        let (dx, dy) = if self.small {
+    fn plane_of<const SHARE: bool>(&self, a: [i64; 3]) -> Made {
+        let (dx, dy, narrow) = if self.small {
             self.plane_small::<SHARE>(a)
         } else {
-            self.plane_wide(a)
+            let (dx, dy) = self.plane_wide(a);
+            (dx, dy, false)
         };
-        AttrPlane {
+        let plane = AttrPlane {
             base: a[0] << ATTR_FRAC_BITS,
             dx,
             dy,
-        }
+        };
+        Made { plane, narrow }
     }
 
     /// The gradients of a small triangle's plane: the products of `plane_wide` in i64, the
@@ -236,8 +252,10 @@ impl Geometry {
     /// the numerators are products of words: `|nx| < 2 * 2^17 * 2^13 = 2^31` (see `SMALL_EDGE`),
     /// and each gradient is `scale_word`'s one product, on every core (fewer instructions than
     /// the 128-bit product on a 64-bit one, and a few where a 32-bit one builds i64 products).
+    /// Those numerators also tell whether the gradients are narrow (`words_narrow`, the third
+    /// value; false for the others).
     #[inline(always)]
-    fn plane_small<const SHARE: bool>(&self, a: [i64; 3]) -> (i64, i64) {
+    fn plane_small<const SHARE: bool>(&self, a: [i64; 3]) -> (i64, i64, bool) {
         let (a1, a2) = (a[1] - a[0], a[2] - a[0]);
         debug_assert!(a1.abs() < 1 << 46 && a2.abs() < 1 << 46);
         debug_assert!((8..=32).contains(&self.shift));
@@ -247,7 +265,9 @@ impl Geometry {
             let [d1x, d1y, d2x, d2y] = [self.d1[0], self.d1[1], self.d2[0], self.d2[1]];
             let [a1, a2, d1x, d1y, d2x, d2y] = [a1, a2, d1x, d1y, d2x, d2y].map(|v| v as i32);
             let scale = |n: i32| scale_word(n, self.inv_area, self.half, s);
-            return (scale(a1 * d2y - a2 * d1y), scale(a2 * d1x - a1 * d2x));
+            let (nx, ny) = (a1 * d2y - a2 * d1y, a2 * d1x - a1 * d2x);
+            let narrow = (nx.unsigned_abs() | ny.unsigned_abs()) < self.words_narrow;
+            return (scale(nx), scale(ny), narrow);
         }
         let nx = a1 * self.d2[1] - a2 * self.d1[1];
         let ny = a2 * self.d1[0] - a1 * self.d2[0];
@@ -264,8 +284,8 @@ impl Geometry {
             Err(_) => scale_in_words(n, self.inv_area, s).or_else(|| wide(n)),
         };
         match (wide(nx), wide(ny)) {
-            (Some(dx), Some(dy)) => (dx, dy),
-            _ => (0, 0),
+            (Some(dx), Some(dy)) => (dx, dy, false),
+            _ => (0, 0, false),
         }
     }
 
@@ -463,7 +483,7 @@ mod tests {
             MAX_ATTR,
         ];
         let shares = [0, 1, 255, 256];
-        let (mut checked, mut largest) = (0, 0);
+        let (mut checked, mut largest, mut narrow) = (0, 0, [0; 2]);
         for &a in &points {
             for &b in &points {
                 for &c in &points {
@@ -477,15 +497,18 @@ mod tests {
                     for a1 in attrs {
                         for a2 in attrs {
                             let q = [0, a1, a2];
-                            assert_eq!(small.plane_small::<false>(q), wide.plane_wide(q));
+                            let (gradients, known) = small_gradients::<false>(&small, q);
+                            assert_eq!(gradients, wide.plane_wide(q));
                             checked += 1;
+                            narrow[known as usize] += 1;
                         }
                     }
                     for a0 in shares {
                         for a1 in shares {
                             for a2 in shares {
                                 let q = [a0, a1, a2];
-                                assert_eq!(small.plane_small::<true>(q), wide.plane_wide(q));
+                                let (gradients, _) = small_gradients::<true>(&small, q);
+                                assert_eq!(gradients, wide.plane_wide(q));
                             }
                         }
                     }
@@ -495,6 +518,22 @@ mod tests {
         // The largest area (a right angle on the box's corners) has the largest shift.
         assert_eq!(largest, 32);
         assert!(checked > 100_000, "{checked} planes");
+        // Words' numerators tell narrow gradients for many planes, not all.
+        assert!(narrow.iter().all(|&n| n > checked / 10), "{narrow:?}");
+    }
+
+    /// `plane_small`'s gradients, and whether it knew them narrow, which they then are.
+    fn small_gradients<const SHARE: bool>(g: &Geometry, a: [i64; 3]) -> ((i64, i64), bool) {
+        let (dx, dy, narrow) = g.plane_small::<SHARE>(a);
+        if narrow {
+            let plane = AttrPlane { base: 0, dx, dy };
+            assert!(plane.narrow_below(SMALL_NARROW_GRADIENT), "{a:?} {dx} {dy}");
+            assert!(
+                dx.unsigned_abs().max(dy.unsigned_abs()) <= 1 << 48,
+                "{a:?} {dx} {dy}"
+            );
+        }
+        ((dx, dy), narrow)
     }
 
     proptest::proptest! {
@@ -510,9 +549,9 @@ mod tests {
             if let (Some(small), Some(wide)) = (geometry(v, true), geometry(v, false)) {
                 // Values of every size, down to the words' (`plane_small`), and shares.
                 let a = [a[0], a[1], a[2]].map(|a| a >> bits);
-                proptest::prop_assert_eq!(small.plane_small::<false>(a), wide.plane_wide(a));
+                proptest::prop_assert_eq!(small_gradients::<false>(&small, a).0, wide.plane_wide(a));
                 let s = [shares[0], shares[1], shares[2]];
-                proptest::prop_assert_eq!(small.plane_small::<true>(s), wide.plane_wide(s));
+                proptest::prop_assert_eq!(small_gradients::<true>(&small, s).0, wide.plane_wide(s));
             }
         }
     }

@@ -1,7 +1,9 @@
 //! Triangle set-up of the integer pipeline: the planes a draw's attributes need, the
 //! texture level, and whether the rows may skip their clamps or start on the pixel grid.
 
-use super::planes::{AttrPlane, Geometry, SMALL_NARROW_GRADIENT, grid_offset, reach_gradient};
+use super::planes::{
+    AttrPlane, Geometry, Made, SMALL_NARROW_GRADIENT, grid_offset, reach_gradient,
+};
 use super::projection::{FixedScreen, Inner};
 use crate::edge::Coverage;
 use crate::fixed_point::Q_BITS;
@@ -78,9 +80,9 @@ impl FixedTriangle {
         // registers; the moves are taken back below where one of them is not narrow (rare).
         let offset = grid_offset(v[0].xy, coverage.corner());
         let mut narrow = true;
-        let mut put = |p: AttrPlane| {
-            narrow &= p.narrow_below(limit);
-            planes.push(p.on_grid(offset));
+        let mut put = |m: Made| {
+            narrow &= m.narrow || m.plane.narrow_below(limit);
+            planes.push(m.plane.on_grid(offset));
         };
         let pick = |f: fn(&FixedScreen) -> i64| g.plane([f(v[0]), f(v[1]), f(v[2])]);
         let share = |f: fn(&FixedScreen) -> i64| g.plane_of_share([f(v[0]), f(v[1]), f(v[2])]);

@@ -264,13 +264,16 @@ impl Geometry {
         if SHARE || (within(a1) && within(a2)) {
             let [d1x, d1y, d2x, d2y] = [self.d1[0], self.d1[1], self.d2[0], self.d2[1]];
             let [a1, a2, d1x, d1y, d2x, d2y] = [a1, a2, d1x, d1y, d2x, d2y].map(|v| v as i32);
-            let scale = |n: i32| scale_word(n, self.inv_area, self.half, s);
-            let (nx, ny) = (a1 * d2y - a2 * d1y, a2 * d1x - a1 * d2x);
-            let narrow = (nx.unsigned_abs() | ny.unsigned_abs()) < self.words_narrow;
-            return (scale(nx), scale(ny), narrow);
+            return self.scaled_words(a1 * d2y - a2 * d1y, a2 * d1x - a1 * d2x, s);
         }
         let nx = a1 * self.d2[1] - a2 * self.d1[1];
         let ny = a2 * self.d1[0] - a1 * self.d2[0];
+        // A 32-bit core takes numerators of one word as the words' path does (those of most
+        // texture coordinates and depths).
+        #[cfg(not(target_pointer_width = "64"))]
+        if let (Ok(nx), Ok(ny)) = (i32::try_from(nx), i32::try_from(ny)) {
+            return self.scaled_words(nx, ny, s);
+        }
         // The shift masked: the compiler then knows it is below 64; the rounding half is below
         // 2^63, a 64-bit value added to the 128-bit product.
         let half = self.half as i128;
@@ -287,6 +290,15 @@ impl Geometry {
             (Some(dx), Some(dy)) => (dx, dy, false),
             _ => (0, 0, false),
         }
+    }
+
+    /// `plane_small`'s gradients from numerators of one word, and whether they are known narrow
+    /// (`words_narrow`).
+    #[inline(always)]
+    fn scaled_words(&self, nx: i32, ny: i32, s: u32) -> (i64, i64, bool) {
+        let scale = |n: i32| scale_word(n, self.inv_area, self.half, s);
+        let narrow = (nx.unsigned_abs() | ny.unsigned_abs()) < self.words_narrow;
+        (scale(nx), scale(ny), narrow)
     }
 
     /// The gradients of a plane, in 128-bit products.

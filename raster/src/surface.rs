@@ -64,13 +64,21 @@ impl<T> Rows<'_, T> {
         }
     }
 
-    /// Fills columns `0..width` of every row with `v`.
+    /// Fills columns `0..width` of every row with `v`: the first row element by element, the
+    /// others copied from it, which a core without vectors does a block of words at a time
+    /// where it would store 16-bit pixels one by one.
     fn fill(&mut self, width: usize, v: T)
     where
         T: Copy,
     {
-        for row in self.pixels.chunks_mut(self.stride) {
-            row[..width].fill(v);
+        if self.pixels.is_empty() {
+            return;
+        }
+        let (first, rest) = self.pixels.split_at_mut(self.stride.min(self.pixels.len()));
+        let first = &mut first[..width];
+        first.fill(v);
+        for row in rest.chunks_mut(self.stride) {
+            row[..width].copy_from_slice(first);
         }
     }
 }
@@ -392,5 +400,22 @@ mod tests {
         assert_eq!(memory[1..9], [1, 2, 3, 255, 1, 2, 3, 255]);
         assert_eq!(memory[9..13], [7; 4]);
         assert_eq!(memory[0], 7);
+    }
+
+    #[test]
+    fn clearing_565_rows_fills_every_row_and_leaves_the_padding() {
+        // 3 pixels of 2 bytes to a row, rows 8 bytes apart: 2 bytes of padding after each.
+        let mut memory = [7u8; 8 * 3];
+        let mut s = Surface::new(&mut memory, 3, 3, 8, PixelLayout::Rgb565).unwrap();
+        s.clear([255, 0, 255]);
+        for y in 0..3 {
+            for x in 0..3 {
+                assert_eq!(s.pixel(x, y), [255, 0, 255], "({x}, {y})");
+            }
+        }
+        for row in memory.chunks(8) {
+            assert_eq!(row[..6], [0x1f, 0xf8, 0x1f, 0xf8, 0x1f, 0xf8]);
+            assert_eq!(row[6..], [7; 2]);
+        }
     }
 }

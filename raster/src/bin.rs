@@ -21,10 +21,22 @@ pub(crate) const SMALL_TILE_SIZE: u32 = 64;
 /// threads waiting, so with fewer, larger tiles the wait grows.
 const TILES_PER_THREAD: u32 = 8;
 
-/// The tile side a flush drawn on `threads` threads into a `width x height` framebuffer uses:
-/// `TILE_SIZE`, or `SMALL_TILE_SIZE` where that leaves fewer than `TILES_PER_THREAD` tiles a
-/// thread (at 1280x720, 60 tiles of 128 serve two threads; eight take tiles of 64).
-pub(crate) fn tile_size(threads: usize, width: u32, height: u32) -> u32 {
+/// The most colour and depth a frame drawn on one thread may hold to be drawn as one tile: a
+/// 320x240 frame in RGB565 with a 16-bit depth (300 KiB) still sits in a level-2 cache, where
+/// one in RGBA8888 with a 32-bit depth (600 KiB) does not (`examples/tile_size.rs`, measured in
+/// docs/raster.md).
+const ONE_TILE_BYTES: u64 = 384 << 10;
+
+/// The tile side a flush drawn on `threads` threads into a `width x height` framebuffer of
+/// `bytes` of colour and depth a pixel uses: one tile covering the frame where one thread draws
+/// a frame of at most `ONE_TILE_BYTES` (no triangle then straddles two tiles and is walked
+/// twice, and the frame is loaded and stored once), else `TILE_SIZE`, or `SMALL_TILE_SIZE`
+/// where that leaves fewer than `TILES_PER_THREAD` tiles a thread (at 1280x720, 60 tiles of
+/// 128 serve two threads; eight take tiles of 64).
+pub(crate) fn tile_size(threads: usize, width: u32, height: u32, bytes: u32) -> u32 {
+    if threads <= 1 && width as u64 * height as u64 * bytes as u64 <= ONE_TILE_BYTES {
+        return width.max(height).next_power_of_two().max(TILE_SIZE);
+    }
     let tiles = width.div_ceil(TILE_SIZE) as usize * height.div_ceil(TILE_SIZE) as usize;
     if threads > 1 && tiles < (TILES_PER_THREAD as usize).saturating_mul(threads) {
         SMALL_TILE_SIZE
@@ -151,18 +163,42 @@ mod tests {
 
     #[test]
     fn threads_get_small_tiles_only_when_large_ones_are_too_few_to_share() {
-        assert_eq!(tile_size(1, 320, 240), TILE_SIZE);
-        assert_eq!(tile_size(1, 8192, 8192), TILE_SIZE);
+        // RGBA8888 with a 32-bit depth: 8 bytes a pixel.
+        assert_eq!(tile_size(1, 320, 240, 8), TILE_SIZE);
+        assert_eq!(tile_size(1, 8192, 8192, 4), TILE_SIZE);
         // 1280x720 is 10 x 6 tiles of 128: enough for two threads, not for eight.
-        assert_eq!(tile_size(2, 1280, 720), TILE_SIZE);
-        assert_eq!(tile_size(8, 1280, 720), SMALL_TILE_SIZE);
-        assert_eq!(tile_size(2, 320, 240), SMALL_TILE_SIZE);
-        assert_eq!(tile_size(usize::MAX, 1, 1), SMALL_TILE_SIZE);
+        assert_eq!(tile_size(2, 1280, 720, 4), TILE_SIZE);
+        assert_eq!(tile_size(8, 1280, 720, 4), SMALL_TILE_SIZE);
+        assert_eq!(tile_size(2, 320, 240, 4), SMALL_TILE_SIZE);
+        assert_eq!(tile_size(usize::MAX, 1, 1, 4), SMALL_TILE_SIZE);
         // A thread count beyond u32 (on a 64-bit target) is not cut to its low bits, where
         // 2^32 would read as 0.
         if let Ok(threads) = usize::try_from(1u64 << 32) {
-            assert_eq!(tile_size(threads, 8192, 8192), SMALL_TILE_SIZE);
+            assert_eq!(tile_size(threads, 8192, 8192, 4), SMALL_TILE_SIZE);
         }
+    }
+
+    #[test]
+    fn one_thread_draws_a_frame_that_fits_the_cache_as_one_tile() {
+        // RGB565 with a 16-bit depth, 4 bytes a pixel: the handheld's 320x240 is one tile.
+        assert_eq!(tile_size(1, 320, 240, 4), 512);
+        assert_eq!(tile_size(1, 240, 320, 4), 512);
+        assert_eq!(tile_size(1, 100, 60, 8), TILE_SIZE);
+        assert_eq!(tile_size(1, 8192, 12, 4), 8192);
+        // Past the budget: tiles of 128.
+        assert_eq!(tile_size(1, 480, 272, 4), TILE_SIZE);
+        assert_eq!(tile_size(1, 8192, 13, 4), TILE_SIZE);
+        let grid = TileGrid::new(320, 240, tile_size(1, 320, 240, 4));
+        assert_eq!(grid.len(), 1);
+        assert_eq!(
+            grid.rect(0),
+            PixelRect {
+                x0: 0,
+                y0: 0,
+                x1: 320,
+                y1: 240
+            }
+        );
     }
 
     #[test]

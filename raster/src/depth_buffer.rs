@@ -12,6 +12,17 @@ pub enum DepthFormat {
     D32,
 }
 
+impl DepthFormat {
+    /// Bytes a pixel's depth takes.
+    pub(crate) fn bytes(self) -> usize {
+        match self {
+            DepthFormat::None => 0,
+            DepthFormat::D16 => 2,
+            DepthFormat::D32 => 4,
+        }
+    }
+}
+
 /// Depth storage; 0 is the near plane, the maximum the far plane.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum DepthBuffer {

@@ -226,9 +226,10 @@ impl<'t> Batch<'_, 't> {
         };
         let geometry = (vertices, source);
         let threads = r.thread_count(size);
-        let tile = r
-            .tile_size
-            .unwrap_or_else(|| tile_size(threads, self.fb.width(), self.fb.height()));
+        let tile = r.tile_size.unwrap_or_else(|| {
+            let bytes = self.fb.layout().bytes_per_pixel() + self.fb.depth_format().bytes();
+            tile_size(threads, self.fb.width(), self.fb.height(), bytes as u32)
+        });
         let pass = r.pass_triangles;
         let (assembled, rasterized, fragments) = match self.precision {
             Precision::Fixed => flush_with::<FixedPipeline>(

@@ -142,7 +142,7 @@ impl Fragments {
     #[inline(never)]
     pub fn finish<P: PixelFormat, F: Filtering, const SHADE: bool, const FOG: bool>(
         &mut self,
-        color: &mut TileBuf<P::Pixel>,
+        color: &mut TileBuf<'_, P::Pixel>,
         views: &[LevelView<'_, F::Texel>],
         a: &Attributes,
         cpu: Cpu,
@@ -159,7 +159,7 @@ impl Fragments {
         /// `finish` built for x86-64-v3 (see `crate::isa`).
         fn finish_v3<P: PixelFormat, F: Filtering, const SHADE: bool, const FOG: bool>(
             &mut self,
-            color: &mut TileBuf<P::Pixel>,
+            color: &mut TileBuf<'_, P::Pixel>,
             views: &[LevelView<'_, F::Texel>],
             a: &Attributes,
         ) {
@@ -177,7 +177,7 @@ impl Fragments {
         const V3: bool,
     >(
         &mut self,
-        color: &mut TileBuf<P::Pixel>,
+        color: &mut TileBuf<'_, P::Pixel>,
         views: &[LevelView<'_, F::Texel>],
         a: &Attributes,
     ) {

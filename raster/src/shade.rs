@@ -19,26 +19,26 @@ use crate::texture::{Filter, TextureFormat};
 use crate::tile_view::TileBuf;
 
 /// One tile of the framebuffer, its colour and depth copied out while it is drawn.
-pub(crate) struct TileTarget {
+pub(crate) struct TileTarget<'a> {
     pub rect: PixelRect,
-    pub color: ColorTile,
-    pub depth: DepthTile,
+    pub color: ColorTile<'a>,
+    pub depth: DepthTile<'a>,
     /// The fixed pipeline's fragment buffer, which the thread lends from tile to tile: a new
     /// one would zero its arrays, kilobytes, for every draw in every tile.
     pub fragments: Box<Fragments>,
 }
 
 /// A tile's colour in the framebuffer's format.
-pub(crate) enum ColorTile {
-    Rgb565(TileBuf<u16>),
-    Rgba8888(TileBuf<[u8; 4]>),
+pub(crate) enum ColorTile<'a> {
+    Rgb565(TileBuf<'a, u16>),
+    Rgba8888(TileBuf<'a, [u8; 4]>),
 }
 
 /// A tile's depth in the framebuffer's format, if it has one.
-pub(crate) enum DepthTile {
+pub(crate) enum DepthTile<'a> {
     None,
-    D16(TileBuf<u16>),
-    D32(TileBuf<u32>),
+    D16(TileBuf<'a, u16>),
+    D32(TileBuf<'a, u32>),
 }
 
 /// What the pixels of one draw need.
@@ -92,7 +92,7 @@ impl<'a, P: Pipeline> Stretch<'a, P> {
 pub(crate) trait Shade: Pipeline + Sized {
     /// Draws the triangles of `stretch` (all of draw `draw`), in order, into `tile`. Returns the
     /// fragments that passed the depth test.
-    fn run(draw: &DrawShade, stretch: &Stretch<Self>, tile: &mut TileTarget) -> u64;
+    fn run(draw: &DrawShade, stretch: &Stretch<Self>, tile: &mut TileTarget<'_>) -> u64;
 }
 
 /// Draws tile `t` from the chunks' lists, in submission order. Returns the fragments written.
@@ -105,7 +105,7 @@ pub(crate) fn raster_tile<P: Shade>(
     t: usize,
     chunks: &[ChunkOut<P>],
     draws: &[DrawShade],
-    tile: &mut TileTarget,
+    tile: &mut TileTarget<'_>,
 ) -> u64 {
     let mut fragments = 0;
     let mut run = |draw: u32, from, to| {
@@ -172,8 +172,8 @@ macro_rules! with_formats {
 #[inline(always)]
 fn spans<P: PixelFormat, D: DepthStorage, S: Shade>(
     rect: PixelRect,
-    color: &mut TileBuf<P::Pixel>,
-    mut depth: Option<&mut TileBuf<D::Value>>,
+    color: &mut TileBuf<'_, P::Pixel>,
+    mut depth: Option<&mut TileBuf<'_, D::Value>>,
     stretch: &Stretch<S>,
     mut row: impl FnMut(&S::Triangle, &[S::Plane], Span<'_, P, D>) -> u64,
 ) -> u64 {
@@ -207,17 +207,17 @@ fn spans<P: PixelFormat, D: DepthStorage, S: Shade>(
 }
 
 impl Shade for FixedPipeline {
-    fn run(draw: &DrawShade, stretch: &Stretch<FixedPipeline>, tile: &mut TileTarget) -> u64 {
+    fn run(draw: &DrawShade, stretch: &Stretch<FixedPipeline>, tile: &mut TileTarget<'_>) -> u64 {
         let frags = &mut *tile.fragments;
         with_formats!(tile, draw.attrs.depth, fixed_texture, draw, stretch, frags)
     }
 }
 
 /// Chooses the texture filter and texel type.
-fn fixed_texture<'r, P: PixelFormat, D: DepthStorage>(
+fn fixed_texture<'r, 'b, P: PixelFormat, D: DepthStorage>(
     rect: PixelRect,
-    color: &'r mut TileBuf<P::Pixel>,
-    depth: Option<&'r mut TileBuf<D::Value>>,
+    color: &'r mut TileBuf<'b, P::Pixel>,
+    depth: Option<&'r mut TileBuf<'b, D::Value>>,
     draw: &'r DrawShade,
     stretch: &'r Stretch<'r, FixedPipeline>,
     frags: &'r mut Fragments,
@@ -239,10 +239,10 @@ fn fixed_texture<'r, P: PixelFormat, D: DepthStorage>(
 }
 
 /// The arguments of a fixed run, passed down the dispatch as one.
-type FixedArgs<'r, 'v, 'c, 'x, P, D> = (
+type FixedArgs<'r, 'b, 'v, 'c, 'x, P, D> = (
     PixelRect,
-    &'r mut TileBuf<<P as PixelFormat>::Pixel>,
-    Option<&'r mut TileBuf<<D as DepthStorage>::Value>>,
+    &'r mut TileBuf<'b, <P as PixelFormat>::Pixel>,
+    Option<&'r mut TileBuf<'b, <D as DepthStorage>::Value>>,
     &'r DrawShade<'c, 'x>,
     &'r Stretch<'r, FixedPipeline>,
     &'r mut Fragments,
@@ -250,10 +250,10 @@ type FixedArgs<'r, 'v, 'c, 'x, P, D> = (
 
 /// Chooses the shading and fog specialisation and runs the spans.
 fn fixed_flags<P: PixelFormat, D: DepthStorage, F: Filtering>(
-    args: FixedArgs<'_, '_, '_, '_, P, D>,
+    args: FixedArgs<'_, '_, '_, '_, '_, P, D>,
 ) -> u64 {
     fn run<P: PixelFormat, D: DepthStorage, F: Filtering, const SHADE: bool, const FOG: bool>(
-        (rect, color, mut depth, draw, stretch, frags): FixedArgs<'_, '_, '_, '_, P, D>,
+        (rect, color, mut depth, draw, stretch, frags): FixedArgs<'_, '_, '_, '_, '_, P, D>,
     ) -> u64 {
         let views = F::Texel::select(draw.views);
         let attrs = draw.attrs;
@@ -301,10 +301,10 @@ fn fixed_flags<P: PixelFormat, D: DepthStorage, F: Filtering>(
 }
 
 /// What the triangles of a tile need besides the fragment buffer and its colour stage.
-type TrianglesArgs<'r, 't, D> = (
+type TrianglesArgs<'r, 'b, 't, D> = (
     PixelRect,
     PixelRect,
-    Option<&'r mut TileBuf<<D as DepthStorage>::Value>>,
+    Option<&'r mut TileBuf<'b, <D as DepthStorage>::Value>>,
     &'r Attributes<'t>,
     &'r [FixedTriangle],
     &'r [AttrPlane],
@@ -318,7 +318,7 @@ type TrianglesArgs<'r, 't, D> = (
 /// `cpu` allows (what each costs: docs/raster.md, *Where the time goes*).
 #[inline(never)]
 fn triangles<D: DepthStorage, F: Filtering, const SHADE: bool, const FOG: bool>(
-    args: TrianglesArgs<'_, '_, D>,
+    args: TrianglesArgs<'_, '_, '_, D>,
     frags: &mut Fragments,
     flush: &mut dyn FnMut(&mut Fragments),
     cpu: Cpu,
@@ -334,7 +334,7 @@ fn triangles<D: DepthStorage, F: Filtering, const SHADE: bool, const FOG: bool>(
 v3_twin! {
     /// `triangles` built for x86-64-v3 (see `crate::isa`).
     fn triangles_v3<D: DepthStorage, F: Filtering, const SHADE: bool, const FOG: bool>(
-        args: TrianglesArgs<'_, '_, D>,
+        args: TrianglesArgs<'_, '_, '_, D>,
         frags: &mut Fragments,
         flush: &mut dyn FnMut(&mut Fragments),
     ) {
@@ -345,7 +345,7 @@ v3_twin! {
 /// The triangle loop of `triangles`, built into each of its twins.
 #[inline(always)]
 fn triangles_in<D: DepthStorage, F: Filtering, const SHADE: bool, const FOG: bool>(
-    (rect, tile, mut depth, attrs, tris, planes, list): TrianglesArgs<'_, '_, D>,
+    (rect, tile, mut depth, attrs, tris, planes, list): TrianglesArgs<'_, '_, '_, D>,
     frags: &mut Fragments,
     flush: &mut dyn FnMut(&mut Fragments),
 ) {
@@ -368,10 +368,10 @@ fn triangles_in<D: DepthStorage, F: Filtering, const SHADE: bool, const FOG: boo
 }
 
 /// What the rows of one triangle need besides the triangle and the fragment buffer.
-type TriangleArgs<'r, D> = (
+type TriangleArgs<'r, 'b, D> = (
     PixelRect,
     PixelRect,
-    Option<&'r mut TileBuf<<D as DepthStorage>::Value>>,
+    Option<&'r mut TileBuf<'b, <D as DepthStorage>::Value>>,
     &'r [AttrPlane],
     fixed::DepthTest,
 );
@@ -390,7 +390,7 @@ fn triangle<
     t: &FixedTriangle,
     frags: &mut Fragments,
     flush: &mut dyn FnMut(&mut Fragments),
-    (rect, tile, depth, planes, test): TriangleArgs<'_, D>,
+    (rect, tile, depth, planes, test): TriangleArgs<'_, '_, D>,
 ) {
     if NARROW && t.coverage.is_small() {
         let p = NarrowPlanes::new::<D, F, SHADE, GREY, FOG>(t, planes);
@@ -421,7 +421,7 @@ fn spans_of<
     frags: &mut Fragments,
     flush: &mut dyn FnMut(&mut Fragments),
     (rect, tile): (PixelRect, PixelRect),
-    mut depth: Option<&mut TileBuf<D::Value>>,
+    mut depth: Option<&mut TileBuf<'_, D::Value>>,
     planes: &[AttrPlane],
     test: fixed::DepthTest,
 ) {
@@ -458,15 +458,15 @@ fn spans_of<
 }
 
 impl Shade for FloatPipeline {
-    fn run(draw: &DrawShade, stretch: &Stretch<FloatPipeline>, tile: &mut TileTarget) -> u64 {
+    fn run(draw: &DrawShade, stretch: &Stretch<FloatPipeline>, tile: &mut TileTarget<'_>) -> u64 {
         with_formats!(tile, draw.attrs.depth, float_spans, draw, stretch)
     }
 }
 
 fn float_spans<P: PixelFormat, D: DepthStorage>(
     rect: PixelRect,
-    color: &mut TileBuf<P::Pixel>,
-    depth: Option<&mut TileBuf<D::Value>>,
+    color: &mut TileBuf<'_, P::Pixel>,
+    depth: Option<&mut TileBuf<'_, D::Value>>,
     draw: &DrawShade,
     stretch: &Stretch<FloatPipeline>,
 ) -> u64 {

@@ -43,9 +43,35 @@ impl<T> TileView<'_, T> {
     }
 }
 
+impl<'a, T> TileView<'a, T> {
+    /// The tile's own memory, where its rows lie one after the other in the buffer (a tile as
+    /// wide as the buffer's rows are apart), to be drawn in place: no copy out and back.
+    /// Otherwise the view itself.
+    pub fn lend(self) -> Result<TileBuf<'a, T>, Self> {
+        let r = self.rect;
+        let width = (r.x1 - r.x0) as usize;
+        if r.x0 != 0 || width != self.stride {
+            return Err(self);
+        }
+        let start = r.y0 as usize * self.stride;
+        let len = (r.y1 - r.y0) as usize * width;
+        // SAFETY: the tile's rows are `stride` elements apart and `stride` wide from column 0,
+        // so its elements are exactly `start..start + len`, which `split` checked to lie inside
+        // the buffer (its last row ends at `stride * (y1 - 1) + width`); views of one split
+        // have disjoint rectangles, and this one is consumed, so the slice, an exclusive borrow
+        // for the buffer's `'a`, aliases nothing.
+        let pixels = unsafe { std::slice::from_raw_parts_mut(self.base.add(start), len) };
+        Ok(TileBuf {
+            pixels: Pixels::Lent(pixels),
+            rect: r,
+            width,
+        })
+    }
+}
+
 impl<T: Copy> TileView<'_, T> {
     /// Copies the tile out of the framebuffer into `pixels` (reusing its allocation).
-    pub fn load(&mut self, mut pixels: Vec<T>) -> TileBuf<T> {
+    pub fn load(&mut self, mut pixels: Vec<T>) -> TileBuf<'static, T> {
         let r = self.rect;
         pixels.clear();
         // At once: a thread's first tile of a parallel pass comes with an empty allocation.
@@ -56,22 +82,27 @@ impl<T: Copy> TileView<'_, T> {
         TileBuf {
             width: (r.x1 - r.x0) as usize,
             rect: r,
-            pixels,
+            pixels: Pixels::Owned(pixels),
         }
     }
 
     /// Copies `tile` (loaded from this view) back into the framebuffer; returns its allocation.
-    pub fn store(&mut self, tile: TileBuf<T>) -> Vec<T> {
+    pub fn store(&mut self, mut tile: TileBuf<'_, T>) -> Vec<T> {
         let r = self.rect;
         assert_eq!(tile.rect, r, "a tile goes back where it came from");
-        for (y, src) in (r.y0 as i64..r.y1 as i64).zip(tile.pixels.chunks_exact(tile.width)) {
+        let width = tile.width;
+        for (y, src) in (r.y0 as i64..r.y1 as i64).zip(tile.pixels().chunks_exact(width)) {
             self.row(y, r.x0 as i64, r.x1 as i64).copy_from_slice(src);
         }
-        tile.pixels
+        tile.into_allocation()
     }
 
     /// `load` converting each element to the format the tile is drawn in.
-    pub fn load_as<P>(&mut self, mut pixels: Vec<P>, convert: impl Fn(T) -> P) -> TileBuf<P> {
+    pub fn load_as<P>(
+        &mut self,
+        mut pixels: Vec<P>,
+        convert: impl Fn(T) -> P,
+    ) -> TileBuf<'static, P> {
         let r = self.rect;
         pixels.clear();
         pixels.reserve(((r.x1 - r.x0) * (r.y1 - r.y0)) as usize);
@@ -82,42 +113,63 @@ impl<T: Copy> TileView<'_, T> {
         TileBuf {
             width: (r.x1 - r.x0) as usize,
             rect: r,
-            pixels,
+            pixels: Pixels::Owned(pixels),
         }
     }
 
     /// `store` of a tile loaded by `load_as`, converting each pixel back.
-    pub fn store_as<P: Copy>(&mut self, tile: TileBuf<P>, convert: impl Fn(P) -> T) -> Vec<P> {
+    pub fn store_as<P: Copy>(
+        &mut self,
+        mut tile: TileBuf<'_, P>,
+        convert: impl Fn(P) -> T,
+    ) -> Vec<P> {
         let r = self.rect;
         assert_eq!(tile.rect, r, "a tile goes back where it came from");
-        for (y, src) in (r.y0 as i64..r.y1 as i64).zip(tile.pixels.chunks_exact(tile.width)) {
+        let width = tile.width;
+        for (y, src) in (r.y0 as i64..r.y1 as i64).zip(tile.pixels().chunks_exact(width)) {
             let row = self.row(y, r.x0 as i64, r.x1 as i64);
             for (d, &s) in row.iter_mut().zip(src) {
                 *d = convert(s);
             }
         }
-        tile.pixels
+        tile.into_allocation()
     }
 }
 
-/// A tile's pixels copied out of the framebuffer (`TileView::load`) into contiguous rows, so
-/// that a run is a plain slice and a pixel a plain index while the tile is drawn.
-pub(crate) struct TileBuf<T> {
-    pixels: Vec<T>,
+/// A tile's pixels in contiguous rows, so that a run is a plain slice and a pixel a plain index
+/// while the tile is drawn: copied out of the framebuffer (`TileView::load`), or the
+/// framebuffer's own memory where the tile's rows lie one after the other there
+/// (`TileView::lend`).
+pub(crate) struct TileBuf<'a, T> {
+    pixels: Pixels<'a, T>,
     rect: PixelRect,
     width: usize,
 }
 
-impl<T> TileBuf<T> {
+/// Where a tile's pixels are.
+enum Pixels<'a, T> {
+    Owned(Vec<T>),
+    Lent(&'a mut [T]),
+}
+
+impl<T> TileBuf<'_, T> {
     /// A tile of `rect` holding `pixels`, row after row, for tests of what draws into tiles.
     #[cfg(test)]
     pub fn new(rect: PixelRect, pixels: Vec<T>) -> Self {
         let width = (rect.x1 - rect.x0) as usize;
         assert_eq!(pixels.len(), width * (rect.y1 - rect.y0) as usize);
         Self {
-            pixels,
+            pixels: Pixels::Owned(pixels),
             rect,
             width,
+        }
+    }
+
+    /// The allocation of a copied tile, for the next; none for a lent one.
+    fn into_allocation(self) -> Vec<T> {
+        match self.pixels {
+            Pixels::Owned(v) => v,
+            Pixels::Lent(_) => Vec::new(),
         }
     }
 
@@ -130,7 +182,10 @@ impl<T> TileBuf<T> {
     /// The tile's pixels, row after row.
     #[inline(always)]
     pub fn pixels(&mut self) -> &mut [T] {
-        &mut self.pixels
+        match &mut self.pixels {
+            Pixels::Owned(v) => v,
+            Pixels::Lent(s) => s,
+        }
     }
 
     /// Columns `x0..x1` of row `y` (screen coordinates, inside the tile).
@@ -144,7 +199,7 @@ impl<T> TileBuf<T> {
             "row {y}, columns {x0}..{x1} outside the tile {r:?}"
         );
         let start = row as usize * self.width + c0 as usize;
-        &mut self.pixels[start..start + (c1 - c0) as usize]
+        &mut self.pixels()[start..start + (c1 - c0) as usize]
     }
 }
 
@@ -207,9 +262,9 @@ mod tests {
         let mut buffer = vec![0u32; stride * 69 + 150];
         let mut views = split(&mut buffer, stride, &grid);
         for view in &mut views {
-            let tile = view.load_as(Vec::new(), |p| p as u64);
+            let mut tile = view.load_as(Vec::new(), |p| p as u64);
             let filled = TileBuf {
-                pixels: vec![9u64; tile.pixels.len()],
+                pixels: Pixels::Owned(vec![9u64; tile.pixels().len()]),
                 ..tile
             };
             view.store_as(filled, |p| p as u32 + 1);
@@ -264,5 +319,36 @@ mod tests {
         let mut buffer = vec![0u8; 150 * 70];
         let mut views = split(&mut buffer, 150, &grid);
         views[0].row(0, 60, 65);
+    }
+    #[test]
+    fn tiles_as_wide_as_the_rows_are_lent_and_drawn_in_place() {
+        // Tiles of 64 over 64x150 elements in rows 64 apart: each tile's rows follow one
+        // another, so every tile is lent; at 100 apart (or 150 wide) none is.
+        let grid = TileGrid::new(64, 150, crate::bin::SMALL_TILE_SIZE);
+        let mut buffer = vec![0u16; 64 * 150];
+        for (t, view) in split(&mut buffer, 64, &grid).into_iter().enumerate() {
+            let mut tile = view.lend().ok().expect("rows one after another");
+            assert_eq!(tile.rect(), grid.rect(t));
+            for (i, p) in tile.pixels().iter_mut().enumerate() {
+                *p = (t * 10_000 + i) as u16;
+            }
+        }
+        let first_rows = 64 * 64;
+        assert_eq!(buffer[..3], [0, 1, 2]);
+        assert_eq!(buffer[first_rows..first_rows + 2], [10_000, 10_001]);
+        assert_eq!(buffer[64 * 150 - 1], (20_000 + 64 * 22 - 1) as u16);
+        let mut padded = vec![0u16; 100 * 150];
+        assert!(
+            split(&mut padded, 100, &grid)
+                .into_iter()
+                .all(|v| v.lend().is_err())
+        );
+        let wide = TileGrid::new(150, 70, crate::bin::SMALL_TILE_SIZE);
+        let mut buffer = vec![0u16; 150 * 70];
+        assert!(
+            split(&mut buffer, 150, &wide)
+                .into_iter()
+                .all(|v| v.lend().is_err())
+        );
     }
 }

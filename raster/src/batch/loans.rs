@@ -1,5 +1,6 @@
-//! A surface's tiles lent to the threads: each tile's colour and depth copied into a buffer
-//! the thread reuses, converted to the format the inner loops draw, and back.
+//! A surface's tiles lent to the threads: each tile's colour and depth drawn where they are when
+//! its rows lie one after the other in the surface's memory, else copied into a buffer the
+//! thread reuses, converted to the format the inner loops draw, and back.
 
 use crate::fragments::Fragments;
 use crate::layout::{rgba_to_xbgr, rgba_to_xrgb, swap_565, xbgr_to_rgba, xrgb_to_rgba};
@@ -48,22 +49,44 @@ pub(super) enum ColorView<'a> {
     Rgba8888(TileView<'a, [u8; 4]>),
 }
 
-impl ColorView<'_> {
-    pub(super) fn load(&mut self, spare: &mut TileBuffers) -> ColorTile {
+impl<'a> ColorView<'a> {
+    /// The tile to draw: the framebuffer's own memory where the view lends it (`TileView::lend`;
+    /// RGB565 and RGBA8888 are drawn as they are stored), else a copy in `spare`'s allocation,
+    /// converted, with the view to store it back through (`store`).
+    pub(super) fn load(self, spare: &mut TileBuffers) -> (ColorTile<'a>, Option<Self>) {
         use std::mem::take;
         match self {
-            ColorView::Rgb565(v) => ColorTile::Rgb565(v.load(take(&mut spare.u16s))),
-            ColorView::Bgr565(v) => ColorTile::Rgb565(v.load_as(take(&mut spare.u16s), swap_565)),
-            ColorView::Xrgb8888(v) => {
-                ColorTile::Rgba8888(v.load_as(take(&mut spare.rgba), xrgb_to_rgba))
+            ColorView::Rgb565(v) => match v.lend() {
+                Ok(t) => (ColorTile::Rgb565(t), None),
+                Err(mut v) => {
+                    let t = v.load(take(&mut spare.u16s));
+                    (ColorTile::Rgb565(t), Some(ColorView::Rgb565(v)))
+                }
+            },
+            ColorView::Bgr565(mut v) => {
+                let t = v.load_as(take(&mut spare.u16s), swap_565);
+                (ColorTile::Rgb565(t), Some(ColorView::Bgr565(v)))
             }
-            ColorView::Xbgr8888(v) => {
-                ColorTile::Rgba8888(v.load_as(take(&mut spare.rgba), xbgr_to_rgba))
+            ColorView::Xrgb8888(mut v) => {
+                let t = v.load_as(take(&mut spare.rgba), xrgb_to_rgba);
+                (ColorTile::Rgba8888(t), Some(ColorView::Xrgb8888(v)))
             }
-            ColorView::Rgba8888(v) => ColorTile::Rgba8888(v.load(take(&mut spare.rgba))),
+            ColorView::Xbgr8888(mut v) => {
+                let t = v.load_as(take(&mut spare.rgba), xbgr_to_rgba);
+                (ColorTile::Rgba8888(t), Some(ColorView::Xbgr8888(v)))
+            }
+            ColorView::Rgba8888(v) => match v.lend() {
+                Ok(t) => (ColorTile::Rgba8888(t), None),
+                Err(mut v) => {
+                    let t = v.load(take(&mut spare.rgba));
+                    (ColorTile::Rgba8888(t), Some(ColorView::Rgba8888(v)))
+                }
+            },
         }
     }
 
+    /// Copies a tile `load` copied back into the framebuffer, converted, keeping its
+    /// allocation in `spare`.
     pub(super) fn store(&mut self, tile: ColorTile, spare: &mut TileBuffers) {
         match (self, tile) {
             (ColorView::Rgb565(v), ColorTile::Rgb565(t)) => spare.u16s = v.store(t),
@@ -87,15 +110,30 @@ pub(super) enum DepthView<'a> {
     D32(TileView<'a, u32>),
 }
 
-impl DepthView<'_> {
-    pub(super) fn load(&mut self, spare: &mut TileBuffers) -> DepthTile {
+impl<'a> DepthView<'a> {
+    /// As `ColorView::load`: the depth buffer's own memory where the view lends it, else a copy.
+    pub(super) fn load(self, spare: &mut TileBuffers) -> (DepthTile<'a>, Option<Self>) {
+        use std::mem::take;
         match self {
-            DepthView::None => DepthTile::None,
-            DepthView::D16(v) => DepthTile::D16(v.load(std::mem::take(&mut spare.depth16s))),
-            DepthView::D32(v) => DepthTile::D32(v.load(std::mem::take(&mut spare.u32s))),
+            DepthView::None => (DepthTile::None, None),
+            DepthView::D16(v) => match v.lend() {
+                Ok(t) => (DepthTile::D16(t), None),
+                Err(mut v) => {
+                    let t = v.load(take(&mut spare.depth16s));
+                    (DepthTile::D16(t), Some(DepthView::D16(v)))
+                }
+            },
+            DepthView::D32(v) => match v.lend() {
+                Ok(t) => (DepthTile::D32(t), None),
+                Err(mut v) => {
+                    let t = v.load(take(&mut spare.u32s));
+                    (DepthTile::D32(t), Some(DepthView::D32(v)))
+                }
+            },
         }
     }
 
+    /// As `ColorView::store`.
     pub(super) fn store(&mut self, tile: DepthTile, spare: &mut TileBuffers) {
         match (self, tile) {
             (DepthView::None, DepthTile::None) => {}

@@ -45,17 +45,22 @@ pub(super) fn raster_tiles<P: Shade>(
         .zip(depths)
         .enumerate()
         .filter(|(t, _)| chunks.iter().any(|c| !c.bins.list(*t).is_empty()));
-    let draw = |spare: &mut TileBuffers,
-                (t, (mut color, mut depth)): (usize, (ColorView, DepthView))| {
+    let draw = |spare: &mut TileBuffers, (t, (color, depth)): (usize, (ColorView, DepthView))| {
+        let (color, mut color_view) = color.load(spare);
+        let (depth, mut depth_view) = depth.load(spare);
         let mut target = TileTarget {
             rect: grid.rect(t),
-            color: color.load(spare),
-            depth: depth.load(spare),
+            color,
+            depth,
             fragments: spare.fragments(),
         };
         let fragments = raster_tile::<P>(t, chunks, draws, &mut target);
-        color.store(target.color, spare);
-        depth.store(target.depth, spare);
+        if let Some(view) = &mut color_view {
+            view.store(target.color, spare);
+        }
+        if let Some(view) = &mut depth_view {
+            view.store(target.depth, spare);
+        }
         spare.keep_fragments(target.fragments);
         fragments
     };

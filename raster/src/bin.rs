@@ -21,16 +21,16 @@ pub(crate) const SMALL_TILE_SIZE: u32 = 64;
 /// threads waiting, so with fewer, larger tiles the wait grows.
 const TILES_PER_THREAD: u32 = 8;
 
-/// The most colour and depth a frame drawn on one thread may hold to be drawn as one tile: a
-/// 320x240 frame in RGB565 with a 16-bit depth (300 KiB) still sits in a level-2 cache, where
-/// one in RGBA8888 with a 32-bit depth (600 KiB) does not (`examples/tile_size.rs`, measured in
-/// docs/raster.md).
-const ONE_TILE_BYTES: u64 = 384 << 10;
+/// The most colour and depth a frame drawn on one thread may hold to be drawn as one tile,
+/// which is drawn in place (`TileView::lend`): a 320x240 frame takes less time so than in
+/// tiles of 128 in RGB565 with a 16-bit depth (300 KiB) and in RGBA8888 with a 32-bit depth
+/// (600 KiB) alike (`examples/tile_size.rs`, measured in docs/raster.md).
+const ONE_TILE_BYTES: u64 = 1 << 20;
 
 /// The tile side a flush drawn on `threads` threads into a `width x height` framebuffer of
 /// `bytes` of colour and depth a pixel uses: one tile covering the frame where one thread draws
 /// a frame of at most `ONE_TILE_BYTES` (no triangle then straddles two tiles and is walked
-/// twice, and the frame is loaded and stored once), else `TILE_SIZE`, or `SMALL_TILE_SIZE`
+/// twice, and the frame is not copied), else `TILE_SIZE`, or `SMALL_TILE_SIZE`
 /// where that leaves fewer than `TILES_PER_THREAD` tiles a thread (at 1280x720, 60 tiles of
 /// 128 serve two threads; eight take tiles of 64).
 pub(crate) fn tile_size(threads: usize, width: u32, height: u32, bytes: u32) -> u32 {
@@ -164,7 +164,7 @@ mod tests {
     #[test]
     fn threads_get_small_tiles_only_when_large_ones_are_too_few_to_share() {
         // RGBA8888 with a 32-bit depth: 8 bytes a pixel.
-        assert_eq!(tile_size(1, 320, 240, 8), TILE_SIZE);
+        assert_eq!(tile_size(1, 640, 480, 8), TILE_SIZE);
         assert_eq!(tile_size(1, 8192, 8192, 4), TILE_SIZE);
         // 1280x720 is 10 x 6 tiles of 128: enough for two threads, not for eight.
         assert_eq!(tile_size(2, 1280, 720, 4), TILE_SIZE);
@@ -180,14 +180,16 @@ mod tests {
 
     #[test]
     fn one_thread_draws_a_frame_that_fits_the_cache_as_one_tile() {
-        // RGB565 with a 16-bit depth, 4 bytes a pixel: the handheld's 320x240 is one tile.
+        // The handheld's 320x240 is one tile in RGB565 with a 16-bit depth (4 bytes a pixel)
+        // and in RGBA8888 with a 32-bit depth (8), and so is a 480x272 LCD's frame.
         assert_eq!(tile_size(1, 320, 240, 4), 512);
-        assert_eq!(tile_size(1, 240, 320, 4), 512);
+        assert_eq!(tile_size(1, 240, 320, 8), 512);
+        assert_eq!(tile_size(1, 480, 272, 8), 512);
         assert_eq!(tile_size(1, 100, 60, 8), TILE_SIZE);
-        assert_eq!(tile_size(1, 8192, 12, 4), 8192);
+        assert_eq!(tile_size(1, 8192, 32, 4), 8192);
         // Past the budget: tiles of 128.
-        assert_eq!(tile_size(1, 480, 272, 4), TILE_SIZE);
-        assert_eq!(tile_size(1, 8192, 13, 4), TILE_SIZE);
+        assert_eq!(tile_size(1, 800, 480, 4), TILE_SIZE);
+        assert_eq!(tile_size(1, 8192, 33, 4), TILE_SIZE);
         let grid = TileGrid::new(320, 240, tile_size(1, 320, 240, 4));
         assert_eq!(grid.len(), 1);
         assert_eq!(

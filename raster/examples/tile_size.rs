@@ -1,12 +1,13 @@
 //! What the screen tiles' size does: the peer benchmark's two scenes in size (A: 320x240, a
-//! 72x72 grid of strips; B: 1280x720, 470x470) drawn in tiles of 64, 128 and 256 pixels, on one
-//! thread and (B) on two, the three rasterizers of each case taking turns frame by frame. Bigger
-//! tiles mean fewer triangles walked twice across a tile edge and fewer tiles to load and
-//! store; smaller ones keep a tile in a nearer cache and give two threads more tiles to share
-//! out. For the peers' state and the terrain default it prints, for each case, the median
+//! 72x72 grid of strips; B: 1280x720, 470x470) drawn in tiles of 64, 128, 256 and 512 pixels
+//! (A's whole frame), on one thread and (B) on two, the four rasterizers of each case taking
+//! turns frame by frame. Bigger tiles mean fewer triangles walked twice across a tile edge and
+//! fewer tiles to load and store; smaller ones keep a tile in a nearer cache and give two
+//! threads more tiles to share out. For the peers' state and the terrain default it prints, for each case, the median
 //! frame times and the median per-frame ratio of 64's time to each size's (above 1: that size
-//! is faster). The rasterizer's own choice is 128, or 64 where that leaves a thread fewer than
-//! eight tiles.
+//! is faster). The rasterizer's own choice is one tile where one thread draws a frame whose
+//! colour and depth fit in 384 KiB (A in the terrain default), else 128, or 64 where that
+//! leaves a thread fewer than eight tiles.
 //!
 //! ```sh
 //! cargo run --release -p stripmask-raster --example tile_size -- 21
@@ -20,7 +21,7 @@ mod turns;
 use stripmask_raster::*;
 
 /// The tile sides measured, in pixels.
-const SIZES: [u32; 3] = [64, 128, 256];
+const SIZES: [u32; 4] = [64, 128, 256, 512];
 
 fn main() {
     let frames = turns::frames_arg("tile_size", 15);

@@ -670,11 +670,11 @@ impl SearchRows {
     pub fn next_mask(&mut self) -> u32 {
         let [a, b, c] = self.before;
         let [sa, sb, sc] = self.across;
-        let (mut first, mut end) = (prefix::<true>(a, sa), prefix::<false>(c, sc));
+        let (mut first, mut end) = (Self::prefix::<true>(a, sa), Self::prefix::<false>(c, sc));
         if self.middle_rises {
-            first = first.max(prefix::<true>(b, sb));
+            first = first.max(Self::prefix::<true>(b, sb));
         } else {
-            end = end.min(prefix::<false>(b, sb));
+            end = end.min(Self::prefix::<false>(b, sb));
         }
         for (e, d) in self.before.iter_mut().zip(self.down) {
             *e += d;
@@ -683,33 +683,24 @@ impl SearchRows {
         // `first` and `end` are at most 16.
         ((1u32 << end) - 1) & !((1u32 << first) - 1) & self.columns
     }
-}
 
-/// How many of the columns `0..16` form the prefix where an edge is negative (`OUTSIDE`, for
-/// an edge that rises across the row, `across > 0`) or not negative (otherwise), from its
-/// value `before` one column left of column 0: the longest prefix `0..n` with that sign at
-/// column `n - 1`, found in four halvings and a last step.
-#[cfg(any(
-    test,
-    not(any(
-        target_feature = "sse2",
-        all(target_arch = "aarch64", target_feature = "neon"),
-        target_feature = "simd128",
-        arm_neon
-    ))
-))]
-#[inline(always)]
-fn prefix<const OUTSIDE: bool>(before: i32, across: i32) -> u32 {
-    let holds = |e: i32| (e < 0) == OUTSIDE;
-    // `at` is the edge at column `n - 1`, which holds for every `n` reached after column -1.
-    let (mut at, mut n) = (before, 0);
-    for step in [8, 4, 2, 1] {
-        let next = at + step as i32 * across;
-        if holds(next) {
-            (at, n) = (next, n + step);
+    /// How many of the columns `0..16` form the prefix where an edge is negative (`OUTSIDE`, for
+    /// an edge that rises across the row, `across > 0`) or not negative (otherwise), from its
+    /// value `before` one column left of column 0: the longest prefix `0..n` with that sign at
+    /// column `n - 1`, found in four halvings and a last step.
+    #[inline(always)]
+    fn prefix<const OUTSIDE: bool>(before: i32, across: i32) -> u32 {
+        let holds = |e: i32| (e < 0) == OUTSIDE;
+        // `at` is the edge at column `n - 1`, which holds for every `n` reached after column -1.
+        let (mut at, mut n) = (before, 0);
+        for step in [8, 4, 2, 1] {
+            let next = at + step as i32 * across;
+            if holds(next) {
+                (at, n) = (next, n + step);
+            }
         }
+        n + holds(at + across) as u32
     }
-    n + holds(at + across) as u32
 }
 
 /// Triangles whose bounding box spans fewer than this many pixels each way are walked by edge

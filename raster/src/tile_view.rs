@@ -71,7 +71,7 @@ impl<'a, T> TileView<'a, T> {
 
 impl<T: Copy> TileView<'_, T> {
     /// Copies the tile out of the framebuffer into `pixels` (reusing its allocation).
-    pub fn load(&mut self, mut pixels: Vec<T>) -> TileBuf<'static, T> {
+    pub fn load<'t>(&mut self, mut pixels: Vec<T>) -> TileBuf<'t, T> {
         let r = self.rect;
         pixels.clear();
         // At once: a thread's first tile of a parallel pass comes with an empty allocation.
@@ -98,11 +98,11 @@ impl<T: Copy> TileView<'_, T> {
     }
 
     /// `load` converting each element to the format the tile is drawn in.
-    pub fn load_as<P>(
+    pub fn load_as<'t, P>(
         &mut self,
         mut pixels: Vec<P>,
         convert: impl Fn(T) -> P,
-    ) -> TileBuf<'static, P> {
+    ) -> TileBuf<'t, P> {
         let r = self.rect;
         pixels.clear();
         pixels.reserve(((r.x1 - r.x0) * (r.y1 - r.y0)) as usize);

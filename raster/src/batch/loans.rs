@@ -5,7 +5,7 @@
 use crate::fragments::Fragments;
 use crate::layout::{rgba_to_xbgr, rgba_to_xrgb, swap_565, xbgr_to_rgba, xrgb_to_rgba};
 use crate::shade::{ColorTile, DepthTile};
-use crate::tile_view::TileView;
+use crate::tile_view::{TileBuf, TileView};
 
 /// The allocations of the tiles a thread has drawn, for the next tile it loads: the colour's
 /// and the depth's apart, so that an RGB565 tile with a 16-bit depth reuses both, and the
@@ -39,6 +39,18 @@ impl TileBuffers {
     }
 }
 
+/// The tile of `view` drawn in place where the view lends it (`TileView::lend`), else copied
+/// into `spare`'s allocation, with the view to store the copy back through.
+fn lend_or_load<'a, T: Copy>(
+    view: TileView<'a, T>,
+    spare: &mut Vec<T>,
+) -> (TileBuf<'a, T>, Option<TileView<'a, T>>) {
+    match view.lend() {
+        Ok(tile) => (tile, None),
+        Err(mut view) => (view.load(std::mem::take(spare)), Some(view)),
+    }
+}
+
 /// A tile of the colour memory in the surface's layout. A tile is drawn as RGB565 words or
 /// RGBA bytes; the other layouts are converted on the way in and out (see `crate::layout`).
 pub(super) enum ColorView<'a> {
@@ -56,13 +68,10 @@ impl<'a> ColorView<'a> {
     pub(super) fn load(self, spare: &mut TileBuffers) -> (ColorTile<'a>, Option<Self>) {
         use std::mem::take;
         match self {
-            ColorView::Rgb565(v) => match v.lend() {
-                Ok(t) => (ColorTile::Rgb565(t), None),
-                Err(mut v) => {
-                    let t = v.load(take(&mut spare.u16s));
-                    (ColorTile::Rgb565(t), Some(ColorView::Rgb565(v)))
-                }
-            },
+            ColorView::Rgb565(v) => {
+                let (t, v) = lend_or_load(v, &mut spare.u16s);
+                (ColorTile::Rgb565(t), v.map(ColorView::Rgb565))
+            }
             ColorView::Bgr565(mut v) => {
                 let t = v.load_as(take(&mut spare.u16s), swap_565);
                 (ColorTile::Rgb565(t), Some(ColorView::Bgr565(v)))
@@ -75,13 +84,10 @@ impl<'a> ColorView<'a> {
                 let t = v.load_as(take(&mut spare.rgba), xbgr_to_rgba);
                 (ColorTile::Rgba8888(t), Some(ColorView::Xbgr8888(v)))
             }
-            ColorView::Rgba8888(v) => match v.lend() {
-                Ok(t) => (ColorTile::Rgba8888(t), None),
-                Err(mut v) => {
-                    let t = v.load(take(&mut spare.rgba));
-                    (ColorTile::Rgba8888(t), Some(ColorView::Rgba8888(v)))
-                }
-            },
+            ColorView::Rgba8888(v) => {
+                let (t, v) = lend_or_load(v, &mut spare.rgba);
+                (ColorTile::Rgba8888(t), v.map(ColorView::Rgba8888))
+            }
         }
     }
 
@@ -113,23 +119,16 @@ pub(super) enum DepthView<'a> {
 impl<'a> DepthView<'a> {
     /// As `ColorView::load`: the depth buffer's own memory where the view lends it, else a copy.
     pub(super) fn load(self, spare: &mut TileBuffers) -> (DepthTile<'a>, Option<Self>) {
-        use std::mem::take;
         match self {
             DepthView::None => (DepthTile::None, None),
-            DepthView::D16(v) => match v.lend() {
-                Ok(t) => (DepthTile::D16(t), None),
-                Err(mut v) => {
-                    let t = v.load(take(&mut spare.depth16s));
-                    (DepthTile::D16(t), Some(DepthView::D16(v)))
-                }
-            },
-            DepthView::D32(v) => match v.lend() {
-                Ok(t) => (DepthTile::D32(t), None),
-                Err(mut v) => {
-                    let t = v.load(take(&mut spare.u32s));
-                    (DepthTile::D32(t), Some(DepthView::D32(v)))
-                }
-            },
+            DepthView::D16(v) => {
+                let (t, v) = lend_or_load(v, &mut spare.depth16s);
+                (DepthTile::D16(t), v.map(DepthView::D16))
+            }
+            DepthView::D32(v) => {
+                let (t, v) = lend_or_load(v, &mut spare.u32s);
+                (DepthTile::D32(t), v.map(DepthView::D32))
+            }
         }
     }
 

@@ -186,7 +186,11 @@ impl Fragments {
         }
         let view = views.get(self.level);
         let pixels = color.pixels();
-        match (VECTORS, SHADE && self.grey) {
+        // A white flat colour leaves the texture's as it is (`modulate` by 255 is exact): the
+        // engine's unlit textured terrain skips the products.
+        let white = !SHADE && F::ENABLED && a.flat == [255; 3];
+        // The colour stages' `GREY` (see `colour`).
+        match (VECTORS, (SHADE && self.grey) || white) {
             (true, true) => self.colour::<P, F, SHADE, true, FOG, V3>(view, a, pixels),
             (true, false) => self.colour::<P, F, SHADE, false, FOG, V3>(view, a, pixels),
             #[cfg(arm_neon)]
@@ -205,7 +209,8 @@ impl Fragments {
     }
 
     /// Colours the held fragments a group of lanes at a time (the last group's lanes past them
-    /// are coloured too, and dropped) and writes each group's to their `pixels`.
+    /// are coloured too, and dropped) and writes each group's to their `pixels`. `GREY`: one
+    /// shading channel serves the three, or, without shading, the flat colour is white.
     #[allow(clippy::needless_range_loop)]
     #[inline(always)]
     fn colour<
@@ -257,7 +262,11 @@ impl Fragments {
             if F::ENABLED {
                 let view = view.expect("texture view bound with texturing on");
                 let t = F::sample_lanes::<V3>(view, load_i32(&self.u, g), load_i32(&self.v, g));
-                rgb = crate::lanes::modulate(t, rgb);
+                rgb = if !SHADE && GREY {
+                    t
+                } else {
+                    crate::lanes::modulate(t, rgb)
+                };
             }
             if FOG {
                 rgb = crate::lanes::fog_blend(rgb, a.fog_color, load_u16(&self.f, g));

@@ -82,9 +82,12 @@ impl Fragments {
             if F::ENABLED {
                 let view = view.expect("texture view bound with texturing on");
                 let t = F::sample_one(view, u[k], v[k]);
-                // A grey shade modulates the three channels alike: two products, not three.
+                // A grey shade modulates the three channels alike: two products, not three; a
+                // white flat colour leaves them as they are.
                 pair = if SHADE && GREY {
                     Pair::of(t).modulated(r[k] as u32)
+                } else if GREY {
+                    Pair::of(t)
                 } else {
                     Pair::of(modulate(t, rgb))
                 };
@@ -160,7 +163,8 @@ mod tests {
     const TILE: usize = 48;
 
     /// The held fragments coloured by the lanes, one by one and (for a filter that blends
-    /// blocks) in passes, into tiles of equal pixels: the tiles must stay equal.
+    /// blocks) in passes, into tiles of equal pixels: the tiles must stay equal. Returns the
+    /// lanes' tile.
     fn stages_agree<
         P: PixelFormat,
         F: Filtering,
@@ -171,7 +175,7 @@ mod tests {
         frags: &Fragments,
         view: &LevelView<'_, F::Texel>,
         a: &Attributes,
-    ) -> Result<(), TestCaseError>
+    ) -> Result<Vec<P::Pixel>, TestCaseError>
     where
         P::Pixel: PartialEq + Debug,
     {
@@ -194,10 +198,12 @@ mod tests {
                 FOG
             );
         }
-        Ok(())
+        Ok(lanes)
     }
 
-    /// `stages_agree` with and without shading (coloured and grey) and fog.
+    /// `stages_agree` with and without shading (coloured and grey) and fog; under a white flat
+    /// colour, the stages that leave the texture's colour as it is give the pixels of those
+    /// that modulate it.
     fn every_state<P: PixelFormat, F: Filtering>(
         frags: &Fragments,
         view: &LevelView<'_, F::Texel>,
@@ -206,12 +212,22 @@ mod tests {
     where
         P::Pixel: PartialEq + Debug,
     {
-        stages_agree::<P, F, false, false, false>(frags, view, a)?;
-        stages_agree::<P, F, false, false, true>(frags, view, a)?;
+        let modulated = [
+            stages_agree::<P, F, false, false, false>(frags, view, a)?,
+            stages_agree::<P, F, false, false, true>(frags, view, a)?,
+        ];
+        if F::ENABLED && a.flat == [255; 3] {
+            let white = [
+                stages_agree::<P, F, false, true, false>(frags, view, a)?,
+                stages_agree::<P, F, false, true, true>(frags, view, a)?,
+            ];
+            prop_assert_eq!(white, modulated);
+        }
         stages_agree::<P, F, true, false, false>(frags, view, a)?;
         stages_agree::<P, F, true, false, true>(frags, view, a)?;
         stages_agree::<P, F, true, true, false>(frags, view, a)?;
-        stages_agree::<P, F, true, true, true>(frags, view, a)
+        stages_agree::<P, F, true, true, true>(frags, view, a)?;
+        Ok(())
     }
 
     /// A fragment: its pixel, texture coordinates (near the level or anywhere within the limit),
@@ -235,7 +251,8 @@ mod tests {
             rgb565 in proptest::collection::vec(proptest::num::u16::ANY, 1 << 10),
             rgba in proptest::collection::vec(proptest::array::uniform4(0u8..=255), 1 << 10),
             repeat in proptest::bool::ANY,
-            (flat, fog) in (proptest::array::uniform3(0u8..=255), proptest::array::uniform3(0u8..=255)),
+            flat in prop_oneof![Just([255; 3]), proptest::array::uniform3(0u8..=255)],
+            fog in proptest::array::uniform3(0u8..=255),
         ) {
             let mut frags = Fragments::new();
             for (k, &(at, [u, v], c, f)) in held.iter().enumerate() {

@@ -121,9 +121,12 @@ impl Fragments {
             } else {
                 [r[k] as u8, g[k] as u8, b[k] as u8]
             };
-            // A grey shade modulates the three channels alike: two products, not three.
+            // A grey shade modulates the three channels alike: two products, not three; a white
+            // flat colour leaves them as they are.
             let mut pair = if SHADE && GREY {
                 Pair::of(t).modulated(r[k] as u32)
+            } else if GREY {
+                Pair::of(t)
             } else {
                 Pair::of(modulate(t, rgb))
             };

@@ -15,6 +15,7 @@
 //! twin exactly (tested), and the colour is written in the order the fragments arrived, so a
 //! later triangle's pixel still lands over an earlier one's.
 
+mod coords;
 mod one_by_one;
 #[cfg(any(test, arm_neon))]
 mod passes;
@@ -23,8 +24,9 @@ use crate::attributes::Attributes;
 use crate::isa::{Cpu, v3_twin};
 use crate::lanes::{LANES, Rgb8s, VECTORS, load_i32, load_u16};
 use crate::pixel::PixelFormat;
-use crate::sampler::{Filtering, LevelView};
+use crate::sampler::{Filtering, LevelView, UvRange};
 use crate::tile_view::TileBuf;
+use coords::Coords;
 
 /// Fragments held before their colour is computed: a tile row's worth.
 pub(crate) const CAPACITY: usize = 64;
@@ -55,6 +57,9 @@ pub(crate) struct Fragments {
     /// one channel (grey): fragments held together share both.
     level: usize,
     grey: bool,
+    /// The range of the held fragments' texture coordinates, where the colour stage uses it
+    /// (`keep_within`).
+    coords: Coords,
     /// Fragments written so far.
     written: u64,
     /// The colour stage in passes' arrays between its passes, here rather than on the stack,
@@ -74,6 +79,7 @@ impl Fragments {
             f: [0; SLOTS],
             level: 0,
             grey: false,
+            coords: Coords::new(),
             written: 0,
             #[cfg(any(test, arm_neon))]
             passes: passes::Between::default(),
@@ -126,11 +132,20 @@ impl Fragments {
         k & (SLOTS - 1)
     }
 
-    /// Holds the fragments up to slot `len`, filled by a row step since `held()`.
+    /// Holds the fragments up to slot `len`, filled by a row step since `held()`, with texture
+    /// coordinates anywhere.
     #[inline(always)]
     pub fn keep(&mut self, len: usize) {
+        self.keep_within(len, || None);
+    }
+
+    /// `keep` of fragments whose texture coordinates lie in `range()` (anywhere for `None`),
+    /// asked only where the colour stage uses it (`coords`).
+    #[inline(always)]
+    pub fn keep_within(&mut self, len: usize, range: impl FnOnce() -> Option<UvRange>) {
         debug_assert!(self.len <= len && len <= CAPACITY);
         self.len = len;
+        self.coords.held(range);
     }
 
     /// Colours the held fragments and writes them into `color`, in the order they arrived;
@@ -189,6 +204,12 @@ impl Fragments {
         // A white flat colour leaves the texture's as it is (`modulate` by 255 is exact): the
         // engine's unlit textured terrain skips the products.
         let white = !SHADE && F::ENABLED && a.flat == [255; 3];
+        let n = self.len;
+        debug_assert!(
+            !F::ENABLED || self.coords.covers(&self.u[..n], &self.v[..n]),
+            "texture coordinates outside the range their row step named"
+        );
+        let inside = F::ENABLED && self.coords.inside(view);
         // The colour stages' `GREY` (see `colour`).
         match (VECTORS, (SHADE && self.grey) || white) {
             (true, true) => self.colour::<P, F, SHADE, true, FOG, V3>(view, a, pixels),
@@ -201,11 +222,16 @@ impl Fragments {
                     false => self.colour_in_passes::<P, F, SHADE, false, FOG>(view, a, pixels),
                 }
             }
-            (false, true) => self.colour_one_by_one::<P, F, SHADE, true, FOG>(view, a, pixels),
-            (false, false) => self.colour_one_by_one::<P, F, SHADE, false, FOG>(view, a, pixels),
+            (false, true) => {
+                self.colour_one_by_one::<P, F, SHADE, true, FOG>(view, a, pixels, inside)
+            }
+            (false, false) => {
+                self.colour_one_by_one::<P, F, SHADE, false, FOG>(view, a, pixels, inside)
+            }
         }
         self.written += self.len as u64;
         self.len = 0;
+        self.coords.emptied();
     }
 
     /// Colours the held fragments a group of lanes at a time (the last group's lanes past them

@@ -13,12 +13,15 @@
 use super::Fragments;
 use crate::attributes::Attributes;
 use crate::pixel::{PixelFormat, modulate};
+#[cfg(test)]
+use crate::sampler::UvRange;
 use crate::sampler::{Filtering, LevelView};
 use crate::texture::Wrap;
 
 impl Fragments {
     /// `colour` one fragment at a time: the held fragments' colours, each written to its pixel
-    /// in the order they arrived.
+    /// in the order they arrived. `inside` where the view holds their texture coordinates
+    /// inside (`LevelView::holds_inside`): then no coordinate is folded or wrapped.
     #[inline(always)]
     pub(super) fn colour_one_by_one<
         P: PixelFormat,
@@ -31,7 +34,11 @@ impl Fragments {
         view: Option<&LevelView<'_, F::Texel>>,
         a: &Attributes,
         pixels: &mut [P::Pixel],
+        inside: bool,
     ) {
+        if inside && let Some(view) = view.filter(|_| F::ENABLED) {
+            return self.colour_each::<P, F, SHADE, GREY, FOG, true>(Some(view), a, pixels);
+        }
         // A loop for each wrap, each in a view whose wrap the compiler sees as a constant: one
         // branch a buffer instead of two a fragment.
         let known = |wrap| {
@@ -40,7 +47,7 @@ impl Fragments {
             Some(v)
         };
         let mut each = |view: Option<LevelView<'_, F::Texel>>| {
-            self.colour_each::<P, F, SHADE, GREY, FOG>(view.as_ref(), a, pixels)
+            self.colour_each::<P, F, SHADE, GREY, FOG, false>(view.as_ref(), a, pixels)
         };
         match view.map(|v| v.wrap) {
             Some(Wrap::Repeat) => each(known(Wrap::Repeat)),
@@ -49,7 +56,7 @@ impl Fragments {
         }
     }
 
-    /// `colour_one_by_one` in a view of a known wrap.
+    /// `colour_one_by_one` in a view of a known wrap, or (`INSIDE`) of none to apply.
     #[inline(always)]
     fn colour_each<
         P: PixelFormat,
@@ -57,6 +64,7 @@ impl Fragments {
         const SHADE: bool,
         const GREY: bool,
         const FOG: bool,
+        const INSIDE: bool,
     >(
         &self,
         view: Option<&LevelView<'_, F::Texel>>,
@@ -81,7 +89,7 @@ impl Fragments {
             let mut pair = Pair::of(rgb);
             if F::ENABLED {
                 let view = view.expect("texture view bound with texturing on");
-                let t = F::sample_one(view, u[k], v[k]);
+                let t = F::sample_one::<INSIDE>(view, u[k], v[k]);
                 // A grey shade modulates the three channels alike: two products, not three; a
                 // white flat colour leaves them as they are.
                 pair = if SHADE && GREY {
@@ -163,8 +171,9 @@ mod tests {
     const TILE: usize = 48;
 
     /// The held fragments coloured by the lanes, one by one and (for a filter that blends
-    /// blocks) in passes, into tiles of equal pixels: the tiles must stay equal. Returns the
-    /// lanes' tile.
+    /// blocks) in passes, into tiles of equal pixels: the tiles must stay equal. The stages one
+    /// at a time skip the wraps where the view holds the fragments' coordinates inside.
+    /// Returns the lanes' tile.
     fn stages_agree<
         P: PixelFormat,
         F: Filtering,
@@ -179,10 +188,16 @@ mod tests {
     where
         P::Pixel: PartialEq + Debug,
     {
+        let n = frags.held();
+        let range = UvRange {
+            lo: [frags.u, frags.v].map(|c| c[..n].iter().copied().min().unwrap_or(i32::MAX)),
+            hi: [frags.u, frags.v].map(|c| c[..n].iter().copied().max().unwrap_or(i32::MIN)),
+        };
+        let inside = view.holds_inside(&range);
         let mut lanes = vec![P::pack([1, 2, 3]); TILE];
         let mut one = lanes.clone();
         frags.colour::<P, F, SHADE, GREY, FOG, false>(Some(view), a, &mut lanes);
-        frags.colour_one_by_one::<P, F, SHADE, GREY, FOG>(Some(view), a, &mut one);
+        frags.colour_one_by_one::<P, F, SHADE, GREY, FOG>(Some(view), a, &mut one, inside);
         prop_assert_eq!(&lanes, &one, "SHADE {} GREY {} FOG {}", SHADE, GREY, FOG);
         if F::TAPS {
             let mut passes = lanes.clone();
@@ -232,15 +247,27 @@ mod tests {
 
     /// A fragment: its pixel, texture coordinates (near the level or anywhere within the limit),
     /// shading colour and fog share.
-    fn fragment() -> impl Strategy<Value = (u32, [i32; 2], [u16; 3], u16)> {
+    fn fragment() -> impl Strategy<Value = Held> {
         let limit = TEXCOORD_LIMIT as i32;
-        let coordinate = prop_oneof![-(1i32 << 17)..1 << 17, -limit..=limit];
+        fragment_in(prop_oneof![-(1i32 << 17)..1 << 17, -limit..=limit])
+    }
+
+    /// A fragment whose texture coordinates `coordinate` gives.
+    fn fragment_in(coordinate: impl Strategy<Value = i32> + Clone) -> impl Strategy<Value = Held> {
         (
             0..TILE as u32,
             [coordinate.clone(), coordinate],
             [0u16..=255, 0u16..=255, 0u16..=255],
             0u16..=256,
         )
+    }
+
+    /// A held fragment: its pixel, texture coordinates, shading colour and fog share.
+    type Held = (u32, [i32; 2], [u16; 3], u16);
+
+    /// A white flat colour or any.
+    fn flat() -> impl Strategy<Value = [u8; 3]> {
+        prop_oneof![Just([255; 3]), proptest::array::uniform3(0u8..=255)]
     }
 
     proptest! {
@@ -251,39 +278,85 @@ mod tests {
             rgb565 in proptest::collection::vec(proptest::num::u16::ANY, 1 << 10),
             rgba in proptest::collection::vec(proptest::array::uniform4(0u8..=255), 1 << 10),
             repeat in proptest::bool::ANY,
-            flat in prop_oneof![Just([255; 3]), proptest::array::uniform3(0u8..=255)],
-            fog in proptest::array::uniform3(0u8..=255),
+            colours in (flat(), proptest::array::uniform3(0u8..=255)),
         ) {
-            let mut frags = Fragments::new();
-            for (k, &(at, [u, v], c, f)) in held.iter().enumerate() {
-                let i = Fragments::slot(k);
-                (frags.at[i], frags.u[i], frags.v[i], frags.f[i]) = (at, u, v, f);
-                for (channel, &c) in frags.c.iter_mut().zip(&c) {
-                    channel[i] = c;
-                }
-            }
-            frags.keep(held.len());
-            let state = RenderState {
-                shading: Shading::Flat(flat),
-                fog: Some(Fog { color: fog, start: 1.0, end: 2.0 }),
-                ..RenderState::default()
-            };
-            let a = Attributes::new(&state, false);
-            let (w, h) = (1u32 << sides.0, 1u32 << sides.1);
-            let n = (w * h) as usize;
-            let wrap = if repeat { Wrap::Repeat } else { Wrap::Clamp };
-            let v565 = LevelView::new(&rgb565[..n], w, h, wrap);
-            let v8888 = LevelView::new(&rgba[..n], w, h, wrap);
-            every_state::<Rgb565, NoTexture>(&frags, &v565, &a)?;
-            every_state::<Rgb565, Nearest<u16>>(&frags, &v565, &a)?;
-            every_state::<Rgb565, Bilinear<u16>>(&frags, &v565, &a)?;
-            every_state::<Rgb565, Nearest<[u8; 4]>>(&frags, &v8888, &a)?;
-            every_state::<Rgb565, Bilinear<[u8; 4]>>(&frags, &v8888, &a)?;
-            every_state::<Rgba8888, NoTexture>(&frags, &v565, &a)?;
-            every_state::<Rgba8888, Nearest<u16>>(&frags, &v565, &a)?;
-            every_state::<Rgba8888, Bilinear<u16>>(&frags, &v565, &a)?;
-            every_state::<Rgba8888, Nearest<[u8; 4]>>(&frags, &v8888, &a)?;
-            every_state::<Rgba8888, Bilinear<[u8; 4]>>(&frags, &v8888, &a)?;
+            all_stages_agree(&held, sides, (&rgb565, &rgba), repeat, colours)?;
         }
+
+        /// Coordinates within the level's repeat, held inside it by all but the smallest levels
+        /// and near its edges: the stages without wraps give the bytes of the lanes.
+        #[test]
+        fn one_by_one_inside_the_level_gives_the_bytes_of_the_lanes(
+            held in proptest::collection::vec(
+                fragment_in(1i32 << 13..(1 << 16) - (1 << 13)),
+                1..=CAPACITY,
+            ),
+            sides in (0u32..6, 0u32..6),
+            rgb565 in proptest::collection::vec(proptest::num::u16::ANY, 1 << 10),
+            rgba in proptest::collection::vec(proptest::array::uniform4(0u8..=255), 1 << 10),
+            repeat in proptest::bool::ANY,
+            colours in (flat(), proptest::array::uniform3(0u8..=255)),
+        ) {
+            all_stages_agree(&held, sides, (&rgb565, &rgba), repeat, colours)?;
+        }
+    }
+
+    /// `every_state` of the fragments `held` in levels of `2^sides` texels of either format
+    /// (the first of `texels`), under the flat colour `colours.0` and fog `colours.1`.
+    fn all_stages_agree(
+        held: &[Held],
+        sides: (u32, u32),
+        (rgb565, rgba): (&[u16], &[[u8; 4]]),
+        repeat: bool,
+        (flat, fog): ([u8; 3], [u8; 3]),
+    ) -> Result<(), TestCaseError> {
+        let mut frags = Fragments::new();
+        for (k, &(at, [u, v], c, f)) in held.iter().enumerate() {
+            let i = Fragments::slot(k);
+            (frags.at[i], frags.u[i], frags.v[i], frags.f[i]) = (at, u, v, f);
+            for (channel, &c) in frags.c.iter_mut().zip(&c) {
+                channel[i] = c;
+            }
+        }
+        frags.keep(held.len());
+        let state = RenderState {
+            shading: Shading::Flat(flat),
+            fog: Some(Fog {
+                color: fog,
+                start: 1.0,
+                end: 2.0,
+            }),
+            ..RenderState::default()
+        };
+        let a = Attributes::new(&state, false);
+        let (w, h) = (1u32 << sides.0, 1u32 << sides.1);
+        let n = (w * h) as usize;
+        let wrap = if repeat { Wrap::Repeat } else { Wrap::Clamp };
+        let v565 = LevelView::new(&rgb565[..n], w, h, wrap);
+        let v8888 = LevelView::new(&rgba[..n], w, h, wrap);
+        every_state::<Rgb565, NoTexture>(&frags, &v565, &a)?;
+        every_state::<Rgb565, Nearest<u16>>(&frags, &v565, &a)?;
+        every_state::<Rgb565, Bilinear<u16>>(&frags, &v565, &a)?;
+        every_state::<Rgb565, Nearest<[u8; 4]>>(&frags, &v8888, &a)?;
+        every_state::<Rgb565, Bilinear<[u8; 4]>>(&frags, &v8888, &a)?;
+        every_state::<Rgba8888, NoTexture>(&frags, &v565, &a)?;
+        every_state::<Rgba8888, Nearest<u16>>(&frags, &v565, &a)?;
+        every_state::<Rgba8888, Bilinear<u16>>(&frags, &v565, &a)?;
+        every_state::<Rgba8888, Nearest<[u8; 4]>>(&frags, &v8888, &a)?;
+        every_state::<Rgba8888, Bilinear<[u8; 4]>>(&frags, &v8888, &a)
+    }
+
+    #[test]
+    fn coordinates_of_the_inside_test_are_held_inside_most_levels() {
+        let texels = [0u16; 64];
+        let range = UvRange {
+            lo: [1 << 13; 2],
+            hi: [(1 << 16) - (1 << 13) - 1; 2],
+        };
+        let view = |w: u32, h: u32| LevelView::new(&texels[..(w * h) as usize], w, h, Wrap::Clamp);
+        assert!(view(8, 8).holds_inside(&range));
+        assert!(view(4, 16).holds_inside(&range));
+        assert!(!view(2, 8).holds_inside(&range));
+        assert!(!view(8, 1).holds_inside(&range));
     }
 }

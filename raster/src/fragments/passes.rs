@@ -93,7 +93,7 @@ impl Fragments {
             texels,
         } = &mut self.passes;
         for k in 0..n {
-            let (quad, x, y) = F::taps_one(view, u[k], v[k]).expect("a filter with taps");
+            let (quad, x, y) = F::taps_one::<false>(view, u[k], v[k]).expect("a filter with taps");
             (quads[k], fx[k], fy[k]) = (quad, x, y);
         }
         let [t0, t1, t2, t3] = texels;

@@ -54,8 +54,8 @@ impl<T: ViewOf> Filtering for Bilinear<T> {
     /// As `sample_lanes` with each texel of the block read on its own: the wrapped pair of
     /// columns blends to what `neighbour_columns_lanes`' pair does.
     #[inline(always)]
-    fn sample_one(view: &LevelView<'_, T>, u: i32, v: i32) -> [u8; 3] {
-        let (quad, fx, fy) = taps(view, u, v);
+    fn sample_one<const INSIDE: bool>(view: &LevelView<'_, T>, u: i32, v: i32) -> [u8; 3] {
+        let (quad, fx, fy) = taps::<T, INSIDE>(view, u, v);
         // SAFETY: the block's indexes come from this view.
         T::blend(unsafe { view.quad_at(quad) }, fx, fy)
     }
@@ -65,18 +65,37 @@ impl<T: ViewOf> Filtering for Bilinear<T> {
 
     #[cfg(any(test, arm_neon))]
     #[inline(always)]
-    fn taps_one(view: &LevelView<'_, T>, u: i32, v: i32) -> Option<(Quad, u32, u32)> {
-        Some(taps(view, u, v))
+    fn taps_one<const INSIDE: bool>(
+        view: &LevelView<'_, T>,
+        u: i32,
+        v: i32,
+    ) -> Option<(Quad, u32, u32)> {
+        Some(taps::<T, INSIDE>(view, u, v))
     }
 }
 
-/// `sample_one`'s block and weights, from `sample_lanes`' addressing of one lane.
+/// `sample_one`'s block and weights, from `sample_lanes`' addressing of one lane; `INSIDE`
+/// without the fold and the wrap that leave such a coordinate's block as it is.
 #[inline(always)]
-fn taps<T: ViewOf>(view: &LevelView<'_, T>, u: i32, v: i32) -> (Quad, u32, u32) {
-    let (su, sv) = view.scale_one(u, v);
+fn taps<T: ViewOf, const INSIDE: bool>(
+    view: &LevelView<'_, T>,
+    u: i32,
+    v: i32,
+) -> (Quad, u32, u32) {
+    let (su, sv) = if INSIDE {
+        view.scale_inside(u, v)
+    } else {
+        view.scale_one(u, v)
+    };
     let (tu, tv) = (su - (1 << 15), sv - (1 << 15));
     let (fx, fy) = ((tu >> 8) & 255, (tv >> 8) & 255);
-    (view.quad_taps(tu >> 16, tv >> 16), fx as u32, fy as u32)
+    let (x, y) = (tu >> 16, tv >> 16);
+    let quad = if INSIDE {
+        view.quad_inside(x, y)
+    } else {
+        view.quad_taps(x, y)
+    };
+    (quad, fx as u32, fy as u32)
 }
 
 #[cfg(test)]
@@ -120,7 +139,7 @@ mod tests {
                 for (k, &(u, v)) in p.iter().enumerate() {
                     let one = Bilinear::<T>::sample(&view, u as i64, v as i64);
                     assert_eq!(lanes.lane(k), one, "{w}x{h} {wrap:?} at ({u}, {v})");
-                    let scalar = Bilinear::<T>::sample_one(&view, u, v);
+                    let scalar = Bilinear::<T>::sample_one::<false>(&view, u, v);
                     assert_eq!(scalar, one, "one by one, {w}x{h} {wrap:?} at ({u}, {v})");
                     if let Some(twin) = &twin {
                         assert_eq!(twin.lane(k), one, "AVX2, {w}x{h} {wrap:?} at ({u}, {v})");

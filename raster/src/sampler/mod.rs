@@ -1,8 +1,10 @@
 //! Reading texels: one file per filter. Coordinates arrive as 16.16 texture repeats.
 
+mod inside;
 mod linear;
 mod nearest;
 
+pub(crate) use inside::UvRange;
 pub(crate) use linear::Bilinear;
 pub(crate) use nearest::Nearest;
 
@@ -652,8 +654,11 @@ pub(crate) trait Filtering: Send + Sync + 'static {
     /// called from an x86-64-v3 twin (`crate::isa`).
     fn sample_lanes<const V3: bool>(view: &LevelView<'_, Self::Texel>, u: i32x8, v: i32x8)
     -> Rgb8s;
-    /// One lane of `sample_lanes`, in 32-bit integers (`LevelView::scale_one`).
-    fn sample_one(view: &LevelView<'_, Self::Texel>, u: i32, v: i32) -> [u8; 3];
+    /// One lane of `sample_lanes`, in 32-bit integers (`LevelView::scale_one`); `INSIDE` where
+    /// the coordinate lies in a range the view holds inside (`LevelView::holds_inside`), which
+    /// needs no fold or wrap.
+    fn sample_one<const INSIDE: bool>(view: &LevelView<'_, Self::Texel>, u: i32, v: i32)
+    -> [u8; 3];
     /// Whether `sample_one` blends a 2x2 block (`taps_one` gives it): for the colour stage in
     /// passes (`fragments/passes.rs`).
     #[cfg(any(test, arm_neon))]
@@ -662,7 +667,11 @@ pub(crate) trait Filtering: Send + Sync + 'static {
     /// `Texel::blend` is the sample; `None` where `TAPS` is false.
     #[cfg(any(test, arm_neon))]
     #[inline(always)]
-    fn taps_one(_view: &LevelView<'_, Self::Texel>, _u: i32, _v: i32) -> Option<(Quad, u32, u32)> {
+    fn taps_one<const INSIDE: bool>(
+        _view: &LevelView<'_, Self::Texel>,
+        _u: i32,
+        _v: i32,
+    ) -> Option<(Quad, u32, u32)> {
         None
     }
 }
@@ -682,7 +691,7 @@ impl Filtering for NoTexture {
         Rgb8s::splat([255; 3])
     }
     #[inline]
-    fn sample_one(_: &LevelView<'_, u16>, _: i32, _: i32) -> [u8; 3] {
+    fn sample_one<const INSIDE: bool>(_: &LevelView<'_, u16>, _: i32, _: i32) -> [u8; 3] {
         [255; 3]
     }
 }

@@ -27,8 +27,12 @@ impl<T: ViewOf> Filtering for Nearest<T> {
     }
 
     #[inline(always)]
-    fn sample_one(view: &LevelView<'_, T>, u: i32, v: i32) -> [u8; 3] {
-        let (su, sv) = view.scale_one(u, v);
+    fn sample_one<const INSIDE: bool>(view: &LevelView<'_, T>, u: i32, v: i32) -> [u8; 3] {
+        let (su, sv) = if INSIDE {
+            view.scale_inside(u, v)
+        } else {
+            view.scale_one(u, v)
+        };
         view.texel(su >> 16, sv >> 16).rgb()
     }
 }

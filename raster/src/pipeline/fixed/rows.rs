@@ -8,7 +8,7 @@ use crate::fixed_point::{ATTR_FRAC_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE, TEXCOORD_L
 use crate::fragments::{CAPACITY, Fragments};
 use crate::pipeline::{Attributes, TexMode};
 use crate::pixel::DepthStorage;
-use crate::sampler::{Filtering, clamp_coord};
+use crate::sampler::{Filtering, UvRange, clamp_coord};
 use crate::state::Compare;
 use std::ops::Range;
 
@@ -552,8 +552,9 @@ fn pixels_in_words<
         } => {
             for Chunk { ks, c, d, bounds } in Chunks::new(acc, dacc, chunk, start, &piece) {
                 let (from, n) = (ks.start, ks.len());
+                let range = || Some(uv_range(bounds));
                 let slots;
-                (slots, z) = depth_pass::<D>(ks, first, (z, dz), test, depth, frags);
+                (slots, z) = depth_pass::<D>(ks, first, (z, dz), test, depth, frags, range);
                 match UvWords::new(c, d, first + from as u32, bounds) {
                     Some(w) => values.put::<T, SHADE, FOG>(slots, frags, |at| w.at(at)),
                     // As `pixels` steps them, clamped where the chunk strays.
@@ -574,12 +575,16 @@ fn pixels_in_words<
             }
         }
         RunTex::Affine { uv, duv } => {
-            let (slots, _) = depth_pass::<D>(0..n, first, (z, dz), test, depth, frags);
             let last = n as i64 - 1;
-            let bounds = [0, 1].map(|k| {
-                let end = uv[k] + duv[k] * last;
-                (uv[k].min(end), uv[k].max(end))
-            });
+            let bounds = move || {
+                [0, 1].map(|k| {
+                    let end = uv[k] + duv[k] * last;
+                    (uv[k].min(end), uv[k].max(end))
+                })
+            };
+            let range = || Some(uv_range(bounds()));
+            let (slots, _) = depth_pass::<D>(0..n, first, (z, dz), test, depth, frags, range);
+            let bounds = bounds();
             match UvWords::new(uv, duv, first, bounds) {
                 Some(w) => values.put::<T, SHADE, FOG>(slots, frags, |at| w.at(at)),
                 // In range at every pixel (`run_fragments`).
@@ -592,9 +597,22 @@ fn pixels_in_words<
             }
         }
         RunTex::Off => {
-            let (slots, _) = depth_pass::<D>(0..n, first, (z, dz), test, depth, frags);
+            let (slots, _) = depth_pass::<D>(0..n, first, (z, dz), test, depth, frags, || None);
             values.put::<T, SHADE, FOG>(slots, frags, |_| (0, 0));
         }
+    }
+}
+
+/// The range of the 16.16 texture coordinates `c >> 16` of 16.32 values `c` within `bounds`,
+/// and of their clamps (`clamp_coord`) too: the bounds' ends lie within the coordinate range
+/// (a chunk's ends are quotients `divide` clamped there) but for the least, which may lie up
+/// to a chunk's pixels below it, so the shifted ends are words, and a value clamped up to the
+/// range's end stays above the least.
+#[inline(always)]
+fn uv_range(bounds: [(i64, i64); 2]) -> UvRange {
+    UvRange {
+        lo: bounds.map(|b| (b.0 >> 16) as i32),
+        hi: bounds.map(|b| (b.1 >> 16) as i32),
     }
 }
 
@@ -602,7 +620,9 @@ fn pixels_in_words<
 /// its first pixel in the tile's buffers, `depth` its depth values) from depth `z` at pixel
 /// `ks.start` and its step: the slots of the pixels that passed, and the depth after the last.
 /// Everything the loop reads is a local here: the stores to the fragments' arrays would
-/// otherwise have it read again from memory at every pixel.
+/// otherwise have it read again from memory at every pixel. `range`: where the fragments'
+/// texture coordinates lie, if known, worked out only where the colour stage asks
+/// (`Fragments::keep_within`).
 #[inline(always)]
 fn depth_pass<D: DepthStorage>(
     ks: Range<usize>,
@@ -611,6 +631,7 @@ fn depth_pass<D: DepthStorage>(
     test: DepthTest,
     depth: &mut [D::Value],
     frags: &mut Fragments,
+    range: impl FnOnce() -> Option<UvRange>,
 ) -> (Range<usize>, i64) {
     let held = frags.held();
     let mut kept = held;
@@ -627,7 +648,7 @@ fn depth_pass<D: DepthStorage>(
             kept += 1;
         }
     }
-    frags.keep(kept);
+    frags.keep_within(kept, range);
     (held..kept, z)
 }
 

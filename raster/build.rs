@@ -1,13 +1,23 @@
-//! Tells the crate whether its 32-bit ARM target has NEON (`cfg(arm_neon)`): stable Rust does
-//! not say so through `cfg(target_feature)` on that architecture. NEON is there on the
-//! `thumbv7neon` targets, and wherever the build's flags enable it (`-C target-feature=+neon`).
+//! Tells the crate what vectors its target has, as two `cfg`s: `wide_vectors` where `wide`'s
+//! lanes are vectors (SSE2, NEON on aarch64, WebAssembly SIMD), and `arm_neon` where a 32-bit
+//! ARM target has NEON, which stable Rust does not say through `cfg(target_feature)` on that
+//! architecture: NEON is there on the `thumbv7neon` targets, and wherever the build's flags
+//! enable it (`-C target-feature=+neon`). Code for cores with neither takes
+//! `not(any(wide_vectors, arm_neon))`.
 
 use std::env;
 
 fn main() {
     println!("cargo::rustc-check-cfg=cfg(arm_neon)");
+    println!("cargo::rustc-check-cfg=cfg(wide_vectors)");
     let var = |name: &str| env::var(name).unwrap_or_default();
-    if var("CARGO_CFG_TARGET_ARCH") != "arm" {
+    let arch = var("CARGO_CFG_TARGET_ARCH");
+    let features = var("CARGO_CFG_TARGET_FEATURE");
+    let has = |f: &str| features.split(',').any(|x| x == f);
+    if has("sse2") || (arch == "aarch64" && has("neon")) || has("simd128") {
+        println!("cargo::rustc-cfg=wide_vectors");
+    }
+    if arch != "arm" {
         return;
     }
     let flags = var("CARGO_ENCODED_RUSTFLAGS");

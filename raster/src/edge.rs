@@ -10,14 +10,7 @@
 //! per-pixel test. Two triangles sharing an edge see it with opposite `dy`, so each centre on it
 //! belongs to exactly one of them.
 
-#[cfg(any(
-    test,
-    any(
-        target_feature = "sse2",
-        all(target_arch = "aarch64", target_feature = "neon"),
-        target_feature = "simd128"
-    )
-))]
+#[cfg(any(test, wide_vectors))]
 use wide::i32x4;
 
 use crate::fixed_point::{SUBPIXEL_BITS, SUBPIXEL_HALF, SUBPIXEL_ONE};
@@ -243,32 +236,16 @@ impl Coverage {
     /// `SmallRows`): the walk of `walk_small` for a caller that wants the row loop inline.
     #[inline(always)]
     pub fn small_rows(&self, from: i64, to: i64) -> SmallRows {
-        #[cfg(any(
-            target_feature = "sse2",
-            all(target_arch = "aarch64", target_feature = "neon"),
-            target_feature = "simd128"
-        ))]
+        #[cfg(wide_vectors)]
         return self.lane_rows(from, to);
         #[cfg(arm_neon)]
         return self.neon_rows(from, to);
-        #[cfg(not(any(
-            target_feature = "sse2",
-            all(target_arch = "aarch64", target_feature = "neon"),
-            target_feature = "simd128",
-            arm_neon
-        )))]
+        #[cfg(not(any(wide_vectors, arm_neon)))]
         return self.search_rows(from, to);
     }
 
     /// `small_rows` in lanes (`LaneRows`).
-    #[cfg(any(
-        test,
-        any(
-            target_feature = "sse2",
-            all(target_arch = "aarch64", target_feature = "neon"),
-            target_feature = "simd128"
-        )
-    ))]
+    #[cfg(any(test, wide_vectors))]
     #[inline(always)]
     fn lane_rows(&self, from: i64, to: i64) -> LaneRows {
         debug_assert!(self.small);
@@ -317,15 +294,7 @@ impl Coverage {
     }
 
     /// `small_rows` in scalar registers (`SearchRows`).
-    #[cfg(any(
-        test,
-        not(any(
-            target_feature = "sse2",
-            all(target_arch = "aarch64", target_feature = "neon"),
-            target_feature = "simd128",
-            arm_neon
-        ))
-    ))]
+    #[cfg(any(test, not(any(wide_vectors, arm_neon))))]
     #[inline(always)]
     fn search_rows(&self, from: i64, to: i64) -> SearchRows {
         let (start, end, width) = self.small_span(from, to);
@@ -352,14 +321,7 @@ impl Coverage {
     }
 
     /// A small triangle's rows `from..to` cut to its rectangle, and the rectangle's width.
-    #[cfg(any(
-        test,
-        not(any(
-            target_feature = "sse2",
-            all(target_arch = "aarch64", target_feature = "neon"),
-            target_feature = "simd128"
-        ))
-    ))]
+    #[cfg(any(test, not(wide_vectors)))]
     #[inline(always)]
     fn small_span(&self, from: i64, to: i64) -> (i64, i64, u32) {
         debug_assert!(self.small);
@@ -372,14 +334,7 @@ impl Coverage {
     /// A small triangle's edges in i32 (as `lane_rows`' lanes): `E + bias - 1` of each at the
     /// centre of the rectangle's first column in row `start`, and what each changes by from a
     /// column to the next and from a row to the next.
-    #[cfg(any(
-        test,
-        not(any(
-            target_feature = "sse2",
-            all(target_arch = "aarch64", target_feature = "neon"),
-            target_feature = "simd128"
-        ))
-    ))]
+    #[cfg(any(test, not(wide_vectors)))]
     #[inline(always)]
     fn small_edges(&self, start: i64) -> ([i32; 3], [i32; 3], [i32; 3]) {
         let one = SUBPIXEL_ONE as i32;
@@ -502,36 +457,20 @@ fn owns_a_pixel_of_row(v: &[[i64; 2]; 3], y: i64, x0: i64, x1: i64) -> bool {
 /// (`wide` builds an `i32x4` from four scalars there, the ARMv5TE among them, and four scalars
 /// in memory per lane cost such a core more: `pocketpc_frames` on 32-bit ARM in
 /// docs/raster.md).
-#[cfg(any(
-    target_feature = "sse2",
-    all(target_arch = "aarch64", target_feature = "neon"),
-    target_feature = "simd128"
-))]
+#[cfg(wide_vectors)]
 pub(crate) type SmallRows = LaneRows;
 /// See the other `SmallRows`.
 #[cfg(arm_neon)]
 pub(crate) type SmallRows = NeonRows;
 /// See the other `SmallRows`.
-#[cfg(not(any(
-    target_feature = "sse2",
-    all(target_arch = "aarch64", target_feature = "neon"),
-    target_feature = "simd128",
-    arm_neon
-)))]
+#[cfg(not(any(wide_vectors, arm_neon)))]
 pub(crate) type SmallRows = SearchRows;
 
 /// A small triangle's rows, one mask of owned columns at a time: the edge functions of a row's
 /// pixels in groups of 4 `i32x4` lanes (one vector on SSE2 and NEON; a terrain triangle's
 /// rectangle is mostly within 4 columns), stepped down the rows lane by lane (see
 /// `Coverage::walk_small` for the bounds).
-#[cfg(any(
-    test,
-    any(
-        target_feature = "sse2",
-        all(target_arch = "aarch64", target_feature = "neon"),
-        target_feature = "simd128"
-    )
-))]
+#[cfg(any(test, wide_vectors))]
 pub(crate) struct LaneRows {
     /// `E + bias - 1` of the three edges at the current row's columns `4g..4g + 4` in group `g`:
     /// negative (sign bit set) where the pixel is outside.
@@ -550,14 +489,7 @@ pub(crate) struct LaneRows {
     pub end: i64,
 }
 
-#[cfg(any(
-    test,
-    any(
-        target_feature = "sse2",
-        all(target_arch = "aarch64", target_feature = "neon"),
-        target_feature = "simd128"
-    )
-))]
+#[cfg(any(test, wide_vectors))]
 impl LaneRows {
     /// The owned columns of the current row as bits (bit `k` is column `x0 + k`), and a step to
     /// the next row. A pixel is owned when no edge's sign bit is set: one `or` of the three
@@ -599,15 +531,7 @@ impl LaneRows {
 /// triangle has an edge of each kind (its edges' `dy` sum to 0 and not all are 0), so edge 0
 /// rises, edge 2 does not, and edge 1 goes either way. A halving is an add, a test and two
 /// conditional moves, where testing every column costs three adds, the test and its bit.
-#[cfg(any(
-    test,
-    not(any(
-        target_feature = "sse2",
-        all(target_arch = "aarch64", target_feature = "neon"),
-        target_feature = "simd128",
-        arm_neon
-    ))
-))]
+#[cfg(any(test, not(any(wide_vectors, arm_neon))))]
 pub(crate) struct SearchRows {
     /// `E + bias - 1` of the three edges one column left of the current row's first: negative
     /// (sign bit set) where a pixel would be outside.
@@ -627,15 +551,7 @@ pub(crate) struct SearchRows {
     pub end: i64,
 }
 
-#[cfg(any(
-    test,
-    not(any(
-        target_feature = "sse2",
-        all(target_arch = "aarch64", target_feature = "neon"),
-        target_feature = "simd128",
-        arm_neon
-    ))
-))]
+#[cfg(any(test, not(any(wide_vectors, arm_neon))))]
 impl SearchRows {
     /// Rows `start..end` of the small triangle whose edges have the values `row` at the first
     /// column of row `start` and the steps `across` and `down` (`Coverage::small_edges`), over

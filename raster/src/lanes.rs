@@ -12,15 +12,11 @@ pub(crate) use wide::{i16x8, i32x8, u16x8, u32x8};
 pub(crate) const LANES: usize = 8;
 
 /// Whether `wide`'s lanes are vectors on the build target: SSE2, NEON on aarch64, WebAssembly
-/// SIMD, as `wide` chooses (`edge::SmallRows` follows the same rule). Elsewhere, 32-bit ARM
+/// SIMD, as `wide` chooses (`cfg(wide_vectors)`, from `build.rs`). Elsewhere, 32-bit ARM
 /// with or without NEON among them, `wide` keeps them as arrays worked element by element, a
 /// group's channels outgrow the registers, and the colour stage runs one fragment at a time
 /// instead (`fragments::one_by_one`), to the same bytes.
-pub(crate) const VECTORS: bool = cfg!(any(
-    target_feature = "sse2",
-    all(target_arch = "aarch64", target_feature = "neon"),
-    target_feature = "simd128"
-));
+pub(crate) const VECTORS: bool = cfg!(wide_vectors);
 
 /// Eight 8-bit colours, one vector per channel, each channel in `0..=255`.
 #[derive(Clone, Copy, Debug)]

@@ -8,30 +8,14 @@
 use crate::sampler::{LevelView, Texel, UvRange};
 
 /// What the buffer knows of its fragments' coordinates: all lie in `held`, unless `unknown`.
-#[cfg(any(
-    test,
-    not(any(
-        target_feature = "sse2",
-        all(target_arch = "aarch64", target_feature = "neon"),
-        target_feature = "simd128",
-        arm_neon
-    ))
-))]
+#[cfg(any(test, not(any(wide_vectors, arm_neon))))]
 #[derive(Clone, Debug)]
 pub(super) struct Named {
     held: UvRange,
     unknown: bool,
 }
 
-#[cfg(any(
-    test,
-    not(any(
-        target_feature = "sse2",
-        all(target_arch = "aarch64", target_feature = "neon"),
-        target_feature = "simd128",
-        arm_neon
-    ))
-))]
+#[cfg(any(test, not(any(wide_vectors, arm_neon))))]
 impl Named {
     pub fn new() -> Self {
         Self {
@@ -73,21 +57,11 @@ impl Named {
 }
 
 /// `Named` where the colour stage has no use for it.
-#[cfg(any(
-    target_feature = "sse2",
-    all(target_arch = "aarch64", target_feature = "neon"),
-    target_feature = "simd128",
-    arm_neon
-))]
+#[cfg(any(wide_vectors, arm_neon))]
 #[derive(Clone, Debug)]
 pub(super) struct Unnamed;
 
-#[cfg(any(
-    target_feature = "sse2",
-    all(target_arch = "aarch64", target_feature = "neon"),
-    target_feature = "simd128",
-    arm_neon
-))]
+#[cfg(any(wide_vectors, arm_neon))]
 impl Unnamed {
     pub fn new() -> Self {
         Self
@@ -106,19 +80,9 @@ impl Unnamed {
 }
 
 /// The record the build target's colour stage uses.
-#[cfg(not(any(
-    target_feature = "sse2",
-    all(target_arch = "aarch64", target_feature = "neon"),
-    target_feature = "simd128",
-    arm_neon
-)))]
+#[cfg(not(any(wide_vectors, arm_neon)))]
 pub(super) type Coords = Named;
-#[cfg(any(
-    target_feature = "sse2",
-    all(target_arch = "aarch64", target_feature = "neon"),
-    target_feature = "simd128",
-    arm_neon
-))]
+#[cfg(any(wide_vectors, arm_neon))]
 pub(super) type Coords = Unnamed;
 
 #[cfg(test)]

@@ -14,15 +14,7 @@ pub(crate) struct UvRange {
     pub hi: [i32; 2],
 }
 
-#[cfg(any(
-    test,
-    not(any(
-        target_feature = "sse2",
-        all(target_arch = "aarch64", target_feature = "neon"),
-        target_feature = "simd128",
-        arm_neon
-    ))
-))]
+#[cfg(any(test, not(any(wide_vectors, arm_neon))))]
 impl UvRange {
     /// The range of no coordinate at all.
     pub const EMPTY: Self = Self {
@@ -48,15 +40,7 @@ impl<T: Texel> LevelView<'_, T> {
     /// hold where `2^15 <= u * width < (width - 1) * 2^16 + 2^15` (whose upper end lies below
     /// `width * 2^16`, so `u < 2^16`), for the least and the greatest `u`. A nearest sample's
     /// texel lies inside such a level too.
-    #[cfg(any(
-        test,
-        not(any(
-            target_feature = "sse2",
-            all(target_arch = "aarch64", target_feature = "neon"),
-            target_feature = "simd128",
-            arm_neon
-        ))
-    ))]
+    #[cfg(any(test, not(any(wide_vectors, arm_neon))))]
     pub fn holds_inside(&self, r: &UvRange) -> bool {
         let axis = |lo: i32, hi: i32, side: i64| {
             let half = 1 << 15;

@@ -10,7 +10,7 @@
 //! Boxes and matrix must be in the same space. The engine can use world coordinates (f64 holds
 //! them exactly enough far from the origin) or, as for drawing, eye-relative ones.
 
-use glam::{DMat4, DVec3, DVec4};
+use glam::{BVec3, DMat4, DVec3, DVec4};
 
 /// An axis-aligned bounding box, e.g. a tile's extent and its elevation range.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -40,6 +40,10 @@ impl Aabb {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Frustum {
     planes: [DVec4; 6],
+    /// Which way each plane's normal points along each axis (`n >= 0`): which corner of a box
+    /// lies farthest inside, found once per frustum rather than once per box, where on a core
+    /// without an FPU each comparison is a library call.
+    toward: [BVec3; 6],
 }
 
 /// Relative slack of the plane test, so that rounding never culls a box that touches a plane.
@@ -49,17 +53,19 @@ impl Frustum {
     /// The frustum of `view_projection` (projection × view), clip depth 0..1.
     pub fn from_view_projection(view_projection: &DMat4) -> Self {
         let [x, y, z, w] = [0, 1, 2, 3].map(|i| view_projection.row(i));
+        let planes = [w + x, w - x, w + y, w - y, z, w - z];
         Self {
-            planes: [w + x, w - x, w + y, w - y, z, w - z],
+            planes,
+            toward: planes.map(|p| p.truncate().cmpge(DVec3::ZERO)),
         }
     }
 
     /// False only when the box is certainly outside (entirely behind one plane).
     pub fn intersects(&self, aabb: &Aabb) -> bool {
-        self.planes.iter().all(|p| {
+        self.planes.iter().zip(&self.toward).all(|(p, &toward)| {
             let n = p.truncate();
             // The corner farthest along the plane's normal.
-            let corner = DVec3::select(n.cmpge(DVec3::ZERO), aabb.max, aabb.min);
+            let corner = DVec3::select(toward, aabb.max, aabb.min);
             let reach = n.dot(corner) + p.w;
             // A corner on the inside needs no slack (it is never negative, and NaN only with
             // `reach`): on a core without an FPU its products are library calls, so only the

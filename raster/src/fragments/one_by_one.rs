@@ -270,45 +270,49 @@ mod tests {
         prop_oneof![Just([255; 3]), proptest::array::uniform3(0u8..=255)]
     }
 
+    /// What `all_stages_agree` draws: fragments from `fragment`, the sides' powers of two, the
+    /// texels of both formats, the wrap (repeat or clamp), the flat colour and fog's colour.
+    type Inputs = (
+        Vec<Held>,
+        (u32, u32),
+        Vec<u16>,
+        Vec<[u8; 4]>,
+        bool,
+        ([u8; 3], [u8; 3]),
+    );
+
+    /// `Inputs` with fragments from `fragment`.
+    fn inputs(fragment: impl Strategy<Value = Held>) -> impl Strategy<Value = Inputs> {
+        (
+            proptest::collection::vec(fragment, 1..=CAPACITY),
+            (0u32..6, 0u32..6),
+            proptest::collection::vec(proptest::num::u16::ANY, 1 << 10),
+            proptest::collection::vec(proptest::array::uniform4(0u8..=255), 1 << 10),
+            proptest::bool::ANY,
+            (flat(), proptest::array::uniform3(0u8..=255)),
+        )
+    }
+
     proptest! {
         #[test]
-        fn one_by_one_gives_the_bytes_of_the_lanes(
-            held in proptest::collection::vec(fragment(), 1..=CAPACITY),
-            sides in (0u32..6, 0u32..6),
-            rgb565 in proptest::collection::vec(proptest::num::u16::ANY, 1 << 10),
-            rgba in proptest::collection::vec(proptest::array::uniform4(0u8..=255), 1 << 10),
-            repeat in proptest::bool::ANY,
-            colours in (flat(), proptest::array::uniform3(0u8..=255)),
-        ) {
-            all_stages_agree(&held, sides, (&rgb565, &rgba), repeat, colours)?;
+        fn one_by_one_gives_the_bytes_of_the_lanes(drawn in inputs(fragment())) {
+            all_stages_agree(drawn)?;
         }
 
         /// Coordinates within the level's repeat, held inside it by all but the smallest levels
         /// and near its edges: the stages without wraps give the bytes of the lanes.
         #[test]
         fn one_by_one_inside_the_level_gives_the_bytes_of_the_lanes(
-            held in proptest::collection::vec(
-                fragment_in(1i32 << 13..(1 << 16) - (1 << 13)),
-                1..=CAPACITY,
-            ),
-            sides in (0u32..6, 0u32..6),
-            rgb565 in proptest::collection::vec(proptest::num::u16::ANY, 1 << 10),
-            rgba in proptest::collection::vec(proptest::array::uniform4(0u8..=255), 1 << 10),
-            repeat in proptest::bool::ANY,
-            colours in (flat(), proptest::array::uniform3(0u8..=255)),
+            drawn in inputs(fragment_in(1i32 << 13..(1 << 16) - (1 << 13))),
         ) {
-            all_stages_agree(&held, sides, (&rgb565, &rgba), repeat, colours)?;
+            all_stages_agree(drawn)?;
         }
     }
 
     /// `every_state` of the fragments `held` in levels of `2^sides` texels of either format
-    /// (the first of `texels`), under the flat colour `colours.0` and fog `colours.1`.
+    /// (the first of `rgb565` and `rgba`), under the flat colour `flat` and fog's colour `fog`.
     fn all_stages_agree(
-        held: &[Held],
-        sides: (u32, u32),
-        (rgb565, rgba): (&[u16], &[[u8; 4]]),
-        repeat: bool,
-        (flat, fog): ([u8; 3], [u8; 3]),
+        (held, sides, rgb565, rgba, repeat, (flat, fog)): Inputs,
     ) -> Result<(), TestCaseError> {
         let mut frags = Fragments::new();
         for (k, &(at, [u, v], c, f)) in held.iter().enumerate() {

@@ -521,7 +521,7 @@ impl LaneRows {
 }
 
 /// A small triangle's rows in scalar registers: each row's run of owned columns from where its
-/// edges cross the row, each found in four halvings of the rectangle's 16 columns (see
+/// edges cross the row, each found in as many halvings as the rectangle's width needs (see
 /// `Coverage::walk_small` for the bounds).
 ///
 /// Along a row an edge function is linear, so the columns outside an edge that rises across
@@ -531,18 +531,16 @@ impl LaneRows {
 /// triangle has an edge of each kind (its edges' `dy` sum to 0 and not all are 0), so edge 0
 /// rises, edge 2 does not, and edge 1 goes either way. A halving is an add, a test and two
 /// conditional moves, where testing every column costs three adds, the test and its bit.
+///
+/// Every row's mask is found when the rows are made, in a loop that holds only the edges: in
+/// the row loop of its caller, which holds the attribute planes too, the edges' nine words went
+/// to the stack and came back on every row.
 #[cfg(any(test, not(any(wide_vectors, arm_neon))))]
 pub(crate) struct SearchRows {
-    /// `E + bias - 1` of the three edges one column left of the current row's first: negative
-    /// (sign bit set) where a pixel would be outside.
-    before: [i32; 3],
-    /// What each edge changes by from a column to the next, and from a row to the next.
-    across: [i32; 3],
-    down: [i32; 3],
-    /// Edge 1 rises across a row, as edge 0 does (edge 2 never does).
-    middle_rises: bool,
-    /// The rectangle's columns as bits.
-    columns: u32,
+    /// The owned columns of row `start + k` as bits (bit `j` is column `x0 + j`).
+    masks: [u16; SMALL as usize],
+    /// The first row.
+    start: i64,
     /// First column of the rectangle: bit `k` of a mask is column `x0 + k`.
     pub x0: i64,
     /// The current row.
@@ -553,27 +551,45 @@ pub(crate) struct SearchRows {
 
 #[cfg(any(test, not(any(wide_vectors, arm_neon))))]
 impl SearchRows {
-    /// Rows `start..end` of the small triangle whose edges have the values `row` at the first
-    /// column of row `start` and the steps `across` and `down` (`Coverage::small_edges`), over
-    /// `width` columns from `x0`.
+    /// Rows `start..end` (at most `SMALL`) of the small triangle whose edges have the values
+    /// `row` at the first column of row `start` and the steps `across` and `down`
+    /// (`Coverage::small_edges`), over `width` columns (at most 16) from `x0`.
+    #[inline(always)]
     fn new(
         (row, across, down): ([i32; 3], [i32; 3], [i32; 3]),
         width: u32,
         x0: i64,
         (start, end): (i64, i64),
     ) -> Self {
+        debug_assert!((1..=16).contains(&width) && end - start <= SMALL);
         // A rising edge first and one that does not rise last (see above).
         let rising = |i: usize| across[i] > 0;
         let first = (0..3).find(|&i| rising(i)).unwrap_or(0);
         let last = (0..3).find(|&i| !rising(i)).unwrap_or(2);
         let middle = 3 - first - last;
         let order = [first, middle, last];
-        Self {
+        let edges = Edges {
             before: order.map(|i| row[i] - across[i]),
             across: order.map(|i| across[i]),
             down: order.map(|i| down[i]),
-            middle_rises: rising(middle),
-            columns: (1u32 << width) - 1,
+        };
+        let mut masks = [0; SMALL as usize];
+        let n = (end - start).clamp(0, SMALL) as usize;
+        let masks_out = &mut masks[..n];
+        // The halvings the width needs: a prefix capped at `2^halvings` columns is the prefix
+        // itself wherever it matters, the columns past the rectangle being masked off.
+        let columns = (1u32 << width) - 1;
+        match (width, rising(middle)) {
+            (..=4, true) => edges.masks::<2, true>(masks_out, columns),
+            (..=4, false) => edges.masks::<2, false>(masks_out, columns),
+            (..=8, true) => edges.masks::<3, true>(masks_out, columns),
+            (..=8, false) => edges.masks::<3, false>(masks_out, columns),
+            (_, true) => edges.masks::<4, true>(masks_out, columns),
+            (_, false) => edges.masks::<4, false>(masks_out, columns),
+        }
+        Self {
+            masks,
+            start,
             x0,
             y: start,
             end,
@@ -584,39 +600,72 @@ impl SearchRows {
     /// the next row.
     #[inline(always)]
     pub fn next_mask(&mut self) -> u32 {
-        let [a, b, c] = self.before;
-        let [sa, sb, sc] = self.across;
-        let (mut first, mut end) = (Self::prefix::<true>(a, sa), Self::prefix::<false>(c, sc));
-        if self.middle_rises {
-            first = first.max(Self::prefix::<true>(b, sb));
-        } else {
-            end = end.min(Self::prefix::<false>(b, sb));
-        }
-        for (e, d) in self.before.iter_mut().zip(self.down) {
-            *e += d;
-        }
+        let mask = self.masks[(self.y - self.start) as usize & (SMALL as usize - 1)];
         self.y += 1;
-        // `first` and `end` are at most 16.
-        ((1u32 << end) - 1) & !((1u32 << first) - 1) & self.columns
+        mask as u32
     }
+}
 
-    /// How many of the columns `0..16` form the prefix where an edge is negative (`OUTSIDE`, for
-    /// an edge that rises across the row, `across > 0`) or not negative (otherwise), from its
-    /// value `before` one column left of column 0: the longest prefix `0..n` with that sign at
-    /// column `n - 1`, found in four halvings and a last step.
+const _: () = assert!((SMALL as usize).is_power_of_two());
+
+/// `SearchRows`' three edges, a rising one first and one that does not rise last: `E + bias -
+/// 1` one column left of the first row's first column, and their steps across and down.
+#[cfg(any(test, not(any(wide_vectors, arm_neon))))]
+struct Edges {
+    before: [i32; 3],
+    across: [i32; 3],
+    down: [i32; 3],
+}
+
+#[cfg(any(test, not(any(wide_vectors, arm_neon))))]
+impl Edges {
+    /// The masks of the rows into `out`, one row after the other, cut to `columns`, each
+    /// prefix found in `HALVINGS` halvings (`MIDDLE_RISES`: the middle edge rises, as the first
+    /// does).
     #[inline(always)]
-    fn prefix<const OUTSIDE: bool>(before: i32, across: i32) -> u32 {
-        let holds = |e: i32| (e < 0) == OUTSIDE;
-        // `at` is the edge at column `n - 1`, which holds for every `n` reached after column -1.
-        let (mut at, mut n) = (before, 0);
-        for step in [8, 4, 2, 1] {
-            let next = at + step as i32 * across;
-            if holds(next) {
-                (at, n) = (next, n + step);
+    fn masks<const HALVINGS: u32, const MIDDLE_RISES: bool>(
+        mut self,
+        out: &mut [u16],
+        columns: u32,
+    ) {
+        for m in out {
+            let [a, b, c] = self.before;
+            let [sa, sb, sc] = self.across;
+            let (mut first, mut end) = (
+                prefix::<HALVINGS, true>(a, sa),
+                prefix::<HALVINGS, false>(c, sc),
+            );
+            if MIDDLE_RISES {
+                first = first.max(prefix::<HALVINGS, true>(b, sb));
+            } else {
+                end = end.min(prefix::<HALVINGS, false>(b, sb));
             }
+            for (e, d) in self.before.iter_mut().zip(self.down) {
+                *e += d;
+            }
+            // `first` and `end` are at most 16.
+            *m = (((1u32 << end) - 1) & !((1u32 << first) - 1) & columns) as u16;
         }
-        n + holds(at + across) as u32
     }
+}
+
+/// How many of the columns `0..2^HALVINGS` form the prefix where an edge is negative
+/// (`OUTSIDE`, for an edge that rises across the row, `across > 0`) or not negative
+/// (otherwise), from its value `before` one column left of column 0: the longest prefix `0..n`
+/// with that sign at column `n - 1`, found in `HALVINGS` halvings and a last step.
+#[cfg(any(test, not(any(wide_vectors, arm_neon))))]
+#[inline(always)]
+fn prefix<const HALVINGS: u32, const OUTSIDE: bool>(before: i32, across: i32) -> u32 {
+    let holds = |e: i32| (e < 0) == OUTSIDE;
+    // `at` is the edge at column `n - 1`, which holds for every `n` reached after column -1.
+    let (mut at, mut n) = (before, 0);
+    for step in [8, 4, 2, 1].into_iter().skip(4 - HALVINGS as usize) {
+        let next = at + step as i32 * across;
+        if holds(next) {
+            (at, n) = (next, n + step);
+        }
+    }
+    n + holds(at + across) as u32
 }
 
 /// Triangles whose bounding box spans fewer than this many pixels each way are walked by edge

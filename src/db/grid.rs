@@ -6,9 +6,21 @@
 //! tiles of level `k` below it with the same number of samples at twice the spacing, up to one
 //! root tile; a level's grid is its finer level's halved, rounded up.
 
+use std::collections::{HashMap, HashSet};
 use std::fmt;
+use std::hash::BuildHasherDefault;
+
+use rustc_hash::FxHasher;
 
 use crate::error::{Error, Result};
+
+/// A map keyed by tile. FxHash rather than the standard SipHash, whose 64-bit rounds cost a
+/// 32-bit core some two hundred instructions a key where the engine looks tiles up every
+/// frame; tile ids are grid positions, not keys a party could choose to collide.
+pub type TileMap<V> = HashMap<TileId, V, BuildHasherDefault<FxHasher>>;
+
+/// A set of tiles, hashed as `TileMap`.
+pub type TileSet = HashSet<TileId, BuildHasherDefault<FxHasher>>;
 
 /// A tile of the pyramid: `level` 0 is the model's own grid, each level above covers 2 x 2 tiles
 /// of the one below; `x` counts east, `y` south, in tiles of its level. Ordered by level, then

@@ -8,14 +8,13 @@
 //!        pager (top, belts, far field | levels) <── tile source
 //! ```
 
-use std::collections::HashMap;
 use std::time::Instant;
 
 use glam::DVec3;
 use stripmask_raster::{AsSurface, DrawTarget, RasterTarget, Rasterizer};
 
 use crate::db::archive::{ArchiveReader, Header};
-use crate::db::grid::{Pyramid, TileId};
+use crate::db::grid::{Pyramid, TileId, TileMap};
 use crate::db::source::TileSource;
 use crate::db::tile::{finest_mask_for_levels, levels_for_mask, progressive_levels};
 use crate::engine::allocation::Allocation;
@@ -479,12 +478,12 @@ impl Engine {
     /// the finest mask its levels that arrived within the last second allow. A fetched level
     /// is worth drawing for a second: the budget shifts a little every frame and would
     /// otherwise draw a tile one level coarser than it just fetched.
-    fn kept_levels(&self) -> HashMap<TileId, usize> {
+    fn kept_levels(&self) -> TileMap<usize> {
         let Some(stats) = self.pager.stream_stats() else {
-            return HashMap::new();
+            return TileMap::default();
         };
         let levels = progressive_levels(self.terrain.tile_size);
-        let mut kept: HashMap<TileId, usize> = HashMap::new();
+        let mut kept: TileMap<usize> = TileMap::default();
         for (id, held) in stats.fresh() {
             let level = finest_mask_for_levels(held, levels);
             kept.entry(id)

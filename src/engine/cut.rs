@@ -16,11 +16,9 @@
 //! least half the error the budget left (drawn there, or, for a tile refined last frame, under
 //! it a quarter: the gap keeps a view from switching between a tile and its children).
 
-use std::collections::HashMap;
-
 use glam::DVec3;
 
-use crate::db::grid::{Pyramid, TileId};
+use crate::db::grid::{Pyramid, TileId, TileMap};
 use crate::engine::camera::View;
 use crate::engine::frustum::{Aabb, Frustum};
 use crate::engine::paging::Residency;
@@ -77,8 +75,8 @@ impl Holdings for Residency<ResidentTile> {
 /// for each tile above them the largest error drawn under it.
 #[derive(Clone, Debug, Default)]
 pub struct LastFrame {
-    drawn: HashMap<TileId, f64>,
-    under: HashMap<TileId, f64>,
+    drawn: TileMap<f64>,
+    under: TileMap<f64>,
 }
 
 impl LastFrame {
@@ -341,11 +339,10 @@ fn shown_px(
 
 #[cfg(test)]
 mod tests {
-    use std::collections::HashSet;
-
     use proptest::prelude::*;
 
     use super::*;
+    use crate::db::grid::TileSet;
     use crate::engine::camera::Camera;
     use crate::engine::fake_holdings::{Fake, S, SPACING, holding, terrain, tile};
     use crate::engine::viewport::Viewport;
@@ -512,7 +509,7 @@ mod tests {
                 clearance: 1.0,
             };
             let cut = cut(&fake, &terrain, &pyramid, &view, &settings, &LastFrame::default());
-            let drawn: HashSet<TileId> = cut.tiles.iter().map(|t| t.0).collect();
+            let drawn: TileSet = cut.tiles.iter().map(|t| t.0).collect();
             prop_assert_eq!(drawn.len(), cut.tiles.len(), "a tile drawn twice");
             for &(id, copy, _) in &cut.tiles {
                 prop_assert!(!copy.absent && fake.tiles.contains_key(&id));

@@ -1,10 +1,8 @@
 //! Resident tiles without an archive, for the tests of what reads them (the cut, the frame's
 //! plan): a holding of small tiles that all span heights 0 to 100 m over a terrain of any size.
 
-use std::collections::HashMap;
-
 use crate::db::archive::Header;
-use crate::db::grid::{Pyramid, TileId};
+use crate::db::grid::{Pyramid, TileId, TileMap};
 use crate::db::tile::Tile;
 use crate::engine::cracks::CrackMode;
 use crate::engine::cut::Holdings;
@@ -18,8 +16,8 @@ pub(crate) const SPACING: f64 = 10.0;
 /// Resident tiles by id, and how many resident tiles lie under each.
 #[derive(Default)]
 pub(crate) struct Fake {
-    pub(crate) tiles: HashMap<TileId, ResidentTile>,
-    pub(crate) covered: HashMap<TileId, u32>,
+    pub(crate) tiles: TileMap<ResidentTile>,
+    pub(crate) covered: TileMap<u32>,
 }
 
 impl Holdings for Fake {

@@ -2,10 +2,9 @@
 //! budgets, and whether a view is complete. The laboratory ([`crate::sim`], the `lab` feature)
 //! compares runs with them; an application drawing frames has no use for them.
 
-use std::collections::HashMap;
 use std::sync::Arc;
 
-use crate::db::grid::TileId;
+use crate::db::grid::{TileId, TileMap};
 use crate::db::tile::{levels_for_mask, progressive_levels};
 use crate::engine::budget::{BudgetController, BudgetSettings};
 use crate::engine::camera::Camera;
@@ -56,7 +55,7 @@ impl Engine {
             };
             gap(center.x, id.x).max(gap(center.y, id.y)) <= radius
         };
-        let no_kept = HashMap::new();
+        let no_kept = TileMap::default();
         let inputs = FrameInputs {
             holdings: self.pager.resident(),
             terrain: &self.terrain,
@@ -84,7 +83,7 @@ impl Engine {
         let levels = progressive_levels(self.terrain.tile_size);
         // Per tile in reach, the fewest levels any of the budgets would have it draw: the
         // levels each budget offers the tiles in view had they held them all.
-        let mut needed: HashMap<TileId, usize> = HashMap::new();
+        let mut needed: TileMap<usize> = TileMap::default();
         for &budget in budgets {
             for (&(id, _, _), o) in view.cut.tiles.iter().zip(view.offer(&inputs, budget)) {
                 if near(id) {

@@ -4,9 +4,9 @@
 //! changes nothing.
 
 use std::cell::OnceCell;
-use std::collections::{BinaryHeap, HashMap};
+use std::collections::BinaryHeap;
 
-use crate::db::grid::{Pyramid, TileId};
+use crate::db::grid::{Pyramid, TileId, TileMap};
 use crate::db::tile::PartialGrid;
 use crate::engine::allocation::{Allocation, ErrorDescent, TileErrors};
 use crate::engine::budget::{TileAllocation, drawable_level};
@@ -45,7 +45,7 @@ pub(super) struct FrameInputs<'e> {
     /// No tile is seen from nearer than this (the eye's clearance), metres.
     pub(super) clearance: f64,
     /// The level each tile should keep if the budget allows (see [`Engine::kept_levels`]).
-    pub(super) kept: &'e HashMap<TileId, usize>,
+    pub(super) kept: &'e TileMap<usize>,
     /// The error the last frame's budget left on screen, if it capped the frame.
     pub(super) water_px: Option<f64>,
     /// What the last frame drew.
@@ -555,7 +555,7 @@ mod tests {
         let pyramid = terrain.pyramid();
         let fake: Fake = holding(&pyramid, pyramid.tiles().filter(|id| id.level == 0));
         let masks = MaskSet::new(S, LevelSet::All);
-        let (kept, last) = (HashMap::new(), LastFrame::default());
+        let (kept, last) = (TileMap::default(), LastFrame::default());
         let inputs = FrameInputs {
             holdings: &fake,
             terrain: &terrain,

@@ -1,11 +1,9 @@
 //! What streaming wants after a frame: the levels the frame's budget offers each tile drawn, the
 //! tiles its cut lacks or went through, and the same for the view predicted ahead.
 
-use std::collections::HashSet;
-
 use glam::DVec3;
 
-use crate::db::grid::TileId;
+use crate::db::grid::{TileId, TileSet};
 use crate::db::tile::{PartialGrid, levels_for_mask, progressive_levels};
 use crate::engine::camera::{Camera, View};
 use crate::engine::cut::Cut;
@@ -47,7 +45,7 @@ pub(super) fn frame_wants(
     });
     // A tile whose children the cut asks for is about to be replaced by them: its own finer
     // levels would arrive to be drawn no more.
-    let refined: HashSet<TileId> = plan
+    let refined: TileSet = plan
         .cut
         .missing
         .iter()

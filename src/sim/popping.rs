@@ -9,12 +9,10 @@
 //!   compared with the one before, and the frames in which some tile switched level are averaged
 //!   apart from the frames in which none did (whose change is the camera's motion alone).
 
-use std::collections::HashMap;
-
 use glam::DVec3;
 use stripmask_raster::Framebuffer;
 
-use crate::db::grid::TileId;
+use crate::db::grid::{TileId, TileMap};
 use crate::engine::camera::Camera;
 use crate::engine::{Engine, FrameReport};
 use crate::error::{Error, Result};
@@ -110,7 +108,7 @@ pub fn flight_popping(
 ) -> Result<FlightPopping> {
     engine.force_levels(None);
     let (mut previous, mut current) = (a, b);
-    let mut levels_before: Option<HashMap<TileId, usize>> = None;
+    let mut levels_before: Option<TileMap<usize>> = None;
     let mut popping = FlightPopping::default();
     let (mut switch_sum, mut steady_sum, mut alone_sum) = (0.0, 0.0, 0.0);
     for &(eye, target) in views {
@@ -170,7 +168,7 @@ pub fn glide(scene: &CrackScene, frames: usize) -> Vec<(DVec3, DVec3)> {
         .collect()
 }
 
-fn levels_of(report: &FrameReport) -> HashMap<TileId, usize> {
+fn levels_of(report: &FrameReport) -> TileMap<usize> {
     report.rendered.iter().map(|t| (t.id, t.level)).collect()
 }
 

@@ -1,7 +1,6 @@
 //! Reading an archive through any [`TileSource`], by region, with checksums and retries; bytes
 //! that fail their checksum are reported to the source, which may find that the archive changed.
 
-use std::collections::HashMap;
 use std::ops::Range;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -14,7 +13,7 @@ use super::{
     HEADER_LEN, Header, IndexEntry, PageRef, TABLE_CHUNK_ENTRIES, check_levels, decompress,
 };
 use crate::db::backoff::Backoff;
-use crate::db::grid::{Pyramid, TileId};
+use crate::db::grid::{Pyramid, TileId, TileMap};
 use crate::db::source::{CancelToken, TileSource};
 use crate::db::tile::Tile;
 use crate::error::{Error, Result};
@@ -35,7 +34,7 @@ pub struct ArchiveReader<S> {
     pyramid: Pyramid,
     directory: Directory,
     /// The top's tiles: their place in the directory's list.
-    top: HashMap<TileId, usize>,
+    top: TileMap<usize>,
     cache: Mutex<IndexCache>,
     /// Attempts at a tile's levels, an index page or the top.
     attempts: u32,

@@ -2,10 +2,8 @@
 //! its own samples — a neighbour may be a tile of another level of the pyramid — and, for
 //! stitching, the levels that make the borders between pyramid levels meet.
 
-use std::collections::HashMap;
-
 use super::Side;
-use crate::db::grid::TileId;
+use crate::db::grid::{TileId, TileMap};
 
 /// The tile across `side` of `id`, of `id`'s level, if its column and row are not negative.
 fn across(id: TileId, side: Side) -> Option<TileId> {
@@ -32,8 +30,7 @@ impl Neighbourhood {
     /// The neighbourhood of the drawn tiles `drawn`, in [`Side::ALL`] order per tile. Finer
     /// tiles across a side, or none, leave it `None`.
     pub fn of(drawn: &[TileId]) -> Neighbourhood {
-        let index: HashMap<TileId, usize> =
-            drawn.iter().enumerate().map(|(k, &id)| (id, k)).collect();
+        let index: TileMap<usize> = drawn.iter().enumerate().map(|(k, &id)| (id, k)).collect();
         let coarsest = drawn.iter().map(|id| id.level).max().unwrap_or(0);
         let find = |id: TileId, side: Side| {
             let next = across(id, side)?;

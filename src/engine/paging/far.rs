@@ -8,11 +8,9 @@
 //! of the tile the cut drew instead); when the share is full, far tiles no frame asked for
 //! lately go first, the longest unasked and the farthest first.
 
-use std::collections::{HashMap, HashSet};
-
 use super::ledger::Fetch;
 use super::{Residency, stream::Want};
-use crate::db::grid::TileId;
+use crate::db::grid::{TileId, TileMap, TileSet};
 
 /// The share of the memory limit the engine's far field takes at least: a quarter holds the
 /// few dozen tiles that reach from the near field to the horizon (a ring of each level).
@@ -56,11 +54,11 @@ pub struct FarField {
     /// The share of the memory limit it may take.
     share: f64,
     /// The last frame's wishes for tiles above level 0, by id: their priority.
-    wants: HashMap<TileId, f64>,
+    wants: TileMap<f64>,
     /// The tiles above level 0 the last frame drew.
-    drawn: HashSet<TileId>,
+    drawn: TileSet,
     /// The update each far tile was last asked for in.
-    asked: HashMap<TileId, u64>,
+    asked: TileMap<u64>,
 }
 
 impl FarField {

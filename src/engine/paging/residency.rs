@@ -1,10 +1,10 @@
 //! What a pager holds: the ledger of accounted bytes, the resident tiles, the viewpoint's tile
 //! and square, and the counters.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 use std::time::Instant;
 
-use crate::db::grid::{Grid, Pyramid, TileId};
+use crate::db::grid::{Grid, Pyramid, TileId, TileMap};
 use crate::engine::paging::pager::Arrivals;
 use crate::engine::paging::{Failure, Fetch, Ledger, Link, PagerConfig, PagerMode, Request};
 use crate::error::Error;
@@ -72,7 +72,7 @@ pub struct Residency<T> {
     pub(super) top: BTreeMap<TileId, T>,
     /// Per tile, how many tiles below it are resident (paged or in the top): where a view may
     /// find something to draw under a tile that is not resident itself.
-    pub(super) covered: HashMap<TileId, u32>,
+    pub(super) covered: TileMap<u32>,
     pub(super) mode: PagerMode,
     pub(super) nearest_when_off: bool,
     pub(super) center: Option<TileId>,
@@ -107,7 +107,7 @@ impl<T> Residency<T> {
             ledger: Ledger::new(pyramid, config.memory_limit_bytes, config.retry),
             tiles: BTreeMap::new(),
             top: BTreeMap::new(),
-            covered: HashMap::new(),
+            covered: TileMap::default(),
             mode: config.mode,
             nearest_when_off: config.nearest_when_off,
             center: None,

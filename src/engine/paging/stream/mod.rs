@@ -40,7 +40,7 @@ mod queue;
 mod stats;
 mod wishes;
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 use std::fmt;
 use std::marker::PhantomData;
 use std::sync::Arc;
@@ -54,7 +54,7 @@ use super::belts;
 use super::ledger::{Fetch, Ledger};
 use super::worker::Job;
 use super::{Pager, PagerConfig, PagerMode, ResidentLoader, Strategy};
-use crate::db::grid::{Grid, Pyramid, TileId};
+use crate::db::grid::{Grid, Pyramid, TileId, TileMap};
 use crate::db::source::CancelToken;
 use crate::error::{Error, Result};
 use crate::named::Named;
@@ -222,7 +222,7 @@ pub struct Progressive<L> {
     queue: RequestQueue,
     wishes: Wishes,
     /// Each request on its way, why it was made and when it was sent.
-    flights: HashMap<TileId, (LevelFetch, Reason, f64)>,
+    flights: TileMap<(LevelFetch, Reason, f64)>,
     /// When the last two updates were: the frame interval the link is paced by.
     updates: (Option<f64>, Option<f64>),
     stats: StreamStats,
@@ -336,7 +336,7 @@ impl<L: LevelLoader> StreamPager<L> {
             square_share: settings.square_share,
             queue: RequestQueue::new(settings.queue_capacity),
             wishes: Wishes::default(),
-            flights: HashMap::new(),
+            flights: TileMap::default(),
             updates: (None, None),
             stats: StreamStats::default(),
             loader: PhantomData,
@@ -356,9 +356,9 @@ impl<L: LevelLoader> StreamPager<L> {
         };
         let mut wanted = self.strategy.wishes.update(wants, now);
         // What this frame asks for; a held wish beyond it keeps its request waiting unsent.
-        let mut asks: HashMap<TileId, usize> = HashMap::new();
+        let mut asks: TileMap<usize> = TileMap::default();
         // Levels the current view alone asks for: a request beyond them is the prediction's.
-        let mut view: HashMap<TileId, usize> = HashMap::new();
+        let mut view: TileMap<usize> = TileMap::default();
         for (id, w) in wishes::merge(wants) {
             asks.insert(id, w.levels);
             if self.held_levels(id) == 0 {
@@ -383,7 +383,7 @@ impl<L: LevelLoader> StreamPager<L> {
         // A held wish's request waits unsent while this frame asks for nothing more than its
         // tile holds; once the frame asks for more, it goes, up to what the frame asks: levels
         // beyond it would arrive for frames that may not draw them.
-        let short: HashMap<TileId, usize> = asks
+        let short: TileMap<usize> = asks
             .iter()
             .filter(|&(&id, &levels)| levels > self.held_levels(id))
             .map(|(&id, &levels)| (id, levels))
@@ -423,12 +423,7 @@ impl<L: LevelLoader> StreamPager<L> {
     /// is released, and the bytes that had crossed the link count as received and never drawn.
     /// The belt fill, which no view asks for, is cancelled once its tile is past the belt the
     /// square grows into.
-    fn cancel_unwanted(
-        &mut self,
-        wanted: &HashMap<TileId, Want>,
-        asks: &HashMap<TileId, usize>,
-        now: f64,
-    ) {
+    fn cancel_unwanted(&mut self, wanted: &TileMap<Want>, asks: &TileMap<usize>, now: f64) {
         let link = &self.link;
         // The belt the coarse square grows into, around the current tile.
         let filling = self.resident.center.map(|c| (c, self.resident.next_belt()));
@@ -502,11 +497,7 @@ impl<L: LevelLoader> StreamPager<L> {
     /// This frame's requests: the coarse level of belt `d_c + 1` while the coarse square fits
     /// its share, and each wished-for tile (`wanted`, held wishes) up to its wish, by priority;
     /// `view` holds the levels the current view alone asks for.
-    fn candidates(
-        &mut self,
-        wanted: &HashMap<TileId, Want>,
-        view: &HashMap<TileId, usize>,
-    ) -> Vec<LevelRequest> {
+    fn candidates(&mut self, wanted: &TileMap<Want>, view: &TileMap<usize>) -> Vec<LevelRequest> {
         let mut out = Vec::new();
         self.resident.memory_bound = false;
         if let Some(center) = self
@@ -576,11 +567,7 @@ impl<L: LevelLoader> StreamPager<L> {
     /// Sends the best waiting request that is still valid, up to no more levels than this frame
     /// asks for its tile (`asked`) when it asks for any more than the tile holds; false when
     /// there is none or it does not fit in memory even after making room (it waits then).
-    fn send_next(
-        &mut self,
-        wanted: &HashMap<TileId, Want>,
-        asked: &HashMap<TileId, usize>,
-    ) -> bool {
+    fn send_next(&mut self, wanted: &TileMap<Want>, asked: &TileMap<usize>) -> bool {
         while let Some(waiting) = self.strategy.queue.pop() {
             let request = LevelRequest {
                 levels: asked
@@ -637,12 +624,7 @@ impl<L: LevelLoader> StreamPager<L> {
     /// Frees memory for `bytes` more: fine levels of tiles holding more than asked, then fine
     /// levels of tiles that matter less than `request`, farthest first, then whole cached tiles
     /// outside the square. Changes nothing and returns false when all of that is not enough.
-    fn make_room(
-        &mut self,
-        bytes: usize,
-        request: &LevelRequest,
-        wanted: &HashMap<TileId, Want>,
-    ) -> bool {
+    fn make_room(&mut self, bytes: usize, request: &LevelRequest, wanted: &TileMap<Want>) -> bool {
         let r = &self.resident;
         let mut free = r.ledger.limit().saturating_sub(r.ledger.memory());
         if free >= bytes {
@@ -685,7 +667,7 @@ impl<L: LevelLoader> StreamPager<L> {
     /// level (its finest first) of a tile holding more than it is asked for, then of a tile
     /// that matters less than `request` (least important, then farthest, first), then a whole
     /// tile of the cache outside the square that nobody asks for.
-    fn room_steps(&self, request: &LevelRequest, wanted: &HashMap<TileId, Want>) -> Vec<RoomStep> {
+    fn room_steps(&self, request: &LevelRequest, wanted: &TileMap<Want>) -> Vec<RoomStep> {
         let r = &self.resident;
         let ring = |id: TileId| r.ring(id);
         let square = r.next_belt();

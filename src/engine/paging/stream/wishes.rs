@@ -6,10 +6,8 @@
 //! during [`HOLD_SECONDS`]: until then what was asked for stays wished (not cancelled, its levels
 //! not dropped to make room), and a request the current frame does not ask for waits unsent.
 
-use std::collections::HashMap;
-
 use super::Want;
-use crate::db::grid::TileId;
+use crate::db::grid::TileMap;
 
 /// Seconds a tile's wish must stay lower (or absent) before the pager acts on the lower wish:
 /// the render window of a delivery, so that levels asked for just before a dip are still
@@ -28,7 +26,7 @@ struct Held {
 /// for [`HOLD_SECONDS`].
 #[derive(Clone, Debug, Default)]
 pub struct Wishes {
-    held: HashMap<TileId, Held>,
+    held: TileMap<Held>,
 }
 
 impl Wishes {
@@ -37,7 +35,7 @@ impl Wishes {
     /// is the prediction's when the frame that set its levels had them from the predicted view
     /// alone (a held wish the prediction raised stays the prediction's while the view asks
     /// for less).
-    pub fn update(&mut self, wants: &[Want], now: f64) -> HashMap<TileId, Want> {
+    pub fn update(&mut self, wants: &[Want], now: f64) -> TileMap<Want> {
         let frame = merge(wants);
         for (id, w) in &frame {
             self.held.entry(*id).or_insert(Held {
@@ -69,8 +67,8 @@ impl Wishes {
 /// when any wish says so; the
 /// prediction's when only the predicted view asks for that many levels (levels the view does
 /// not ask for are the prediction's, even where the view asks for fewer).
-pub fn merge(wants: &[Want]) -> HashMap<TileId, Want> {
-    let mut frame: HashMap<TileId, Want> = HashMap::new();
+pub fn merge(wants: &[Want]) -> TileMap<Want> {
+    let mut frame: TileMap<Want> = TileMap::default();
     for w in wants {
         frame
             .entry(w.id)
@@ -90,6 +88,7 @@ pub fn merge(wants: &[Want]) -> HashMap<TileId, Want> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::db::grid::TileId;
 
     fn want(levels: usize) -> Want {
         Want {

@@ -14,9 +14,9 @@ use rustc_hash::FxHasher;
 
 use crate::error::{Error, Result};
 
-/// A map keyed by tile. FxHash rather than the standard SipHash, whose 64-bit rounds cost a
-/// 32-bit core some two hundred instructions a key where the engine looks tiles up every
-/// frame; tile ids are grid positions, not keys a party could choose to collide.
+/// A map keyed by tile. FxHash rather than the standard SipHash, whose rounds of 64-bit
+/// arithmetic a 32-bit core composes from many instructions, and the engine looks tiles up
+/// every frame; tile ids are grid positions, not keys a party could choose to collide.
 pub type TileMap<V> = HashMap<TileId, V, BuildHasherDefault<FxHasher>>;
 
 /// A set of tiles, hashed as `TileMap`.

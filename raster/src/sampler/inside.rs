@@ -55,6 +55,17 @@ impl<T: Texel> LevelView<'_, T> {
         (u << self.width_shift, v << self.height_shift)
     }
 
+    /// `scale_one`, or where `INSIDE` (the coordinates lie in a range `holds_inside` accepts)
+    /// `scale_inside`.
+    #[inline(always)]
+    pub fn scale_for<const INSIDE: bool>(&self, u: i32, v: i32) -> (i32, i32) {
+        if INSIDE {
+            self.scale_inside(u, v)
+        } else {
+            self.scale_one(u, v)
+        }
+    }
+
     /// `quad_taps` of a block whose columns `x, x + 1` and rows `y, y + 1` lie in the level
     /// (`holds_inside`): neighbours in memory, with no wrap to apply.
     #[inline(always)]

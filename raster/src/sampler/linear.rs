@@ -82,11 +82,7 @@ fn taps<T: ViewOf, const INSIDE: bool>(
     u: i32,
     v: i32,
 ) -> (Quad, u32, u32) {
-    let (su, sv) = if INSIDE {
-        view.scale_inside(u, v)
-    } else {
-        view.scale_one(u, v)
-    };
+    let (su, sv) = view.scale_for::<INSIDE>(u, v);
     let (tu, tv) = (su - (1 << 15), sv - (1 << 15));
     let (fx, fy) = ((tu >> 8) & 255, (tv >> 8) & 255);
     let (x, y) = (tu >> 16, tv >> 16);

@@ -28,11 +28,7 @@ impl<T: ViewOf> Filtering for Nearest<T> {
 
     #[inline(always)]
     fn sample_one<const INSIDE: bool>(view: &LevelView<'_, T>, u: i32, v: i32) -> [u8; 3] {
-        let (su, sv) = if INSIDE {
-            view.scale_inside(u, v)
-        } else {
-            view.scale_one(u, v)
-        };
+        let (su, sv) = view.scale_for::<INSIDE>(u, v);
         view.texel(su >> 16, sv >> 16).rgb()
     }
 }

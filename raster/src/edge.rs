@@ -535,6 +535,8 @@ impl LaneRows {
 /// Every row's mask is found when the rows are made, in a loop that holds only the edges: in
 /// the row loop of its caller, which holds the attribute planes too, the edges' nine words went
 /// to the stack and came back on every row.
+/// `NeonRows` holds its masks alike; one type for both cost either core instructions
+/// (docs/optimisation-notes.md).
 #[cfg(any(test, not(any(wide_vectors, arm_neon))))]
 pub(crate) struct SearchRows {
     /// The owned columns of row `start + k` as bits (bit `j` is column `x0 + j`).

@@ -4,8 +4,8 @@
 //! `wide`'s lanes are arrays there (its vectors are for SSE2, aarch64's NEON and wasm), and
 //! Rust's NEON intrinsics for 32-bit ARM are not stable, so the lanes are inline assembly: a
 //! row of up to 8 columns costs 21 instructions, where the scalar search of its run
-//! (`SearchRows`) costs about 75 on the PXA255. The masks are those of `SearchRows` (tested
-//! against it).
+//! (`SearchRows`) costs more than twice that on the PXA255. The masks are those of
+//! `SearchRows` (tested against it).
 
 use std::arch::asm;
 

@@ -12,6 +12,8 @@
 
 use glam::{BVec3, DMat4, DVec3, DVec4};
 
+use crate::engine::normals::FLOATS_IN_SOFTWARE;
+
 /// An axis-aligned bounding box, e.g. a tile's extent and its elevation range.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Aabb {
@@ -44,6 +46,9 @@ pub struct Frustum {
     /// lies farthest inside, found once per frustum rather than once per box, where on a core
     /// without an FPU each comparison is a library call.
     toward: [BVec3; 6],
+    /// The planes in integers, for the quick decision where floats are library calls
+    /// (`FixedPlane`); `None` for a plane out of their range.
+    fixed: [Option<FixedPlane>; 6],
 }
 
 /// Relative slack of the plane test, so that rounding never culls a box that touches a plane.
@@ -57,21 +62,165 @@ impl Frustum {
         Self {
             planes,
             toward: planes.map(|p| p.truncate().cmpge(DVec3::ZERO)),
+            fixed: planes.map(FixedPlane::of),
         }
     }
 
     /// False only when the box is certainly outside (entirely behind one plane).
+    ///
+    /// Where floats are library calls (`FLOATS_IN_SOFTWARE`), each plane is first decided in
+    /// integers (`FixedPlane::decide`), and only a box too close to the plane for them to be
+    /// sure, or out of their range, takes the `f64` test: the same answer in a few dozen
+    /// instructions instead of a dozen library calls.
     pub fn intersects(&self, aabb: &Aabb) -> bool {
-        self.planes.iter().zip(&self.toward).all(|(p, &toward)| {
-            let n = p.truncate();
-            // The corner farthest along the plane's normal.
-            let corner = DVec3::select(toward, aabb.max, aabb.min);
-            let reach = n.dot(corner) + p.w;
-            // A corner on the inside needs no slack (it is never negative, and NaN only with
-            // `reach`): on a core without an FPU its products are library calls, so only the
-            // boxes outside a plane pay for them.
-            reach >= 0.0 || reach >= -SLACK * (n.abs().dot(corner.abs()) + p.w.abs())
+        self.intersects_by::<FLOATS_IN_SOFTWARE>(aabb)
+    }
+
+    /// `intersects`, with the integers' quick decision or without.
+    fn intersects_by<const QUICK: bool>(&self, aabb: &Aabb) -> bool {
+        if QUICK && let Some(b) = FixedBox::of(aabb) {
+            return (0..6).all(|i| {
+                let quick = self.fixed[i].and_then(|p| p.decide(&b, self.toward[i]));
+                quick.unwrap_or_else(|| self.inside_plane(i, aabb))
+            });
+        }
+        (0..6).all(|i| self.inside_plane(i, aabb))
+    }
+
+    /// Whether the box is not entirely behind plane `i`, in `f64`.
+    fn inside_plane(&self, i: usize, aabb: &Aabb) -> bool {
+        let p = self.planes[i];
+        let n = p.truncate();
+        // The corner farthest along the plane's normal.
+        let corner = DVec3::select(self.toward[i], aabb.max, aabb.min);
+        let reach = n.dot(corner) + p.w;
+        // A corner on the inside needs no slack (it is never negative, and NaN only with
+        // `reach`): on a core without an FPU its products are library calls, so only the
+        // boxes outside a plane pay for them.
+        reach >= 0.0 || reach >= -SLACK * (n.abs().dot(corner.abs()) + p.w.abs())
+    }
+}
+
+/// Fraction bits of a box's coordinates in integers (`FixedBox`): 1/256 metre.
+const BOX_BITS: i32 = 8;
+
+/// A box's corners in integers, `c * 2^BOX_BITS` truncated toward zero (less than one unit
+/// off), for coordinates within `2^23` (8,388 km; eye-relative boxes of any terrain in view).
+#[derive(Clone, Copy, Debug)]
+struct FixedBox {
+    min: [i32; 3],
+    max: [i32; 3],
+}
+
+impl FixedBox {
+    /// The box in integers, `None` when a coordinate is out of range, infinite or NaN.
+    fn of(aabb: &Aabb) -> Option<Self> {
+        let fixed = |v: DVec3| -> Option<[i32; 3]> {
+            Some([
+                fixed_coordinate(v.x)?,
+                fixed_coordinate(v.y)?,
+                fixed_coordinate(v.z)?,
+            ])
+        };
+        Some(Self {
+            min: fixed(aabb.min)?,
+            max: fixed(aabb.max)?,
         })
+    }
+}
+
+/// `c * 2^BOX_BITS` truncated toward zero, read off the bits of `c` (a conversion is a library
+/// call without an FPU), when `|c| < 2^23`; `None` otherwise (also infinite and NaN).
+fn fixed_coordinate(c: f64) -> Option<i32> {
+    const MANTISSA: u32 = 52;
+    const BIAS: i32 = 1023;
+    let bits = c.to_bits();
+    let exponent = ((bits >> MANTISSA) & 0x7ff) as i32;
+    if exponent >= BIAS + 23 {
+        return None;
+    }
+    // |c| = m 2^(exponent - BIAS - MANTISSA); subnormals (exponent 0) are far below one unit.
+    let m = (bits & ((1 << MANTISSA) - 1)) | 1 << MANTISSA;
+    let shift = (BIAS + MANTISSA as i32 - BOX_BITS - exponent) as u32;
+    let magnitude = m.checked_shr(shift).unwrap_or(0) as i32;
+    Some(if bits >> 63 != 0 {
+        -magnitude
+    } else {
+        magnitude
+    })
+}
+
+/// A plane `(n, w)` in integers: `N = round(n 2^a)` with its largest component in
+/// `[2^28, 2^29]`, and `W = round(w 2^(a + BOX_BITS))`, below `2^60`. With a box's corner `C`
+/// in integers (`FixedBox`), `R = N . C + W` is `X = 2^(a + BOX_BITS) (n . c + w)` within
+/// `E = Σ|N| + Σ|C| / 2 + 2` (each product `N C` strays from `ν γ = n 2^a c 2^BOX_BITS` by at
+/// most `|N| |C - γ| + |N - ν| |γ| < |N| + (|C| + 1) / 2`, and `W` from its value by 1/2), all
+/// in i64: `|N C| < 2^60`, so `|R| < 2^62`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct FixedPlane {
+    n: [i32; 3],
+    w: i64,
+    /// `Σ|N|`, the part of `E` that does not depend on the box.
+    n_sum: i64,
+}
+
+impl FixedPlane {
+    /// The plane in integers, `None` when its normal is zero or not finite or `w` too large.
+    fn of(p: DVec4) -> Option<Self> {
+        let largest = p.truncate().abs().max_element();
+        if !(largest.is_finite() && largest > 0.0) {
+            return None;
+        }
+        let a = 28 - largest.log2().floor() as i32;
+        // Powers of two far from both ends of `f64`'s range scale exactly.
+        if !(-900..=900).contains(&a) {
+            return None;
+        }
+        let scale = |v: f64, bits: i32| v * 2f64.powi(bits);
+        let n = p.truncate().to_array().map(|c| scale(c, a).round());
+        let w = scale(p.w, a + BOX_BITS).round();
+        // `largest.log2()` may round across a power of two: the components stay within 2^29.
+        let fits =
+            n.iter().all(|c| c.abs() <= (1u64 << 29) as f64) && w.abs() < (1u64 << 60) as f64;
+        fits.then(|| {
+            let n = n.map(|c| c as i32);
+            Self {
+                n,
+                w: w as i64,
+                n_sum: n.iter().map(|&c| i64::from(c.unsigned_abs())).sum(),
+            }
+        })
+    }
+
+    /// `Frustum::inside_plane`'s answer for `b` when the integers are sure of it, `None` when
+    /// the corner lies too close to the plane (`toward`: the corner farthest along the normal).
+    ///
+    /// The `f64` reach rounds `X` by less than `F = 2^-50 S` for `S = 2^(a + BOX_BITS)
+    /// (Σ|n c| + |w|)` (four roundings of sums and products of those magnitudes), and its slack
+    /// is `10^-12 S < 2^-39 S` give or take the same. So `R > E + F` means the corner is inside
+    /// (`reach >= 0`), and `R + E + F + 2^-38 S < 0` that the plane culls the box; `S` is bounded
+    /// by `Σ (|N| + 1)(|C| + 1) + |W| + 1`, below `2^62 + 2^34`, and every sum stays in i64.
+    #[inline]
+    fn decide(&self, b: &FixedBox, toward: BVec3) -> Option<bool> {
+        let toward = [toward.x, toward.y, toward.z];
+        let c: [i32; 3] = std::array::from_fn(|k| if toward[k] { b.max[k] } else { b.min[k] });
+        let r = (0..3).fold(self.w, |r, k| r + i64::from(self.n[k]) * i64::from(c[k]));
+        let c_sum: i64 = c.iter().map(|&v| i64::from(v.unsigned_abs())).sum();
+        let e = self.n_sum + (c_sum >> 1) + 3;
+        // `F` is at most `2^12 + 1` for any box (`S < 2^62 + 2^34`): a corner inside needs no `S`.
+        const F_MOST: i64 = (1 << 12) + 1;
+        if r > e + F_MOST {
+            return Some(true);
+        }
+        let s = (0..3).fold(self.w.unsigned_abs() + 1, |s, k| {
+            s + (u64::from(self.n[k].unsigned_abs()) + 1) * (u64::from(c[k].unsigned_abs()) + 1)
+        });
+        let f = (s >> 50) as i64 + 1;
+        if r + e + f + (s >> 38) as i64 + 1 < 0 {
+            Some(false)
+        } else {
+            None
+        }
     }
 }
 
@@ -184,7 +333,99 @@ mod tests {
         ]
     }
 
+    /// A box with one corner `d` metres from a point on a side of the frustum of `m` (chosen by
+    /// `side`, at `ndc` on it), reaching `size` metres from there.
+    fn box_at_a_side(m: &DMat4, side: usize, ndc: [f64; 2], d: DVec3, size: DVec3) -> Aabb {
+        let (u, v) = (ndc[0], ndc[1]);
+        let on = match side {
+            0 => DVec3::new(-1.0, u, (v + 1.0) / 2.0),
+            1 => DVec3::new(1.0, u, (v + 1.0) / 2.0),
+            2 => DVec3::new(u, -1.0, (v + 1.0) / 2.0),
+            3 => DVec3::new(u, 1.0, (v + 1.0) / 2.0),
+            4 => DVec3::new(u, v, 0.0),
+            _ => DVec3::new(u, v, 1.0),
+        };
+        let p = m.inverse().project_point3(on) + d;
+        Aabb::new(p.min(p + size), p.max(p + size))
+    }
+
+    #[test]
+    fn the_integers_decide_most_boxes_and_as_the_floats_do() {
+        // Eye-relative boxes around a camera at the origin, up to 1 km away and 125 m wide.
+        let f = frustum(DVec3::ZERO);
+        let (mut decided, mut asked) = (0, 0);
+        for i in 0..2000u64 {
+            let h = |k: u64| ((i * 7919 + k * 104_729) % 2000) as f64 - 1000.0;
+            let c = DVec3::new(h(1), h(2) / 4.0, h(3));
+            let b = Aabb::new(
+                c,
+                c + DVec3::new(h(4).abs(), h(5).abs() / 10.0, h(6).abs()) / 8.0,
+            );
+            let fixed = FixedBox::of(&b).expect("in range");
+            for k in 0..6 {
+                asked += 1;
+                if let Some(v) = f.fixed[k].expect("a plane").decide(&fixed, f.toward[k]) {
+                    decided += 1;
+                    assert_eq!(v, f.inside_plane(k, &b), "{b:?} plane {k}");
+                }
+            }
+            assert_eq!(f.intersects_by::<true>(&b), f.intersects_by::<false>(&b));
+        }
+        assert!(decided * 100 > asked * 99, "{decided} of {asked}");
+    }
+
+    #[test]
+    fn coordinates_in_integers_are_truncated_within_range_and_refused_beyond() {
+        let unit = f64::from(1 << BOX_BITS);
+        for c in [
+            0.0, -0.0, 1e-320, 0.001, 0.5, 1.0, -1.0, 3.999, 1234.5678, -8e6, 8388607.99,
+        ] {
+            let fixed = fixed_coordinate(c).expect("in range");
+            assert_eq!(fixed, (c * unit).trunc() as i32, "{c}");
+        }
+        for c in [
+            8388608.0,
+            -8388608.0,
+            1e300,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+        ] {
+            assert_eq!(fixed_coordinate(c), None, "{c}");
+        }
+    }
+
     proptest! {
+        #[test]
+        fn coordinates_in_integers_are_the_truncated_products(c in -8388607.0..8388607.0f64) {
+            let unit = f64::from(1 << BOX_BITS);
+            prop_assert_eq!(fixed_coordinate(c), Some((c * unit).trunc() as i32));
+        }
+
+        /// Boxes a hair's breadth from a side, where the integers must leave the answer to the
+        /// floats, and boxes anywhere: the quick test answers as the `f64` one.
+        #[test]
+        fn the_integers_answer_as_the_floats_next_to_every_side(
+            m in camera(),
+            side in 0usize..6,
+            ndc in prop::array::uniform2(-1.0..1.0f64),
+            scale in -12i32..4,
+            d in prop::array::uniform3(-1.0..1.0f64),
+            size in prop::array::uniform3(0.0..50.0f64),
+        ) {
+            let d = DVec3::from(d) * 10f64.powi(scale);
+            let b = box_at_a_side(&m, side, ndc, d, DVec3::from(size));
+            let f = Frustum::from_view_projection(&m);
+            prop_assert_eq!(f.intersects_by::<true>(&b), f.intersects_by::<false>(&b));
+            if let Some(fixed) = FixedBox::of(&b) {
+                for k in 0..6 {
+                    if let Some(v) = f.fixed[k].and_then(|p| p.decide(&fixed, f.toward[k])) {
+                        prop_assert_eq!(v, f.inside_plane(k, &b), "plane {}", k);
+                    }
+                }
+            }
+        }
+
         #[test]
         fn the_slack_only_for_corners_outside_a_plane_culls_the_same_boxes(
             m in camera(),
@@ -194,7 +435,8 @@ mod tests {
             let (a, b) = (DVec3::from(a), DVec3::from(b));
             let aabb = Aabb::new(a.min(b), a.max(b));
             let f = Frustum::from_view_projection(&m);
-            prop_assert_eq!(f.intersects(&aabb), intersects_with_slack_always(&f, &aabb));
+            prop_assert_eq!(f.intersects_by::<false>(&aabb), intersects_with_slack_always(&f, &aabb));
+            prop_assert_eq!(f.intersects_by::<true>(&aabb), intersects_with_slack_always(&f, &aabb));
         }
 
         #[test]

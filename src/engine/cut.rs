@@ -19,7 +19,7 @@
 use glam::DVec3;
 
 use crate::db::grid::{Pyramid, TileId, TileMap};
-use crate::engine::camera::View;
+use crate::engine::camera::{PixelScale, View};
 use crate::engine::frustum::{Aabb, Frustum};
 use crate::engine::paging::Residency;
 use crate::engine::resident::ResidentTile;
@@ -143,6 +143,7 @@ pub fn cut<'p>(
         settings,
         last,
         frustum: Frustum::from_view_projection(&view.view_projection()),
+        scale: view.pixel_scale(),
         out: Cut::default(),
         above: Vec::new(),
     };
@@ -159,6 +160,8 @@ struct Walk<'p, 'w, H: Holdings + ?Sized> {
     settings: &'w CutSettings,
     last: &'w LastFrame,
     frustum: Frustum,
+    /// The view's pixels per metre by distance (`shown_px`).
+    scale: PixelScale,
     out: Cut<'p>,
     /// For each entry of `out.passed`, the index of the one above it.
     above: Vec<Option<usize>>,
@@ -199,7 +202,7 @@ impl<'p, H: Holdings + ?Sized> Walk<'p, '_, H> {
             return true;
         }
         let distance = aabb.distance(DVec3::ZERO);
-        let shown = shown_px(tile, id, distance, self.view, self.terrain, self.settings);
+        let shown = shown_px(tile, id, distance, &self.scale, self.terrain, self.settings);
         let refine = id.level > 0
             && self
                 .settings
@@ -324,11 +327,11 @@ fn shown_px(
     tile: &ResidentTile,
     id: TileId,
     distance: f64,
-    view: &View,
+    scale: &PixelScale,
     terrain: &TerrainFrame,
     settings: &CutSettings,
 ) -> Shown {
-    let ppm = view.pixels_per_metre(distance.max(settings.clearance));
+    let ppm = scale.at(distance.max(settings.clearance));
     let texels = ((tile.texture.levels()[0].width() as usize) << tile.texture_base).max(2);
     let texel = terrain.level_metres(id.level) / (texels - 1) as f64;
     Shown {

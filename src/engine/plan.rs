@@ -10,7 +10,7 @@ use crate::db::grid::{Pyramid, TileId, TileMap};
 use crate::db::tile::PartialGrid;
 use crate::engine::allocation::{Allocation, ErrorDescent, TileErrors};
 use crate::engine::budget::{TileAllocation, drawable_level};
-use crate::engine::camera::View;
+use crate::engine::camera::{PixelScale, View};
 use crate::engine::cracks::CrackMode;
 use crate::engine::cracks::neighbours::{
     Neighbourhood, conform, neighbour_levels, pyramid_borders,
@@ -56,8 +56,8 @@ impl FrameInputs<'_> {
     /// Pixels per metre of height error at `distance` from the eye, no nearer than the
     /// clearance: a tile whose box holds the eye (distance 0) is not seen from closer than the
     /// eye keeps above the ground.
-    pub(super) fn pixels_per_metre(&self, view: &View, distance: f64) -> f64 {
-        view.pixels_per_metre(distance.max(self.clearance))
+    pub(super) fn pixels_per_metre(&self, scale: &PixelScale, distance: f64) -> f64 {
+        scale.at(distance.max(self.clearance))
     }
 
     /// The coarsest level of every tile whose error seen from `distance` is within τ.
@@ -66,9 +66,10 @@ impl FrameInputs<'_> {
         view: &View,
         tiles: impl Iterator<Item = (&'t ResidentTile, f64)>,
     ) -> Vec<usize> {
+        let scale = view.pixel_scale();
         tiles
             .map(|(tile, distance)| {
-                let ppm = self.pixels_per_metre(view, distance);
+                let ppm = self.pixels_per_metre(&scale, distance);
                 self.max_error
                     .coarsest_level(&tile.level_errors, self.masks, ppm)
             })
@@ -82,10 +83,11 @@ impl FrameInputs<'_> {
         view: &View,
         tiles: impl Iterator<Item = (TileId, &'t ResidentTile, f64)>,
     ) -> Vec<TileErrors<'t>> {
+        let scale = view.pixel_scale();
         tiles
             .map(|(id, tile, distance)| TileErrors {
                 metres: &tile.level_errors,
-                pixels_per_metre: self.pixels_per_metre(view, distance),
+                pixels_per_metre: self.pixels_per_metre(&scale, distance),
                 kept: self.kept.get(&id).copied(),
             })
             .collect()

@@ -63,17 +63,63 @@ impl ErrorBound {
         let ErrorBound::Pixels(tau) = *self else {
             return 0;
         };
+        let within = Within::new(tau, pixels_per_metre);
         masks
             .levels()
             .iter()
             .rev()
             .copied()
-            .find(|&l| {
-                errors
-                    .get(l)
-                    .is_some_and(|&e| f64::from(e) * pixels_per_metre <= tau)
-            })
+            .find(|&l| errors.get(l).is_some_and(|&e| within.holds(e)))
             .unwrap_or(0)
+    }
+}
+
+/// `f64::from(e) * pixels_per_metre <= tau` for many errors `e`: the product's rounding is
+/// monotone in `e`, so the non-negative errors that pass are those up to the largest `f32`
+/// that passes, found once (a division and a few products) and compared by their bits, which
+/// order non-negative floats as integers. On a core without an FPU each product and
+/// comparison is a library call, and a tile asks for every level.
+struct Within {
+    tau: f64,
+    pixels_per_metre: f64,
+    /// The bits of the largest `f32` that passes, where there is one and it was found.
+    largest: Option<u32>,
+}
+
+impl Within {
+    fn new(tau: f64, pixels_per_metre: f64) -> Self {
+        let passes = |bits: u32| f64::from(f32::from_bits(bits)) * pixels_per_metre <= tau;
+        let usable =
+            pixels_per_metre > 0.0 && pixels_per_metre.is_finite() && tau.is_finite() && passes(0);
+        let largest = usable.then(|| {
+            // Within an ulp or two of the quotient (its magnitude: τ may be -0): a few steps
+            // find the boundary.
+            let quotient = ((tau / pixels_per_metre) as f32).to_bits() & !(1 << 31);
+            let mut b = quotient.min(f32::MAX.to_bits());
+            for _ in 0..8 {
+                if !passes(b) {
+                    b -= 1;
+                } else if b < f32::MAX.to_bits() && passes(b + 1) {
+                    b += 1;
+                } else {
+                    return Some(b);
+                }
+            }
+            None
+        });
+        Within {
+            tau,
+            pixels_per_metre,
+            largest: largest.flatten(),
+        }
+    }
+
+    /// Whether error `e` spans at most τ pixels.
+    fn holds(&self, e: f32) -> bool {
+        match self.largest {
+            Some(b) if e.is_sign_positive() => e.to_bits() <= b,
+            _ => f64::from(e) * self.pixels_per_metre <= self.tau,
+        }
     }
 }
 
@@ -101,6 +147,8 @@ impl Bound {
 
 #[cfg(test)]
 mod tests {
+    use proptest::prelude::*;
+
     use super::*;
     use crate::engine::masks::LevelSet;
 
@@ -117,6 +165,45 @@ mod tests {
         let pow2 = MaskSet::new(5, LevelSet::PowerOfTwo);
         assert_eq!(tau.coarsest_level(&errors, &pow2, 1.0), 3);
         assert_eq!(tau.coarsest_level(&errors, &pow2, 1.5), 1);
+    }
+
+    /// An error: ordinary, tiny, huge, special, or next to `f32::MAX`.
+    fn error() -> impl Strategy<Value = f32> {
+        prop_oneof![
+            8 => 0.0..1e4f32,
+            1 => any::<f32>(),
+            1 => prop::sample::select(vec![0.0, -0.0, f32::MIN_POSITIVE, f32::MAX, f32::INFINITY, f32::NAN, -1.0]),
+        ]
+    }
+
+    proptest! {
+        /// The bound by the bits of the largest error within it answers as the product does,
+        /// for errors at and around that largest one and anywhere.
+        #[test]
+        fn errors_within_the_bound_by_their_bits_are_those_by_the_product(
+            tau in prop_oneof![4 => 1e-3..1e2f64, 1 => any::<f64>()],
+            ppm in prop_oneof![4 => 1e-6..1e6f64, 1 => any::<f64>()],
+            e in error(),
+            near in -3i32..=3,
+        ) {
+            let within = Within::new(tau, ppm);
+            let exact = |e: f32| f64::from(e) * ppm <= tau;
+            prop_assert_eq!(within.holds(e), exact(e));
+            // The neighbours of the quotient, where the answer changes.
+            let q = ((tau / ppm) as f32).to_bits().wrapping_add_signed(near);
+            let e = f32::from_bits(q);
+            prop_assert_eq!(within.holds(e), exact(e), "{}", e);
+        }
+    }
+
+    #[test]
+    fn the_largest_error_within_the_bound_is_found_for_ordinary_views() {
+        for (tau, ppm) in [(1.0, 0.37), (1.0, 3.0), (0.5, 1e-4), (2.0, 812.5)] {
+            let within = Within::new(tau, ppm);
+            let b = within.largest.expect("found");
+            assert!(f64::from(f32::from_bits(b)) * ppm <= tau);
+            assert!(f64::from(f32::from_bits(b + 1)) * ppm > tau);
+        }
     }
 
     #[test]

@@ -374,7 +374,7 @@ mod tests {
             (4_899, Some(2)),
             (4_900, Some(3)),
             (8_100, Some(4)),
-            (1 << 40, Some(4)),
+            (1 << 30, Some(4)),
         ] {
             let mut l = ledger(9, 9, limit);
             let plans = settle(&mut l, c, 5, &uniform(100));

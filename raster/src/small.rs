@@ -70,13 +70,13 @@ pub(crate) fn small_triangle<
             let (w, h) = ((rect.x1 - rect.x0 - 1) as i64, end - y0 - 1);
             quotients_in_range(&p.tex, &start, w, h)
         });
-    // Where runs step texture coordinates in words, the offsets of their words, over the same
-    // rows and columns; the i64 steps where they spread too far.
+    // Where runs step texture coordinates in words, the offsets of their words, over the
+    // rectangle's columns and its rows down to the last drawn here; the i64 steps where they
+    // spread too far.
     let mut offsets = [0; 2];
     if WORDS && in_range && texes == TEX_AFFINE {
-        let start = |q: &AttrPlane| q.at_pixel(0, y0 - rect.y0 as i64);
-        let (w, h) = ((rect.x1 - rect.x0 - 1) as i64, end - y0 - 1);
-        match word_offsets(&p.tex, w, h, start) {
+        let (w, h) = ((rect.x1 - rect.x0 - 1) as i64, end - rect.y0 as i64 - 1);
+        match word_offsets(&p.tex, w, h) {
             Some(o) => offsets = o,
             None => in_range = false,
         }
@@ -149,26 +149,22 @@ const WORD_VALUES: usize = if WORDS { VALUES } else { 0 };
 const VALUES: usize = 8;
 
 /// Offsets that put the affine texture planes `tex` (`u, v`) in 32-bit words at every pixel
-/// `(col, row)`, `col <= w`, `row <= h` (where a plane's value at `(0, 0)` is `start(q)`): for
-/// each, its least value there (an affine function over a rectangle is extreme at its corners)
-/// rounded down to a multiple of `2^16`, when its greatest lies less than `2^31` above that;
-/// `None` where a plane spreads further (half a repeat of the texture or more).
+/// `(col, row)`, `col <= w`, `row <= h`, of the rectangle: for each, its value at the first
+/// pixel rounded down to a multiple of `2^16`, where the plane strays from that value by less
+/// than `2^31 - 2^16` over those pixels (by at most `|dx| w + |dy| h`); `None` where a plane
+/// spreads further (about half a repeat of the texture).
 ///
-/// At such a pixel the plane's value `c` lies in `o..o + 2^31`, so the word `c - o` is exact
-/// in i32 wrapping arithmetic (which computes every integer modulo 2^32), and, `o` being a
-/// multiple of `2^16`, `c >> 16` is `((c - o) >> 16) + (o >> 16)`: that sum in wrapping i32 is
-/// exact too, as `c >> 16` itself lies within the texture-coordinate range at a pixel a bounded
-/// triangle owns (`FixedTriangle::bounded`).
-fn word_offsets(
-    tex: &[AttrPlane; 3],
-    w: i64,
-    h: i64,
-    start: impl Fn(&AttrPlane) -> i64,
-) -> Option<[i64; 2]> {
+/// At such a pixel the plane's value `c` lies within `2^31` of the offset `o` either way
+/// (`-2^31 <= c - o < 2^31`), so the word `c - o` is exact in i32 wrapping arithmetic (which
+/// computes every integer modulo 2^32), and, `o` being a multiple of `2^16`, `c >> 16` is
+/// `((c - o) >> 16) + (o >> 16)` (an arithmetic shift rounds down whatever the sign): that sum
+/// in wrapping i32 is exact too, as `c >> 16` itself lies within the texture-coordinate range
+/// at a pixel a bounded triangle owns (`FixedTriangle::bounded`). No extremes are needed: the
+/// first pixel's value and two products.
+fn word_offsets(tex: &[AttrPlane; 3], w: i64, h: i64) -> Option<[i64; 2]> {
     let offset = |q: &AttrPlane| {
-        let (lo, hi) = extremes(q, start(q), w, h);
-        let o = lo & !((1 << 16) - 1);
-        (hi - o < 1 << 31).then_some(o)
+        let reach = (q.dx * w).unsigned_abs() + (q.dy * h).unsigned_abs();
+        (reach < (1 << 31) - (1 << 16)).then_some(q.at_pixel(0, 0) & !((1 << 16) - 1))
     };
     Some([offset(&tex[0])?, offset(&tex[1])?])
 }
@@ -426,7 +422,52 @@ mod tests {
         assert!(!check([(0, 0, 0), (0, 0, 0), (15, -1, 0)], 15, 15));
     }
 
+    #[test]
+    fn texture_words_at_the_edge_of_their_reach() {
+        // A first pixel just below a multiple of 2^16, so the offset lies almost 2^16 below it,
+        // and a step of one column up to the bound: the next pixel's word is the largest i32.
+        let base = (5 << 16) - 1;
+        let bound = (1i64 << 31) - (1 << 16);
+        for (dx, words) in [(bound - 1, true), (bound, false), (-bound + 1, true)] {
+            let tex = [AttrPlane::with(base, dx, 0), plane(0, 0), plane(0, 0)];
+            let offsets = word_offsets(&tex, 1, 0);
+            assert_eq!(offsets.is_some(), words, "{dx}");
+            if let Some([o, _]) = offsets {
+                let word = word_at(&tex[0], o, 1, 0);
+                assert_eq!(i64::from(word), base + dx - o, "{dx}");
+            }
+        }
+    }
+
     proptest! {
+        /// Where `word_offsets` gives offsets, the words `word_at` steps give every pixel's
+        /// texture coordinate of the rectangle, as the i64 plane does: values on either side of
+        /// the offset, spreads up to the bound and past it, bases anywhere in the coordinates'
+        /// range.
+        #[test]
+        fn texture_words_from_their_offsets_are_the_planes_coordinates(
+            base in -(TEXCOORD_LIMIT << 16)..TEXCOORD_LIMIT << 16,
+            gradients in proptest::array::uniform4(-(1i64 << 29)..1 << 29),
+            w in 0i64..16,
+            h in 0i64..16,
+        ) {
+            let [dx, dy, ex, ey] = gradients;
+            let tex = [AttrPlane::with(base, dx, dy), AttrPlane::with(-base, ex, ey), plane(0, 0)];
+            let Some(offsets) = word_offsets(&tex, w, h) else {
+                let reach = |q: &AttrPlane| (q.dx * w).abs() + (q.dy * h).abs();
+                prop_assert!(reach(&tex[0]).max(reach(&tex[1])) >= (1 << 31) - (1 << 16));
+                return Ok(());
+            };
+            for (q, o) in tex.iter().zip(offsets) {
+                prop_assert_eq!(o % (1 << 16), 0);
+                for (col, row) in (0..=h).flat_map(|r| (0..=w).map(move |c| (c, r))) {
+                    let word = word_at(q, o, col as i32, row as i32);
+                    let coord = (word >> 16).wrapping_add((o >> 16) as i32);
+                    prop_assert_eq!(i64::from(coord), q.at_pixel(col, row) >> 16);
+                }
+            }
+        }
+
         #[test]
         fn quotients_in_range_only_where_no_clamp_changes_them(
             q in 1i64..1 << 36,

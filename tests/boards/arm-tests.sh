@@ -87,12 +87,12 @@ for target in "${from_source[@]}"; do
     std_from_source test --profile "$profile" --target "$target" -p stripmask-raster "${which[@]}"
 done
 # The coverage masks in NEON assembly and the colour stage in passes run only on 32-bit ARM with
-# NEON, the row step in words and the span quotients in words on 32-bit cores: their unit tests,
-# which hold them to the column loop, the lanes, the scalar reference and the wide products, run
-# there too.
+# NEON, the row step in words, the small loop's texture words and the span quotients in words on
+# 32-bit cores: their unit tests, which hold them to the column loop, the lanes, the scalar
+# reference and the wide products, run there too.
 neon=thumbv7neon-unknown-linux-gnueabihf
 if [ "${#which[@]}" -gt 0 ] && [[ " ${targets[*]} " == *" $neon "* ]]; then
     say "$neon: the unit tests of its coverage masks, colour stage and row step"
     cargo test --profile "$profile" --target "$neon" -p stripmask-raster --lib -- \
-        edge:: fragments:: shade:: pipeline::fixed::division::
+        edge:: fragments:: shade:: small:: pipeline::fixed::division::
 fi

@@ -125,6 +125,13 @@ impl AttrPlane {
         sum.wrapping_add(half) >> SUBPIXEL_BITS
     }
 
+    /// The plane with value `base` at the centre of its rectangle's first pixel (or at the
+    /// origin vertex) and gradients `dx, dy`: for tests of what reads planes.
+    #[cfg(test)]
+    pub(crate) fn with(base: i64, dx: i64, dy: i64) -> Self {
+        Self { base, dx, dy }
+    }
+
     /// Value at the centre of pixel `(col, row)` of the triangle's rectangle (counted from its
     /// first pixel) of a plane `on_grid`, equal to `at` there.
     #[inline]
